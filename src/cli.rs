@@ -1,0 +1,79 @@
+//! Command-line arguments and their dispatch.
+
+use crate::cmd;
+use clap::{Parser, Subcommand};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Debug, Parser)]
+#[command(name = "hydrofit", version, about = "Identify an underwater vehicle's hydrodynamic model from CFD runs and pool tests, as a reproducible build")]
+pub struct Cli {
+    /// Project folder (holding pipeline.yaml and cases/).
+    #[arg(long, global = true, default_value = ".")]
+    pub project: PathBuf,
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Build the given stages (default: all) and what they depend on; reuse every cached result.
+    Build {
+        /// Stage names or instance ids, e.g. `fit` or `cfd[surge_10N]`.
+        stages: Vec<String>,
+        /// Stages to run at once (default: the number of cores).
+        #[arg(short, long)]
+        jobs: Option<usize>,
+        /// Say why each stage instance runs.
+        #[arg(long)]
+        explain: bool,
+    },
+    /// List the stage instances a build would run and what makes each stale.
+    Status {
+        /// Also print every key field of each stale instance.
+        #[arg(long)]
+        explain: bool,
+    },
+    /// Remove the cache (.hydrofit/) and the generated report files.
+    Clean,
+    /// Trace a parameter to the stage, method, settings and input files that produced it.
+    Provenance {
+        /// Parameter name as in the report, e.g. X_uu or N_rdot.
+        parameter: String,
+    },
+    /// Print the graph of stage instances, as text or Graphviz DOT.
+    Graph {
+        #[arg(long)]
+        dot: bool,
+    },
+    /// Write synthetic inputs from the digital twin of the reference vehicle.
+    Twin {
+        #[command(subcommand)]
+        what: TwinCommand,
+    },
+}
+
+#[derive(Debug, Subcommand)]
+pub enum TwinCommand {
+    /// STAR-CCM+ DFBI exports of the reference vehicle (seed 001's force levels).
+    Starccm {
+        /// Output folder.
+        #[arg(long, default_value = "cases/cfd/starccm")]
+        out: PathBuf,
+        /// Seed of the numerical noise.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+    },
+}
+
+pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
+    let root = cli.project;
+    match cli.command {
+        Command::Build { stages, jobs, explain } => cmd::build::run(&root, stages, jobs, explain),
+        Command::Status { explain } => cmd::status::run(&root, explain),
+        Command::Clean => cmd::clean::run(&root),
+        Command::Provenance { parameter } => cmd::provenance::run(&root, &parameter),
+        Command::Graph { dot } => cmd::graph::run(&root, dot),
+        Command::Twin { what: TwinCommand::Starccm { out, seed } } => cmd::twin::starccm(&root, &out, seed),
+    }
+}

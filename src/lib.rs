@@ -1,0 +1,37 @@
+//! hydrofit: identifies an underwater vehicle's hydrodynamic model from CFD runs and pool tests
+//! as a reproducible, cached build. See README.md for the user's view.
+// InputError carries the offending line and its location for the message; it is only built on
+// the cold error path, so its size in `Result` is accepted rather than boxed everywhere.
+#![allow(clippy::result_large_err)]
+
+pub mod cli;
+pub mod cmd;
+pub mod diag;
+pub mod dof;
+pub mod estimate;
+pub mod fsutil;
+pub mod io;
+pub mod model;
+pub mod pipeline;
+pub mod progress;
+pub mod report;
+pub mod rng;
+pub mod stage;
+pub mod twin;
+pub mod validate;
+
+/// `println!` for command output that may go to a closed pipe (`hydrofit status | head`):
+/// a reader that has gone away ends the program quietly instead of panicking.
+#[macro_export]
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let mut out = std::io::stdout().lock();
+        if let Err(e) = writeln!(out, $($arg)*) {
+            if e.kind() == std::io::ErrorKind::BrokenPipe {
+                std::process::exit(0);
+            }
+            panic!("writing to stdout: {e}");
+        }
+    }};
+}
