@@ -1,0 +1,9 @@
+//! The vehicle model: rigid body, hydrodynamic parameters and their dynamics.
+
+pub mod dynamics;
+pub mod params;
+pub mod vehicle;
+
+pub use dynamics::{Plant, Vec6};
+pub use params::{Hydro, ParamLayout};
+pub use vehicle::{Structure, Vehicle};

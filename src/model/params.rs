@@ -1,0 +1,129 @@
+//! Hydrodynamic parameters: the named vector an estimator works on, and its physical layout.
+
+use crate::dof::Dof;
+
+/// Diagonal hydrodynamic coefficients in SNAME form, indexed by `Dof::index()`:
+/// `added[i]` is X_udot.., `lin[i]` is X_u.., `quad[i]` is X_uu.. (all negative for a real vehicle).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Hydro {
+    pub added: [f64; 6],
+    pub lin: [f64; 6],
+    pub quad: [f64; 6],
+}
+
+impl Hydro {
+    /// Seed 001, Table 1 (FORMATS.md reference vehicle).
+    pub fn reference() -> Hydro {
+        Hydro {
+            added: [-16.04, -37.74, -83.60, 0.0, 0.0, -1.06],
+            lin: [-2.41, -1.50, -21.75, 0.0, 0.0, -1.18],
+            quad: [-44.17, -114.30, -121.30, 0.0, 0.0, -2.64],
+        }
+    }
+}
+
+/// The three groups of the diagonal structure, in parameter-vector order.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Group {
+    AddedMass,
+    LinearDrag,
+    QuadraticDrag,
+}
+
+/// Maps the flat parameter vector `theta` to named coefficients: group-major, then the
+/// vehicle's DOF order (X_udot, Y_vdot, .., X_u, .., X_uu, ..), as seed 001 Table 1 lists them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParamLayout {
+    pub dofs: Vec<Dof>,
+}
+
+impl ParamLayout {
+    pub fn new(dofs: &[Dof]) -> ParamLayout {
+        ParamLayout { dofs: dofs.to_vec() }
+    }
+
+    pub fn len(&self) -> usize {
+        3 * self.dofs.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.dofs.is_empty()
+    }
+
+    /// Group and DOF of parameter `j`.
+    pub fn slot(&self, j: usize) -> (Group, Dof) {
+        let n = self.dofs.len();
+        let group = [Group::AddedMass, Group::LinearDrag, Group::QuadraticDrag][j / n];
+        (group, self.dofs[j % n])
+    }
+
+    pub fn name(&self, j: usize) -> String {
+        let (g, d) = self.slot(j);
+        let (f, v) = (d.force(), d.velocity());
+        match g {
+            Group::AddedMass => format!("{f}_{v}dot"),
+            Group::LinearDrag => format!("{f}_{v}"),
+            Group::QuadraticDrag => format!("{f}_{v}{v}"),
+        }
+    }
+
+    pub fn names(&self) -> Vec<String> {
+        (0..self.len()).map(|j| self.name(j)).collect()
+    }
+
+    pub fn unit(&self, j: usize) -> &'static str {
+        let (g, d) = self.slot(j);
+        match (g, d.is_angular()) {
+            (Group::AddedMass, false) => "kg",
+            (Group::AddedMass, true) => "kg m^2",
+            (Group::LinearDrag, false) => "N s/m",
+            (Group::LinearDrag, true) => "N m s/rad",
+            (Group::QuadraticDrag, false) => "N s^2/m^2",
+            (Group::QuadraticDrag, true) => "N m s^2/rad^2",
+        }
+    }
+
+    pub fn to_hydro(&self, theta: &[f64]) -> Hydro {
+        let mut h = Hydro::default();
+        for (j, &value) in theta.iter().enumerate().take(self.len()) {
+            let (g, d) = self.slot(j);
+            let i = d.index();
+            match g {
+                Group::AddedMass => h.added[i] = value,
+                Group::LinearDrag => h.lin[i] = value,
+                Group::QuadraticDrag => h.quad[i] = value,
+            }
+        }
+        h
+    }
+
+    pub fn from_hydro(&self, h: &Hydro) -> Vec<f64> {
+        (0..self.len())
+            .map(|j| {
+                let (g, d) = self.slot(j);
+                let i = d.index();
+                match g {
+                    Group::AddedMass => h.added[i],
+                    Group::LinearDrag => h.lin[i],
+                    Group::QuadraticDrag => h.quad[i],
+                }
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_follow_table_1() {
+        let l = ParamLayout::new(&[Dof::Surge, Dof::Sway, Dof::Heave, Dof::Yaw]);
+        assert_eq!(
+            l.names(),
+            ["X_udot", "Y_vdot", "Z_wdot", "N_rdot", "X_u", "Y_v", "Z_w", "N_r", "X_uu", "Y_vv", "Z_ww", "N_rr"]
+        );
+        let h = Hydro::reference();
+        assert_eq!(l.to_hydro(&l.from_hydro(&h)), h);
+    }
+}

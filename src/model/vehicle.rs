@@ -1,0 +1,102 @@
+//! The vehicle section of `pipeline.yaml`: rigid-body mass, inertia, DOFs and model structure.
+
+use crate::dof::Dof;
+use serde::{Deserialize, Serialize};
+
+/// Which terms of the hydrodynamic model are identified.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Structure {
+    /// Diagonal added mass, linear and quadratic drag (seed 001 eq. 4-5).
+    #[default]
+    Diagonal,
+}
+
+impl Structure {
+    pub fn label(self) -> &'static str {
+        match self {
+            Structure::Diagonal => "diagonal",
+        }
+    }
+}
+
+/// Principal moments of inertia about the centre of gravity, kg m^2.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct Inertia {
+    #[serde(default)]
+    pub xx: f64,
+    #[serde(default)]
+    pub yy: f64,
+    #[serde(default)]
+    pub zz: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Vehicle {
+    #[serde(default)]
+    pub name: String,
+    /// Dry mass, kg (weighed or from the CAD model; known, not identified).
+    pub mass_kg: f64,
+    #[serde(default)]
+    pub inertia_kg_m2: Inertia,
+    /// The DOFs the vehicle moves in, e.g. `[surge, sway, heave, yaw]`.
+    pub dofs: Vec<Dof>,
+    #[serde(default)]
+    pub structure: Structure,
+}
+
+impl Vehicle {
+    /// The seed-001 open-frame ROV (FORMATS.md, reference vehicle).
+    pub fn reference() -> Vehicle {
+        Vehicle {
+            name: "open-frame ROV (seed 001)".into(),
+            mass_kg: 35.2,
+            inertia_kg_m2: Inertia { xx: 0.0, yy: 0.0, zz: 1.38 },
+            dofs: vec![Dof::Surge, Dof::Sway, Dof::Heave, Dof::Yaw],
+            structure: Structure::Diagonal,
+        }
+    }
+
+    /// Diagonal of the rigid-body mass matrix M_RB (seed 001 eq. 3, centre of gravity at the origin).
+    pub fn rigid_mass(&self) -> [f64; 6] {
+        let m = self.mass_kg;
+        let i = self.inertia_kg_m2;
+        [m, m, m, i.xx, i.yy, i.zz]
+    }
+
+    /// Which of the six DOFs are free.
+    pub fn active(&self) -> [bool; 6] {
+        let mut a = [false; 6];
+        for d in &self.dofs {
+            a[d.index()] = true;
+        }
+        a
+    }
+
+    /// Problems a person must fix, worded as such; empty when the vehicle is usable.
+    pub fn problems(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        if !(self.mass_kg > 0.0 && self.mass_kg.is_finite()) {
+            out.push(format!("mass_kg must be a positive number of kilograms, not {}", self.mass_kg));
+        }
+        if self.dofs.is_empty() {
+            out.push("dofs is empty: list the DOFs the vehicle moves in, e.g. [surge, sway, heave, yaw]".into());
+        }
+        let mrb = self.rigid_mass();
+        for d in &self.dofs {
+            if d.is_angular() && (mrb[d.index()].is_nan() || mrb[d.index()] <= 0.0) {
+                let axis = ["xx", "yy", "zz"][d.index() - 3];
+                out.push(format!("{d} is a DOF but inertia_kg_m2.{axis} is not set: give the moment of inertia about the centre of gravity"));
+            }
+        }
+        let mut seen = std::collections::BTreeSet::new();
+        for d in &self.dofs {
+            if !seen.insert(*d) {
+                out.push(format!("{d} is listed twice in dofs"));
+            }
+        }
+        out
+    }
+}
