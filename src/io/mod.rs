@@ -1,0 +1,6 @@
+//! Importers of the input formats in `cases/` and the response table they all produce.
+
+pub mod response;
+pub mod starccm;
+
+pub use response::{Response, Series};
