@@ -1,0 +1,61 @@
+//! The equation-error problem of seed 001 eq. 14: with mass and inertia known, eq. 2 is linear
+//! in the added-mass and drag coefficients, `tau - M_RB nu_dot - C_RB(nu) nu = Phi(nu, nu_dot) theta`.
+
+use crate::dof::Dof;
+use crate::io::Response;
+use crate::model::dynamics::hydro_force;
+use crate::model::{ParamLayout, Plant, Vehicle};
+
+/// Stacked regression rows (one per sample and DOF), row-major.
+#[derive(Debug, Clone)]
+pub struct Regression {
+    pub layout: ParamLayout,
+    /// n x p regressor, row-major.
+    pub phi: Vec<f64>,
+    pub y: Vec<f64>,
+    /// The DOF (equation) of each row: rows of different DOFs have different units and noise.
+    pub row_dof: Vec<Dof>,
+}
+
+impl Regression {
+    pub fn rows(&self) -> usize {
+        self.y.len()
+    }
+
+    pub fn cols(&self) -> usize {
+        self.layout.len()
+    }
+
+    pub fn row(&self, i: usize) -> &[f64] {
+        let p = self.cols();
+        &self.phi[i * p..(i + 1) * p]
+    }
+
+    /// Builds the rows from every sample of every response (after `skip_start_s` seconds), for
+    /// the DOFs each response has.
+    pub fn build(vehicle: &Vehicle, responses: &[&Response], skip_start_s: f64) -> Regression {
+        let layout = ParamLayout::new(&vehicle.dofs);
+        let p = layout.len();
+        // hydro_force is linear in the coefficients: column j is its value at the j-th unit vector.
+        let units: Vec<_> = (0..p)
+            .map(|j| layout.to_hydro(&(0..p).map(|i| f64::from(u8::from(i == j))).collect::<Vec<_>>()))
+            .collect();
+        let rigid = Plant::new(vehicle, Default::default());
+        let mut r = Regression { layout: layout.clone(), phi: Vec::new(), y: Vec::new(), row_dof: Vec::new() };
+        for resp in responses {
+            let dofs: Vec<Dof> = resp.dofs.keys().copied().filter(|d| vehicle.dofs.contains(d)).collect();
+            for k in (0..resp.len()).filter(|&k| resp.t[k] >= skip_start_s) {
+                let (nu, nu_dot, tau) = (resp.nu(k), resp.nu_dot(k), resp.tau(k));
+                let known = rigid.rigid_force(&nu, &nu_dot);
+                let cols: Vec<[f64; 6]> = units.iter().map(|h| hydro_force(h, &nu, &nu_dot)).collect();
+                for d in &dofs {
+                    let i = d.index();
+                    r.y.push(tau[i] - known[i]);
+                    r.phi.extend(cols.iter().map(|c| c[i]));
+                    r.row_dof.push(*d);
+                }
+            }
+        }
+        r
+    }
+}
