@@ -1,0 +1,144 @@
+//! The content-addressed store under `.hydrofit/`.
+//!
+//! `objects/<key>/` holds a finished instance's artifacts. It appears only through one rename
+//! of a complete temporary folder, so its existence is the record that the stage finished: a
+//! build killed at any point leaves either nothing or a whole result. `log` is an append-only
+//! list of the fields each instance was last built with, used only to explain staleness; a torn
+//! last line (killed mid-append) is cut off on the next build, never fatal.
+
+use super::key::Fields;
+use serde::{Deserialize, Serialize};
+use std::collections::HashMap;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// Engine-owned file inside each object folder (dot-named: never published).
+pub const FIELDS_FILE: &str = ".fields.json";
+const LOG: &str = "log";
+/// Rewrite the log keeping the last record per instance once it has this many lines.
+const COMPACT_AT: usize = 20_000;
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Record {
+    pub id: String,
+    pub key: String,
+    pub fields: Fields,
+}
+
+pub struct Cache {
+    dir: PathBuf,
+}
+
+impl Cache {
+    pub fn new(dir: &Path) -> Cache {
+        Cache { dir: dir.to_path_buf() }
+    }
+
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    pub fn object(&self, key: &str) -> PathBuf {
+        self.dir.join("objects").join(key)
+    }
+
+    pub fn has(&self, key: &str) -> bool {
+        self.object(key).is_dir()
+    }
+
+    /// A fresh folder for a running instance's artifacts.
+    pub fn begin(&self, key: &str) -> std::io::Result<PathBuf> {
+        let tmp = self.dir.join("tmp");
+        std::fs::create_dir_all(&tmp)?;
+        let path = tmp.join(format!("{key}.{}.{:?}", std::process::id(), std::thread::current().id()).replace(['(', ')'], ""));
+        if path.exists() {
+            std::fs::remove_dir_all(&path)?;
+        }
+        std::fs::create_dir(&path)?;
+        Ok(path)
+    }
+
+    /// Makes a finished folder the result for `record.key` (one rename), then logs it.
+    pub fn commit(&self, tmp: &Path, record: &Record) -> std::io::Result<()> {
+        let text = serde_json::to_string_pretty(&record.fields).map_err(std::io::Error::other)?;
+        crate::fsutil::write_atomic(&tmp.join(FIELDS_FILE), text.as_bytes())?;
+        let dest = self.object(&record.key);
+        std::fs::create_dir_all(dest.parent().expect("objects/<key> has a parent"))?;
+        if dest.exists() {
+            // Same key, same inputs: the existing result is as good as ours.
+            std::fs::remove_dir_all(tmp)?;
+        } else {
+            std::fs::rename(tmp, &dest)?;
+        }
+        self.append(record)
+    }
+
+    pub fn abandon(&self, tmp: &Path) {
+        let _ = std::fs::remove_dir_all(tmp);
+    }
+
+    fn append(&self, record: &Record) -> std::io::Result<()> {
+        let mut line = serde_json::to_string(record).map_err(std::io::Error::other)?;
+        line.push('\n');
+        let mut f = std::fs::OpenOptions::new().create(true).append(true).open(self.dir.join(LOG))?;
+        // One write per record: a kill leaves at most one torn line, at the end.
+        f.write_all(line.as_bytes())
+    }
+
+    /// The last record of each instance. Unparsable lines (a torn append) are skipped.
+    pub fn records(&self) -> HashMap<String, Record> {
+        let text = std::fs::read_to_string(self.dir.join(LOG)).unwrap_or_default();
+        text.lines()
+            .filter_map(|l| serde_json::from_str::<Record>(l).ok())
+            .map(|r| (r.id.clone(), r))
+            .collect()
+    }
+
+    /// Start-of-build housekeeping (under the lock): drop temporary folders of killed builds,
+    /// cut a torn last log line so the next append starts on a fresh line, compact the log.
+    pub fn recover(&self) -> std::io::Result<()> {
+        let _ = std::fs::remove_dir_all(self.dir.join("tmp"));
+        std::fs::create_dir_all(&self.dir)?;
+        let path = self.dir.join(LOG);
+        let Ok(text) = std::fs::read_to_string(&path) else { return Ok(()) };
+        if !text.is_empty() && !text.ends_with('\n') {
+            let keep = text.rfind('\n').map_or(0, |i| i + 1);
+            std::fs::OpenOptions::new().write(true).open(&path)?.set_len(keep as u64)?;
+        }
+        if text.lines().count() > COMPACT_AT {
+            let mut recs: Vec<Record> = self.records().into_values().collect();
+            recs.sort_by(|a, b| a.id.cmp(&b.id));
+            let body: String = recs.iter().filter_map(|r| serde_json::to_string(r).ok()).map(|l| l + "\n").collect();
+            crate::fsutil::write_atomic(&path, body.as_bytes())?;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rec(id: &str, key: &str) -> Record {
+        Record { id: id.into(), key: key.into(), fields: Fields(vec![("kind".into(), "x".into())]) }
+    }
+
+    #[test]
+    fn a_torn_log_line_is_ignored_and_cut() {
+        let dir = tempfile::tempdir().unwrap();
+        let c = Cache::new(dir.path());
+        std::fs::create_dir_all(dir.path()).unwrap();
+        let t = c.begin("k1").unwrap();
+        c.commit(&t, &rec("a", "k1")).unwrap();
+        let mut f = std::fs::OpenOptions::new().append(true).open(dir.path().join(LOG)).unwrap();
+        f.write_all(b"{\"id\":\"b\",\"key\":\"k2\",\"fie").unwrap();
+        assert_eq!(c.records().len(), 1);
+        c.recover().unwrap();
+        let t = c.begin("k3").unwrap();
+        c.commit(&t, &rec("b", "k3")).unwrap();
+        let r = c.records();
+        assert_eq!(r["a"].key, "k1");
+        assert_eq!(r["b"].key, "k3");
+        assert!(c.has("k1") && c.has("k3") && !c.has("k2"));
+    }
+}

@@ -1,0 +1,150 @@
+//! Expands stages into instances: a stage with input globs fans out to one instance per
+//! matched file (or folder), so a new case adds one instance and touches nothing else.
+
+use super::spec::{Spec, StageSpec};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+#[derive(Debug, Clone)]
+pub struct Instance {
+    /// `stage` or `stage[case]`.
+    pub id: String,
+    /// Index into `spec.stages`.
+    pub stage: usize,
+    /// Input files, relative to the project root, `/`-separated, sorted.
+    pub inputs: Vec<String>,
+    /// Indices of the instances it reads from (earlier in `instances`).
+    pub deps: Vec<usize>,
+}
+
+pub struct Graph {
+    pub spec: Spec,
+    /// In dependency order.
+    pub instances: Vec<Instance>,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum GraphError {
+    #[error("stage `{stage}` matched no files with {globs}\n  help: put its input files there, or fix the glob under stages.{stage}.inputs in pipeline.yaml")]
+    NoInputs { stage: String, globs: String },
+    #[error("cannot list {pattern}: {source}")]
+    Glob { pattern: String, source: glob::GlobError },
+    #[error("cannot read input {path}: {source}")]
+    Read { path: String, source: std::io::Error },
+}
+
+fn rel(root: &Path, p: &Path) -> String {
+    let r = p.strip_prefix(root).unwrap_or(p);
+    r.components().map(|c| c.as_os_str().to_string_lossy()).collect::<Vec<_>>().join("/")
+}
+
+/// Files under a matched folder (a case directory), skipping hidden names.
+fn files_under(root: &Path, dir: &Path, out: &mut Vec<String>) -> std::io::Result<()> {
+    let mut entries: Vec<_> = std::fs::read_dir(dir)?.collect::<Result<_, _>>()?;
+    entries.sort_by_key(|e| e.file_name());
+    for e in entries {
+        if e.file_name().to_string_lossy().starts_with('.') {
+            continue;
+        }
+        if e.file_type()?.is_dir() {
+            files_under(root, &e.path(), out)?;
+        } else {
+            out.push(rel(root, &e.path()));
+        }
+    }
+    Ok(())
+}
+
+/// Matched entries of a stage: (name for the instance id, files).
+fn fan_out(root: &Path, st: &StageSpec) -> Result<Vec<(String, Vec<String>)>, GraphError> {
+    let mut matched: BTreeMap<String, Vec<String>> = BTreeMap::new();
+    for g in &st.inputs {
+        let pattern = root.join(g).to_string_lossy().into_owned();
+        let paths = glob::glob(&pattern).expect("globs are checked when the spec is parsed");
+        for p in paths {
+            let p = p.map_err(|source| GraphError::Glob { pattern: g.clone(), source })?;
+            let r = rel(root, &p);
+            if p.file_name().is_some_and(|n| n.to_string_lossy().starts_with('.')) {
+                continue;
+            }
+            let mut files = Vec::new();
+            if p.is_dir() {
+                files_under(root, &p, &mut files).map_err(|source| GraphError::Read { path: r.clone(), source })?;
+            } else {
+                files.push(r.clone());
+            }
+            matched.insert(r, files);
+        }
+    }
+    if matched.is_empty() {
+        return Err(GraphError::NoInputs { stage: st.name.clone(), globs: st.inputs.join(", ") });
+    }
+    // Name each instance by its file stem; fall back to the path where stems collide.
+    let stem = |r: &str| Path::new(r).file_stem().map_or(r.to_string(), |s| s.to_string_lossy().into_owned());
+    let mut count: BTreeMap<String, usize> = BTreeMap::new();
+    for r in matched.keys() {
+        *count.entry(stem(r)).or_default() += 1;
+    }
+    Ok(matched.into_iter().map(|(r, files)| (if count[&stem(&r)] > 1 { r.clone() } else { stem(&r) }, files)).collect())
+}
+
+impl Graph {
+    pub fn expand(root: &Path, spec: Spec) -> Result<Graph, GraphError> {
+        let mut instances: Vec<Instance> = Vec::new();
+        let mut of_stage: BTreeMap<&str, Vec<usize>> = BTreeMap::new();
+        for (si, st) in spec.stages.iter().enumerate() {
+            let deps: Vec<usize> = st.from.iter().flat_map(|f| of_stage[f.as_str()].iter().copied()).collect();
+            let entries = if st.kind.fan_out { fan_out(root, st)? } else { vec![(String::new(), vec![])] };
+            let mut mine = Vec::new();
+            for (name, inputs) in entries {
+                let id = if name.is_empty() { st.name.clone() } else { format!("{}[{name}]", st.name) };
+                mine.push(instances.len());
+                instances.push(Instance { id, stage: si, inputs, deps: deps.clone() });
+            }
+            of_stage.insert(&st.name, mine);
+        }
+        Ok(Graph { spec, instances })
+    }
+
+    pub fn stage_of(&self, i: usize) -> &StageSpec {
+        &self.spec.stages[self.instances[i].stage]
+    }
+
+    /// blake3 of every input file's contents.
+    pub fn hash_inputs(&self, root: &Path) -> Result<BTreeMap<String, String>, GraphError> {
+        let mut out = BTreeMap::new();
+        for inst in &self.instances {
+            for f in &inst.inputs {
+                if !out.contains_key(f) {
+                    let h = crate::fsutil::hash_file(&root.join(f)).map_err(|source| GraphError::Read { path: f.clone(), source })?;
+                    out.insert(f.clone(), h);
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// Instances needed to build `targets` (stage names or instance ids; all when empty).
+    pub fn closure(&self, targets: &[String]) -> Result<Vec<bool>, String> {
+        let mut need = vec![targets.is_empty(); self.instances.len()];
+        for t in targets {
+            let hits: Vec<usize> = (0..self.instances.len()).filter(|&i| self.instances[i].id == *t || self.stage_of(i).name == *t).collect();
+            if hits.is_empty() {
+                let names = self.spec.stages.iter().map(|s| s.name.as_str());
+                let hint = crate::diag::nearest(t, names).map_or(String::new(), |s| format!(" (did you mean `{s}`?)"));
+                return Err(format!("no stage or stage instance named `{t}` in pipeline.yaml{hint}"));
+            }
+            for i in hits {
+                need[i] = true;
+            }
+        }
+        for i in (0..self.instances.len()).rev() {
+            if need[i] {
+                for &d in &self.instances[i].deps {
+                    need[d] = true;
+                }
+            }
+        }
+        Ok(need)
+    }
+}

@@ -1,0 +1,49 @@
+//! The build engine: spec -> graph of stage instances -> keys -> cached, parallel execution.
+
+pub mod cache;
+pub mod executor;
+pub mod explain;
+pub mod graph;
+pub mod key;
+pub mod locate;
+pub mod lock;
+pub mod spec;
+
+use anyhow::Context as _;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+pub const SPEC_FILE: &str = "pipeline.yaml";
+pub const STATE_DIR: &str = ".hydrofit";
+
+/// The project as it is on disk now: its graph, every input's hash and every instance's key.
+pub struct Plan {
+    pub root: PathBuf,
+    pub graph: graph::Graph,
+    pub hashes: BTreeMap<String, String>,
+    pub fields: Vec<key::Fields>,
+    pub keys: Vec<String>,
+}
+
+impl Plan {
+    pub fn load(root: &Path) -> anyhow::Result<Plan> {
+        let spec_path = root.join(SPEC_FILE);
+        let text = std::fs::read_to_string(&spec_path)
+            .with_context(|| format!("cannot read {} (is {} a hydrofit project? use --project DIR)", spec_path.display(), root.display()))?;
+        let spec = spec::parse(SPEC_FILE, &text)?;
+        let graph = graph::Graph::expand(root, spec)?;
+        let hashes = graph.hash_inputs(root)?;
+        let mut fields = Vec::with_capacity(graph.instances.len());
+        let mut keys: Vec<String> = Vec::with_capacity(graph.instances.len());
+        for i in 0..graph.instances.len() {
+            let f = key::fields(&graph, i, &hashes, &keys);
+            keys.push(f.key());
+            fields.push(f);
+        }
+        Ok(Plan { root: root.to_path_buf(), graph, hashes, fields, keys })
+    }
+
+    pub fn cache(&self) -> cache::Cache {
+        cache::Cache::new(&self.root.join(STATE_DIR))
+    }
+}
