@@ -1,0 +1,40 @@
+//! `hydrofit build`: take the lock, recover from any killed build, run what is stale.
+
+use crate::pipeline::executor::{self, Options};
+use crate::pipeline::{lock, Plan, STATE_DIR};
+use crate::progress::Progress;
+use std::path::Path;
+use std::process::ExitCode;
+use std::time::Instant;
+
+pub fn run(root: &Path, targets: Vec<String>, jobs: Option<usize>, explain: bool) -> anyhow::Result<ExitCode> {
+    let start = Instant::now();
+    let _lock = lock::acquire(&root.join(STATE_DIR), |holder| {
+        eprintln!("hydrofit: waiting for another build of this project to finish ({holder})");
+    })?;
+    // Plan after taking the lock: the other build may have changed the cache.
+    let plan = Plan::load(root)?;
+    plan.cache().recover()?;
+    let jobs = jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let progress = Progress::new();
+    let s = executor::build(&plan, &Options { targets, jobs, explain }, &progress)?;
+    let secs = start.elapsed().as_secs_f64();
+    for p in &s.published {
+        progress.println(format!("wrote {p}"));
+    }
+    if !s.failed.is_empty() {
+        let names: Vec<&str> = s.failed.iter().map(|(id, _)| id.as_str()).collect();
+        let mut line = format!("hydrofit: {} failed: {}", names.len(), names.join(", "));
+        if !s.skipped.is_empty() {
+            line += &format!("; not run because they depend on it: {}", s.skipped.join(", "));
+        }
+        eprintln!("{line} ({} ran, {} up to date, {secs:.2} s)", s.ran.len(), s.up_to_date);
+        return Ok(ExitCode::from(1));
+    }
+    if s.ran.is_empty() {
+        eprintln!("hydrofit: up to date ({} stage instances, {secs:.3} s)", s.up_to_date);
+    } else {
+        eprintln!("hydrofit: ran {}, {} up to date ({secs:.2} s)", s.ran.len(), s.up_to_date);
+    }
+    Ok(ExitCode::SUCCESS)
+}

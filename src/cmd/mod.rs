@@ -1,0 +1,8 @@
+//! One file per subcommand.
+
+pub mod build;
+pub mod clean;
+pub mod graph;
+pub mod provenance;
+pub mod status;
+pub mod twin;

@@ -1,0 +1,29 @@
+//! `hydrofit status`: what a build would run, and why; `up to date` when nothing.
+
+use crate::pipeline::{explain, Plan};
+use std::path::Path;
+use std::process::ExitCode;
+
+pub fn run(root: &Path, show_fields: bool) -> anyhow::Result<ExitCode> {
+    let plan = Plan::load(root)?;
+    let cache = plan.cache();
+    let records = cache.records();
+    let mut stale = 0;
+    for (i, inst) in plan.graph.instances.iter().enumerate() {
+        if cache.has(&plan.keys[i]) {
+            continue;
+        }
+        stale += 1;
+        let why = explain::reasons(records.get(&inst.id), &plan.fields[i]);
+        crate::outln!("{}: {}", inst.id, why.join("; "));
+        if show_fields {
+            for line in plan.fields[i].text().lines() {
+                crate::outln!("    {line}");
+            }
+        }
+    }
+    if stale == 0 {
+        crate::outln!("up to date");
+    }
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,120 @@
+//! `index.html`: one self-contained page (inline CSS and SVG; a CSP forbids any fetch).
+
+use super::json::{Parameters, Validation};
+use crate::model::Vehicle;
+use crate::stage::fit::FitResult;
+use std::fmt::Write as _;
+
+pub fn esc(s: &str) -> String {
+    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
+}
+
+/// Significant-figure formatting for tables.
+fn num(v: f64) -> String {
+    if !v.is_finite() {
+        return "–".into();
+    }
+    let a = v.abs();
+    if a != 0.0 && !(1e-3..1e5).contains(&a) { format!("{v:.3e}") } else { format!("{v:.4}") }
+}
+
+const STYLE: &str = "body{font-family:sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;color:#222}
+table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #ccc;padding:.25em .6em;text-align:right}
+th{background:#f3f3f3}td:first-child,th:first-child{text-align:left}.warn{color:#b00}
+figure{margin:1em 0}figure svg{max-width:100%;height:auto;border:1px solid #eee}
+code{background:#f6f6f6;padding:0 .2em}.small{font-size:.85em;color:#555}details{margin:.3em 0}";
+
+pub struct Page<'a> {
+    pub vehicle: &'a Vehicle,
+    pub fits: &'a [FitResult],
+    pub parameters: &'a Parameters,
+    pub validation: &'a Validation,
+    /// (DOF name, SVG) per plot.
+    pub plots: Vec<(String, String)>,
+    /// Import notes per case (unit conversions, derived columns).
+    pub notes: Vec<(String, Vec<String>)>,
+}
+
+impl Page<'_> {
+    pub fn render(&self) -> String {
+        let mut h = String::new();
+        let _ = write!(
+            h,
+            "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\
+             <meta http-equiv=\"Content-Security-Policy\" content=\"default-src 'none'; style-src 'unsafe-inline'; img-src data:\">\
+             <title>hydrofit report: {name}</title><style>{STYLE}</style></head><body>\n\
+             <h1>Hydrodynamic model of {name}</h1>\n<p class=\"small\">hydrofit {ver}. Mass {m} kg, DOFs {dofs}, {st} structure. \
+             Every value below links to the files it was computed from (blake3 of their contents).</p>\n",
+            name = esc(&self.vehicle.name),
+            ver = env!("CARGO_PKG_VERSION"),
+            m = self.vehicle.mass_kg,
+            dofs = self.vehicle.dofs.iter().map(|d| d.name()).collect::<Vec<_>>().join(", "),
+            st = self.vehicle.structure.label(),
+        );
+        self.parameter_table(&mut h);
+        h.push_str("<h2 id=\"plots\">CFD responses and the identified model</h2>\n");
+        for (dof, svg) in &self.plots {
+            let _ = writeln!(h, "<figure id=\"plot-{dof}\">{svg}<figcaption>{dof}: velocity of each CFD case (colour) and of the identified model simulated under the same applied force from the same initial state (dashed black).</figcaption></figure>");
+        }
+        self.validation_table(&mut h);
+        self.provenance(&mut h);
+        h.push_str("</body></html>\n");
+        h
+    }
+
+    fn parameter_table(&self, h: &mut String) {
+        for f in self.fits {
+            let _ = write!(
+                h,
+                "<h2 id=\"model-{s}\">Parameters — model <code>{s}</code></h2>\n<p>Method <code>{m}</code>, objective {o}, {n} equation rows from {c} CFD cases; regressor condition number {k}.</p>\n\
+                 <table><tr><th>parameter</th><th>value</th><th>± std. error</th><th>unit</th><th>rel. error</th><th>provenance</th></tr>\n",
+                s = esc(&f.stage), m = esc(&f.method), o = f.objective.label(), n = f.fit.samples, c = f.cases.len(), k = num(f.fit.condition_number),
+            );
+            for p in self.parameters.parameters.iter().filter(|p| p.model == f.stage) {
+                let rel = 100.0 * p.stderr / p.value.abs();
+                let flag = if p.identifiable { String::new() } else { " <span class=\"warn\">not identifiable from these cases</span>".into() };
+                let _ = writeln!(
+                    h,
+                    "<tr><td><code>{n}</code>{flag}</td><td>{v}</td><td>{e}</td><td>{u}</td><td>{r:.2} %</td><td><a href=\"#prov-{s}-{n}\">inputs</a></td></tr>",
+                    n = esc(&p.name), v = num(p.value), e = num(p.stderr), u = esc(&p.unit), r = rel, s = esc(&f.stage),
+                );
+            }
+            h.push_str("</table>\n");
+        }
+    }
+
+    fn validation_table(&self, h: &mut String) {
+        h.push_str("<h2 id=\"validation\">How well each model reproduces each run</h2>\n<p>Per run and DOF: mean absolute error, normalised MAE (mean |v<sub>model</sub> − v<sub>meas</sub>| / mean |v<sub>meas</sub>|) and RMSE as a percentage of the run's peak speed. <code>train</code> runs were used in the fit.</p>\n");
+        for m in &self.validation.models {
+            let _ = writeln!(h, "<table><tr><th>model <code>{}</code>: run</th><th>role</th><th>DOF</th><th>MAE</th><th>NMAE</th><th>RMSE % of peak</th></tr>", esc(&m.model));
+            for r in &m.runs {
+                for (dof, x) in &r.dofs {
+                    let _ = writeln!(h, "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.3}</td></tr>", esc(&r.run), r.role, dof, num(x.mae), num(x.nmae), x.rmse_pct);
+                }
+            }
+            h.push_str("</table>\n");
+        }
+    }
+
+    fn provenance(&self, h: &mut String) {
+        h.push_str("<h2 id=\"provenance\">Provenance</h2>\n");
+        for p in &self.parameters.parameters {
+            let _ = write!(
+                h,
+                "<details id=\"prov-{s}-{n}\"><summary><code>{n}</code> = {v} {u} ← stage <code>{s}</code>, method <code>{m}</code>, settings <code>{set}</code> ← {k} input files</summary><table><tr><th>file</th><th>blake3</th></tr>",
+                s = esc(&p.stage), n = esc(&p.name), v = num(p.value), u = esc(&p.unit), m = esc(&p.method), set = esc(&p.settings.to_string()), k = p.inputs.len(),
+            );
+            for i in &p.inputs {
+                let _ = write!(h, "<tr><td>{}</td><td><code>{}</code></td></tr>", esc(&i.path), &i.blake3);
+            }
+            h.push_str("</table></details>\n");
+        }
+        if self.notes.iter().any(|(_, n)| !n.is_empty()) {
+            h.push_str("<h3>Import notes</h3><ul>\n");
+            for (case, notes) in self.notes.iter().filter(|(_, n)| !n.is_empty()) {
+                let _ = writeln!(h, "<li><code>{}</code>: {}</li>", esc(case), esc(&notes.join("; ")));
+            }
+            h.push_str("</ul>\n");
+        }
+    }
+}

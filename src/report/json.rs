@@ -1,0 +1,72 @@
+//! `parameters.json` and `validation.json`, exactly in FORMATS.md's shape.
+
+use crate::stage::fit::FitResult;
+use crate::stage::InputFile;
+use crate::validate::Metrics;
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+#[derive(Debug, Serialize)]
+pub struct Parameter {
+    pub name: String,
+    pub value: f64,
+    pub unit: String,
+    pub stderr: f64,
+    pub identifiable: bool,
+    /// The model (fit stage) this value belongs to.
+    pub model: String,
+    pub stage: String,
+    pub method: String,
+    pub settings: serde_json::Value,
+    pub inputs: Vec<InputFile>,
+}
+
+#[derive(Debug, Serialize)]
+pub struct Parameters {
+    pub parameters: Vec<Parameter>,
+}
+
+pub fn parameters(fits: &[FitResult]) -> Parameters {
+    let mut out = Vec::new();
+    for f in fits {
+        let inputs: Vec<InputFile> = f.cases.iter().map(|c| c.source.clone()).collect();
+        let mut settings = f.settings.clone();
+        // Deterministic methods have no seed; say so rather than leave the reader guessing.
+        if let Some(obj) = settings.as_object_mut() {
+            obj.entry("seed").or_insert(serde_json::Value::Null);
+        }
+        for p in &f.fit.parameters {
+            out.push(Parameter {
+                name: p.name.clone(),
+                value: p.value,
+                unit: p.unit.clone(),
+                stderr: p.stderr,
+                identifiable: p.identifiable,
+                model: f.stage.clone(),
+                stage: f.stage.clone(),
+                method: f.method.clone(),
+                settings: settings.clone(),
+                inputs: inputs.clone(),
+            });
+        }
+    }
+    Parameters { parameters: out }
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct RunScore {
+    pub run: String,
+    pub role: &'static str,
+    pub dofs: BTreeMap<String, Metrics>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct ModelScore {
+    pub model: String,
+    pub runs: Vec<RunScore>,
+}
+
+#[derive(Debug, Serialize)]
+pub struct Validation {
+    pub models: Vec<ModelScore>,
+}

@@ -1,0 +1,6 @@
+//! The report: `index.html` for people, `parameters.json` and `validation.json` for tools
+//! (shapes fixed by FORMATS.md).
+
+pub mod html;
+pub mod json;
+pub mod plots;

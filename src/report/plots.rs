@@ -1,0 +1,117 @@
+//! SVG plots drawn with plotters, embedded in the HTML (no files, no network).
+
+use crate::dof::Dof;
+use plotters::prelude::*;
+use plotters::style::{register_font, FontStyle};
+use std::sync::Once;
+
+/// DejaVu Sans (fonts-dejavu-core, Bitstream Vera licence; see assets/fonts): plotters'
+/// `ab_glyph` text needs a registered font, and the report must not depend on system fonts.
+static FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
+static REGISTER: Once = Once::new();
+
+fn ensure_font() {
+    REGISTER.call_once(|| {
+        // The bytes are a valid TTF shipped with the crate; failure is a broken build.
+        register_font("sans-serif", FontStyle::Normal, FONT).map_err(|_| ()).expect("embedded font parses");
+    });
+}
+
+/// One measured trace and the model's prediction for it.
+pub struct Trace<'a> {
+    pub label: &'a str,
+    pub t: &'a [f64],
+    pub measured: &'a [f64],
+    pub simulated: &'a [f64],
+}
+
+/// Twenty distinguishable colours (Tableau 20 order), so a plot of many cases never repeats one.
+const PALETTE: [RGBColor; 20] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+    RGBColor(188, 189, 34),
+    RGBColor(23, 190, 207),
+    RGBColor(174, 199, 232),
+    RGBColor(255, 187, 120),
+    RGBColor(152, 223, 138),
+    RGBColor(255, 152, 150),
+    RGBColor(197, 176, 213),
+    RGBColor(196, 156, 148),
+    RGBColor(247, 182, 210),
+    RGBColor(199, 199, 199),
+    RGBColor(219, 219, 141),
+    RGBColor(158, 218, 229),
+];
+
+/// At most ~400 points per trace keep the page small without visible loss.
+fn thin<'a>(t: &'a [f64], y: &'a [f64]) -> impl Iterator<Item = (f64, f64)> + Clone + 'a {
+    let stride = t.len().div_ceil(400).max(1);
+    t.iter().zip(y).step_by(stride).map(|(a, b)| (*a, *b))
+}
+
+const WIDTH: u32 = 960;
+const HEIGHT: u32 = 400;
+const LEGEND: u32 = 200;
+
+/// Velocity responses of one DOF: each CFD case in colour, the fitted model dashed black on
+/// top, and a legend naming every case in a column of its own.
+pub fn velocity(dof: Dof, traces: &[Trace]) -> anyhow::Result<String> {
+    ensure_font();
+    let tmax = traces.iter().filter_map(|tr| tr.t.last()).fold(0.0f64, |a, b| a.max(*b)).max(1e-3);
+    let (lo, hi) = traces
+        .iter()
+        .flat_map(|tr| tr.measured.iter().chain(tr.simulated))
+        .fold((0.0f64, 0.0f64), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
+    let pad = 0.05 * (hi - lo).max(1e-6);
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (WIDTH, HEIGHT)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let (plot, legend) = root.split_horizontally(WIDTH - LEGEND);
+        let mut chart = ChartBuilder::on(&plot)
+            .caption(format!("{dof}: CFD response and identified model"), ("sans-serif", 18))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(64)
+            .build_cartesian_2d(0f64..tmax, (lo - pad)..(hi + pad))?;
+        chart
+            .configure_mesh()
+            .x_desc("time (s)")
+            .y_desc(format!("{} ({})", dof.velocity(), dof.velocity_unit()))
+            .label_style(("sans-serif", 13))
+            .draw()?;
+        for (i, tr) in traces.iter().enumerate() {
+            chart.draw_series(LineSeries::new(thin(tr.t, tr.measured), PALETTE[i % PALETTE.len()].stroke_width(3)))?;
+        }
+        for tr in traces {
+            chart.draw_series(DashedLineSeries::new(thin(tr.t, tr.simulated), 6, 4, BLACK.stroke_width(1)))?;
+        }
+        draw_legend(&legend, traces)?;
+        root.present()?;
+    }
+    Ok(svg)
+}
+
+fn draw_legend<DB: DrawingBackend>(area: &DrawingArea<DB, plotters::coord::Shift>, traces: &[Trace]) -> anyhow::Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    let font = ("sans-serif", 12).into_font();
+    let row = 17;
+    let mut y = 40;
+    for (i, tr) in traces.iter().enumerate() {
+        let color = PALETTE[i % PALETTE.len()];
+        area.draw(&PathElement::new(vec![(8, y), (30, y)], color.stroke_width(3)))?;
+        area.draw(&Text::new(tr.label.to_string(), (36, y - 7), font.clone()))?;
+        y += row;
+    }
+    area.draw(&PathElement::new(vec![(8, y), (30, y)], BLACK.stroke_width(1)))?;
+    area.draw(&Text::new("identified model (dashed)", (36, y - 7), font))?;
+    Ok(())
+}

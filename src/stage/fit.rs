@@ -1,0 +1,124 @@
+//! `kind: fit` — identifies the hydrodynamic parameters from every CFD response it reads.
+
+use super::{starccm, Artifact, InputFile, Kind, RunCtx, StageImpl};
+use crate::dof::Dof;
+use crate::estimate::{self, Fit, Regression};
+use crate::model::Structure;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+use std::sync::Arc;
+
+pub static KIND: Kind = Kind {
+    name: "fit",
+    version: 1,
+    fan_out: false,
+    produces: Artifact::Model,
+    consumes: &[Artifact::Responses],
+    requires: &[Artifact::Responses],
+    uses_vehicle: super::VehicleUse::All,
+    publishes_to: None,
+    parse: parse_settings,
+};
+
+fn parse_settings(v: serde_yaml_ng::Value) -> Result<Arc<dyn StageImpl>, serde_yaml_ng::Error> {
+    let s: Settings = serde_yaml_ng::from_value(v)?;
+    if estimate::by_name(&s.method).is_none() {
+        let names: &'static [&'static str] = Box::leak(estimate::names().into_boxed_slice());
+        return Err(serde::de::Error::unknown_variant(&s.method, names));
+    }
+    Ok(Arc::new(s))
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Objective {
+    /// Force reconstructed from measured velocity and acceleration vs applied force (seed 001 eq. 14).
+    #[default]
+    EquationError,
+}
+
+impl Objective {
+    pub fn label(self) -> &'static str {
+        match self {
+            Objective::EquationError => "equation error (seed 001 eq. 14, L2)",
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Settings {
+    pub method: String,
+    pub objective: Objective,
+    /// Samples before this time in each case are left out: the start-up transient of the
+    /// fluid-body coupling (impulsive start, pressure waves) is not vehicle dynamics.
+    pub skip_start_s: f64,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings { method: "ols".into(), objective: Objective::EquationError, skip_start_s: 0.0 }
+    }
+}
+
+/// A CFD case the fit used.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct CaseRef {
+    pub id: String,
+    pub case: String,
+    pub source: InputFile,
+}
+
+/// The fit stage's artifact: parameters with their provenance.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct FitResult {
+    pub stage: String,
+    pub method: String,
+    pub objective: Objective,
+    pub settings: serde_json::Value,
+    pub structure: Structure,
+    pub dofs: Vec<Dof>,
+    pub fit: Fit,
+    pub cases: Vec<CaseRef>,
+    pub elapsed_s: f64,
+}
+
+pub const RESULT: &str = "fit.json";
+
+pub fn load(dir: &Path) -> anyhow::Result<FitResult> {
+    super::read_json(&dir.join(RESULT))
+}
+
+impl StageImpl for Settings {
+    fn settings(&self) -> serde_json::Value {
+        serde_json::to_value(self).expect("settings serialise")
+    }
+
+    fn run(&self, ctx: &RunCtx) -> anyhow::Result<()> {
+        let start = std::time::Instant::now();
+        let mut cases = Vec::new();
+        let mut responses = Vec::new();
+        for up in ctx.upstream_of(Artifact::Responses) {
+            let (meta, r) = starccm::load(&up.dir)?;
+            cases.push(CaseRef { id: up.id.clone(), case: meta.case, source: meta.source });
+            responses.push(r);
+        }
+        let refs: Vec<_> = responses.iter().collect();
+        let problem = Regression::build(ctx.vehicle, &refs, self.skip_start_s);
+        let estimator = estimate::by_name(&self.method).expect("checked when parsed");
+        ctx.progress.set_message(format!("{} on {} samples", self.method, problem.rows()));
+        let fit = estimator.fit(&problem)?;
+        let result = FitResult {
+            stage: ctx.stage.to_string(),
+            method: self.method.clone(),
+            objective: self.objective,
+            settings: self.settings(),
+            structure: ctx.vehicle.structure,
+            dofs: ctx.vehicle.dofs.clone(),
+            fit,
+            cases,
+            elapsed_s: start.elapsed().as_secs_f64(),
+        };
+        super::write_json(&ctx.out.join(RESULT), &result)
+    }
+}

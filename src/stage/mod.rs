@@ -1,0 +1,129 @@
+//! Stage kinds: what a stage of `pipeline.yaml` can be. Adding a kind is one new file and
+//! one line in `KINDS`.
+
+pub mod fit;
+pub mod report;
+pub mod starccm;
+
+use crate::model::Vehicle;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// What a stage produces, so the spec can check that `from` connects compatible stages.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Artifact {
+    /// A CFD response table (force, velocity, acceleration per DOF).
+    Responses,
+    /// An identified vehicle model.
+    Model,
+    /// The published report.
+    Report,
+}
+
+impl Artifact {
+    pub fn describe(self) -> &'static str {
+        match self {
+            Artifact::Responses => "CFD responses",
+            Artifact::Model => "an identified model",
+            Artifact::Report => "a report",
+        }
+    }
+
+    pub fn example(self) -> &'static str {
+        match self {
+            Artifact::Responses => "a `starccm` stage",
+            Artifact::Model => "a `fit` stage",
+            Artifact::Report => "a `report` stage",
+        }
+    }
+}
+
+/// How much of the vehicle a kind depends on: an importer needs only the DOF list, so a new
+/// mass reruns the fit but not every import.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum VehicleUse {
+    Dofs,
+    All,
+}
+
+/// A stage kind: its contract with the engine.
+pub struct Kind {
+    pub name: &'static str,
+    /// Bump when the kind's algorithm or artifact format changes: part of every cache key.
+    pub version: u32,
+    /// One instance per input file or folder matched by the stage's globs.
+    pub fan_out: bool,
+    pub produces: Artifact,
+    /// What it may read from (`from`), and what it must read from.
+    pub consumes: &'static [Artifact],
+    pub requires: &'static [Artifact],
+    /// Which part of the vehicle section is part of its key.
+    pub uses_vehicle: VehicleUse,
+    /// Folder of the project its results are copied to (the report), if any.
+    pub publishes_to: Option<&'static str>,
+    /// Parses the stage's `settings` (unknown keys rejected).
+    pub parse: fn(serde_yaml_ng::Value) -> Result<std::sync::Arc<dyn StageImpl>, serde_yaml_ng::Error>,
+}
+
+pub const KINDS: &[&Kind] = &[&starccm::KIND, &fit::KIND, &report::KIND];
+
+pub fn kind(name: &str) -> Option<&'static Kind> {
+    KINDS.iter().copied().find(|k| k.name == name)
+}
+
+/// An input file of a stage instance, with the content hash its key used.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct InputFile {
+    /// Relative to the project root, `/`-separated.
+    pub path: String,
+    pub blake3: String,
+}
+
+/// A finished upstream instance whose artifacts a stage reads.
+#[derive(Debug, Clone)]
+pub struct Upstream {
+    pub id: String,
+    pub stage: String,
+    pub produces: Artifact,
+    pub dir: PathBuf,
+}
+
+/// Everything a running stage may touch.
+pub struct RunCtx<'a> {
+    pub id: &'a str,
+    pub stage: &'a str,
+    pub root: &'a Path,
+    pub vehicle: &'a Vehicle,
+    pub inputs: &'a [InputFile],
+    pub upstream: Vec<Upstream>,
+    /// Fresh, empty folder for the artifacts; renamed into the cache only if `run` succeeds.
+    pub out: &'a Path,
+    pub progress: &'a indicatif::ProgressBar,
+}
+
+impl RunCtx<'_> {
+    pub fn upstream_of(&self, a: Artifact) -> impl Iterator<Item = &Upstream> {
+        self.upstream.iter().filter(move |u| u.produces == a)
+    }
+}
+
+/// A configured stage: the kind's settings, ready to run.
+pub trait StageImpl: Send + Sync {
+    /// The settings with defaults filled in, as hashed into the key and shown by `--explain`.
+    fn settings(&self) -> serde_json::Value;
+    /// Runs the stage, writing its artifacts into `ctx.out`.
+    fn run(&self, ctx: &RunCtx) -> anyhow::Result<()>;
+}
+
+/// Reads a JSON artifact written by a stage.
+pub fn read_json<T: for<'de> Deserialize<'de>>(path: &Path) -> anyhow::Result<T> {
+    let text = std::fs::read_to_string(path).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    serde_json::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
+}
+
+pub fn write_json<T: Serialize>(path: &Path, value: &T) -> anyhow::Result<()> {
+    let text = serde_json::to_string_pretty(value)?;
+    crate::fsutil::write_atomic(path, text.as_bytes())?;
+    Ok(())
+}

@@ -1,0 +1,92 @@
+//! `kind: starccm` — imports one STAR-CCM+ DFBI export into a response table (one instance per file).
+
+use super::{Artifact, Kind, RunCtx, StageImpl};
+use crate::dof::Dof;
+use crate::io::starccm::{self, ColumnMap, ImportOptions};
+use crate::io::Response;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+pub static KIND: Kind = Kind {
+    name: "starccm",
+    version: 1,
+    fan_out: true,
+    produces: Artifact::Responses,
+    consumes: &[],
+    requires: &[],
+    uses_vehicle: super::VehicleUse::Dofs,
+    publishes_to: None,
+    parse: |v| Ok(Arc::new(serde_yaml_ng::from_value::<Settings>(v)?)),
+};
+
+/// Applied force for exports without a force column, for the files a glob matches.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AppliedForce {
+    pub files: String,
+    pub force: BTreeMap<Dof, f64>,
+}
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Settings {
+    pub columns: ColumnMap,
+    pub applied_force: Vec<AppliedForce>,
+}
+
+/// What the import wrote besides the table: where it came from and what was done to it.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct ResponseMeta {
+    pub case: String,
+    pub source: super::InputFile,
+    pub dofs: Vec<Dof>,
+    pub sources: BTreeMap<Dof, (crate::io::response::Source, crate::io::response::Source)>,
+    pub rows_read: usize,
+    pub rows_kept: usize,
+    pub notes: Vec<String>,
+}
+
+pub const TABLE: &str = "response.parquet";
+pub const META: &str = "response.json";
+
+/// Loads a response written by any `Responses` stage.
+pub fn load(dir: &std::path::Path) -> anyhow::Result<(ResponseMeta, Response)> {
+    let meta: ResponseMeta = super::read_json(&dir.join(META))?;
+    let r = Response::read_parquet(&dir.join(TABLE), &meta.sources)?;
+    Ok((meta, r))
+}
+
+impl StageImpl for Settings {
+    fn settings(&self) -> serde_json::Value {
+        serde_json::to_value(self).expect("settings serialise")
+    }
+
+    fn run(&self, ctx: &RunCtx) -> anyhow::Result<()> {
+        let input = ctx.inputs.first().ok_or_else(|| anyhow::anyhow!("no input file"))?;
+        let text = std::fs::read(ctx.root.join(&input.path))?;
+        let text = String::from_utf8(text).map_err(|e| {
+            crate::diag::InputError::file(&input.path, format!("not UTF-8 text (byte {} is invalid)", e.utf8_error().valid_up_to()), "export as CSV text from STAR-CCM+, not a binary or spreadsheet file")
+        })?;
+        let mut configured_force = BTreeMap::new();
+        for af in &self.applied_force {
+            if glob::Pattern::new(&af.files).is_ok_and(|p| p.matches(&input.path)) {
+                configured_force.extend(af.force.iter().map(|(d, f)| (*d, *f)));
+            }
+        }
+        let opts = ImportOptions { columns: &self.columns, dofs: &ctx.vehicle.dofs, configured_force };
+        let imported = starccm::parse(&input.path, &text, &opts)?;
+        imported.response.write_parquet(&ctx.out.join(TABLE))?;
+        let case = std::path::Path::new(&input.path).file_stem().map_or(input.path.clone(), |s| s.to_string_lossy().into_owned());
+        let meta = ResponseMeta {
+            case,
+            source: input.clone(),
+            dofs: imported.response.dofs.keys().copied().collect(),
+            sources: imported.response.sources(),
+            rows_read: imported.rows_read,
+            rows_kept: imported.rows_kept,
+            notes: imported.notes,
+        };
+        super::write_json(&ctx.out.join(META), &meta)
+    }
+}
