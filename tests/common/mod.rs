@@ -1,0 +1,54 @@
+//! Helpers for end-to-end tests: a temporary copy of the shipped project and the real binary.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+pub const BIN: &str = env!("CARGO_BIN_EXE_hydrofit");
+
+pub fn manifest_dir() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A temporary project holding the shipped pipeline.yaml and cases/.
+pub fn project() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(manifest_dir().join("pipeline.yaml"), dir.path().join("pipeline.yaml")).unwrap();
+    hydrofit::fsutil::copy_dir(&manifest_dir().join("cases"), &dir.path().join("cases")).unwrap();
+    dir
+}
+
+pub fn run(dir: &Path, args: &[&str]) -> Output {
+    Command::new(BIN).arg("--project").arg(dir).args(args).output().unwrap()
+}
+
+pub fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+pub fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// Runs and asserts success, returning stderr.
+pub fn ok(dir: &Path, args: &[&str]) -> String {
+    let o = run(dir, args);
+    assert!(o.status.success(), "hydrofit {args:?} failed:\n{}\n{}", stdout(&o), stderr(&o));
+    stderr(&o) + &stdout(&o)
+}
+
+/// `ran N` from the build summary (0 when up to date).
+pub fn ran(summary: &str) -> usize {
+    summary
+        .lines()
+        .find_map(|l| l.strip_prefix("hydrofit: ran ").and_then(|r| r.split(',').next()).and_then(|n| n.trim().parse().ok()))
+        .unwrap_or(0)
+}
+
+pub fn read(dir: &Path, rel: &str) -> String {
+    std::fs::read_to_string(dir.join(rel)).unwrap_or_else(|e| panic!("{rel}: {e}"))
+}
+
+pub fn json(dir: &Path, rel: &str) -> serde_json::Value {
+    serde_json::from_str(&read(dir, rel)).unwrap()
+}

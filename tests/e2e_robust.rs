@@ -1,0 +1,105 @@
+//! End-to-end: bad inputs, killed builds and concurrent builds.
+
+mod common;
+use common::*;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+fn reports(dir: &std::path::Path) -> Vec<String> {
+    ["index.html", "parameters.json", "validation.json"].iter().map(|f| read(dir, &format!("reports/{f}"))).collect()
+}
+
+#[test]
+fn a_bad_case_fails_only_what_depends_on_it() {
+    let p = project();
+    let dir = p.path();
+    let bad = dir.join("cases/cfd/starccm/zz_bad.csv");
+    std::fs::write(&bad, "\"Physical Time: Physical Time (s)\",\"Applied Force X Monitor: Force (N)\",\"Body Velocity X Monitor: Velocity (m/s)\"\n0.02,10,0.01\n0.04,10,0.o2\n0.06,10,0.03\n").unwrap();
+    let o = run(dir, &["build"]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    assert!(err.contains("error: stage cfd[zz_bad] failed\n  cases/cfd/starccm/zz_bad.csv:3:9: cannot read \"0.o2\""), "{err}");
+    assert!(err.contains("not run because they depend on it: fit, report"), "{err}");
+    assert!(!dir.join("reports/index.html").exists());
+    // The good imports are cached: fixing the file reruns it and the downstream only.
+    std::fs::write(&bad, std::fs::read_to_string(&bad).unwrap().replace("0.o2", "0.02")).unwrap();
+    let out = ok(dir, &["build"]);
+    assert_eq!(ran(&out), 3, "{out}");
+    assert!(!dir.join(".hydrofit/tmp").exists() || std::fs::read_dir(dir.join(".hydrofit/tmp")).unwrap().count() == 0);
+}
+
+#[test]
+fn input_error_classes_reach_the_user() {
+    let cases: [(&str, &str); 5] = [
+        ("", "the file is empty"),
+        ("\"Physical Time: Physical Time (s)\";\"Body Velocity X Monitor: Velocity (m/s)\"\n0;1\n", ":1: the header is separated by ';', not commas"),
+        ("\"Physical Time: Physical Time (s)\",\"Applied Force X Monitor: Force (N)\",\"Body Velocity X Monitor: Velocity (m/s)\"\n0.02,1,0\n0.04,1,nan\n0.06,1,0\n", ":3:8: nan in column"),
+        ("\"Physical Time: Physical Time (s)\",\"Applied Force X Monitor: Force (N)\",\"Body Velocity X Monitor: Velocity (m/s)\"\n0.02,1,0\n0.06,1,0\n0.04,1,0\n", ":4:1: time goes backwards"),
+        ("\"Physical Time: Physical Time (s)\",\"Thrust: Force (N)\"\n0.02,1\n", ":1: no velocity column"),
+    ];
+    let p = project();
+    let dir = p.path();
+    let only = "cases/cfd/starccm/one.csv";
+    let spec = read(dir, "pipeline.yaml").replace("cases/cfd/starccm/*.csv", only);
+    std::fs::write(dir.join("pipeline.yaml"), spec).unwrap();
+    for (text, expect) in cases {
+        std::fs::write(dir.join(only), text).unwrap();
+        let o = run(dir, &["build"]);
+        assert_eq!(o.status.code(), Some(1), "{text}");
+        let err = stderr(&o);
+        assert!(err.contains(&format!("{only}{}", if expect.starts_with(':') { expect.to_string() } else { format!(": {expect}") })), "expected {expect:?} in\n{err}");
+        assert!(err.contains("help: "), "{err}");
+    }
+}
+
+#[test]
+fn pipeline_yaml_errors_are_located() {
+    let p = project();
+    let dir = p.path();
+    let spec = read(dir, "pipeline.yaml");
+    std::fs::write(dir.join("pipeline.yaml"), spec.replace("method: ols", "methd: ols")).unwrap();
+    let o = run(dir, &["build"]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = stderr(&o);
+    assert!(err.contains("pipeline.yaml:") && err.contains("unknown field `methd`") && err.contains("did you mean `method`?"), "{err}");
+}
+
+#[test]
+fn a_killed_build_followed_by_a_build_gives_the_clean_reports() {
+    let clean = project();
+    ok(clean.path(), &["build"]);
+    let p = project();
+    let dir = p.path();
+    let mut child = Command::new(BIN).arg("--project").arg(dir).args(["build", "-j", "1"]).stderr(Stdio::null()).spawn().unwrap();
+    let objects = dir.join(".hydrofit/objects");
+    let start = Instant::now();
+    while std::fs::read_dir(&objects).map_or(0, |d| d.count()) < 3 && start.elapsed() < Duration::from_secs(60) {
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert!(!dir.join("reports/index.html").exists(), "the build finished before it could be killed");
+    // A torn log record, as a kill during the append would leave.
+    std::fs::OpenOptions::new().append(true).open(dir.join(".hydrofit/log")).and_then(|mut f| std::io::Write::write_all(&mut f, b"{\"id\":\"cfd[x")).unwrap();
+    let out = ok(dir, &["build"]);
+    assert!(ran(&out) > 0);
+    assert_eq!(reports(dir), reports(clean.path()));
+    assert!(stdout(&run(dir, &["status"])).trim() == "up to date");
+}
+
+#[test]
+fn two_concurrent_builds_do_not_interleave() {
+    let clean = project();
+    ok(clean.path(), &["build"]);
+    let p = project();
+    let dir = p.path();
+    let spawn = || Command::new(BIN).arg("--project").arg(dir).arg("build").stderr(Stdio::piped()).spawn().unwrap();
+    let (a, b) = (spawn(), spawn());
+    let (a, b) = (a.wait_with_output().unwrap(), b.wait_with_output().unwrap());
+    assert!(a.status.success() && b.status.success(), "{}\n{}", stderr(&a), stderr(&b));
+    // Exactly one of them did the work; the other waited, then found everything built.
+    let n = [ran(&stderr(&a)), ran(&stderr(&b))];
+    assert!(n.contains(&0) && n.iter().sum::<usize>() > 0, "{n:?}\n{}\n{}", stderr(&a), stderr(&b));
+    assert!(stderr(&a).contains("waiting for another build") || stderr(&b).contains("waiting for another build"));
+    assert_eq!(reports(dir), reports(clean.path()));
+}

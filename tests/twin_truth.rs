@@ -1,0 +1,49 @@
+//! Numerical truth: the shipped cases are exactly the twin's output, and least squares on them
+//! recovers the reference vehicle (seed 001 Table 1) within 2 %.
+
+mod common;
+use common::*;
+use hydrofit::estimate::{Estimator, Regression};
+use hydrofit::io::starccm::{parse, ColumnMap, ImportOptions};
+use hydrofit::model::{Hydro, ParamLayout, Vehicle};
+
+#[test]
+fn shipped_cases_are_the_twins_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = std::process::Command::new(BIN).args(["--project"]).arg(dir.path()).args(["twin", "starccm", "--out", "out"]).output().unwrap();
+    assert!(o.status.success());
+    let shipped = manifest_dir().join("cases/cfd/starccm");
+    let mut n = 0;
+    for e in std::fs::read_dir(dir.path().join("out")).unwrap() {
+        let e = e.unwrap();
+        let ours = std::fs::read(e.path()).unwrap();
+        let theirs = std::fs::read(shipped.join(e.file_name())).unwrap_or_default();
+        assert!(ours == theirs, "{:?} differs from the generator's output: regenerate with `hydrofit twin starccm`", e.file_name());
+        n += 1;
+    }
+    assert_eq!(n, std::fs::read_dir(&shipped).unwrap().count());
+}
+
+#[test]
+fn least_squares_recovers_the_reference_vehicle_within_2_percent() {
+    let vehicle = Vehicle::reference();
+    let columns = ColumnMap::default();
+    let opts = ImportOptions { columns: &columns, dofs: &vehicle.dofs, configured_force: Default::default() };
+    let mut responses = Vec::new();
+    for e in std::fs::read_dir(manifest_dir().join("cases/cfd/starccm")).unwrap() {
+        let path = e.unwrap().path();
+        let text = std::fs::read_to_string(&path).unwrap();
+        responses.push(parse(&path.display().to_string(), &text, &opts).unwrap().response);
+    }
+    let refs: Vec<_> = responses.iter().collect();
+    let problem = Regression::build(&vehicle, &refs, 0.0);
+    let fit = hydrofit::estimate::ols::Ols.fit(&problem).unwrap();
+    let truth = ParamLayout::new(&vehicle.dofs).from_hydro(&Hydro::reference());
+    for (p, t) in fit.parameters.iter().zip(truth) {
+        let rel = (p.value - t) / t;
+        assert!(rel.abs() < 0.02, "{} = {} vs truth {t} ({:+.2} %)", p.name, p.value, 100.0 * rel);
+        assert!(p.identifiable, "{p:?}");
+        // The stated uncertainty must not be wildly optimistic.
+        assert!((p.value - t).abs() < 10.0 * p.stderr + 0.002 * t.abs(), "{p:?} vs {t}");
+    }
+}
