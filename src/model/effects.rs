@@ -1,0 +1,332 @@
+//! Physics a CFD-identified model leaves out (FORMATS.md, "Names of left-out physics"), as
+//! augmentations of the base plant, and a simulator of the vehicle in a pool frame that
+//! carries what they need: position, heading and thruster state.
+//!
+//! The twin conceals these in its pool runs; the diagnosis fits them as hypotheses. Each is a
+//! physically formed term with one to three parameters, not a curve fitted to a residual.
+
+use super::{Plant, Vec6};
+use serde::{Deserialize, Serialize};
+
+/// One left-out effect with its magnitude. Signs follow FORMATS.md's frames (z down).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "name", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Effect {
+    /// Weight minus buoyancy, N, along pool z (positive: the vehicle sinks).
+    NetBuoyancy { force_n: f64 },
+    /// First-order lag between commanded and delivered force and moment, s.
+    ThrusterLag { time_constant_s: f64 },
+    /// Fraction of a negative (reverse) surge, sway or heave command that is lost.
+    ReverseThrustLoss { loss: f64 },
+    /// Commands smaller than this deliver nothing (N for forces, N m for the yaw moment).
+    ThrusterDeadband { force_n: f64, moment_nm: f64 },
+    /// Drag of the umbilical: -c L |v| v on the horizontal velocity in the pool frame, with L
+    /// the length of tether in the water (anchor to vehicle, plus slack), c in N s^2/m^3.
+    TetherDrag { coefficient: f64, slack_m: f64 },
+    /// A uniform current in the pool frame, m/s: drag acts on the velocity relative to the water.
+    WaterCurrent { velocity_m_s: [f64; 2] },
+    /// Extra drag near the side walls: -c exp(-d / decay) |v| v, d the distance to the nearest wall.
+    WallEffect { coefficient: f64, decay_m: f64 },
+    /// Cross-flow drag between surge and sway: X += -c |v| u, Y += -c |u| v, c in N s^2/m^2.
+    CoupledDrag { coefficient: f64 },
+    /// Position, attitude and depth sensors lag the thrust log by this time, s.
+    SensorDelay { delay_s: f64 },
+}
+
+pub const NAMES: [&str; 9] = [
+    "net_buoyancy",
+    "thruster_lag",
+    "reverse_thrust_loss",
+    "thruster_deadband",
+    "tether_drag",
+    "water_current",
+    "wall_effect",
+    "coupled_drag",
+    "sensor_delay",
+];
+
+impl Effect {
+    pub fn name(&self) -> &'static str {
+        match self {
+            Effect::NetBuoyancy { .. } => NAMES[0],
+            Effect::ThrusterLag { .. } => NAMES[1],
+            Effect::ReverseThrustLoss { .. } => NAMES[2],
+            Effect::ThrusterDeadband { .. } => NAMES[3],
+            Effect::TetherDrag { .. } => NAMES[4],
+            Effect::WaterCurrent { .. } => NAMES[5],
+            Effect::WallEffect { .. } => NAMES[6],
+            Effect::CoupledDrag { .. } => NAMES[7],
+            Effect::SensorDelay { .. } => NAMES[8],
+        }
+    }
+
+    /// Parses `name=value` as the twin's command line takes it, with a typical second parameter.
+    pub fn from_arg(arg: &str) -> Result<Effect, String> {
+        let (name, value) = arg.split_once('=').ok_or_else(|| format!("`{arg}`: write an effect as name=magnitude, e.g. thruster_lag=0.3"))?;
+        let x: f64 = value.parse().map_err(|_| format!("`{arg}`: magnitude `{value}` is not a number"))?;
+        Ok(match name {
+            "net_buoyancy" => Effect::NetBuoyancy { force_n: x },
+            "thruster_lag" => Effect::ThrusterLag { time_constant_s: x },
+            "reverse_thrust_loss" => Effect::ReverseThrustLoss { loss: x },
+            "thruster_deadband" => Effect::ThrusterDeadband { force_n: x, moment_nm: x * 0.1 },
+            "tether_drag" => Effect::TetherDrag { coefficient: x, slack_m: 2.0 },
+            "water_current" => Effect::WaterCurrent { velocity_m_s: [x, 0.3 * x] },
+            "wall_effect" => Effect::WallEffect { coefficient: x, decay_m: 0.8 },
+            "coupled_drag" => Effect::CoupledDrag { coefficient: x },
+            "sensor_delay" => Effect::SensorDelay { delay_s: x },
+            _ => {
+                let hint = crate::diag::nearest(name, NAMES).map_or(String::new(), |s| format!(" (did you mean `{s}`?)"));
+                return Err(format!("unknown effect `{name}`{hint}; known: {}", NAMES.join(", ")));
+            }
+        })
+    }
+}
+
+/// The pool: x along its length, y across, z down from the surface; the origin in a corner.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Pool {
+    pub length_m: f64,
+    pub width_m: f64,
+    pub depth_m: f64,
+}
+
+/// Position in the pool frame, heading, and the force the thrusters deliver.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct State {
+    pub nu: Vec6,
+    pub pos: [f64; 3],
+    pub psi: f64,
+    /// Delivered generalised force (differs from the command under thruster lag).
+    pub thrust: Vec6,
+}
+
+/// Base plant plus effects, in a pool.
+#[derive(Debug, Clone)]
+pub struct WorldPlant {
+    pub plant: Plant,
+    pub effects: Vec<Effect>,
+    pub pool: Option<Pool>,
+    pub tether_anchor: Option<[f64; 3]>,
+}
+
+fn drag(p: &Plant, i: usize, x: f64) -> f64 {
+    (p.hydro.lin[i] + p.hydro.quad[i] * x.abs()) * x
+}
+
+impl WorldPlant {
+    pub fn new(plant: Plant) -> WorldPlant {
+        WorldPlant { plant, effects: Vec::new(), pool: None, tether_anchor: None }
+    }
+
+    pub fn lag(&self) -> Option<f64> {
+        self.effects.iter().find_map(|e| match e {
+            Effect::ThrusterLag { time_constant_s } if *time_constant_s > 0.0 => Some(*time_constant_s),
+            _ => None,
+        })
+    }
+
+    /// The force the thrusters would deliver in steady state for a command.
+    pub fn shape_command(&self, cmd: &Vec6) -> Vec6 {
+        let mut out = *cmd;
+        for e in &self.effects {
+            match e {
+                Effect::ThrusterDeadband { force_n, moment_nm } => {
+                    for (i, f) in out.iter_mut().enumerate() {
+                        let d = if i < 3 { *force_n } else { *moment_nm };
+                        if f.abs() < d {
+                            *f = 0.0;
+                        }
+                    }
+                }
+                Effect::ReverseThrustLoss { loss } => {
+                    for f in out.iter_mut().take(3) {
+                        if *f < 0.0 {
+                            *f *= 1.0 - loss;
+                        }
+                    }
+                }
+                _ => {}
+            }
+        }
+        out
+    }
+
+    /// Forces of the environmental effects on the vehicle, body frame.
+    pub fn extra_force(&self, s: &State) -> Vec6 {
+        let mut f = [0.0; 6];
+        let (c, sn) = (s.psi.cos(), s.psi.sin());
+        let to_body = |fx: f64, fy: f64| (c * fx + sn * fy, -sn * fx + c * fy);
+        let vw = [c * s.nu[0] - sn * s.nu[1], sn * s.nu[0] + c * s.nu[1]];
+        let speed = (vw[0] * vw[0] + vw[1] * vw[1]).sqrt();
+        for e in &self.effects {
+            match e {
+                Effect::NetBuoyancy { force_n } => f[2] += force_n,
+                Effect::TetherDrag { coefficient, slack_m } => {
+                    let a = self.tether_anchor.unwrap_or([0.0, 0.0, 0.0]);
+                    let l = ((s.pos[0] - a[0]).powi(2) + (s.pos[1] - a[1]).powi(2) + (s.pos[2] - a[2]).powi(2)).sqrt() + slack_m;
+                    let (bx, by) = to_body(-coefficient * l * speed * vw[0], -coefficient * l * speed * vw[1]);
+                    f[0] += bx;
+                    f[1] += by;
+                }
+                Effect::WaterCurrent { velocity_m_s: cw } => {
+                    let (cu, cv) = to_body(cw[0], cw[1]);
+                    let p = &self.plant;
+                    f[0] += drag(p, 0, s.nu[0] - cu) - drag(p, 0, s.nu[0]);
+                    f[1] += drag(p, 1, s.nu[1] - cv) - drag(p, 1, s.nu[1]);
+                }
+                Effect::WallEffect { coefficient, decay_m } => {
+                    if let Some(pool) = self.pool {
+                        let d = [s.pos[0], pool.length_m - s.pos[0], s.pos[1], pool.width_m - s.pos[1]]
+                            .into_iter()
+                            .fold(f64::INFINITY, f64::min)
+                            .max(0.0);
+                        let k = coefficient * (-d / decay_m).exp() * speed;
+                        let (bx, by) = to_body(-k * vw[0], -k * vw[1]);
+                        f[0] += bx;
+                        f[1] += by;
+                    }
+                }
+                Effect::CoupledDrag { coefficient } => {
+                    f[0] -= coefficient * s.nu[1].abs() * s.nu[0];
+                    f[1] -= coefficient * s.nu[0].abs() * s.nu[1];
+                }
+                _ => {}
+            }
+        }
+        f
+    }
+
+    fn deriv(&self, s: &State, cmd: &Vec6) -> State {
+        let target = self.shape_command(cmd);
+        let (thrust, thrust_dot) = match self.lag() {
+            Some(tc) => (s.thrust, std::array::from_fn(|i| (target[i] - s.thrust[i]) / tc)),
+            None => (target, [0.0; 6]),
+        };
+        let extra = self.extra_force(s);
+        let tau: Vec6 = std::array::from_fn(|i| thrust[i] + extra[i]);
+        let nu_dot = self.plant.accel(&s.nu, &tau);
+        let (c, sn) = (s.psi.cos(), s.psi.sin());
+        State {
+            nu: nu_dot,
+            pos: [c * s.nu[0] - sn * s.nu[1], sn * s.nu[0] + c * s.nu[1], s.nu[2]],
+            psi: s.nu[5],
+            thrust: thrust_dot,
+        }
+    }
+
+    /// The body-frame acceleration at a state under a command (what an IMU would sense, less gravity).
+    pub fn accel(&self, s: &State, cmd: &Vec6) -> Vec6 {
+        self.deriv(s, cmd).nu
+    }
+
+    /// One RK4 step of length `h` with the command held.
+    pub fn step(&self, s: &State, cmd: &Vec6, h: f64) -> State {
+        let add = |a: &State, k: &State, w: f64| State {
+            nu: std::array::from_fn(|i| a.nu[i] + w * k.nu[i]),
+            pos: std::array::from_fn(|i| a.pos[i] + w * k.pos[i]),
+            psi: a.psi + w * k.psi,
+            thrust: std::array::from_fn(|i| a.thrust[i] + w * k.thrust[i]),
+        };
+        let k1 = self.deriv(s, cmd);
+        let k2 = self.deriv(&add(s, &k1, h / 2.0), cmd);
+        let k3 = self.deriv(&add(s, &k2, h / 2.0), cmd);
+        let k4 = self.deriv(&add(s, &k3, h), cmd);
+        let mut out = *s;
+        for i in 0..6 {
+            out.nu[i] += h / 6.0 * (k1.nu[i] + 2.0 * k2.nu[i] + 2.0 * k3.nu[i] + k4.nu[i]);
+            out.thrust[i] += h / 6.0 * (k1.thrust[i] + 2.0 * k2.thrust[i] + 2.0 * k3.thrust[i] + k4.thrust[i]);
+        }
+        for i in 0..3 {
+            out.pos[i] += h / 6.0 * (k1.pos[i] + 2.0 * k2.pos[i] + 2.0 * k3.pos[i] + k4.pos[i]);
+        }
+        out.psi += h / 6.0 * (k1.psi + 2.0 * k2.psi + 2.0 * k3.psi + k4.psi);
+        if self.lag().is_none() {
+            out.thrust = self.shape_command(cmd);
+        }
+        out
+    }
+
+    /// States at the times `t`, from `s0` at `t[0]`, with `cmd[k]` held over [t[k], t[k+1]).
+    pub fn simulate(&self, t: &[f64], cmd: &[Vec6], s0: State, max_step: f64) -> Vec<State> {
+        let mut out = Vec::with_capacity(t.len());
+        let mut s = s0;
+        for k in 0..t.len() {
+            out.push(s);
+            if k + 1 == t.len() {
+                break;
+            }
+            let span = t[k + 1] - t[k];
+            let n = (span / max_step).ceil().max(1.0) as usize;
+            for _ in 0..n {
+                s = self.step(&s, &cmd[k], span / n as f64);
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::{Hydro, Vehicle};
+
+    fn world(effects: Vec<Effect>) -> WorldPlant {
+        let mut w = WorldPlant::new(Plant::new(&Vehicle::reference(), Hydro::reference()));
+        w.effects = effects;
+        w
+    }
+
+    #[test]
+    fn without_effects_it_is_the_base_plant() {
+        let w = world(vec![]);
+        let t: Vec<f64> = (0..500).map(|k| k as f64 * 0.02).collect();
+        let cmd: Vec<Vec6> = t.iter().map(|&x| [40.0 * (x * 0.7).sin(), 10.0, -20.0, 0.0, 0.0, 2.0]).collect();
+        let a = w.simulate(&t, &cmd, State::default(), 0.01);
+        let b = w.plant.simulate(&t, &cmd, [0.0; 6], 0.01);
+        for (x, y) in a.iter().zip(&b) {
+            assert!(x.nu.iter().zip(y).all(|(p, q)| (p - q).abs() < 1e-12));
+        }
+    }
+
+    #[test]
+    fn lag_and_buoyancy_have_their_closed_forms() {
+        // A first-order lag delivers 1 - e^-1 of a step after one time constant.
+        let w = world(vec![Effect::ThrusterLag { time_constant_s: 0.5 }]);
+        let t: Vec<f64> = (0..=50).map(|k| k as f64 * 0.01).collect();
+        let s = w.simulate(&t, &vec![[10.0, 0.0, 0.0, 0.0, 0.0, 0.0]; t.len()], State::default(), 0.01);
+        assert!((s[50].thrust[0] - 10.0 * (1.0 - (-1.0f64).exp())).abs() < 1e-6);
+        // Net buoyancy alone: heave settles where drag balances it.
+        let w = world(vec![Effect::NetBuoyancy { force_n: 5.0 }]);
+        let t: Vec<f64> = (0..3000).map(|k| k as f64 * 0.02).collect();
+        let s = w.simulate(&t, &vec![[0.0; 6]; t.len()], State::default(), 0.01);
+        let (a, b) = (121.30, 21.75);
+        let w_ss = (-b + (b * b + 4.0 * a * 5.0f64).sqrt()) / (2.0 * a);
+        assert!((s.last().unwrap().nu[2] - w_ss).abs() < 1e-6);
+        assert!(s.last().unwrap().pos[2] > 0.0, "sinks, z down");
+    }
+
+    #[test]
+    fn current_drifts_a_passive_vehicle_with_the_water() {
+        let w = world(vec![Effect::WaterCurrent { velocity_m_s: [0.2, -0.1] }]);
+        // Linear drag alone lets the relative velocity decay with (m - X_udot) / -X_u ~ 21 s.
+        let t: Vec<f64> = (0..12000).map(|k| k as f64 * 0.02).collect();
+        let s0 = State { psi: 0.6, ..State::default() };
+        let s = w.simulate(&t, &vec![[0.0; 6]; t.len()], s0, 0.01);
+        let end = s.last().unwrap();
+        let (c, sn) = (end.psi.cos(), end.psi.sin());
+        let vx = c * end.nu[0] - sn * end.nu[1];
+        let vy = sn * end.nu[0] + c * end.nu[1];
+        assert!((vx - 0.2).abs() < 1e-3 && (vy + 0.1).abs() < 1e-3, "{vx} {vy}");
+    }
+
+    #[test]
+    fn effect_arguments_parse_and_misspellings_are_helped() {
+        assert_eq!(Effect::from_arg("thruster_lag=0.3").unwrap(), Effect::ThrusterLag { time_constant_s: 0.3 });
+        let e = Effect::from_arg("tether_darg=1").unwrap_err();
+        assert!(e.contains("did you mean `tether_drag`"), "{e}");
+        for n in NAMES {
+            assert_eq!(Effect::from_arg(&format!("{n}=0.5")).unwrap().name(), n);
+        }
+    }
+}
