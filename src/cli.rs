@@ -64,6 +64,22 @@ pub enum TwinCommand {
         #[arg(long, default_value_t = 1)]
         seed: u64,
     },
+    /// Free-running pool test folders (thrust log, UWB, sonar, IMU, depth) with concealed effects.
+    Pool {
+        /// Folder that receives one folder per run.
+        #[arg(long, default_value = "cases/pool")]
+        out: PathBuf,
+        /// Folder for the truth (true motion, concealed effects); keep it outside cases/.
+        #[arg(long, default_value = "truth/pool")]
+        truth: PathBuf,
+        /// Seed of the manoeuvres and sensor noise.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Concealed effect as name=magnitude (repeatable); replaces the default set
+        /// (thruster_lag=0.35, tether_drag=1.2). `--effect none` conceals nothing.
+        #[arg(long = "effect")]
+        effects: Vec<String>,
+    },
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
@@ -75,5 +91,6 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Provenance { parameter } => cmd::provenance::run(&root, &parameter),
         Command::Graph { dot } => cmd::graph::run(&root, dot),
         Command::Twin { what: TwinCommand::Starccm { out, seed } } => cmd::twin::starccm(&root, &out, seed),
+        Command::Twin { what: TwinCommand::Pool { out, truth, seed, effects } } => cmd::twin::pool(&root, &out, &truth, seed, &effects),
     }
 }

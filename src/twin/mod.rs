@@ -2,3 +2,4 @@
 //! exactly the formats real users have, so every stage can be checked against a known truth.
 
 pub mod cfd;
+pub mod pool;

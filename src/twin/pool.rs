@@ -1,0 +1,406 @@
+//! Twin pool runs: the reference vehicle free-running in a pool under a logged command
+//! (manoeuvre plus a pilot's corrections that keep it off the walls), seen through the sensors
+//! of seed 001's test (UWB, a fixed imaging sonar, a nine-axis IMU, a depth gauge), with
+//! optional left-out effects concealed in the plant. The effects and the true motion go to a
+//! truth folder outside `cases/`, never into the run's files.
+
+use crate::model::effects::{Effect, Pool, State, WorldPlant};
+use crate::model::{Hydro, Plant, Vec6, Vehicle};
+use crate::rng::Rng;
+use serde::{Deserialize, Serialize};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+pub const POOL: Pool = Pool { length_m: 25.0, width_m: 12.0, depth_m: 4.0 };
+/// Where the umbilical enters the water: the middle of one short side, at the surface.
+pub const TETHER_ANCHOR: [f64; 3] = [0.5, 6.0, 0.0];
+/// The imaging sonar: on the same short side, looking down the pool (+x).
+pub const SONAR_AT: [f64; 2] = [0.3, 6.0];
+pub const SONAR_HALF_FOV_DEG: f64 = 65.0;
+pub const SONAR_RANGE_M: (f64, f64) = (1.0, 20.0);
+const G: f64 = 9.80665;
+/// Largest command the thrusters can deliver: X, Y, Z in N, N in N m.
+const LIMITS: [f64; 4] = [110.0, 90.0, 100.0, 10.0];
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Manoeuvre {
+    /// Surge steps and reversals with small yaw moments.
+    SurgeSteps,
+    /// Sway and heave steps, offset in time.
+    SwayHeave,
+    /// Yaw steps while moving forward.
+    YawTurns,
+    /// Pseudo-random binary sequences on every DOF at once.
+    Prbs,
+    /// Overlapping sinusoids on every DOF.
+    Mixed,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct RunSpec {
+    pub name: String,
+    pub role: String,
+    pub manoeuvre: Manoeuvre,
+    pub duration_s: f64,
+    /// Whether the run has sonar positions (the sonar is not always recorded).
+    pub sonar: bool,
+}
+
+pub fn default_runs() -> Vec<RunSpec> {
+    let r = |name: &str, role: &str, m, sonar| RunSpec { name: name.into(), role: role.into(), manoeuvre: m, duration_s: 120.0, sonar };
+    vec![
+        r("surge_steps", "train", Manoeuvre::SurgeSteps, true),
+        r("sway_heave", "train", Manoeuvre::SwayHeave, true),
+        r("yaw_turns", "train", Manoeuvre::YawTurns, true),
+        r("prbs_a", "train", Manoeuvre::Prbs, false),
+        r("mixed", "validate", Manoeuvre::Mixed, true),
+        r("prbs_b", "validate", Manoeuvre::Prbs, true),
+    ]
+}
+
+/// The effects concealed in the shipped pool runs.
+pub fn default_effects() -> Vec<Effect> {
+    vec![Effect::ThrusterLag { time_constant_s: 0.35 }, Effect::TetherDrag { coefficient: 1.2, slack_m: 2.0 }]
+}
+
+/// Sensor errors drawn for one run (part of the truth, not of the run's files).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Sensors {
+    pub uwb_sigma_m: [f64; 3],
+    pub uwb_outlier_rate: f64,
+    pub sonar_sigma_m: f64,
+    pub imu_yaw_sigma_deg: f64,
+    pub gyro_sigma_dps: f64,
+    pub gyro_bias_dps: f64,
+    pub accel_sigma_g: f64,
+    pub accel_bias_g: [f64; 3],
+    pub depth_sigma_m: f64,
+}
+
+impl Sensors {
+    fn draw(rng: &mut Rng) -> Sensors {
+        Sensors {
+            uwb_sigma_m: [0.04, 0.04, 0.08],
+            uwb_outlier_rate: 0.03,
+            sonar_sigma_m: 0.02,
+            imu_yaw_sigma_deg: 0.8,
+            gyro_sigma_dps: 0.3,
+            gyro_bias_dps: 2.0 * rng.uniform() - 1.0,
+            accel_sigma_g: 0.01,
+            accel_bias_g: std::array::from_fn(|_| 0.006 * (2.0 * rng.uniform() - 1.0)),
+            depth_sigma_m: 0.01,
+        }
+    }
+}
+
+/// The true motion of a run at the internal step, with the command and the body acceleration.
+pub struct Truth {
+    pub t: Vec<f64>,
+    pub states: Vec<State>,
+    pub accel: Vec<Vec6>,
+    /// Commands at the thrust log's times (every `LOG_EVERY` steps).
+    pub cmd: Vec<Vec6>,
+}
+
+const STEP: f64 = 0.01;
+const LOG_EVERY: usize = 5; // thrust log at 20 Hz
+
+fn square(t: f64, period: f64, levels: &[f64]) -> f64 {
+    levels[((t / period) as usize) % levels.len()]
+}
+
+/// The manoeuvre's body-frame command [X, Y, Z, N] at time t, without the pilot.
+fn program(m: Manoeuvre, t: f64, prbs: &mut [(f64, f64); 4], rng: &mut Rng) -> [f64; 4] {
+    match m {
+        Manoeuvre::SurgeSteps => [
+            square(t, 6.0, &[30.0, 0.0, -25.0, 60.0, -45.0, 15.0, 85.0, -60.0, 0.0, 45.0, -20.0, 70.0]),
+            0.0,
+            0.0,
+            square(t, 15.0, &[1.0, -1.0, 0.0, 2.0]),
+        ],
+        Manoeuvre::SwayHeave => [
+            square(t, 10.0, &[5.0, -5.0]),
+            square(t, 5.0, &[20.0, -20.0, 40.0, -30.0, 0.0, 55.0, -45.0, 10.0]),
+            square(t + 2.5, 5.0, &[15.0, -15.0, 30.0, -25.0, 0.0, 40.0, -35.0]),
+            0.0,
+        ],
+        Manoeuvre::YawTurns => [
+            30.0 + square(t, 20.0, &[0.0, 20.0, -10.0]),
+            0.0,
+            0.0,
+            square(t, 4.0, &[3.0, -3.0, 6.0, 0.0, -5.0, 2.0, -7.0, 4.0]),
+        ],
+        Manoeuvre::Prbs => {
+            let amp = [55.0, 35.0, 30.0, 4.0];
+            std::array::from_fn(|i| {
+                let (level, next) = &mut prbs[i];
+                if t >= *next {
+                    *level = if rng.uniform() < 0.5 { amp[i] } else { -amp[i] } * (0.4 + 0.6 * rng.uniform());
+                    *next = t + 1.0 + 3.0 * rng.uniform();
+                }
+                *level
+            })
+        }
+        Manoeuvre::Mixed => [
+            20.0 + 50.0 * (0.31 * t).sin(),
+            25.0 * (0.53 * t + 1.0).sin(),
+            20.0 * (0.41 * t).sin(),
+            3.5 * (0.27 * t + 0.5).sin(),
+        ],
+    }
+}
+
+/// The pilot: pushes the vehicle back when it comes within `MARGIN` of a wall, the floor or
+/// the surface, and damps its approach. Returns world-frame [Fx, Fy, Fz].
+fn pilot(s: &State) -> [f64; 3] {
+    const MARGIN: f64 = 3.0;
+    const KP: f64 = 60.0;
+    const KD: f64 = 80.0;
+    let (c, sn) = (s.psi.cos(), s.psi.sin());
+    let v = [c * s.nu[0] - sn * s.nu[1], sn * s.nu[0] + c * s.nu[1], s.nu[2]];
+    let bounds = [(POOL.length_m, MARGIN), (POOL.width_m, MARGIN), (POOL.depth_m, 1.0)];
+    std::array::from_fn(|i| {
+        let (size, m) = bounds[i];
+        let p = s.pos[i];
+        if p < m {
+            KP * (m - p) - KD * v[i].min(0.0)
+        } else if p > size - m {
+            -KP * (p - (size - m)) - KD * v[i].max(0.0)
+        } else {
+            0.0
+        }
+    })
+}
+
+/// Simulates one run of the world plant; deterministic in (`seed`, run name).
+pub fn simulate(world: &WorldPlant, spec: &RunSpec, seed: u64) -> Truth {
+    let mut rng = Rng::derive(seed, &format!("pool/{}/program", spec.name));
+    let mut prbs = [(0.0, 0.0); 4];
+    let n = (spec.duration_s / STEP).round() as usize + 1;
+    let mut s = State {
+        pos: [POOL.length_m / 2.0 + 2.0 * rng.uniform() - 1.0, POOL.width_m / 2.0 + rng.uniform() - 0.5, 1.5],
+        psi: std::f64::consts::PI * (2.0 * rng.uniform() - 1.0),
+        ..State::default()
+    };
+    let mut truth = Truth { t: Vec::with_capacity(n), states: Vec::with_capacity(n), accel: Vec::with_capacity(n), cmd: Vec::new() };
+    let mut cmd = [0.0; 6];
+    for k in 0..n {
+        let t = k as f64 * STEP;
+        if k % LOG_EVERY == 0 {
+            let p = program(spec.manoeuvre, t, &mut prbs, &mut rng);
+            let f = pilot(&s);
+            let (c, sn) = (s.psi.cos(), s.psi.sin());
+            let body = [p[0] + c * f[0] + sn * f[1], p[1] - sn * f[0] + c * f[1], p[2] + f[2], p[3]];
+            let b: [f64; 4] = std::array::from_fn(|i| (body[i] * 10.0).round() / 10.0);
+            let b: [f64; 4] = std::array::from_fn(|i| b[i].clamp(-LIMITS[i], LIMITS[i]));
+            cmd = [b[0], b[1], b[2], 0.0, 0.0, b[3]];
+            truth.cmd.push(cmd);
+        }
+        truth.t.push(t);
+        truth.states.push(s);
+        truth.accel.push(world.accel(&s, &cmd));
+        s = world.step(&s, &cmd, STEP);
+    }
+    truth
+}
+
+fn wrap_deg(a: f64) -> f64 {
+    let mut x = (a + 180.0).rem_euclid(360.0) - 180.0;
+    if x == -180.0 {
+        x = 180.0;
+    }
+    x
+}
+
+/// Truth at time `t` (linear interpolation on the internal step; clamped at the ends).
+fn at(truth: &Truth, t: f64) -> (State, Vec6) {
+    let x = (t / STEP).clamp(0.0, (truth.t.len() - 1) as f64);
+    let i = (x.floor() as usize).min(truth.t.len() - 2);
+    let w = x - i as f64;
+    let (a, b) = (&truth.states[i], &truth.states[i + 1]);
+    let lerp = |p: f64, q: f64| p + w * (q - p);
+    let s = State {
+        nu: std::array::from_fn(|j| lerp(a.nu[j], b.nu[j])),
+        pos: std::array::from_fn(|j| lerp(a.pos[j], b.pos[j])),
+        psi: lerp(a.psi, b.psi),
+        thrust: a.thrust,
+    };
+    (s, std::array::from_fn(|j| lerp(truth.accel[i][j], truth.accel[i + 1][j])))
+}
+
+/// The files of one run folder, rendered: (file name, contents).
+pub fn render(spec: &RunSpec, truth: &Truth, sensors: &Sensors, delay: f64, seed: u64) -> Vec<(&'static str, String)> {
+    let mut rng = Rng::derive(seed, &format!("pool/{}/sensors", spec.name));
+    let end = *truth.t.last().unwrap();
+    let seen = |t: f64| at(truth, t - delay);
+    let mut files = Vec::new();
+
+    let mut run_yaml = format!(
+        "role: {}\ndescription: \"{:?} manoeuvre of the reference vehicle, {:.0} s (synthetic: hydrofit twin pool)\"\n",
+        spec.role, spec.manoeuvre, spec.duration_s
+    );
+    let _ = write!(
+        run_yaml,
+        "pool: {{length_m: {}, width_m: {}, depth_m: {}}}\ntether_anchor_m: [{}, {}, {}]\n",
+        POOL.length_m, POOL.width_m, POOL.depth_m, TETHER_ANCHOR[0], TETHER_ANCHOR[1], TETHER_ANCHOR[2]
+    );
+    files.push(("run.yaml", run_yaml));
+
+    let mut thrust = String::from("t,X_N,Y_N,Z_N,N_Nm\n");
+    for (k, c) in truth.cmd.iter().enumerate() {
+        let _ = writeln!(thrust, "{:.2},{:.1},{:.1},{:.1},{:.2}", k as f64 * STEP * LOG_EVERY as f64, c[0], c[1], c[2], c[5]);
+    }
+    files.push(("thrust.csv", thrust));
+
+    let mut uwb = String::from("t,x_m,y_m,z_m\n");
+    let mut t = 0.05;
+    while t <= end {
+        let (s, _) = seen(t);
+        let mut p: [f64; 3] = std::array::from_fn(|i| s.pos[i] + sensors.uwb_sigma_m[i] * rng.normal());
+        if rng.uniform() < sensors.uwb_outlier_rate {
+            // Multipath: a reflected path is longer, so the fix jumps by up to a few metres.
+            let (mag, dir) = (0.5 + 2.5 * rng.uniform(), 2.0 * std::f64::consts::PI * rng.uniform());
+            p[0] += mag * dir.cos();
+            p[1] += mag * dir.sin();
+            p[2] += 0.3 * mag * rng.normal();
+        }
+        if rng.uniform() > 0.02 {
+            let _ = writeln!(uwb, "{t:.3},{:.3},{:.3},{:.3}", p[0], p[1], p[2]);
+        }
+        t += 0.1 + 0.004 * (rng.uniform() - 0.5);
+    }
+    files.push(("uwb.csv", uwb));
+
+    if spec.sonar {
+        let mut sonar = String::from("t,x_m,y_m\n");
+        for k in 0.. {
+            let t = 0.1 + 0.2 * k as f64;
+            if t > end {
+                break;
+            }
+            let (s, _) = seen(t);
+            let (dx, dy) = (s.pos[0] - SONAR_AT[0], s.pos[1] - SONAR_AT[1]);
+            let range = (dx * dx + dy * dy).sqrt();
+            let bearing = dy.atan2(dx).to_degrees();
+            if bearing.abs() <= SONAR_HALF_FOV_DEG && (SONAR_RANGE_M.0..=SONAR_RANGE_M.1).contains(&range) {
+                let sigma = sensors.sonar_sigma_m * (1.0 + range / 10.0);
+                let _ = writeln!(sonar, "{t:.1},{:.3},{:.3}", s.pos[0] + sigma * rng.normal(), s.pos[1] + sigma * rng.normal());
+            }
+        }
+        files.push(("sonar.csv", sonar));
+    }
+
+    let mut imu = String::from("t,roll_deg,pitch_deg,yaw_deg,p_dps,q_dps,r_dps,ax_g,ay_g,az_g\n");
+    for k in 0.. {
+        let t = 0.02 * k as f64;
+        if t > end {
+            break;
+        }
+        let (s, a) = seen(t);
+        // Specific force in the body frame: a + omega x v - g, roll and pitch held level.
+        let f = [a[0] - s.nu[5] * s.nu[1], a[1] + s.nu[5] * s.nu[0], a[2] - G];
+        let _ = writeln!(
+            imu,
+            "{t:.2},{:.2},{:.2},{:.2},{:.3},{:.3},{:.3},{:.4},{:.4},{:.4}",
+            0.3 * rng.normal(),
+            0.3 * rng.normal(),
+            wrap_deg(s.psi.to_degrees() + sensors.imu_yaw_sigma_deg * rng.normal()),
+            sensors.gyro_sigma_dps * rng.normal(),
+            sensors.gyro_sigma_dps * rng.normal(),
+            s.nu[5].to_degrees() + sensors.gyro_bias_dps + sensors.gyro_sigma_dps * rng.normal(),
+            f[0] / G + sensors.accel_bias_g[0] + sensors.accel_sigma_g * rng.normal(),
+            f[1] / G + sensors.accel_bias_g[1] + sensors.accel_sigma_g * rng.normal(),
+            f[2] / G + sensors.accel_bias_g[2] + sensors.accel_sigma_g * rng.normal(),
+        );
+    }
+    files.push(("imu.csv", imu));
+
+    let mut depth = String::from("t,depth_m\n");
+    for k in 0.. {
+        let t = 0.05 + 0.1 * k as f64;
+        if t > end {
+            break;
+        }
+        let _ = writeln!(depth, "{t:.2},{:.3}", seen(t).0.pos[2] + sensors.depth_sigma_m * rng.normal());
+    }
+    files.push(("depth.csv", depth));
+    files
+}
+
+/// What the truth folder records of a run: never read by the pipeline's fusion or fit.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct TruthRecord {
+    pub run: String,
+    pub seed: u64,
+    pub effects: Vec<Effect>,
+    pub spec: RunSpec,
+    pub sensors: Sensors,
+}
+
+/// True motion at the thrust log's times: `t,u,v,w,r,x,y,z,psi`.
+pub fn truth_csv(truth: &Truth) -> String {
+    let mut out = String::from("t,u,v,w,r,x_m,y_m,z_m,psi_rad\n");
+    for k in (0..truth.t.len()).step_by(LOG_EVERY) {
+        let s = &truth.states[k];
+        let _ = writeln!(
+            out,
+            "{:.2},{:.6},{:.6},{:.6},{:.6},{:.5},{:.5},{:.5},{:.6}",
+            truth.t[k], s.nu[0], s.nu[1], s.nu[2], s.nu[5], s.pos[0], s.pos[1], s.pos[2], s.psi
+        );
+    }
+    out
+}
+
+pub fn world(effects: &[Effect]) -> WorldPlant {
+    let mut w = WorldPlant::new(Plant::new(&Vehicle::reference(), Hydro::reference()));
+    w.effects = effects.to_vec();
+    w.pool = Some(POOL);
+    w.tether_anchor = Some(TETHER_ANCHOR);
+    w
+}
+
+/// Writes `cases_dir/<run>/` and `truth_dir/<run>.{csv,json}` for every run.
+pub fn write_runs(cases_dir: &Path, truth_dir: &Path, runs: &[RunSpec], effects: &[Effect], seed: u64) -> anyhow::Result<Vec<PathBuf>> {
+    let w = world(effects);
+    let delay = effects.iter().find_map(|e| if let Effect::SensorDelay { delay_s } = e { Some(*delay_s) } else { None }).unwrap_or(0.0);
+    std::fs::create_dir_all(truth_dir)?;
+    let mut written = Vec::new();
+    for spec in runs {
+        let truth = simulate(&w, spec, seed);
+        let sensors = Sensors::draw(&mut Rng::derive(seed, &format!("pool/{}/errors", spec.name)));
+        let dir = cases_dir.join(&spec.name);
+        std::fs::create_dir_all(&dir)?;
+        for (name, text) in render(spec, &truth, &sensors, delay, seed) {
+            crate::fsutil::write_atomic(&dir.join(name), text.as_bytes())?;
+        }
+        if !spec.sonar {
+            let _ = std::fs::remove_file(dir.join("sonar.csv"));
+        }
+        crate::fsutil::write_atomic(&truth_dir.join(format!("{}.csv", spec.name)), truth_csv(&truth).as_bytes())?;
+        let record = TruthRecord { run: spec.name.clone(), seed, effects: effects.to_vec(), spec: spec.clone(), sensors };
+        crate::fsutil::write_atomic(&truth_dir.join(format!("{}.json", spec.name)), serde_json::to_string_pretty(&record)?.as_bytes())?;
+        written.push(dir);
+    }
+    Ok(written)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_pilot_keeps_every_run_inside_the_pool() {
+        let w = world(&default_effects());
+        for spec in default_runs() {
+            let truth = simulate(&w, &spec, 1);
+            for s in &truth.states {
+                assert!(s.pos[0] > 0.3 && s.pos[0] < POOL.length_m - 0.3, "{}: x {}", spec.name, s.pos[0]);
+                assert!(s.pos[1] > 0.3 && s.pos[1] < POOL.width_m - 0.3, "{}: y {}", spec.name, s.pos[1]);
+                assert!(s.pos[2] > 0.0 && s.pos[2] < POOL.depth_m, "{}: z {}", spec.name, s.pos[2]);
+            }
+            let peak = truth.states.iter().fold(0.0f64, |a, s| a.max(s.nu[0].abs()));
+            assert!(peak > 0.3 && peak < 1.6, "{}: peak surge {peak}", spec.name);
+        }
+    }
+}
