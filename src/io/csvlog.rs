@@ -1,0 +1,176 @@
+//! Sensor and command logs: comma-separated, a header line, a time column `t` first, numbers
+//! only. Every problem is an `InputError` naming file, line, column and the fix.
+
+use crate::diag::InputError;
+
+/// A parsed log: the time column and the requested columns, in the requested order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Log {
+    pub t: Vec<f64>,
+    pub cols: Vec<Vec<f64>>,
+    /// What was done to the data (repeated times dropped, extra columns ignored).
+    pub notes: Vec<String>,
+}
+
+impl Log {
+    pub fn len(&self) -> usize {
+        self.t.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.t.is_empty()
+    }
+
+    pub fn row(&self, k: usize) -> Vec<f64> {
+        self.cols.iter().map(|c| c[k]).collect()
+    }
+}
+
+fn unquote(s: &str) -> &str {
+    let s = s.trim();
+    s.strip_prefix('"').and_then(|x| x.strip_suffix('"')).unwrap_or(s)
+}
+
+/// Parses `text` (the file `path`) expecting the columns `columns`, the first of which is the
+/// time `t`. Column names match ignoring case and surrounding quotes; extra columns are ignored.
+/// `what` names the log for messages ("UWB log"), `source` says where such a file comes from.
+pub fn parse(path: &str, text: &str, columns: &[&str], what: &str, min_rows: usize) -> Result<Log, InputError> {
+    let err = |line: usize, col: Option<usize>, msg: String, fix: String| InputError::file(path, msg, fix).at(line, col).with_source(text);
+    let mut lines = text.lines().enumerate().map(|(i, l)| (i + 1, l.trim_end_matches('\r'))).filter(|(_, l)| !l.trim().is_empty());
+    let Some((hline, header)) = lines.next() else {
+        return Err(InputError::file(path, format!("the {what} is empty"), format!("write the header `{}` and one row per sample", columns.join(","))));
+    };
+    let names: Vec<&str> = header.split(',').map(unquote).collect();
+    if names.len() == 1 && columns.len() > 1 {
+        let delim = [';', '\t', ' '].into_iter().find(|d| header.contains(*d));
+        let fix = match delim {
+            Some(d) => format!("the file is separated by {:?}; write it with commas: `{}`", d, columns.join(",")),
+            None => format!("the header must be `{}`", columns.join(",")),
+        };
+        return Err(err(hline, Some(1), format!("the header has one column; expected {}", columns.join(",")), fix));
+    }
+    let mut index = Vec::with_capacity(columns.len());
+    for c in columns {
+        match names.iter().position(|n| n.eq_ignore_ascii_case(c)) {
+            Some(i) => index.push(i),
+            None => {
+                let hint = crate::diag::nearest(c, names.iter().copied().filter(|n| !columns.iter().any(|x| x.eq_ignore_ascii_case(n)))).map_or(String::new(), |n| format!(" (`{n}` is close; rename it)"));
+                return Err(err(
+                    hline,
+                    None,
+                    format!("the {what} has no `{c}` column{hint}"),
+                    format!("the header must name the columns {} (in any order)", columns.join(",")),
+                ));
+            }
+        }
+    }
+    let mut notes = Vec::new();
+    let extra: Vec<&str> = names.iter().enumerate().filter(|(i, _)| !index.contains(i)).map(|(_, n)| *n).collect();
+    if !extra.is_empty() {
+        notes.push(format!("{path}: ignored columns {}", extra.join(", ")));
+    }
+    let mut log = Log { t: Vec::new(), cols: vec![Vec::new(); columns.len() - 1], notes };
+    let mut repeated = 0;
+    for (lno, line) in lines {
+        let fields: Vec<&str> = line.split(',').collect();
+        if fields.len() != names.len() {
+            return Err(err(
+                lno,
+                None,
+                format!("{} fields on this line, {} in the header", fields.len(), names.len()),
+                "every row needs one value per header column; a truncated last line means the log was cut off: delete it".into(),
+            ));
+        }
+        let col_of = |i: usize| fields[..i].iter().map(|f| f.len() + 1).sum::<usize>() + 1;
+        let mut row = Vec::with_capacity(columns.len());
+        for (&i, name) in index.iter().zip(columns) {
+            let raw = unquote(fields[i]);
+            let v: f64 = raw.parse().map_err(|_| {
+                let fix = if raw.contains(';') || raw.matches('.').count() == 0 && raw.contains(',') {
+                    "use a point as the decimal separator and commas between columns".to_string()
+                } else {
+                    format!("`{name}` must be a number; fix or delete this row")
+                };
+                err(lno, Some(col_of(i)), format!("`{raw}` in column `{name}` is not a number"), fix)
+            })?;
+            if !v.is_finite() {
+                return Err(err(lno, Some(col_of(i)), format!("`{raw}` in column `{name}` is not a finite number"), "a sensor dropout should be a missing row, not NaN or inf: delete this row".into()));
+            }
+            row.push(v);
+        }
+        let t = row[0];
+        if let Some(&prev) = log.t.last() {
+            if t < prev {
+                return Err(err(
+                    lno,
+                    Some(col_of(index[0])),
+                    format!("time goes backwards: t = {t} after t = {prev}"),
+                    "the log must be in time order; two recordings appended into one file must be split into two runs".into(),
+                ));
+            }
+            if t == prev {
+                // A logger writing twice in one tick: keep the last value, as for inner iterations.
+                repeated += 1;
+                log.t.pop();
+                for c in &mut log.cols {
+                    c.pop();
+                }
+            }
+        }
+        log.t.push(t);
+        for (c, v) in log.cols.iter_mut().zip(&row[1..]) {
+            c.push(*v);
+        }
+    }
+    if repeated > 0 {
+        log.notes.push(format!("{path}: {repeated} rows repeated a time stamp; the last of each was kept"));
+    }
+    if log.len() < min_rows {
+        return Err(InputError::file(
+            path,
+            format!("the {what} has {} data rows; at least {min_rows} are needed", log.len()),
+            "check that the recording was not cut off".to_string(),
+        )
+        .at(hline, None));
+    }
+    Ok(log)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const COLS: [&str; 3] = ["t", "x_m", "y_m"];
+
+    fn p(text: &str) -> Result<Log, InputError> {
+        parse("cases/pool/r/sonar.csv", text, &COLS, "sonar log", 2)
+    }
+
+    #[test]
+    fn reads_columns_in_any_order_and_keeps_the_last_repeat() {
+        let log = p("y_m,t,x_m,extra\n2,0.0,1,9\n3,0.2,1.5,9\n4,0.2,1.6,9\n").unwrap();
+        assert_eq!(log.t, vec![0.0, 0.2]);
+        assert_eq!(log.cols, vec![vec![1.0, 1.6], vec![2.0, 4.0]]);
+        assert_eq!(log.notes.len(), 2);
+    }
+
+    #[test]
+    fn each_bad_input_is_located() {
+        let cases: [(&str, &str); 7] = [
+            ("", "empty"),
+            ("t;x_m;y_m\n0;1;2\n", "separated by ';'"),
+            ("t,x_m,ym\n0,1,2\n", "no `y_m` column (`ym` is close"),
+            ("t,x_m,y_m\n0,1,2\n0.2,1\n", ":3: 2 fields"),
+            ("t,x_m,y_m\n0,1,2\n0.2,abc,2\n", ":3:5: `abc` in column `x_m`"),
+            ("t,x_m,y_m\n0,1,2\n0.2,nan,2\n", "not a finite number"),
+            ("t,x_m,y_m\n0.4,1,2\n0.2,1,2\n", "time goes backwards"),
+        ];
+        for (text, want) in cases {
+            let e = p(text).unwrap_err().to_string();
+            assert!(e.contains(want), "{text:?}: {e}");
+            assert!(e.contains("help:"), "{e}");
+        }
+        let e = p("t,x_m,y_m\n0,1,2\n").unwrap_err().to_string();
+        assert!(e.contains("1 data rows"), "{e}");
+    }
+}

@@ -1,0 +1,179 @@
+//! A free-running pool test folder (FORMATS.md): `run.yaml`, `thrust.csv` and whichever of
+//! `uwb.csv`, `sonar.csv`, `imu.csv`, `depth.csv` were recorded. Angles become radians and
+//! accelerations m/s^2 on import.
+
+use super::csvlog::{self, Log};
+use crate::diag::InputError;
+use crate::model::effects::Pool;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+pub const G: f64 = 9.80665;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Role {
+    Train,
+    Validate,
+}
+
+impl Role {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Role::Train => "train",
+            Role::Validate => "validate",
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunMeta {
+    pub role: Role,
+    #[serde(default)]
+    pub description: String,
+    #[serde(default)]
+    pub pool: Option<Pool>,
+    #[serde(default)]
+    pub tether_anchor_m: Option<[f64; 3]>,
+}
+
+/// One run's logs, SI units (radians, m/s^2), pool and body frames as in FORMATS.md.
+#[derive(Debug, Clone)]
+pub struct PoolRun {
+    pub name: String,
+    pub meta: RunMeta,
+    /// t, X, Y, Z, N.
+    pub thrust: Log,
+    /// t, x, y, z.
+    pub uwb: Option<Log>,
+    /// t, x, y.
+    pub sonar: Option<Log>,
+    /// t, roll, pitch, yaw (rad), p, q, r (rad/s), ax, ay, az (m/s^2, specific force).
+    pub imu: Option<Log>,
+    /// t, depth.
+    pub depth: Option<Log>,
+    pub notes: Vec<String>,
+}
+
+pub const THRUST: [&str; 5] = ["t", "X_N", "Y_N", "Z_N", "N_Nm"];
+pub const UWB: [&str; 4] = ["t", "x_m", "y_m", "z_m"];
+pub const SONAR: [&str; 3] = ["t", "x_m", "y_m"];
+pub const IMU: [&str; 10] = ["t", "roll_deg", "pitch_deg", "yaw_deg", "p_dps", "q_dps", "r_dps", "ax_g", "ay_g", "az_g"];
+pub const DEPTH: [&str; 2] = ["t", "depth_m"];
+const KNOWN: [&str; 6] = ["run.yaml", "thrust.csv", "uwb.csv", "sonar.csv", "imu.csv", "depth.csv"];
+
+fn read(root: &Path, rel: &str) -> Result<String, InputError> {
+    let bytes = std::fs::read(root.join(rel)).map_err(|e| InputError::file(rel, format!("cannot read: {e}"), "check the file's permissions"))?;
+    String::from_utf8(bytes).map_err(|e| {
+        InputError::file(rel, format!("not UTF-8 text (byte {} is invalid)", e.utf8_error().valid_up_to()), "export the log as CSV text, not a binary or spreadsheet file")
+    })
+}
+
+/// Loads the run in folder `dir` (relative to `root`, `/`-separated) whose files are `files`.
+pub fn load(root: &Path, dir: &str, files: &[String]) -> Result<PoolRun, InputError> {
+    let name = dir.rsplit('/').next().unwrap_or(dir).to_string();
+    let file = |n: &str| files.iter().find(|f| f.rsplit('/').next() == Some(n)).cloned();
+    let mut notes: Vec<String> = files
+        .iter()
+        .filter(|f| !KNOWN.contains(&f.rsplit('/').next().unwrap_or("")))
+        .map(|f| format!("{f}: not a pool log hydrofit reads; ignored"))
+        .collect();
+
+    let meta_path = file("run.yaml").ok_or_else(|| {
+        InputError::file(format!("{dir}/run.yaml"), "the run has no run.yaml", "add run.yaml with at least `role: train` or `role: validate`")
+    })?;
+    let text = read(root, &meta_path)?;
+    let meta: RunMeta = serde_yaml_ng::from_str(&text).map_err(|e| {
+        let (line, col) = e.location().map_or((None, None), |l| (Some(l.line()), Some(l.column())));
+        let msg = e.to_string();
+        let msg = msg.rfind(" at line ").map_or(msg.as_str(), |i| &msg[..i]).to_string();
+        let mut err = InputError::file(&meta_path, msg, "run.yaml takes role (train | validate), description, pool {length_m, width_m, depth_m} and tether_anchor_m [x, y, z]");
+        if let Some(l) = line {
+            err = err.at(l, col).with_source(&text);
+        }
+        err
+    })?;
+
+    let thrust_path = file("thrust.csv").ok_or_else(|| {
+        InputError::file(format!("{dir}/thrust.csv"), "the run has no thrust log", "add thrust.csv (t,X_N,Y_N,Z_N,N_Nm): without the commanded force the model cannot be simulated")
+    })?;
+    let thrust = csvlog::parse(&thrust_path, &read(root, &thrust_path)?, &THRUST, "thrust log", 10)?;
+    let mut optional = |n: &str, cols: &[&str], what: &str| -> Result<Option<Log>, InputError> {
+        match file(n) {
+            None => {
+                notes.push(format!("{dir}: no {n}"));
+                Ok(None)
+            }
+            Some(p) => csvlog::parse(&p, &read(root, &p)?, cols, what, 2).map(Some),
+        }
+    };
+    let uwb = optional("uwb.csv", &UWB, "UWB log")?;
+    let sonar = optional("sonar.csv", &SONAR, "sonar log")?;
+    let mut imu = optional("imu.csv", &IMU, "IMU log")?;
+    let depth = optional("depth.csv", &DEPTH, "depth log")?;
+    if let Some(imu) = &mut imu {
+        for c in &mut imu.cols[..6] {
+            c.iter_mut().for_each(|x| *x = x.to_radians());
+        }
+        for c in &mut imu.cols[6..] {
+            c.iter_mut().for_each(|x| *x *= G);
+        }
+    }
+    for log in [Some(&thrust), uwb.as_ref(), sonar.as_ref(), imu.as_ref(), depth.as_ref()].into_iter().flatten() {
+        notes.extend(log.notes.iter().cloned());
+    }
+    Ok(PoolRun { name, meta, thrust, uwb, sonar, imu, depth, notes })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn folder(files: &[(&str, &str)]) -> (tempfile::TempDir, Vec<String>) {
+        let d = tempfile::tempdir().unwrap();
+        std::fs::create_dir_all(d.path().join("cases/pool/r1")).unwrap();
+        let mut list = Vec::new();
+        for (n, text) in files {
+            std::fs::write(d.path().join("cases/pool/r1").join(n), text).unwrap();
+            list.push(format!("cases/pool/r1/{n}"));
+        }
+        (d, list)
+    }
+
+    fn thrust() -> String {
+        let mut s = String::from("t,X_N,Y_N,Z_N,N_Nm\n");
+        for k in 0..20 {
+            s += &format!("{},{},0,0,0\n", k as f64 * 0.05, k);
+        }
+        s
+    }
+
+    #[test]
+    fn optional_sensors_may_be_missing_and_units_are_converted() {
+        let t = thrust();
+        let (d, files) = folder(&[("run.yaml", "role: validate\n"), ("thrust.csv", &t), ("imu.csv", "t,roll_deg,pitch_deg,yaw_deg,p_dps,q_dps,r_dps,ax_g,ay_g,az_g\n0,0,0,90,0,0,180,0,0,-1\n0.02,0,0,90,0,0,180,0,0,-1\n"), ("notes.txt", "x")]);
+        let run = load(d.path(), "cases/pool/r1", &files).unwrap();
+        assert_eq!(run.meta.role, Role::Validate);
+        assert!(run.uwb.is_none() && run.sonar.is_none() && run.depth.is_none());
+        let imu = run.imu.unwrap();
+        assert!((imu.cols[2][0] - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+        assert!((imu.cols[5][0] - std::f64::consts::PI).abs() < 1e-12);
+        assert!((imu.cols[8][0] + G).abs() < 1e-12);
+        assert!(run.notes.iter().any(|n| n.contains("notes.txt")));
+    }
+
+    #[test]
+    fn a_missing_thrust_log_or_bad_run_yaml_is_an_error() {
+        let (d, files) = folder(&[("run.yaml", "role: train\n")]);
+        let e = load(d.path(), "cases/pool/r1", &files).unwrap_err().to_string();
+        assert!(e.contains("no thrust log") && e.contains("help:"), "{e}");
+        let t = thrust();
+        let (d, files) = folder(&[("run.yaml", "role: tran\n"), ("thrust.csv", &t)]);
+        let e = load(d.path(), "cases/pool/r1", &files).unwrap_err().to_string();
+        assert!(e.contains("run.yaml:1:") && e.contains("tran"), "{e}");
+        let (d, files) = folder(&[("thrust.csv", &t)]);
+        let e = load(d.path(), "cases/pool/r1", &files).unwrap_err().to_string();
+        assert!(e.contains("no run.yaml"), "{e}");
+    }
+}
