@@ -10,6 +10,7 @@ pub mod diag;
 pub mod dof;
 pub mod estimate;
 pub mod fsutil;
+pub mod fusion;
 pub mod io;
 pub mod model;
 pub mod pipeline;
