@@ -94,7 +94,18 @@ impl Graph {
         let mut of_stage: BTreeMap<&str, Vec<usize>> = BTreeMap::new();
         for (si, st) in spec.stages.iter().enumerate() {
             let deps: Vec<usize> = st.from.iter().flat_map(|f| of_stage[f.as_str()].iter().copied()).collect();
-            let entries = if st.kind.fan_out { fan_out(root, st)? } else { vec![(String::new(), vec![])] };
+            let entries = if st.kind.fan_out {
+                fan_out(root, st)?
+            } else if st.inputs.is_empty() {
+                vec![(String::new(), vec![])]
+            } else {
+                let files = match fan_out(root, st) {
+                    Ok(m) => m.into_iter().flat_map(|(_, f)| f).collect(),
+                    Err(GraphError::NoInputs { .. }) => vec![],
+                    Err(e) => return Err(e),
+                };
+                vec![(String::new(), files)]
+            };
             let mut mine = Vec::new();
             for (name, inputs) in entries {
                 let id = if name.is_empty() { st.name.clone() } else { format!("{}[{name}]", st.name) };

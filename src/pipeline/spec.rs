@@ -144,7 +144,7 @@ fn check_stage(p: &Parser, name: &str, rs: &RawStage, all: &BTreeMap<String, Raw
     if kind.fan_out && rs.inputs.is_empty() {
         return Err(p.error(&at, format!("stage `{name}` ({}) has no inputs", kind.name), "add `inputs: [\"cases/...\"]` with the globs of the files it imports"));
     }
-    if !kind.fan_out && !rs.inputs.is_empty() {
+    if !kind.fan_out && !kind.reads_files && !rs.inputs.is_empty() {
         return Err(p.error(&format!("{at}.inputs"), format!("stage `{name}` ({}) takes no input files; it reads other stages' results", kind.name), "remove `inputs` and list the stages it reads under `from`"));
     }
     for g in &rs.inputs {

@@ -33,6 +33,8 @@ pub struct Page<'a> {
     pub plots: Vec<(String, String)>,
     /// Import notes per case (unit conversions, derived columns).
     pub notes: Vec<(String, Vec<String>)>,
+    /// The pool sections (fusion, validation against recordings), already rendered.
+    pub pool_html: String,
 }
 
 impl Page<'_> {
@@ -57,6 +59,7 @@ impl Page<'_> {
             let _ = writeln!(h, "<figure id=\"plot-{dof}\">{svg}<figcaption>{dof}: velocity of each CFD case (colour) and of the identified model simulated under the same applied force from the same initial state (dashed black).</figcaption></figure>");
         }
         self.validation_table(&mut h);
+        h.push_str(&self.pool_html);
         self.provenance(&mut h);
         h.push_str("</body></html>\n");
         h
@@ -84,11 +87,13 @@ impl Page<'_> {
     }
 
     fn validation_table(&self, h: &mut String) {
-        h.push_str("<h2 id=\"validation\">How well each model reproduces each run</h2>\n<p>Per run and DOF: mean absolute error, normalised MAE (mean |v<sub>model</sub> − v<sub>meas</sub>| / mean |v<sub>meas</sub>|) and RMSE as a percentage of the run's peak speed. <code>train</code> runs were used in the fit.</p>\n");
+        h.push_str("<h2 id=\"validation\">How well each model reproduces each CFD case</h2>\n<p>Per run and DOF: mean absolute error, normalised MAE (mean |v<sub>model</sub> − v<sub>meas</sub>| / mean |v<sub>meas</sub>|) and RMSE as a percentage of the run's peak speed. <code>train</code> runs were used in the fit.</p>\n");
         for m in &self.validation.models {
             let _ = writeln!(h, "<table><tr><th>model <code>{}</code>: run</th><th>role</th><th>DOF</th><th>MAE</th><th>NMAE</th><th>RMSE % of peak</th></tr>", esc(&m.model));
+            // Pool runs have their own section below (with whiteness and plots).
             for r in &m.runs {
-                for (dof, x) in &r.dofs {
+                for (dof, x) in r.dofs.iter().filter(|(_, x)| x.residual_acf_outside_band.is_none()) {
+                    let x = &x.metrics;
                     let _ = writeln!(h, "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.3}</td></tr>", esc(&r.run), r.role, dof, num(x.mae), num(x.nmae), x.rmse_pct);
                 }
             }

@@ -53,11 +53,21 @@ pub fn parameters(fits: &[FitResult]) -> Parameters {
     Parameters { parameters: out }
 }
 
+/// FORMATS.md's per-DOF metrics, plus the residual whiteness where it was measured (pool runs).
+#[derive(Debug, Clone, Serialize)]
+pub struct DofMetrics {
+    #[serde(flatten)]
+    pub metrics: Metrics,
+    /// Share of residual autocorrelation lags outside the 95 % band (seed 000).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub residual_acf_outside_band: Option<f64>,
+}
+
 #[derive(Debug, Clone, Serialize)]
 pub struct RunScore {
     pub run: String,
-    pub role: &'static str,
-    pub dofs: BTreeMap<String, Metrics>,
+    pub role: String,
+    pub dofs: BTreeMap<String, DofMetrics>,
 }
 
 #[derive(Debug, Clone, Serialize)]

@@ -115,3 +115,81 @@ where
     area.draw(&Text::new("identified model (dashed)", (36, y - 7), font))?;
     Ok(())
 }
+
+/// One DOF of a pool run: the fused measurement with its ±2σ band, the model's simulation.
+pub struct PoolTrace<'a> {
+    pub dof: Dof,
+    pub t: &'a [f64],
+    pub measured: &'a [f64],
+    pub std: &'a [f64],
+    pub simulated: &'a [f64],
+}
+
+/// A pool run, one panel per DOF: measured velocity (blue, ±2σ band) against the model
+/// (dashed black), and beneath it the error model − measured with the band around zero.
+pub fn pool_run(run: &str, model: &str, traces: &[PoolTrace]) -> anyhow::Result<String> {
+    ensure_font();
+    const PANEL: u32 = 300;
+    let height = PANEL * traces.len().max(1) as u32 + 30;
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (WIDTH, height)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let (title, body) = root.split_vertically(30);
+        title.draw(&Text::new(format!("pool run {run}: fused velocity (blue, ±2σ band) and model {model} (dashed)"), (12, 8), ("sans-serif", 16).into_font()))?;
+        let panels = body.split_evenly((traces.len().max(1), 1));
+        let blue = PALETTE[0];
+        for (tr, area) in traces.iter().zip(panels) {
+            let (top, bottom) = area.split_vertically(PANEL * 62 / 100);
+            let tmax = tr.t.last().copied().unwrap_or(1.0).max(1e-3);
+            let finite = |v: &&f64| v.is_finite();
+            let (lo, hi) = tr.measured.iter().chain(tr.simulated).filter(finite).fold((0.0f64, 0.0f64), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
+            let pad = 0.08 * (hi - lo).max(1e-6);
+            let unit = tr.dof.velocity_unit();
+            let mut chart = ChartBuilder::on(&top)
+                .margin_left(12)
+                .margin_right(20)
+                .margin_top(6)
+                .x_label_area_size(0)
+                .y_label_area_size(64)
+                .build_cartesian_2d(0f64..tmax, (lo - pad)..(hi + pad))?;
+            chart
+                .configure_mesh()
+                .y_desc(format!("{} ({unit})", tr.dof.velocity()))
+                .y_labels(6)
+                .light_line_style(TRANSPARENT)
+                .label_style(("sans-serif", 12))
+                .draw()?;
+            let band: Vec<(f64, f64)> = thin(tr.t, tr.measured)
+                .zip(thin(tr.t, tr.std))
+                .map(|((t, m), (_, s))| (t, m + 2.0 * s))
+                .chain(thin(tr.t, tr.measured).zip(thin(tr.t, tr.std)).map(|((t, m), (_, s))| (t, m - 2.0 * s)).collect::<Vec<_>>().into_iter().rev())
+                .collect();
+            chart.draw_series(std::iter::once(Polygon::new(band, blue.mix(0.25).filled())))?;
+            chart.draw_series(LineSeries::new(thin(tr.t, tr.measured), blue.stroke_width(2)))?;
+            chart.draw_series(DashedLineSeries::new(thin(tr.t, tr.simulated).filter(|p| p.1.is_finite()), 6, 4, BLACK.stroke_width(1)))?;
+            let err: Vec<f64> = tr.simulated.iter().zip(tr.measured).map(|(s, m)| s - m).collect();
+            let emax = err.iter().chain(tr.std.iter().map(|s| s * 2.0).collect::<Vec<_>>().iter()).filter(finite).fold(0.0f64, |a, b| a.max(b.abs())).max(1e-6) * 1.1;
+            let mut echart = ChartBuilder::on(&bottom)
+                .margin_left(12)
+                .margin_right(20)
+                .margin_bottom(4)
+                .x_label_area_size(34)
+                .y_label_area_size(64)
+                .build_cartesian_2d(0f64..tmax, -emax..emax)?;
+            echart
+                .configure_mesh()
+                .x_desc("time (s)")
+                .y_desc("error")
+                .y_labels(3)
+                .light_line_style(TRANSPARENT)
+                .label_style(("sans-serif", 12))
+                .draw()?;
+            let zero_band: Vec<(f64, f64)> = thin(tr.t, tr.std).map(|(t, s)| (t, 2.0 * s)).chain(thin(tr.t, tr.std).map(|(t, s)| (t, -2.0 * s)).collect::<Vec<_>>().into_iter().rev()).collect();
+            echart.draw_series(std::iter::once(Polygon::new(zero_band, blue.mix(0.2).filled())))?;
+            echart.draw_series(LineSeries::new(thin(tr.t, &err).filter(|p| p.1.is_finite()), PALETTE[3].stroke_width(1)))?;
+        }
+        root.present()?;
+    }
+    Ok(svg)
+}

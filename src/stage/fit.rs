@@ -12,6 +12,7 @@ pub static KIND: Kind = Kind {
     name: "fit",
     version: 1,
     fan_out: false,
+    reads_files: false,
     produces: Artifact::Model,
     consumes: &[Artifact::Responses],
     requires: &[Artifact::Responses],

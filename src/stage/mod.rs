@@ -2,8 +2,10 @@
 //! one line in `KINDS`.
 
 pub mod fit;
+pub mod pool;
 pub mod report;
 pub mod starccm;
+pub mod validate;
 
 use crate::model::Vehicle;
 use serde::{Deserialize, Serialize};
@@ -17,6 +19,10 @@ pub enum Artifact {
     Responses,
     /// An identified vehicle model.
     Model,
+    /// A pool run fused into body-frame velocities.
+    PoolRuns,
+    /// Scores of models on pool runs.
+    Validation,
     /// The published report.
     Report,
 }
@@ -26,6 +32,8 @@ impl Artifact {
         match self {
             Artifact::Responses => "CFD responses",
             Artifact::Model => "an identified model",
+            Artifact::PoolRuns => "fused pool runs",
+            Artifact::Validation => "validation scores",
             Artifact::Report => "a report",
         }
     }
@@ -34,6 +42,8 @@ impl Artifact {
         match self {
             Artifact::Responses => "a `starccm` stage",
             Artifact::Model => "a `fit` stage",
+            Artifact::PoolRuns => "a `pool` stage",
+            Artifact::Validation => "a `validate` stage",
             Artifact::Report => "a `report` stage",
         }
     }
@@ -54,6 +64,9 @@ pub struct Kind {
     pub version: u32,
     /// One instance per input file or folder matched by the stage's globs.
     pub fan_out: bool,
+    /// A single-instance kind that may also read files by glob (the report reads the twin's
+    /// truth when there is one); a glob that matches nothing is then not an error.
+    pub reads_files: bool,
     pub produces: Artifact,
     /// What it may read from (`from`), and what it must read from.
     pub consumes: &'static [Artifact],
@@ -66,7 +79,7 @@ pub struct Kind {
     pub parse: fn(serde_yaml_ng::Value) -> Result<std::sync::Arc<dyn StageImpl>, serde_yaml_ng::Error>,
 }
 
-pub const KINDS: &[&Kind] = &[&starccm::KIND, &fit::KIND, &report::KIND];
+pub const KINDS: &[&Kind] = &[&starccm::KIND, &pool::KIND, &fit::KIND, &validate::KIND, &report::KIND];
 
 pub fn kind(name: &str) -> Option<&'static Kind> {
     KINDS.iter().copied().find(|k| k.name == name)

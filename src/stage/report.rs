@@ -5,7 +5,7 @@ use crate::io::Response;
 use crate::dof::Dof;
 use crate::model::{ParamLayout, Plant, Vec6};
 use std::collections::BTreeMap;
-use crate::report::json::{self, ModelScore, RunScore, Validation};
+use crate::report::json::{self, DofMetrics, ModelScore, RunScore, Validation};
 use crate::report::{html, plots};
 use crate::validate;
 use serde::{Deserialize, Serialize};
@@ -15,8 +15,9 @@ pub static KIND: Kind = Kind {
     name: "report",
     version: 1,
     fan_out: false,
+    reads_files: true,
     produces: Artifact::Report,
-    consumes: &[Artifact::Model, Artifact::Responses],
+    consumes: &[Artifact::Model, Artifact::Responses, Artifact::PoolRuns, Artifact::Validation],
     requires: &[Artifact::Model],
     uses_vehicle: super::VehicleUse::All,
     publishes_to: Some("reports"),
@@ -27,7 +28,7 @@ pub static KIND: Kind = Kind {
 #[serde(deny_unknown_fields, default)]
 pub struct Settings {}
 
-pub const FILES: [&str; 3] = ["index.html", "parameters.json", "validation.json"];
+pub const FILES: [&str; 4] = ["index.html", "parameters.json", "validation.json", "fusion.json"];
 
 struct Case {
     id: String,
@@ -48,6 +49,8 @@ impl StageImpl for Settings {
             let (meta, response) = starccm::load(&u.dir)?;
             cases.push(Case { id: u.id.clone(), name: meta.case, response, notes: meta.notes });
         }
+        let pool_runs: Vec<crate::stage::pool::FusedRun> = ctx.upstream_of(Artifact::PoolRuns).map(|u| crate::stage::pool::load(&u.dir)).collect::<Result<_, _>>()?;
+        let pool_scores = ctx.upstream_of(Artifact::Validation).next().map(|u| crate::stage::validate::load(&u.dir)).transpose()?;
         let mut models = Vec::new();
         let mut first_sims = Vec::new();
         for f in &fits {
@@ -58,14 +61,30 @@ impl StageImpl for Settings {
             for c in &cases {
                 let sim = validate::simulate_response(&plant, &c.response);
                 let role = if f.cases.iter().any(|x| x.id == c.id) { "train" } else { "validate" };
-                let dofs = validate::score(&c.response, &sim).into_iter().map(|(d, m)| (d.name().to_string(), m)).collect();
-                runs.push(RunScore { run: c.name.clone(), role, dofs });
+                let dofs = validate::score(&c.response, &sim)
+                    .into_iter()
+                    .map(|(d, metrics)| (d.name().to_string(), DofMetrics { metrics, residual_acf_outside_band: None }))
+                    .collect();
+                runs.push(RunScore { run: c.name.clone(), role: role.into(), dofs });
                 if models.is_empty() {
                     first_sims.push(sim);
                 }
             }
+            if let Some(ms) = pool_scores.as_ref().and_then(|(s, _)| s.models.iter().find(|m| m.model == f.stage)) {
+                for r in &ms.runs {
+                    let dofs = r
+                        .dofs
+                        .iter()
+                        .map(|(d, s)| (d.name().to_string(), DofMetrics { metrics: s.metrics, residual_acf_outside_band: Some(s.whiteness.outside) }))
+                        .collect();
+                    runs.push(RunScore { run: r.run.clone(), role: r.role.clone(), dofs });
+                }
+            }
             models.push(ModelScore { model: f.stage.clone(), runs });
         }
+        let truth_files: Vec<String> = ctx.inputs.iter().map(|i| i.path.clone()).collect();
+        let accuracy = crate::report::pool::fusion_accuracy(ctx.root, &truth_files, &pool_runs)?;
+        let pool_html = crate::report::pool::section(&pool_runs, pool_scores.as_ref().map(|(s, _)| s), pool_scores.as_ref().map_or(&[][..], |(_, v)| v), &accuracy)?;
         let svgs = velocity_plots(&cases, &first_sims)?;
         let parameters = json::parameters(&fits);
         let validation = Validation { models };
@@ -75,11 +94,17 @@ impl StageImpl for Settings {
             parameters: &parameters,
             validation: &validation,
             plots: svgs,
-            notes: cases.iter().map(|c| (c.name.clone(), c.notes.clone())).collect(),
+            notes: cases.iter().map(|c| (c.name.clone(), c.notes.clone())).chain(pool_runs.iter().map(|r| (r.meta.run.clone(), r.meta.notes.clone()))).collect(),
+            pool_html,
         };
         crate::fsutil::write_atomic(&ctx.out.join("index.html"), page.render().as_bytes())?;
         super::write_json(&ctx.out.join("parameters.json"), &parameters)?;
         super::write_json(&ctx.out.join("validation.json"), &validation)?;
+        let fusion: Vec<serde_json::Value> = pool_runs
+            .iter()
+            .map(|r| serde_json::json!({"run": r.meta.run, "role": r.meta.role, "sensors": r.meta.sensors, "stats": r.meta.stats, "accuracy_against_truth": accuracy.iter().find(|a| a.run == r.meta.run)}))
+            .collect();
+        super::write_json(&ctx.out.join("fusion.json"), &serde_json::json!({ "runs": fusion }))?;
         Ok(())
     }
 }

@@ -12,6 +12,7 @@ pub static KIND: Kind = Kind {
     name: "starccm",
     version: 1,
     fan_out: true,
+    reads_files: false,
     produces: Artifact::Responses,
     consumes: &[],
     requires: &[],
