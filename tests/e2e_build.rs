@@ -8,9 +8,9 @@ fn cold_build_then_nothing_to_do() {
     let p = project();
     let dir = p.path();
     let out = ok(dir, &["build"]);
-    let n_cases = std::fs::read_dir(dir.join("cases/cfd/starccm")).unwrap().count();
-    assert_eq!(ran(&out), n_cases + 2, "{out}");
-    for f in ["index.html", "parameters.json", "validation.json"] {
+    let n = count(dir, "cases/cfd/starccm") + count(dir, "cases/pool");
+    assert_eq!(ran(&out), n + SINGLE_STAGES, "{out}");
+    for f in ["index.html", "parameters.json", "validation.json", "fusion.json"] {
         assert!(dir.join("reports").join(f).is_file(), "reports/{f} missing");
     }
     let out = ok(dir, &["build"]);
@@ -50,7 +50,7 @@ fn parameters_json_has_the_contract_shape_and_recovers_the_truth() {
     let v = json(dir, "reports/validation.json");
     let runs = v["models"][0]["runs"].as_array().unwrap();
     assert!(runs.len() > 30);
-    for r in runs {
+    for r in runs.iter().filter(|r| dir.join("cases/cfd/starccm").join(format!("{}.csv", r["run"].as_str().unwrap())).is_file()) {
         assert_eq!(r["role"], "train");
         for (dof, m) in r["dofs"].as_object().unwrap() {
             // The twin's model is the fitted structure: each run is reproduced within ~2 % of its peak.
@@ -71,12 +71,13 @@ fn a_new_case_reruns_only_its_import_and_what_depends_on_it() {
     std::fs::write(dir.join("cases/cfd/starccm/surge_40N_rerun.csv"), text).unwrap();
     let status = stdout(&run(dir, &["status"]));
     let lines: Vec<&str> = status.lines().collect();
-    assert_eq!(lines.len(), 3, "{status}");
+    assert_eq!(lines.len(), 4, "{status}");
     assert_eq!(lines[0], "cfd[surge_40N_rerun]: new input cases/cfd/starccm/surge_40N_rerun.csv (never built)");
     assert_eq!(lines[1], "fit: new upstream cfd[surge_40N_rerun]");
-    assert!(lines[2].starts_with("report: "), "{status}");
+    assert_eq!(lines[2], "validate: upstream fit changed");
+    assert!(lines[3].starts_with("report: "), "{status}");
     let out = ok(dir, &["build", "--explain"]);
-    assert_eq!(ran(&out), 3, "{out}");
+    assert_eq!(ran(&out), 4, "{out}");
 }
 
 #[test]
@@ -88,12 +89,13 @@ fn a_changed_setting_reruns_the_fit_but_not_the_imports() {
     std::fs::write(dir.join("pipeline.yaml"), spec).unwrap();
     let status = stdout(&run(dir, &["status"]));
     assert!(status.starts_with("fit: setting.skip_start_s changed: 0.0 -> 0.1\n"), "{status}");
-    assert_eq!(status.lines().count(), 2, "{status}");
-    assert_eq!(ran(&ok(dir, &["build"])), 2);
-    // A new vehicle mass reruns the fit, not the imports (they depend on the DOF list only).
+    assert_eq!(status.lines().count(), 3, "{status}");
+    assert_eq!(ran(&ok(dir, &["build"])), 3);
+    // A new vehicle mass reruns the fit, not the imports or the fusion (they depend on the
+    // DOF list only).
     let spec = read(dir, "pipeline.yaml").replace("mass_kg: 35.2", "mass_kg: 35.3");
     std::fs::write(dir.join("pipeline.yaml"), spec).unwrap();
-    assert_eq!(ran(&ok(dir, &["build"])), 2);
+    assert_eq!(ran(&ok(dir, &["build"])), 3);
 }
 
 #[test]

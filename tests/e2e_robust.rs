@@ -19,12 +19,12 @@ fn a_bad_case_fails_only_what_depends_on_it() {
     assert_eq!(o.status.code(), Some(1));
     let err = stderr(&o);
     assert!(err.contains("error: stage cfd[zz_bad] failed\n  cases/cfd/starccm/zz_bad.csv:3:9: cannot read \"0.o2\""), "{err}");
-    assert!(err.contains("not run because they depend on it: fit, report"), "{err}");
+    assert!(err.contains("not run because they depend on it: fit, validate, report"), "{err}");
     assert!(!dir.join("reports/index.html").exists());
     // The good imports are cached: fixing the file reruns it and the downstream only.
     std::fs::write(&bad, std::fs::read_to_string(&bad).unwrap().replace("0.o2", "0.02")).unwrap();
     let out = ok(dir, &["build"]);
-    assert_eq!(ran(&out), 3, "{out}");
+    assert_eq!(ran(&out), 4, "{out}");
     assert!(!dir.join(".hydrofit/tmp").exists() || std::fs::read_dir(dir.join(".hydrofit/tmp")).unwrap().count() == 0);
 }
 

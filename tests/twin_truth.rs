@@ -25,6 +25,31 @@ fn shipped_cases_are_the_twins_output() {
 }
 
 #[test]
+fn shipped_pool_runs_and_truth_are_the_twins_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = std::process::Command::new(BIN).args(["--project"]).arg(dir.path()).args(["twin", "pool", "--out", "pool", "--truth", "truth"]).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for (ours, shipped) in [("pool", "cases/pool"), ("truth", "truth/pool")] {
+        let mut files = Vec::new();
+        let root = dir.path().join(ours);
+        for run in std::fs::read_dir(&root).unwrap() {
+            let p = run.unwrap().path();
+            if p.is_dir() {
+                files.extend(std::fs::read_dir(&p).unwrap().map(|e| e.unwrap().path()));
+            } else {
+                files.push(p);
+            }
+        }
+        assert!(files.len() >= 12);
+        for f in files {
+            let rel = f.strip_prefix(&root).unwrap();
+            let theirs = std::fs::read(manifest_dir().join(shipped).join(rel)).unwrap_or_default();
+            assert!(std::fs::read(&f).unwrap() == theirs, "{shipped}/{} differs: regenerate with `hydrofit twin pool`", rel.display());
+        }
+    }
+}
+
+#[test]
 fn least_squares_recovers_the_reference_vehicle_within_2_percent() {
     let vehicle = Vehicle::reference();
     let columns = ColumnMap::default();

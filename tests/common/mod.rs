@@ -15,7 +15,15 @@ pub fn project() -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
     std::fs::copy(manifest_dir().join("pipeline.yaml"), dir.path().join("pipeline.yaml")).unwrap();
     hydrofit::fsutil::copy_dir(&manifest_dir().join("cases"), &dir.path().join("cases")).unwrap();
+    hydrofit::fsutil::copy_dir(&manifest_dir().join("truth"), &dir.path().join("truth")).unwrap();
     dir
+}
+
+/// Stage instances of the shipped pipeline besides the imports: fit, validate, report.
+pub const SINGLE_STAGES: usize = 3;
+
+pub fn count(dir: &Path, rel: &str) -> usize {
+    std::fs::read_dir(dir.join(rel)).unwrap().count()
 }
 
 pub fn run(dir: &Path, args: &[&str]) -> Output {
