@@ -52,7 +52,7 @@ fn the_report_scores_the_model_on_every_pool_run_and_states_fusion_accuracy() {
         assert!(a["rmse"]["yaw"].as_f64().unwrap() < 0.008);
     }
     let html = read(dir, "reports/index.html");
-    for id in ["id=\"fusion\"", "id=\"fusion-accuracy\"", "id=\"pool-validation\"", "id=\"pool-mixed\""] {
+    for id in ["id=\"fusion\"", "id=\"fusion-accuracy\"", "id=\"pool-validation\"", "id=\"cross-validation\"", "id=\"pool-mixed\""] {
         assert!(html.contains(id), "{id} missing from the report");
     }
 }

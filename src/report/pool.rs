@@ -123,6 +123,33 @@ pub fn section(runs: &[FusedRun], scores: Option<&Scores>, sims: &[Simulated], a
         }
         h.push_str("</p>\n");
     }
+    if !scores.cross.is_empty() {
+        let names: Vec<&str> = runs.iter().map(|r| r.meta.run.as_str()).collect();
+        h.push_str("<h3 id=\"cross-validation\">Cross-validation across runs</h3>\n<p>The diagonal model re-estimated by least squares on one training run alone (equation error on the fused velocities and their derivative), then simulated on every other run: mean NMAE over the DOFs. Rows: the run it was fitted on; columns: the run it is scored on. A model that only fits its own run, or parameters that drift from run to run, show here.</p>\n<table><tr><th>fitted on \\ scored on</th>");
+        for n in &names {
+            let _ = write!(h, "<th>{}</th>", esc(n));
+        }
+        h.push_str("</tr>\n");
+        for c in &scores.cross {
+            let _ = write!(h, "<tr><td>{}</td>", esc(&c.trained_on));
+            for n in &names {
+                let cell = c.runs.iter().find(|r| r.run == *n).map_or("–".to_string(), |r| {
+                    if r.diverged {
+                        "diverged".into()
+                    } else {
+                        let v: Vec<f64> = r.dofs.values().map(|s| s.metrics.nmae).filter(|x| x.is_finite()).collect();
+                        format!("{:.3}", v.iter().sum::<f64>() / v.len().max(1) as f64)
+                    }
+                });
+                let _ = write!(h, "<td>{cell}</td>");
+            }
+            h.push_str("</tr>\n");
+        }
+        h.push_str("</table>\n");
+        for n in &scores.notes {
+            let _ = writeln!(h, "<p class=\"small\">{}</p>", esc(n));
+        }
+    }
     let first = scores.models.first().map(|m| m.model.clone()).unwrap_or_default();
     for r in runs {
         let Some(sim) = sims.iter().find(|s| s.model == first && s.run == r.meta.run) else { continue };

@@ -29,12 +29,23 @@ pub static KIND: Kind = Kind {
 pub struct Settings {
     /// Longest lag of the residual autocorrelation, s.
     pub max_lag_s: f64,
+    /// Also re-estimate the model on each training run alone (equation error, least squares on
+    /// the fused velocities) and score it on every other run: cross-validation across trials.
+    pub cross_validate: bool,
 }
 
 impl Default for Settings {
     fn default() -> Settings {
-        Settings { max_lag_s: 5.0 }
+        Settings { max_lag_s: 5.0, cross_validate: true }
     }
+}
+
+/// A model re-estimated on one pool run and scored on the others.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct CrossFit {
+    pub trained_on: String,
+    pub parameters: Vec<crate::estimate::Estimate>,
+    pub runs: Vec<RunScore>,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -66,6 +77,10 @@ pub struct ModelScore {
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Scores {
     pub models: Vec<ModelScore>,
+    #[serde(default)]
+    pub cross: Vec<CrossFit>,
+    #[serde(default)]
+    pub notes: Vec<String>,
 }
 
 /// A model's simulated velocities on one run (u, v, w, r), for plots and diagnosis.
@@ -165,8 +180,47 @@ impl StageImpl for Settings {
             }
             models.push(ModelScore { model: f.stage.clone(), runs: scored, mean_nmae });
         }
-        super::write_json(&ctx.out.join(SCORES), &Scores { models })
+        let (cross, notes) = if self.cross_validate { cross_validate(ctx.vehicle, &runs, self.max_lag_s) } else { (vec![], vec![]) };
+        super::write_json(&ctx.out.join(SCORES), &Scores { models, cross, notes })
     }
+}
+
+/// A fused run as a response table: logged thrust, fused velocity, its time derivative.
+pub fn as_response(run: &pool::FusedRun) -> Option<crate::io::Response> {
+    use crate::io::response::{differentiate, Series, Source};
+    let mut r = crate::io::Response { t: run.fused.t.clone(), dofs: BTreeMap::new() };
+    for (j, d) in POOL_DOFS.iter().enumerate() {
+        let v = run.fused.vel[j].as_ref()?;
+        let force = run.thrust.iter().map(|c| c[j]).collect();
+        let accel = differentiate(&r.t, v);
+        r.dofs.insert(*d, Series { force, velocity: v.clone(), accel, force_source: Source::Column, accel_source: Source::Differentiated });
+    }
+    Some(r)
+}
+
+fn cross_validate(vehicle: &crate::model::Vehicle, runs: &[pool::FusedRun], max_lag_s: f64) -> (Vec<CrossFit>, Vec<String>) {
+    use crate::estimate::Estimator as _;
+    let mut out = Vec::new();
+    let mut notes = Vec::new();
+    for train in runs.iter().filter(|r| r.meta.role == crate::io::pool::Role::Train) {
+        let Some(resp) = as_response(train) else {
+            notes.push(format!("{}: not every DOF was fused, so no model was re-estimated on it", train.meta.run));
+            continue;
+        };
+        let problem = crate::estimate::Regression::build(vehicle, &[&resp], 1.0);
+        let fit = match crate::estimate::ols::Ols.fit(&problem) {
+            Ok(f) => f,
+            Err(e) => {
+                notes.push(format!("{}: re-estimation failed: {e}", train.meta.run));
+                continue;
+            }
+        };
+        let theta: Vec<f64> = fit.parameters.iter().map(|p| p.value).collect();
+        let plant = Plant::new(vehicle, problem.layout.to_hydro(&theta));
+        let scored = runs.iter().filter(|r| r.meta.run != train.meta.run).map(|r| score_run(&vehicle.dofs, r, &simulate_run(&plant, r), max_lag_s)).collect();
+        out.push(CrossFit { trained_on: train.meta.run.clone(), parameters: fit.parameters, runs: scored });
+    }
+    (out, notes)
 }
 
 #[cfg(test)]
