@@ -9,11 +9,19 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Metrics {
     /// Mean absolute error, in the DOF's velocity unit.
+    #[serde(deserialize_with = "f64_or_nan")]
     pub mae: f64,
     /// mean |v_model - v_meas| / mean |v_meas| (seed 003).
+    #[serde(deserialize_with = "f64_or_nan")]
     pub nmae: f64,
     /// 100 * RMSE / max |v_meas| (seed 001 states its velocity error this way).
+    #[serde(deserialize_with = "f64_or_nan")]
     pub rmse_pct: f64,
+}
+
+/// JSON has no NaN: serde_json writes it as `null`; read `null` back as NaN.
+pub fn f64_or_nan<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
 }
 
 pub fn metrics(measured: &[f64], simulated: &[f64]) -> Metrics {

@@ -62,7 +62,7 @@ fn least_squares_recovers_the_reference_vehicle_within_2_percent() {
     }
     let refs: Vec<_> = responses.iter().collect();
     let problem = Regression::build(&vehicle, &refs, 0.0);
-    let fit = hydrofit::estimate::ols::Ols.fit(&problem).unwrap();
+    let fit = hydrofit::estimate::ols::Ols.fit(&problem, &Default::default()).unwrap();
     let truth = ParamLayout::new(&vehicle.dofs).from_hydro(&Hydro::reference());
     for (p, t) in fit.parameters.iter().zip(truth) {
         let rel = (p.value - t) / t;

@@ -2,6 +2,9 @@
 
 pub mod ols;
 pub mod regression;
+pub mod rls;
+pub mod swarm;
+pub mod tls;
 
 pub use regression::Regression;
 
@@ -14,6 +17,9 @@ pub struct Estimate {
     pub value: f64,
     pub unit: String,
     pub stderr: f64,
+    /// For the swarm and genetic methods: the range of the answers of seeded restarts.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub interval: Option<[f64; 2]>,
     /// False when the data cannot pin the parameter down (near-singular regressor or an
     /// uncertainty larger than half the value): the value is then not to be trusted.
     pub identifiable: bool,
@@ -27,15 +33,74 @@ pub struct Fit {
     pub residual_sigma: std::collections::BTreeMap<String, f64>,
     pub samples: usize,
     pub condition_number: f64,
+    /// Objective evaluations (population methods).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub evaluations: Option<usize>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub objective_value: Option<f64>,
+    /// Recursive methods: (row index, parameters) along the data.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub trace: Option<Vec<(usize, Vec<f64>)>>,
+}
+
+/// What an estimator may be told besides the data (the fit stage's settings).
+pub struct Options<'a> {
+    pub rigid_mass: [f64; 6],
+    pub seed: u64,
+    pub population: usize,
+    pub iterations: usize,
+    pub restarts: usize,
+    pub norm: swarm::Norm,
+    /// RLS forgetting factor (1 = none).
+    pub forgetting: f64,
+    pub progress: Option<&'a (dyn Fn(f64) + Sync)>,
+}
+
+impl<'a> Options<'a> {
+    /// A copy (the progress callback is shared).
+    pub fn clone_opts(&self) -> Options<'a> {
+        Options { progress: self.progress, ..*self }
+    }
+}
+
+impl Default for Options<'_> {
+    fn default() -> Self {
+        Options { rigid_mass: [0.0; 6], seed: 1, population: 40, iterations: 2000, restarts: 5, norm: swarm::Norm::L2, forgetting: 1.0, progress: None }
+    }
 }
 
 /// An estimator for the equation-error problem. Adding one is a new file and a line in `REGISTRY`.
 pub trait Estimator: Sync {
     fn name(&self) -> &'static str;
-    fn fit(&self, problem: &Regression) -> Result<Fit, EstimateError>;
+    /// Whether its answer depends on a random seed (then part of the key and provenance).
+    fn stochastic(&self) -> bool {
+        false
+    }
+    fn fit(&self, problem: &Regression, opts: &Options) -> Result<Fit, EstimateError>;
 }
 
-pub const REGISTRY: &[&dyn Estimator] = &[&ols::Ols];
+macro_rules! population_method {
+    ($ty:ident, $name:literal, $make:expr) => {
+        pub struct $ty;
+        impl Estimator for $ty {
+            fn name(&self) -> &'static str {
+                $name
+            }
+            fn stochastic(&self) -> bool {
+                true
+            }
+            fn fit(&self, problem: &Regression, opts: &Options) -> Result<Fit, EstimateError> {
+                swarm::execute($name, &|| Box::new($make), problem, &opts.rigid_mass, opts)
+            }
+        }
+    };
+}
+
+population_method!(Qpso, "qpso", swarm::Qpso);
+population_method!(Pso, "pso", swarm::Pso::new());
+population_method!(Ga, "ga", swarm::Ga);
+
+pub const REGISTRY: &[&dyn Estimator] = &[&ols::Ols, &tls::Tls, &rls::Rls, &Qpso, &Pso, &Ga];
 
 pub fn by_name(name: &str) -> Option<&'static dyn Estimator> {
     REGISTRY.iter().copied().find(|e| e.name() == name)

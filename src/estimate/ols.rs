@@ -1,7 +1,7 @@
 //! Ordinary least squares of the equation error (seed 003 section III-A; seed 001's LS baseline),
 //! weighted per DOF so that newtons and newton-metres are comparable (two-step feasible GLS).
 
-use super::{Estimate, EstimateError, Estimator, Fit, Regression};
+use super::{Estimate, EstimateError, Estimator, Fit, Options, Regression};
 use crate::dof::Dof;
 use faer::prelude::*;
 use nalgebra::DMatrix;
@@ -14,7 +14,7 @@ impl Estimator for Ols {
         "ols"
     }
 
-    fn fit(&self, problem: &Regression) -> Result<Fit, EstimateError> {
+    fn fit(&self, problem: &Regression, _opts: &Options) -> Result<Fit, EstimateError> {
         check_excitation(problem)?;
         let ones: BTreeMap<Dof, f64> = problem.row_dof.iter().map(|d| (*d, 1.0)).collect();
         let first = solve(problem, &ones)?;
@@ -25,7 +25,7 @@ impl Estimator for Ols {
 }
 
 /// A DOF whose regressor columns are all zero was never moved by the cases.
-fn check_excitation(problem: &Regression) -> Result<(), EstimateError> {
+pub(crate) fn check_excitation(problem: &Regression) -> Result<(), EstimateError> {
     if problem.rows() == 0 {
         return Err(EstimateError::NoData);
     }
@@ -42,7 +42,7 @@ fn check_excitation(problem: &Regression) -> Result<(), EstimateError> {
 }
 
 /// Least squares with each row divided by its DOF's residual standard deviation (faer QR).
-fn solve(problem: &Regression, sigma: &BTreeMap<Dof, f64>) -> Result<Vec<f64>, EstimateError> {
+pub(crate) fn solve(problem: &Regression, sigma: &BTreeMap<Dof, f64>) -> Result<Vec<f64>, EstimateError> {
     let (n, p) = (problem.rows(), problem.cols());
     let w = |i: usize| 1.0 / sigma[&problem.row_dof[i]];
     let a = Mat::<f64>::from_fn(n, p, |i, j| problem.row(i)[j] * w(i));
@@ -58,7 +58,7 @@ fn residuals(problem: &Regression, theta: &[f64]) -> Vec<f64> {
         .collect()
 }
 
-fn residual_sigma(problem: &Regression, theta: &[f64]) -> BTreeMap<Dof, f64> {
+pub(crate) fn residual_sigma(problem: &Regression, theta: &[f64]) -> BTreeMap<Dof, f64> {
     let res = residuals(problem, theta);
     let mut acc: BTreeMap<Dof, (f64, usize)> = BTreeMap::new();
     for (r, d) in res.iter().zip(&problem.row_dof) {
@@ -72,7 +72,7 @@ fn residual_sigma(problem: &Regression, theta: &[f64]) -> BTreeMap<Dof, f64> {
 
 /// Standard errors from the weighted normal matrix: cov = s^2 (A^T W A)^-1, with s^2 the
 /// weighted residual variance (about 1 after reweighting; kept for honesty).
-fn summarise(problem: &Regression, theta: &[f64], sigma: &BTreeMap<Dof, f64>) -> Fit {
+pub(crate) fn summarise(problem: &Regression, theta: &[f64], sigma: &BTreeMap<Dof, f64>) -> Fit {
     let (n, p) = (problem.rows(), problem.cols());
     let mut normal = DMatrix::<f64>::zeros(p, p);
     let mut ss = 0.0;
@@ -101,6 +101,7 @@ fn summarise(problem: &Regression, theta: &[f64], sigma: &BTreeMap<Dof, f64>) ->
                 value: theta[j],
                 unit: problem.layout.unit(j).to_string(),
                 stderr,
+                interval: None,
                 identifiable: stderr.is_finite() && stderr < 0.5 * theta[j].abs() && condition_number < 1e8,
             }
         })
@@ -110,6 +111,9 @@ fn summarise(problem: &Regression, theta: &[f64], sigma: &BTreeMap<Dof, f64>) ->
         residual_sigma: sigma.iter().map(|(d, s)| (d.name().to_string(), *s)).collect(),
         samples: n,
         condition_number,
+        evaluations: None,
+        objective_value: None,
+        trace: None,
     }
 }
 
@@ -131,7 +135,7 @@ mod tests {
             r.phi.extend(row);
             r.row_dof.push(Dof::Surge);
         }
-        let fit = Ols.fit(&r).unwrap();
+        let fit = Ols.fit(&r, &Options::default()).unwrap();
         for (e, t) in fit.parameters.iter().zip(truth) {
             assert!((e.value - t).abs() < 4.0 * e.stderr, "{e:?}");
             assert!((e.stderr - 0.1 / 2000f64.sqrt()).abs() < 0.001, "{e:?}");
@@ -144,7 +148,7 @@ mod tests {
     fn an_unexcited_dof_is_named() {
         let layout = ParamLayout::new(&[Dof::Surge, Dof::Heave]);
         let r = Regression { layout, phi: vec![1.0, 0.0, 2.0, 0.0, 3.0, 0.0], y: vec![1.0], row_dof: vec![Dof::Surge] };
-        let e = Ols.fit(&r).unwrap_err().to_string();
+        let e = Ols.fit(&r, &Options::default()).unwrap_err().to_string();
         assert!(e.contains("never excite heave: Z_wdot, Z_w, Z_ww"), "{e}");
     }
 }

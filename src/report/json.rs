@@ -12,6 +12,9 @@ pub struct Parameter {
     pub value: f64,
     pub unit: String,
     pub stderr: f64,
+    /// Range over seeded restarts (qpso, pso, ga).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub interval: Option<[f64; 2]>,
     pub identifiable: bool,
     /// The model (fit stage) this value belongs to.
     pub model: String,
@@ -41,6 +44,7 @@ pub fn parameters(fits: &[FitResult]) -> Parameters {
                 value: p.value,
                 unit: p.unit.clone(),
                 stderr: p.stderr,
+                interval: p.interval,
                 identifiable: p.identifiable,
                 model: f.stage.clone(),
                 stage: f.stage.clone(),

@@ -54,11 +54,32 @@ pub struct Settings {
     /// Samples before this time in each case are left out: the start-up transient of the
     /// fluid-body coupling (impulsive start, pressure waves) is not vehicle dynamics.
     pub skip_start_s: f64,
+    /// Seed of the stochastic methods (qpso, pso, ga); part of the cache key and provenance.
+    pub seed: u64,
+    /// Population and iterations of qpso, pso and ga (seed 001 does not state its own).
+    pub population: usize,
+    pub iterations: usize,
+    /// Independent seeded runs of qpso, pso and ga: their spread is the reported interval.
+    pub restarts: usize,
+    /// Norm of the equation error for qpso, pso and ga: l1 (seed 001 eq. 14) or l2.
+    pub norm: crate::estimate::swarm::Norm,
+    /// Forgetting factor of rls (seed 000 eq. 19); 1 keeps every row equally.
+    pub forgetting: f64,
 }
 
 impl Default for Settings {
     fn default() -> Self {
-        Settings { method: "ols".into(), objective: Objective::EquationError, skip_start_s: 0.0 }
+        Settings {
+            method: "ols".into(),
+            objective: Objective::EquationError,
+            skip_start_s: 0.0,
+            seed: 1,
+            population: 40,
+            iterations: 2000,
+            restarts: 5,
+            norm: crate::estimate::swarm::Norm::L2,
+            forgetting: 1.0,
+        }
     }
 }
 
@@ -91,8 +112,21 @@ pub fn load(dir: &Path) -> anyhow::Result<FitResult> {
 }
 
 impl StageImpl for Settings {
+    /// Only the settings the chosen method reads, so tuning the swarm does not rerun a
+    /// least-squares fit (and a deterministic method shows no seed).
     fn settings(&self) -> serde_json::Value {
-        serde_json::to_value(self).expect("settings serialise")
+        let mut v = serde_json::to_value(self).expect("settings serialise");
+        let obj = v.as_object_mut().expect("settings are a map");
+        let stochastic = estimate::by_name(&self.method).is_some_and(|e| e.stochastic());
+        if !stochastic {
+            for k in ["seed", "population", "iterations", "restarts", "norm"] {
+                obj.remove(k);
+            }
+        }
+        if self.method != "rls" {
+            obj.remove("forgetting");
+        }
+        v
     }
 
     fn run(&self, ctx: &RunCtx) -> anyhow::Result<()> {
@@ -108,7 +142,19 @@ impl StageImpl for Settings {
         let problem = Regression::build(ctx.vehicle, &refs, self.skip_start_s);
         let estimator = estimate::by_name(&self.method).expect("checked when parsed");
         ctx.progress.set_message(format!("{} on {} samples", self.method, problem.rows()));
-        let fit = estimator.fit(&problem)?;
+        let bar = ctx.progress;
+        let report = move |f: f64| bar.set_message(format!("{:.0} %", 100.0 * f));
+        let opts = estimate::Options {
+            rigid_mass: ctx.vehicle.rigid_mass(),
+            seed: self.seed,
+            population: self.population.max(2),
+            iterations: self.iterations.max(1),
+            restarts: self.restarts.max(1),
+            norm: self.norm,
+            forgetting: self.forgetting,
+            progress: Some(&report),
+        };
+        let fit = estimator.fit(&problem, &opts)?;
         let result = FitResult {
             stage: ctx.stage.to_string(),
             method: self.method.clone(),

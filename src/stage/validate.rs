@@ -208,7 +208,7 @@ fn cross_validate(vehicle: &crate::model::Vehicle, runs: &[pool::FusedRun], max_
             continue;
         };
         let problem = crate::estimate::Regression::build(vehicle, &[&resp], 1.0);
-        let fit = match crate::estimate::ols::Ols.fit(&problem) {
+        let fit = match crate::estimate::ols::Ols.fit(&problem, &Default::default()) {
             Ok(f) => f,
             Err(e) => {
                 notes.push(format!("{}: re-estimation failed: {e}", train.meta.run));

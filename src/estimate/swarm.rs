@@ -1,0 +1,359 @@
+//! Population-based estimators in the spirit of argmin's split (STYLE.md point 4): a `Problem`
+//! (objective, bounds, evaluation count, whole-population evaluation in parallel), a `Solver`
+//! that performs one iteration, and an `Executor` that owns the seed, the iteration limit,
+//! restarts and progress.
+//!
+//! QPSO follows seed 001 section 3.5: mbest, the learning-tendency point
+//! p_d = phi p_i + (1 - phi) p_g, and x = p_d ± beta |mbest - x| ln(1/u).
+
+use super::{Estimate, EstimateError, Fit, Options, Regression};
+use crate::rng::Rng;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// Which norm of the equation error is minimised: seed 001 eq. 14 is L1 (sum |tau - tau_id| / sqrt K).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Norm {
+    L1,
+    #[default]
+    L2,
+}
+
+/// The equation-error objective over a box of sign-constrained bounds.
+pub struct Problem<'a> {
+    reg: &'a Regression,
+    /// Row weights (1 / the DOF's residual scale), so newtons and newton-metres compare.
+    w: Vec<f64>,
+    norm: Norm,
+    pub lo: Vec<f64>,
+    pub hi: Vec<f64>,
+    /// For L2: the quadratic form f = c - 2 b.theta + theta' A theta, built once, so one
+    /// evaluation costs p^2 instead of K p operations.
+    a: Vec<f64>,
+    b: Vec<f64>,
+    c: f64,
+    evals: AtomicUsize,
+}
+
+impl<'a> Problem<'a> {
+    /// Bounds: every coefficient is negative (FORMATS.md sign convention); its magnitude is
+    /// bounded by a scale read from the data: added mass by 5 x the rigid-body mass of its DOF,
+    /// linear drag by 3 max|tau| / max|nu|, quadratic drag by 3 max|tau| / max|nu|^2.
+    pub fn new(reg: &'a Regression, rigid_mass: &[f64; 6], norm: Norm) -> Problem<'a> {
+        let p = reg.cols();
+        let mut fmax = [0.0f64; 6];
+        let mut vmax = [0.0f64; 6];
+        let mut scale = [0.0f64; 6];
+        let mut count = [0usize; 6];
+        for i in 0..reg.rows() {
+            let d = reg.row_dof[i].index();
+            fmax[d] = fmax[d].max(reg.y[i].abs());
+            scale[d] += reg.y[i] * reg.y[i];
+            count[d] += 1;
+            // The linear-drag column of this row is -nu: its magnitude is the speed.
+            for j in 0..p {
+                let (g, dof) = reg.layout.slot(j);
+                if dof.index() == d && g == crate::model::params::Group::LinearDrag {
+                    vmax[d] = vmax[d].max(reg.row(i)[j].abs());
+                }
+            }
+        }
+        let w: Vec<f64> = reg.row_dof.iter().map(|d| 1.0 / (scale[d.index()] / count[d.index()].max(1) as f64).sqrt().max(1e-9)).collect();
+        let mut lo = vec![0.0; p];
+        let hi = vec![0.0; p];
+        for (j, l) in lo.iter_mut().enumerate() {
+            let (g, dof) = reg.layout.slot(j);
+            let d = dof.index();
+            let v = vmax[d].max(1e-3);
+            *l = -match g {
+                crate::model::params::Group::AddedMass => 5.0 * rigid_mass[d],
+                crate::model::params::Group::LinearDrag => 3.0 * fmax[d] / v,
+                crate::model::params::Group::QuadraticDrag => 3.0 * fmax[d] / (v * v),
+            };
+        }
+        let (mut a, mut b, mut c) = (vec![0.0; p * p], vec![0.0; p], 0.0);
+        if norm == Norm::L2 {
+            for i in 0..reg.rows() {
+                let (row, wi) = (reg.row(i), w[i] * w[i]);
+                for r in 0..p {
+                    b[r] += wi * row[r] * reg.y[i];
+                    for s in 0..p {
+                        a[r * p + s] += wi * row[r] * row[s];
+                    }
+                }
+                c += wi * reg.y[i] * reg.y[i];
+            }
+        }
+        Problem { reg, w, norm, lo, hi, a, b, c, evals: AtomicUsize::new(0) }
+    }
+
+    pub fn dim(&self) -> usize {
+        self.lo.len()
+    }
+
+    pub fn evaluations(&self) -> usize {
+        self.evals.load(Ordering::Relaxed)
+    }
+
+    /// The objective: L1 as seed 001 eq. 14 (sum |w r| / sqrt K), L2 as mean (w r)^2.
+    pub fn cost(&self, theta: &[f64]) -> f64 {
+        self.evals.fetch_add(1, Ordering::Relaxed);
+        let k = self.reg.rows().max(1) as f64;
+        match self.norm {
+            Norm::L2 => {
+                let p = theta.len();
+                let mut q = self.c;
+                for r in 0..p {
+                    q -= 2.0 * self.b[r] * theta[r];
+                    let row = &self.a[r * p..(r + 1) * p];
+                    q += theta[r] * row.iter().zip(theta).map(|(x, t)| x * t).sum::<f64>();
+                }
+                q.max(0.0) / k
+            }
+            Norm::L1 => {
+                let mut s = 0.0;
+                for i in 0..self.reg.rows() {
+                    let fit: f64 = self.reg.row(i).iter().zip(theta).map(|(x, t)| x * t).sum();
+                    s += (self.w[i] * (self.reg.y[i] - fit)).abs();
+                }
+                s / k.sqrt()
+            }
+        }
+    }
+
+    /// Costs of a whole population, evaluated in parallel; the result does not depend on the
+    /// number of threads (each particle's cost is independent).
+    pub fn cost_all(&self, pop: &[Vec<f64>]) -> Vec<f64> {
+        pop.par_iter().map(|x| self.cost(x)).collect()
+    }
+
+    fn clamp(&self, x: &mut [f64]) {
+        for (j, v) in x.iter_mut().enumerate() {
+            *v = v.clamp(self.lo[j], self.hi[j]);
+        }
+    }
+
+    fn random_point(&self, rng: &mut Rng) -> Vec<f64> {
+        (0..self.dim()).map(|j| self.lo[j] + (self.hi[j] - self.lo[j]) * rng.uniform()).collect()
+    }
+}
+
+/// The state every population method keeps: positions, personal bests, the global best.
+pub struct Swarm {
+    pub x: Vec<Vec<f64>>,
+    pub best: Vec<Vec<f64>>,
+    pub best_cost: Vec<f64>,
+    pub g: usize,
+}
+
+impl Swarm {
+    fn new(problem: &Problem, n: usize, rng: &mut Rng) -> Swarm {
+        let x: Vec<Vec<f64>> = (0..n).map(|_| problem.random_point(rng)).collect();
+        let cost = problem.cost_all(&x);
+        let g = argmin(&cost);
+        Swarm { best: x.clone(), x, best_cost: cost, g }
+    }
+
+    fn absorb(&mut self, cost: &[f64]) {
+        for (i, c) in cost.iter().enumerate() {
+            if *c < self.best_cost[i] {
+                self.best_cost[i] = *c;
+                self.best[i] = self.x[i].clone();
+            }
+        }
+        self.g = argmin(&self.best_cost);
+    }
+}
+
+fn argmin(v: &[f64]) -> usize {
+    v.iter().enumerate().min_by(|a, b| a.1.total_cmp(b.1)).map_or(0, |(i, _)| i)
+}
+
+/// One iteration of a population method.
+pub trait Solver {
+    fn init(&mut self, problem: &Problem, rng: &mut Rng, population: usize) -> Swarm;
+    fn step(&mut self, problem: &Problem, swarm: &mut Swarm, rng: &mut Rng, progress: f64);
+}
+
+/// Quantum-behaved PSO (seed 001 section 3.5), beta decreasing linearly from 1.0 to 0.5.
+pub struct Qpso;
+
+impl Solver for Qpso {
+    fn init(&mut self, problem: &Problem, rng: &mut Rng, population: usize) -> Swarm {
+        Swarm::new(problem, population, rng)
+    }
+
+    fn step(&mut self, problem: &Problem, s: &mut Swarm, rng: &mut Rng, progress: f64) {
+        let beta = 1.0 - 0.5 * progress;
+        let n = s.x.len();
+        let dim = problem.dim();
+        let mbest: Vec<f64> = (0..dim).map(|j| s.best.iter().map(|p| p[j]).sum::<f64>() / n as f64).collect();
+        let pg = s.best[s.g].clone();
+        for i in 0..n {
+            for j in 0..dim {
+                let phi = rng.uniform();
+                let pd = phi * s.best[i][j] + (1.0 - phi) * pg[j];
+                let u = rng.uniform_open();
+                let step = beta * (mbest[j] - s.x[i][j]).abs() * (1.0 / u).ln();
+                s.x[i][j] = if rng.uniform() < 0.5 { pd + step } else { pd - step };
+            }
+            let mut xi = std::mem::take(&mut s.x[i]);
+            problem.clamp(&mut xi);
+            s.x[i] = xi;
+        }
+        let cost = problem.cost_all(&s.x);
+        s.absorb(&cost);
+    }
+}
+
+/// Standard PSO (global best): inertia falling from 0.9 to 0.4, cognitive and social weights
+/// 1.49618 (Clerc's constriction values), velocities limited to a fifth of the box and
+/// stopped at a bound (absorbing walls), so particles do not pile up on the box's faces.
+pub struct Pso {
+    v: Vec<Vec<f64>>,
+}
+
+impl Pso {
+    pub fn new() -> Pso {
+        Pso { v: Vec::new() }
+    }
+}
+
+impl Default for Pso {
+    fn default() -> Self {
+        Pso::new()
+    }
+}
+
+impl Solver for Pso {
+    fn init(&mut self, problem: &Problem, rng: &mut Rng, population: usize) -> Swarm {
+        let s = Swarm::new(problem, population, rng);
+        self.v = (0..population).map(|_| (0..problem.dim()).map(|j| 0.1 * (problem.hi[j] - problem.lo[j]) * (2.0 * rng.uniform() - 1.0)).collect()).collect();
+        s
+    }
+
+    fn step(&mut self, problem: &Problem, s: &mut Swarm, rng: &mut Rng, progress: f64) {
+        const C: f64 = 1.49618;
+        let w = 0.9 - 0.5 * progress;
+        let pg = s.best[s.g].clone();
+        for i in 0..s.x.len() {
+            for j in 0..problem.dim() {
+                let vmax = 0.2 * (problem.hi[j] - problem.lo[j]);
+                let v = w * self.v[i][j] + C * rng.uniform() * (s.best[i][j] - s.x[i][j]) + C * rng.uniform() * (pg[j] - s.x[i][j]);
+                self.v[i][j] = v.clamp(-vmax, vmax);
+                s.x[i][j] += self.v[i][j];
+                if s.x[i][j] < problem.lo[j] || s.x[i][j] > problem.hi[j] {
+                    self.v[i][j] = 0.0;
+                }
+            }
+            let mut xi = std::mem::take(&mut s.x[i]);
+            problem.clamp(&mut xi);
+            s.x[i] = xi;
+        }
+        let cost = problem.cost_all(&s.x);
+        s.absorb(&cost);
+    }
+}
+
+/// Real-coded GA: tournament selection (size 3), blend crossover (BLX-0.5, rate 0.9),
+/// Gaussian mutation (rate 1/dim, 10 % of the box shrinking geometrically to 0.01 %), two elites.
+pub struct Ga;
+
+impl Solver for Ga {
+    fn init(&mut self, problem: &Problem, rng: &mut Rng, population: usize) -> Swarm {
+        Swarm::new(problem, population, rng)
+    }
+
+    fn step(&mut self, problem: &Problem, s: &mut Swarm, rng: &mut Rng, progress: f64) {
+        let n = s.x.len();
+        let dim = problem.dim();
+        // The current generation is `best` (a GA keeps no memory beyond its population).
+        let mut order: Vec<usize> = (0..n).collect();
+        order.sort_by(|a, b| s.best_cost[*a].total_cmp(&s.best_cost[*b]));
+        let pick = |rng: &mut Rng| (0..3).map(|_| rng.below(n)).min_by(|a, b| s.best_cost[*a].total_cmp(&s.best_cost[*b])).unwrap_or(0);
+        let sigma = 0.1 * 1e-3f64.powf(progress);
+        let mut next: Vec<Vec<f64>> = order.iter().take(2).map(|&i| s.best[i].clone()).collect();
+        while next.len() < n {
+            let (a, b) = (pick(rng), pick(rng));
+            let mut child: Vec<f64> = (0..dim)
+                .map(|j| {
+                    let (x, y) = (s.best[a][j], s.best[b][j]);
+                    if rng.uniform() < 0.9 {
+                        let (lo, hi) = (x.min(y), x.max(y));
+                        let d = hi - lo;
+                        lo - 0.5 * d + 2.0 * d * rng.uniform()
+                    } else {
+                        x
+                    }
+                })
+                .collect();
+            for (j, c) in child.iter_mut().enumerate() {
+                if rng.uniform() < 1.0 / dim as f64 {
+                    *c += sigma * (problem.hi[j] - problem.lo[j]) * rng.normal();
+                }
+            }
+            problem.clamp(&mut child);
+            next.push(child);
+        }
+        let cost = problem.cost_all(&next);
+        s.x = next.clone();
+        s.best = next;
+        s.best_cost = cost;
+        s.g = argmin(&s.best_cost);
+    }
+}
+
+/// Runs a solver: `restarts` independent seeded runs (the spread of their answers is the
+/// reported interval), each `iterations` long.
+pub fn execute(name: &str, make: &dyn Fn() -> Box<dyn Solver>, reg: &Regression, rigid_mass: &[f64; 6], opts: &Options) -> Result<Fit, EstimateError> {
+    super::ols::check_excitation(reg)?;
+    let problem = Problem::new(reg, rigid_mass, opts.norm);
+    let mut answers: Vec<(Vec<f64>, f64)> = Vec::new();
+    for r in 0..opts.restarts.max(1) {
+        let mut rng = Rng::derive(opts.seed, &format!("{name}/restart/{r}"));
+        let mut solver = make();
+        let mut swarm = solver.init(&problem, &mut rng, opts.population);
+        for it in 0..opts.iterations {
+            solver.step(&problem, &mut swarm, &mut rng, it as f64 / opts.iterations.max(1) as f64);
+            if let Some(p) = opts.progress {
+                p((r * opts.iterations + it + 1) as f64 / (opts.restarts.max(1) * opts.iterations) as f64);
+            }
+        }
+        answers.push((swarm.best[swarm.g].clone(), swarm.best_cost[swarm.g]));
+    }
+    answers.sort_by(|a, b| a.1.total_cmp(&b.1));
+    let best = answers[0].0.clone();
+    let p = best.len();
+    let parameters = (0..p)
+        .map(|j| {
+            let vals: Vec<f64> = answers.iter().map(|a| a.0[j]).collect();
+            let (lo, hi) = vals.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| (l.min(*v), h.max(*v)));
+            let mean = vals.iter().sum::<f64>() / vals.len() as f64;
+            let sd = (vals.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (vals.len().max(2) - 1) as f64).sqrt();
+            let at_bound = (best[j] - problem.lo[j]).abs() < 1e-6 * problem.lo[j].abs().max(1.0) || best[j].abs() < 1e-9;
+            Estimate {
+                name: reg.layout.name(j),
+                value: best[j],
+                unit: reg.layout.unit(j).to_string(),
+                stderr: sd,
+                interval: Some([lo, hi]),
+                // Wide disagreement between restarts, or a value pinned to a bound, means the
+                // data (or the search) did not determine it.
+                identifiable: !at_bound && (hi - lo) < 0.5 * best[j].abs(),
+            }
+        })
+        .collect();
+    let residual = super::ols::residual_sigma(reg, &best);
+    // The regressor's conditioning does not depend on the method: take it from the LS summary.
+    let condition_number = super::ols::summarise(reg, &best, &residual).condition_number;
+    Ok(Fit {
+        parameters,
+        residual_sigma: residual.iter().map(|(d, s)| (d.name().to_string(), *s)).collect(),
+        samples: reg.rows(),
+        condition_number,
+        evaluations: Some(problem.evaluations()),
+        objective_value: Some(answers[0].1),
+        trace: None,
+    })
+}

@@ -1,0 +1,67 @@
+//! Every estimator on the shipped twin CFD cases against the twin's truth (seed 001 Table 1),
+//! and reproducibility of the stochastic ones.
+
+mod common;
+use common::*;
+use hydrofit::estimate::{self, swarm::Norm, Options, Regression};
+use hydrofit::io::starccm::{parse, ColumnMap, ImportOptions};
+use hydrofit::model::{Hydro, ParamLayout, Vehicle};
+
+fn problem() -> Regression {
+    let vehicle = Vehicle::reference();
+    let columns = ColumnMap::default();
+    let opts = ImportOptions { columns: &columns, dofs: &vehicle.dofs, configured_force: Default::default() };
+    let mut files: Vec<_> = std::fs::read_dir(manifest_dir().join("cases/cfd/starccm")).unwrap().map(|e| e.unwrap().path()).collect();
+    files.sort();
+    let responses: Vec<_> = files.iter().map(|p| parse(&p.display().to_string(), &std::fs::read_to_string(p).unwrap(), &opts).unwrap().response).collect();
+    let refs: Vec<_> = responses.iter().collect();
+    Regression::build(&vehicle, &refs, 0.0)
+}
+
+/// Largest relative error against truth, and the parameter it is on.
+fn worst(fit: &estimate::Fit) -> (f64, String) {
+    let truth = ParamLayout::new(&Vehicle::reference().dofs).from_hydro(&Hydro::reference());
+    fit.parameters.iter().zip(truth).map(|(p, t)| (((p.value - t) / t).abs(), p.name.clone())).fold((0.0, String::new()), |a, b| if b.0 > a.0 { b } else { a })
+}
+
+#[test]
+fn every_method_recovers_the_twin_within_its_tolerance() {
+    let reg = problem();
+    let base = Options { rigid_mass: Vehicle::reference().rigid_mass(), ..Options::default() };
+    // Tolerances: the LS family is exact up to the twin's noise; the population methods are
+    // judged after 5 restarts x 2000 iterations of 40 particles on the 12-D problem.
+    let cases: [(&str, Norm, f64); 7] = [
+        ("ols", Norm::L2, 0.02),
+        ("tls", Norm::L2, 0.03),
+        ("rls", Norm::L2, 0.02),
+        ("qpso", Norm::L2, 0.03),
+        ("qpso", Norm::L1, 0.03), // evaluated over every row: fewer iterations (below)
+        ("pso", Norm::L2, 0.03),
+        ("ga", Norm::L2, 0.03),
+    ];
+    for (name, norm, tol) in cases {
+        let est = estimate::by_name(name).unwrap();
+        let t0 = std::time::Instant::now();
+        let iterations = if norm == Norm::L1 { 1500 } else { base.iterations };
+        let restarts = if norm == Norm::L1 { 1 } else { base.restarts };
+        let fit = est.fit(&reg, &Options { norm, iterations, restarts, ..base.clone_opts() }).unwrap();
+        let (err, which) = worst(&fit);
+        eprintln!("{name} {norm:?}: worst {:.2} % ({which}) in {:.2} s, {:?} evaluations", 100.0 * err, t0.elapsed().as_secs_f64(), fit.evaluations);
+        assert!(err < tol, "{name} {norm:?}: {which} off by {:.2} % (tolerance {:.0} %)", 100.0 * err, 100.0 * tol);
+        if est.stochastic() {
+            assert!(fit.parameters.iter().all(|p| p.interval.is_some()));
+        }
+    }
+}
+
+#[test]
+fn same_seed_same_numbers_on_any_thread_count() {
+    let reg = problem();
+    let opts = || Options { rigid_mass: Vehicle::reference().rigid_mass(), iterations: 60, restarts: 2, seed: 42, ..Options::default() };
+    let a = estimate::by_name("qpso").unwrap().fit(&reg, &opts()).unwrap();
+    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+    let b = one.install(|| estimate::by_name("qpso").unwrap().fit(&reg, &opts()).unwrap());
+    assert_eq!(a.parameters, b.parameters);
+    let c = estimate::by_name("qpso").unwrap().fit(&reg, &Options { seed: 43, ..opts() }).unwrap();
+    assert_ne!(a.parameters, c.parameters, "the seed matters");
+}
