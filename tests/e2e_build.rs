@@ -71,13 +71,14 @@ fn a_new_case_reruns_only_its_import_and_what_depends_on_it() {
     std::fs::write(dir.join("cases/cfd/starccm/surge_40N_rerun.csv"), text).unwrap();
     let status = stdout(&run(dir, &["status"]));
     let lines: Vec<&str> = status.lines().collect();
-    assert_eq!(lines.len(), 4, "{status}");
+    assert_eq!(lines.len(), 5, "{status}");
     assert_eq!(lines[0], "cfd[surge_40N_rerun]: new input cases/cfd/starccm/surge_40N_rerun.csv (never built)");
-    assert_eq!(lines[1], "fit: new upstream cfd[surge_40N_rerun]");
-    assert_eq!(lines[2], "validate: upstream fit changed");
-    assert!(lines[3].starts_with("report: "), "{status}");
+    for want in ["fit: new upstream cfd[surge_40N_rerun]", "compare: new upstream cfd[surge_40N_rerun]", "validate: upstream fit changed"] {
+        assert!(lines.contains(&want), "{want}: {status}");
+    }
+    assert!(lines[4].starts_with("report: "), "{status}");
     let out = ok(dir, &["build", "--explain"]);
-    assert_eq!(ran(&out), 4, "{out}");
+    assert_eq!(ran(&out), 5, "{out}");
 }
 
 #[test]
@@ -91,11 +92,11 @@ fn a_changed_setting_reruns_the_fit_but_not_the_imports() {
     assert!(status.starts_with("fit: setting.skip_start_s changed: 0.0 -> 0.1\n"), "{status}");
     assert_eq!(status.lines().count(), 3, "{status}");
     assert_eq!(ran(&ok(dir, &["build"])), 3);
-    // A new vehicle mass reruns the fit, not the imports or the fusion (they depend on the
-    // DOF list only).
+    // A new vehicle mass reruns the fits (fit, compare), not the imports or the fusion (they
+    // depend on the DOF list only).
     let spec = read(dir, "pipeline.yaml").replace("mass_kg: 35.2", "mass_kg: 35.3");
     std::fs::write(dir.join("pipeline.yaml"), spec).unwrap();
-    assert_eq!(ran(&ok(dir, &["build"])), 3);
+    assert_eq!(ran(&ok(dir, &["build"])), 4);
 }
 
 #[test]

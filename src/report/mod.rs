@@ -1,6 +1,7 @@
 //! The report: `index.html` for people, `parameters.json` and `validation.json` for tools
 //! (shapes fixed by FORMATS.md).
 
+pub mod compare;
 pub mod html;
 pub mod json;
 pub mod plots;

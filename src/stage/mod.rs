@@ -1,6 +1,7 @@
 //! Stage kinds: what a stage of `pipeline.yaml` can be. Adding a kind is one new file and
 //! one line in `KINDS`.
 
+pub mod compare;
 pub mod fit;
 pub mod pool;
 pub mod report;
@@ -23,6 +24,8 @@ pub enum Artifact {
     PoolRuns,
     /// Scores of models on pool runs.
     Validation,
+    /// Estimators side by side.
+    Comparison,
     /// The published report.
     Report,
 }
@@ -34,6 +37,7 @@ impl Artifact {
             Artifact::Model => "an identified model",
             Artifact::PoolRuns => "fused pool runs",
             Artifact::Validation => "validation scores",
+            Artifact::Comparison => "an estimator comparison",
             Artifact::Report => "a report",
         }
     }
@@ -44,6 +48,7 @@ impl Artifact {
             Artifact::Model => "a `fit` stage",
             Artifact::PoolRuns => "a `pool` stage",
             Artifact::Validation => "a `validate` stage",
+            Artifact::Comparison => "a `compare` stage",
             Artifact::Report => "a `report` stage",
         }
     }
@@ -79,7 +84,7 @@ pub struct Kind {
     pub parse: fn(serde_yaml_ng::Value) -> Result<std::sync::Arc<dyn StageImpl>, serde_yaml_ng::Error>,
 }
 
-pub const KINDS: &[&Kind] = &[&starccm::KIND, &pool::KIND, &fit::KIND, &validate::KIND, &report::KIND];
+pub const KINDS: &[&Kind] = &[&starccm::KIND, &pool::KIND, &fit::KIND, &validate::KIND, &compare::KIND, &report::KIND];
 
 pub fn kind(name: &str) -> Option<&'static Kind> {
     KINDS.iter().copied().find(|k| k.name == name)

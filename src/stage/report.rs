@@ -17,7 +17,7 @@ pub static KIND: Kind = Kind {
     fan_out: false,
     reads_files: true,
     produces: Artifact::Report,
-    consumes: &[Artifact::Model, Artifact::Responses, Artifact::PoolRuns, Artifact::Validation],
+    consumes: &[Artifact::Model, Artifact::Responses, Artifact::PoolRuns, Artifact::Validation, Artifact::Comparison],
     requires: &[Artifact::Model],
     uses_vehicle: super::VehicleUse::All,
     publishes_to: Some("reports"),
@@ -84,7 +84,9 @@ impl StageImpl for Settings {
         }
         let truth_files: Vec<String> = ctx.inputs.iter().map(|i| i.path.clone()).collect();
         let accuracy = crate::report::pool::fusion_accuracy(ctx.root, &truth_files, &pool_runs)?;
-        let pool_html = crate::report::pool::section(&pool_runs, pool_scores.as_ref().map(|(s, _)| s), pool_scores.as_ref().map_or(&[][..], |(_, v)| v), &accuracy)?;
+        let comparison = ctx.upstream_of(Artifact::Comparison).next().map(|u| crate::stage::compare::load(&u.dir)).transpose()?;
+        let compare_html = comparison.as_ref().map_or(String::new(), crate::report::compare::section);
+        let pool_html = compare_html + &crate::report::pool::section(&pool_runs, pool_scores.as_ref().map(|(s, _)| s), pool_scores.as_ref().map_or(&[][..], |(_, v)| v), &accuracy)?;
         let svgs = velocity_plots(&cases, &first_sims)?;
         let parameters = json::parameters(&fits);
         let validation = Validation { models };

@@ -1,0 +1,165 @@
+//! `kind: compare` — every listed estimator on the same CFD cases, side by side, as seed 001's
+//! Table 2 does: parameters, error against a known truth (when the cases come from a twin),
+//! validation error on the pool runs, run time and objective evaluations.
+
+use super::{fit, pool, starccm, validate, Artifact, Kind, RunCtx, StageImpl};
+use crate::estimate::{self, Regression};
+use crate::model::{ParamLayout, Plant};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::sync::Arc;
+
+pub static KIND: Kind = Kind {
+    name: "compare",
+    version: 1,
+    fan_out: false,
+    reads_files: false,
+    produces: Artifact::Comparison,
+    consumes: &[Artifact::Responses, Artifact::PoolRuns],
+    requires: &[Artifact::Responses],
+    uses_vehicle: super::VehicleUse::All,
+    publishes_to: None,
+    parse: parse_settings,
+};
+
+fn parse_settings(v: serde_yaml_ng::Value) -> Result<Arc<dyn StageImpl>, serde_yaml_ng::Error> {
+    let s: Settings = serde_yaml_ng::from_value(v)?;
+    for m in &s.methods {
+        if estimate::by_name(&m.method).is_none() {
+            let names: &'static [&'static str] = Box::leak(estimate::names().into_boxed_slice());
+            return Err(serde::de::Error::unknown_variant(&m.method, names));
+        }
+    }
+    Ok(Arc::new(s))
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Settings {
+    /// Each entry is a `fit` stage's settings.
+    pub methods: Vec<fit::Settings>,
+    /// Known parameter values (the twin's, for synthetic cases), to score each method against.
+    pub truth: BTreeMap<String, f64>,
+}
+
+impl Default for Settings {
+    fn default() -> Settings {
+        let m = |name: &str| fit::Settings { method: name.into(), ..fit::Settings::default() };
+        Settings { methods: ["ols", "tls", "rls", "qpso", "pso", "ga"].iter().map(|n| m(n)).collect(), truth: BTreeMap::new() }
+    }
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Row {
+    pub label: String,
+    pub settings: serde_json::Value,
+    pub parameters: Vec<estimate::Estimate>,
+    /// Relative error against truth per parameter, %.
+    pub error_pct: BTreeMap<String, f64>,
+    pub max_abs_error_pct: Option<f64>,
+    /// Mean NMAE over DOFs and pool runs of role `validate` (all runs when none is).
+    pub pool_nmae: Option<f64>,
+    pub seconds: f64,
+    pub evaluations: Option<usize>,
+    pub error: Option<String>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Comparison {
+    pub rows: Vec<Row>,
+    pub samples: usize,
+    pub cases: usize,
+    pub pool_runs: Vec<String>,
+}
+
+pub const RESULT: &str = "compare.json";
+
+pub fn load(dir: &Path) -> anyhow::Result<Comparison> {
+    super::read_json(&dir.join(RESULT))
+}
+
+fn label(s: &fit::Settings) -> String {
+    let stochastic = estimate::by_name(&s.method).is_some_and(|e| e.stochastic());
+    if stochastic { format!("{} ({:?})", s.method, s.norm).to_lowercase() } else { s.method.clone() }
+}
+
+impl StageImpl for Settings {
+    fn settings(&self) -> serde_json::Value {
+        let methods: Vec<serde_json::Value> = self.methods.iter().map(|m| m.settings()).collect();
+        serde_json::json!({"methods": methods, "truth": self.truth})
+    }
+
+    fn run(&self, ctx: &RunCtx) -> anyhow::Result<()> {
+        let mut responses = Vec::new();
+        for up in ctx.upstream_of(Artifact::Responses) {
+            responses.push(starccm::load(&up.dir)?.1);
+        }
+        let runs: Vec<pool::FusedRun> = ctx.upstream_of(Artifact::PoolRuns).map(|u| pool::load(&u.dir)).collect::<Result<_, _>>()?;
+        let held_out: Vec<&pool::FusedRun> = if runs.iter().any(|r| r.meta.role == crate::io::pool::Role::Validate) {
+            runs.iter().filter(|r| r.meta.role == crate::io::pool::Role::Validate).collect()
+        } else {
+            runs.iter().collect()
+        };
+        let refs: Vec<_> = responses.iter().collect();
+        let mut rows = Vec::new();
+        let mut samples = 0;
+        for (i, m) in self.methods.iter().enumerate() {
+            ctx.progress.set_message(format!("{} ({}/{})", label(m), i + 1, self.methods.len()));
+            let problem = Regression::build(ctx.vehicle, &refs, m.skip_start_s);
+            samples = problem.rows();
+            let est = estimate::by_name(&m.method).expect("checked when parsed");
+            let opts = estimate::Options {
+                rigid_mass: ctx.vehicle.rigid_mass(),
+                seed: m.seed,
+                population: m.population.max(2),
+                iterations: m.iterations.max(1),
+                restarts: m.restarts.max(1),
+                norm: m.norm,
+                forgetting: m.forgetting,
+                progress: None,
+            };
+            let start = std::time::Instant::now();
+            let fit = est.fit(&problem, &opts);
+            let seconds = start.elapsed().as_secs_f64();
+            let mut row = Row {
+                label: label(m),
+                settings: m.settings(),
+                parameters: vec![],
+                error_pct: BTreeMap::new(),
+                max_abs_error_pct: None,
+                pool_nmae: None,
+                seconds,
+                evaluations: None,
+                error: None,
+            };
+            match fit {
+                Err(e) => row.error = Some(e.to_string()),
+                Ok(fit) => {
+                    for p in &fit.parameters {
+                        if let Some(t) = self.truth.get(&p.name) {
+                            row.error_pct.insert(p.name.clone(), 100.0 * (p.value - t) / t.abs());
+                        }
+                    }
+                    row.max_abs_error_pct = row.error_pct.values().map(|e| e.abs()).reduce(f64::max);
+                    let theta: Vec<f64> = fit.parameters.iter().map(|p| p.value).collect();
+                    let plant = Plant::new(ctx.vehicle, ParamLayout::new(&ctx.vehicle.dofs).to_hydro(&theta));
+                    let nmae: Vec<f64> = held_out
+                        .iter()
+                        .flat_map(|r| {
+                            let s = validate::score_run(&ctx.vehicle.dofs, r, &validate::simulate_run(&plant, r), 1.0);
+                            s.dofs.values().map(|d| d.metrics.nmae).collect::<Vec<_>>()
+                        })
+                        .filter(|x| x.is_finite())
+                        .collect();
+                    row.pool_nmae = (!nmae.is_empty()).then(|| nmae.iter().sum::<f64>() / nmae.len() as f64);
+                    row.evaluations = fit.evaluations;
+                    row.parameters = fit.parameters;
+                }
+            }
+            rows.push(row);
+        }
+        let result = Comparison { rows, samples, cases: responses.len(), pool_runs: held_out.iter().map(|r| r.meta.run.clone()).collect() };
+        super::write_json(&ctx.out.join(RESULT), &result)
+    }
+}
