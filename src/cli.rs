@@ -51,6 +51,20 @@ pub enum Command {
         #[command(subcommand)]
         what: TwinCommand,
     },
+    /// Benchmark QPSO on a seed-001-sized equation-error problem (52,690 rows, 12 parameters).
+    Bench {
+        /// l2 (quadratic form) or l1 (seed 001 eq. 14, every row per evaluation).
+        #[arg(long, default_value = "l2")]
+        norm: String,
+        #[arg(long, default_value_t = 40)]
+        population: usize,
+        #[arg(long, default_value_t = 300)]
+        iterations: usize,
+        /// Also write the problem (rows, cols, then Phi, y, w as little-endian f64) for the
+        /// Python comparison in bench/qpso_compare.py.
+        #[arg(long)]
+        export: Option<PathBuf>,
+    },
 }
 
 #[derive(Debug, Subcommand)]
@@ -91,6 +105,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Provenance { parameter } => cmd::provenance::run(&root, &parameter),
         Command::Graph { dot } => cmd::graph::run(&root, dot),
         Command::Twin { what: TwinCommand::Starccm { out, seed } } => cmd::twin::starccm(&root, &out, seed),
+        Command::Bench { norm, population, iterations, export } => cmd::bench::run(&norm, population, iterations, export.as_deref()),
         Command::Twin { what: TwinCommand::Pool { out, truth, seed, effects } } => cmd::twin::pool(&root, &out, &truth, seed, &effects),
     }
 }

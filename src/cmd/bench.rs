@@ -1,0 +1,84 @@
+//! `hydrofit bench`: QPSO on a seed-001-sized equation-error problem, timed, with evaluations
+//! per second and the work per evaluation, so the figure can be set against the machine's
+//! compute bound and against the same algorithm in Python (bench/qpso_compare.py).
+
+use crate::estimate::swarm::{Norm, Problem, Qpso, Solver};
+use crate::estimate::Regression;
+use crate::model::{Hydro, Vehicle};
+use crate::rng::Rng;
+use std::io::Write as _;
+use std::path::Path;
+use std::process::ExitCode;
+
+/// Seed 001: "A total of 52,690 data were obtained".
+pub const SEED_001_ROWS: usize = 52_690;
+
+/// The twin's CFD cases, repeated with other noise seeds until the problem has `rows` rows.
+pub fn seed_001_problem(rows: usize) -> Regression {
+    let vehicle = Vehicle::reference();
+    let cases = crate::twin::cfd::default_cases();
+    let mut responses = Vec::new();
+    let mut n = 0;
+    let mut seed = 1;
+    while n < rows {
+        for c in &cases {
+            let text = crate::twin::cfd::export(&vehicle, Hydro::reference(), c, seed);
+            let opts = crate::io::starccm::ImportOptions { columns: &Default::default(), dofs: &vehicle.dofs, configured_force: Default::default() };
+            let r = crate::io::starccm::parse("twin.csv", &text, &opts).expect("the twin writes valid exports").response;
+            n += r.len() * r.dofs.len();
+            responses.push(r);
+        }
+        seed += 1;
+    }
+    let refs: Vec<_> = responses.iter().collect();
+    let mut reg = Regression::build(&vehicle, &refs, 0.0);
+    let p = reg.cols();
+    reg.y.truncate(rows);
+    reg.row_dof.truncate(rows);
+    reg.phi.truncate(rows * p);
+    reg
+}
+
+pub fn run(norm: &str, population: usize, iterations: usize, export: Option<&Path>) -> anyhow::Result<ExitCode> {
+    let norm = match norm {
+        "l1" => Norm::L1,
+        "l2" => Norm::L2,
+        other => anyhow::bail!("--norm {other}: use l1 or l2"),
+    };
+    let reg = seed_001_problem(SEED_001_ROWS);
+    let (k, p) = (reg.rows(), reg.cols());
+    let problem = Problem::new(&reg, &Vehicle::reference().rigid_mass(), norm);
+    if let Some(path) = export {
+        let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
+        for v in [k as f64, p as f64].iter().chain(&reg.phi).chain(&reg.y).chain(problem.weights()).chain(&problem.lo).chain(&problem.hi) {
+            f.write_all(&v.to_le_bytes())?;
+        }
+        f.flush()?;
+        eprintln!("wrote the problem to {}", path.display());
+    }
+    let mut rng = Rng::new(1);
+    let mut solver = Qpso;
+    let start = std::time::Instant::now();
+    let mut swarm = solver.init(&problem, &mut rng, population);
+    for it in 0..iterations {
+        solver.step(&problem, &mut swarm, &mut rng, it as f64 / iterations as f64);
+    }
+    let secs = start.elapsed().as_secs_f64();
+    let evals = problem.evaluations();
+    let (flops, bytes) = match norm {
+        // theta' A theta - 2 b.theta: p^2 multiply-adds and 2p more; A (p^2 doubles) stays in cache.
+        Norm::L2 => (2 * p * p + 4 * p, 8 * (p * p + p)),
+        // Per row: p multiply-adds, a subtraction, a weight, an absolute value; each row is read
+        // once per population (shared by all its particles).
+        Norm::L1 => (k * (2 * p + 3), 8 * k * (p + 2) / population.max(1)),
+    };
+    let rate = evals as f64 / secs;
+    println!(
+        "qpso {norm:?}: {k} rows x {p} parameters, population {population}, {iterations} iterations, {} threads",
+        rayon::current_num_threads()
+    );
+    println!("  {evals} evaluations in {secs:.3} s = {rate:.0} evaluations/s");
+    println!("  per evaluation: {flops} flops, {bytes} bytes read -> {:.2} GFLOP/s, {:.2} GB/s", rate * flops as f64 / 1e9, rate * bytes as f64 / 1e9);
+    println!("  best cost {:.6e}", swarm.best_cost[swarm.g]);
+    Ok(ExitCode::SUCCESS)
+}
