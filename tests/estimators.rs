@@ -65,3 +65,37 @@ fn same_seed_same_numbers_on_any_thread_count() {
     let c = estimate::by_name("qpso").unwrap().fit(&reg, &Options { seed: 43, ..opts() }).unwrap();
     assert_ne!(a.parameters, c.parameters, "the seed matters");
 }
+
+#[test]
+fn output_error_with_the_simulator_in_the_loop_recovers_the_twin() {
+    // Seed 001 eq. 9: velocities simulated under the applied force against the measured ones.
+    let vehicle = Vehicle::reference();
+    let columns = ColumnMap::default();
+    let opts = ImportOptions { columns: &columns, dofs: &vehicle.dofs, configured_force: Default::default() };
+    let dir = manifest_dir().join("cases/cfd/starccm");
+    let responses: Vec<_> = ["surge_2N", "surge_20N", "surge_100N", "sway_2N", "sway_60N", "heave_5N", "heave_80N", "yaw_0p5Nm", "yaw_8Nm", "surge_yaw_40N_2Nm"]
+        .iter()
+        .map(|n| {
+            let p = dir.join(format!("{n}.csv"));
+            parse(&p.display().to_string(), &std::fs::read_to_string(&p).unwrap(), &opts).unwrap().response
+        })
+        .collect();
+    let refs: Vec<_> = responses.iter().collect();
+    let reg = Regression::build(&vehicle, &refs, 0.0);
+    let o = Options { rigid_mass: vehicle.rigid_mass(), iterations: 400, restarts: 1, population: 30, output_error: Some((&vehicle, &refs[..])), ..Options::default() };
+    let t0 = std::time::Instant::now();
+    let fit = estimate::by_name("qpso").unwrap().fit(&reg, &o).unwrap();
+    let (err, which) = worst(&fit);
+    eprintln!("qpso output error: worst {:.2} % ({which}) in {:.1} s, {:?} evaluations", 100.0 * err, t0.elapsed().as_secs_f64(), fit.evaluations);
+    // Drag is pinned by the steady speeds, added mass by the rise times: within 5 %. The
+    // linear sway drag Y_v (-1.5 next to Y_vv = -114) barely changes any simulated velocity
+    // and is not yet resolved by 400 iterations from the whole box (open: ~20 % off).
+    let truth = ParamLayout::new(&vehicle.dofs).from_hydro(&Hydro::reference());
+    for (p, t) in fit.parameters.iter().zip(truth) {
+        let rel = ((p.value - t) / t).abs();
+        let tol = if p.name == "Y_v" { 0.35 } else { 0.05 };
+        assert!(rel < tol, "{} = {} vs {t} ({:.1} %)", p.name, p.value, 100.0 * rel);
+    }
+    let e = estimate::by_name("ols").unwrap().fit(&reg, &o).unwrap_err().to_string();
+    assert!(e.contains("use qpso, pso or ga"), "{e}");
+}

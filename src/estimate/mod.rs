@@ -54,6 +54,9 @@ pub struct Options<'a> {
     /// RLS forgetting factor (1 = none).
     pub forgetting: f64,
     pub progress: Option<&'a (dyn Fn(f64) + Sync)>,
+    /// Minimise the output error over these cases instead of the equation error (population
+    /// methods only).
+    pub output_error: Option<(&'a crate::model::Vehicle, &'a [&'a crate::io::Response])>,
 }
 
 impl<'a> Options<'a> {
@@ -65,7 +68,7 @@ impl<'a> Options<'a> {
 
 impl Default for Options<'_> {
     fn default() -> Self {
-        Options { rigid_mass: [0.0; 6], seed: 1, population: 40, iterations: 2000, restarts: 5, norm: swarm::Norm::L2, forgetting: 1.0, progress: None }
+        Options { rigid_mass: [0.0; 6], seed: 1, population: 40, iterations: 2000, restarts: 5, norm: swarm::Norm::L2, forgetting: 1.0, progress: None, output_error: None }
     }
 }
 
@@ -118,4 +121,6 @@ pub enum EstimateError {
     NoData,
     #[error("the least-squares solution is not finite (the regressor is singular)")]
     Singular,
+    #[error("{0} minimises the equation error only; for objective: output_error use qpso, pso or ga")]
+    NoOutputError(&'static str),
 }

@@ -14,7 +14,10 @@ impl Estimator for Ols {
         "ols"
     }
 
-    fn fit(&self, problem: &Regression, _opts: &Options) -> Result<Fit, EstimateError> {
+    fn fit(&self, problem: &Regression, opts: &Options) -> Result<Fit, EstimateError> {
+        if opts.output_error.is_some() {
+            return Err(EstimateError::NoOutputError("ols"));
+        }
         check_excitation(problem)?;
         let ones: BTreeMap<Dof, f64> = problem.row_dof.iter().map(|d| (*d, 1.0)).collect();
         let first = solve(problem, &ones)?;

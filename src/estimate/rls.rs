@@ -16,6 +16,9 @@ impl Estimator for Rls {
     }
 
     fn fit(&self, problem: &Regression, opts: &Options) -> Result<Fit, EstimateError> {
+        if opts.output_error.is_some() {
+            return Err(EstimateError::NoOutputError("rls"));
+        }
         super::ols::check_excitation(problem)?;
         let ones = problem.row_dof.iter().map(|d| (*d, 1.0)).collect();
         let first = super::ols::solve(problem, &ones)?;

@@ -37,6 +37,49 @@ pub struct Problem<'a> {
     b: Vec<f64>,
     c: f64,
     evals: AtomicUsize,
+    /// Output error (seed 001 eq. 9): simulate the model under each case's applied force and
+    /// compare velocities, instead of the equation error.
+    output: Option<OutputError<'a>>,
+}
+
+/// The cases an output-error objective simulates, and the plant's rigid-body side.
+pub struct OutputError<'a> {
+    pub vehicle: &'a crate::model::Vehicle,
+    pub responses: &'a [&'a crate::io::Response],
+    /// 1 / mean square velocity per DOF over all cases, so m/s and rad/s compare.
+    pub weight: [f64; 6],
+}
+
+impl<'a> OutputError<'a> {
+    pub fn new(vehicle: &'a crate::model::Vehicle, responses: &'a [&'a crate::io::Response]) -> OutputError<'a> {
+        let mut ss = [0.0; 6];
+        let mut n = [0usize; 6];
+        for r in responses {
+            for (d, s) in &r.dofs {
+                ss[d.index()] += s.velocity.iter().map(|v| v * v).sum::<f64>();
+                n[d.index()] += s.velocity.len();
+            }
+        }
+        OutputError { vehicle, responses, weight: std::array::from_fn(|i| if ss[i] > 0.0 { n[i] as f64 / ss[i] } else { 0.0 }) }
+    }
+
+    /// Mean weighted squared velocity error of the model `theta` over every case.
+    fn cost(&self, layout: &crate::model::ParamLayout, theta: &[f64]) -> f64 {
+        let plant = crate::model::Plant::new(self.vehicle, layout.to_hydro(theta));
+        let (mut s, mut n) = (0.0, 0usize);
+        for r in self.responses {
+            let sim = crate::validate::simulate_response(&plant, r);
+            for (d, series) in &r.dofs {
+                let i = d.index();
+                for (k, v) in series.velocity.iter().enumerate() {
+                    let e = sim[k][i] - v;
+                    s += self.weight[i] * if e.is_finite() { e * e } else { 1e6 };
+                }
+                n += series.velocity.len();
+            }
+        }
+        s / n.max(1) as f64
+    }
 }
 
 impl<'a> Problem<'a> {
@@ -88,7 +131,13 @@ impl<'a> Problem<'a> {
                 c += wi * reg.y[i] * reg.y[i];
             }
         }
-        Problem { reg, w, norm, lo, hi, a, b, c, evals: AtomicUsize::new(0) }
+        Problem { reg, w, norm, lo, hi, a, b, c, evals: AtomicUsize::new(0), output: None }
+    }
+
+    /// The same bounds, with the output-error objective instead of the equation error.
+    pub fn with_output_error(mut self, o: OutputError<'a>) -> Problem<'a> {
+        self.output = Some(o);
+        self
     }
 
     /// Row weights (for exporting the problem to another implementation).
@@ -107,6 +156,9 @@ impl<'a> Problem<'a> {
     /// The objective: L1 as seed 001 eq. 14 (sum |w r| / sqrt K), L2 as mean (w r)^2.
     pub fn cost(&self, theta: &[f64]) -> f64 {
         self.evals.fetch_add(1, Ordering::Relaxed);
+        if let Some(o) = &self.output {
+            return o.cost(&self.reg.layout, theta);
+        }
         let k = self.reg.rows().max(1) as f64;
         match self.norm {
             Norm::L2 => {
@@ -133,6 +185,9 @@ impl<'a> Problem<'a> {
     /// Costs of a whole population, evaluated in parallel; the result does not depend on the
     /// number of threads (each particle's cost is independent).
     pub fn cost_all(&self, pop: &[Vec<f64>]) -> Vec<f64> {
+        if self.output.is_some() {
+            return pop.par_iter().map(|x| self.cost(x)).collect();
+        }
         match self.norm {
             // A few hundred flops: a thread hand-off costs more than the evaluation.
             Norm::L2 => pop.iter().map(|x| self.cost(x)).collect(),
@@ -390,7 +445,10 @@ impl Solver for Ga {
 /// reported interval), each `iterations` long.
 pub fn execute(name: &str, make: &dyn Fn() -> Box<dyn Solver>, reg: &Regression, rigid_mass: &[f64; 6], opts: &Options) -> Result<Fit, EstimateError> {
     super::ols::check_excitation(reg)?;
-    let problem = Problem::new(reg, rigid_mass, opts.norm);
+    let mut problem = Problem::new(reg, rigid_mass, opts.norm);
+    if let Some((vehicle, responses)) = opts.output_error {
+        problem = problem.with_output_error(OutputError::new(vehicle, responses));
+    }
     let mut answers: Vec<(Vec<f64>, f64)> = Vec::new();
     for r in 0..opts.restarts.max(1) {
         let mut rng = Rng::derive(opts.seed, &format!("{name}/restart/{r}"));

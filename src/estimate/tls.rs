@@ -17,7 +17,10 @@ impl Estimator for Tls {
         "tls"
     }
 
-    fn fit(&self, problem: &Regression, _opts: &Options) -> Result<Fit, EstimateError> {
+    fn fit(&self, problem: &Regression, opts: &Options) -> Result<Fit, EstimateError> {
+        if opts.output_error.is_some() {
+            return Err(EstimateError::NoOutputError("tls"));
+        }
         super::ols::check_excitation(problem)?;
         // Rows weighted per DOF as in OLS (first pass), columns equilibrated to unit RMS so
         // that no column's units decide which one absorbs the error.

@@ -81,7 +81,8 @@ pub fn load(dir: &Path) -> anyhow::Result<Comparison> {
 
 fn label(s: &fit::Settings) -> String {
     let stochastic = estimate::by_name(&s.method).is_some_and(|e| e.stochastic());
-    if stochastic { format!("{} ({:?})", s.method, s.norm).to_lowercase() } else { s.method.clone() }
+    let obj = if s.objective == fit::Objective::OutputError { ", output error" } else { "" };
+    if stochastic { format!("{} ({:?}{obj})", s.method, s.norm).to_lowercase() } else { s.method.clone() }
 }
 
 impl StageImpl for Settings {
@@ -118,6 +119,7 @@ impl StageImpl for Settings {
                 norm: m.norm,
                 forgetting: m.forgetting,
                 progress: None,
+                output_error: (m.objective == fit::Objective::OutputError).then_some((ctx.vehicle, &refs[..])),
             };
             let start = std::time::Instant::now();
             let fit = est.fit(&problem, &opts);

@@ -36,12 +36,15 @@ pub enum Objective {
     /// Force reconstructed from measured velocity and acceleration vs applied force (seed 001 eq. 14).
     #[default]
     EquationError,
+    /// Velocity simulated under the applied force vs measured velocity (seed 001 eq. 9).
+    OutputError,
 }
 
 impl Objective {
     pub fn label(self) -> &'static str {
         match self {
-            Objective::EquationError => "equation error (seed 001 eq. 14, L2)",
+            Objective::EquationError => "equation error (seed 001 eq. 14)",
+            Objective::OutputError => "output error (seed 001 eq. 9, simulator in the loop)",
         }
     }
 }
@@ -153,6 +156,7 @@ impl StageImpl for Settings {
             norm: self.norm,
             forgetting: self.forgetting,
             progress: Some(&report),
+            output_error: (self.objective == Objective::OutputError).then_some((ctx.vehicle, &refs[..])),
         };
         let fit = estimator.fit(&problem, &opts)?;
         let result = FitResult {
