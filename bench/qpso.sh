@@ -19,3 +19,6 @@ for spec in "l2 300" "l1 100"; do
   "$venv/bin/python" bench/qpso_compare.py "$prob" "$1" 40 "$2"
   echo
 done
+# Output error (seed 001 eq. 9): every candidate simulated on the 33 twin CFD cases.
+"$bin" bench --objective output --population 40 --iterations "${OUTPUT_ITERATIONS:-5}" --export "$prob"
+"$venv/bin/python" bench/qpso_output_error.py "$prob" 40 "${OUTPUT_ITERATIONS:-5}"

@@ -56,6 +56,10 @@ pub enum Command {
         /// l2 (quadratic form) or l1 (seed 001 eq. 14, every row per evaluation).
         #[arg(long, default_value = "l2")]
         norm: String,
+        /// equation (seed 001 eq. 14) or output (eq. 9: every candidate simulated on the
+        /// 33 twin CFD cases).
+        #[arg(long, default_value = "equation")]
+        objective: String,
         #[arg(long, default_value_t = 40)]
         population: usize,
         #[arg(long, default_value_t = 300)]
@@ -105,7 +109,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Provenance { parameter } => cmd::provenance::run(&root, &parameter),
         Command::Graph { dot } => cmd::graph::run(&root, dot),
         Command::Twin { what: TwinCommand::Starccm { out, seed } } => cmd::twin::starccm(&root, &out, seed),
-        Command::Bench { norm, population, iterations, export } => cmd::bench::run(&norm, population, iterations, export.as_deref()),
+        Command::Bench { norm, objective, population, iterations, export } => cmd::bench::run(&norm, &objective, population, iterations, export.as_deref()),
         Command::Twin { what: TwinCommand::Pool { out, truth, seed, effects } } => cmd::twin::pool(&root, &out, &truth, seed, &effects),
     }
 }

@@ -87,15 +87,20 @@ fn output_error_with_the_simulator_in_the_loop_recovers_the_twin() {
     let fit = estimate::by_name("qpso").unwrap().fit(&reg, &o).unwrap();
     let (err, which) = worst(&fit);
     eprintln!("qpso output error: worst {:.2} % ({which}) in {:.1} s, {:?} evaluations", 100.0 * err, t0.elapsed().as_secs_f64(), fit.evaluations);
-    // Drag is pinned by the steady speeds, added mass by the rise times: within 5 %. The
-    // linear sway drag Y_v (-1.5 next to Y_vv = -114) barely changes any simulated velocity
-    // and is not yet resolved by 400 iterations from the whole box (open: ~20 % off).
-    let truth = ParamLayout::new(&vehicle.dofs).from_hydro(&Hydro::reference());
-    for (p, t) in fit.parameters.iter().zip(truth) {
-        let rel = ((p.value - t) / t).abs();
-        let tol = if p.name == "Y_v" { 0.35 } else { 0.05 };
-        assert!(rel < tol, "{} = {} vs {t} ({:.1} %)", p.name, p.value, 100.0 * rel);
-    }
+    // Drag is pinned by the steady speeds, added mass by the rise times; the slow cases pin
+    // the linear drag because each case counts by its relative error.
+    assert!(err < 0.03, "{which} off by {:.2} %", 100.0 * err);
     let e = estimate::by_name("ols").unwrap().fit(&reg, &o).unwrap_err().to_string();
     assert!(e.contains("use qpso, pso or ga"), "{e}");
+}
+
+#[test]
+fn a_time_limit_returns_the_best_so_far_and_says_so() {
+    let reg = problem();
+    let o = Options { rigid_mass: Vehicle::reference().rigid_mass(), norm: Norm::L1, iterations: 100_000, restarts: 3, max_seconds: Some(0.5), ..Options::default() };
+    let t0 = std::time::Instant::now();
+    let fit = estimate::by_name("qpso").unwrap().fit(&reg, &o).unwrap();
+    assert!(t0.elapsed().as_secs_f64() < 5.0);
+    let why = fit.stopped_early.expect("stopped by the limit");
+    assert!(why.contains("time limit of 0.5 s"), "{why}");
 }

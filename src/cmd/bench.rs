@@ -39,12 +39,17 @@ pub fn seed_001_problem(rows: usize) -> Regression {
     reg
 }
 
-pub fn run(norm: &str, population: usize, iterations: usize, export: Option<&Path>) -> anyhow::Result<ExitCode> {
+pub fn run(norm: &str, objective: &str, population: usize, iterations: usize, export: Option<&Path>) -> anyhow::Result<ExitCode> {
     let norm = match norm {
         "l1" => Norm::L1,
         "l2" => Norm::L2,
         other => anyhow::bail!("--norm {other}: use l1 or l2"),
     };
+    match objective {
+        "equation" => {}
+        "output" => return output_error(population, iterations, export),
+        other => anyhow::bail!("--objective {other}: use equation or output"),
+    }
     let reg = seed_001_problem(SEED_001_ROWS);
     let (k, p) = (reg.rows(), reg.cols());
     let problem = Problem::new(&reg, &Vehicle::reference().rigid_mass(), norm);
@@ -79,6 +84,63 @@ pub fn run(norm: &str, population: usize, iterations: usize, export: Option<&Pat
     );
     println!("  {evals} evaluations in {secs:.3} s = {rate:.0} evaluations/s");
     println!("  per evaluation: {flops} flops, {bytes} bytes read -> {:.2} GFLOP/s, {:.2} GB/s", rate * flops as f64 / 1e9, rate * bytes as f64 / 1e9);
+    println!("  best cost {:.6e}", swarm.best_cost[swarm.g]);
+    Ok(ExitCode::SUCCESS)
+}
+
+/// QPSO with the simulator in the loop on the 33 twin CFD cases (seed 1, as shipped).
+fn output_error(population: usize, iterations: usize, export: Option<&Path>) -> anyhow::Result<ExitCode> {
+    let vehicle = Vehicle::reference();
+    let opts = crate::io::starccm::ImportOptions { columns: &Default::default(), dofs: &vehicle.dofs, configured_force: Default::default() };
+    let responses: Vec<_> = crate::twin::cfd::default_cases()
+        .iter()
+        .map(|c| crate::io::starccm::parse("twin.csv", &crate::twin::cfd::export(&vehicle, Hydro::reference(), c, 1), &opts).map(|i| i.response))
+        .collect::<Result<_, _>>()?;
+    let refs: Vec<_> = responses.iter().collect();
+    let reg = Regression::build(&vehicle, &refs, 0.0);
+    let o = crate::estimate::swarm::OutputError::new(&vehicle, &refs);
+    let problem = Problem::new(&reg, &vehicle.rigid_mass(), Norm::L2);
+    if let Some(path) = export {
+        // n_cases, then per case: n, t[n], tau[n x 4], nu[n x 4], weight[4]; then rigid mass
+        // [m, m, m, Izz], bounds lo[12], hi[12] (parameter order of the report).
+        let idx = [0usize, 1, 2, 5];
+        let mut v: Vec<f64> = vec![refs.len() as f64];
+        for (r, w) in refs.iter().zip(&o.weight) {
+            v.push(r.len() as f64);
+            v.extend(&r.t);
+            for k in 0..r.len() {
+                let tau = r.tau(k);
+                v.extend(idx.iter().map(|&i| tau[i]));
+            }
+            for k in 0..r.len() {
+                let nu = r.nu(k);
+                v.extend(idx.iter().map(|&i| nu[i]));
+            }
+            v.extend(idx.iter().map(|&i| w[i]));
+        }
+        let m = vehicle.rigid_mass();
+        v.extend(idx.iter().map(|&i| m[i]));
+        v.extend(&problem.lo);
+        v.extend(&problem.hi);
+        let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
+        for x in v {
+            f.write_all(&x.to_le_bytes())?;
+        }
+        f.flush()?;
+    }
+    let problem = problem.with_output_error(o);
+    let samples: usize = refs.iter().map(|r| r.len()).sum();
+    let mut rng = Rng::new(1);
+    let mut solver = Qpso;
+    let start = std::time::Instant::now();
+    let mut swarm = solver.init(&problem, &mut rng, population);
+    for it in 0..iterations {
+        solver.step(&problem, &mut swarm, &mut rng, it as f64 / iterations as f64);
+    }
+    let secs = start.elapsed().as_secs_f64();
+    let evals = problem.evaluations();
+    println!("qpso output error: {} cases, {samples} samples (RK4, h <= 0.01 s), population {population}, {iterations} iterations, {} threads", refs.len(), rayon::current_num_threads());
+    println!("  {evals} evaluations in {secs:.3} s = {:.1} evaluations/s ({:.2} ms each)", evals as f64 / secs, 1e3 * secs / evals as f64);
     println!("  best cost {:.6e}", swarm.best_cost[swarm.g]);
     Ok(ExitCode::SUCCESS)
 }

@@ -38,6 +38,9 @@ pub struct Fit {
     pub evaluations: Option<usize>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub objective_value: Option<f64>,
+    /// Why a population method stopped before its iteration limit (its time limit), if it did.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stopped_early: Option<String>,
     /// Recursive methods: (row index, parameters) along the data.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub trace: Option<Vec<(usize, Vec<f64>)>>,
@@ -57,6 +60,9 @@ pub struct Options<'a> {
     /// Minimise the output error over these cases instead of the equation error (population
     /// methods only).
     pub output_error: Option<(&'a crate::model::Vehicle, &'a [&'a crate::io::Response])>,
+    /// Wall-clock limit of a population method, s: it then returns its best so far and says so
+    /// (such a result depends on the machine's speed, not only on the seed).
+    pub max_seconds: Option<f64>,
 }
 
 impl<'a> Options<'a> {
@@ -68,7 +74,7 @@ impl<'a> Options<'a> {
 
 impl Default for Options<'_> {
     fn default() -> Self {
-        Options { rigid_mass: [0.0; 6], seed: 1, population: 40, iterations: 2000, restarts: 5, norm: swarm::Norm::L2, forgetting: 1.0, progress: None, output_error: None }
+        Options { rigid_mass: [0.0; 6], seed: 1, population: 40, iterations: 2000, restarts: 5, norm: swarm::Norm::L2, forgetting: 1.0, progress: None, output_error: None, max_seconds: None }
     }
 }
 

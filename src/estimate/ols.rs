@@ -116,6 +116,7 @@ pub(crate) fn summarise(problem: &Regression, theta: &[f64], sigma: &BTreeMap<Do
         condition_number,
         evaluations: None,
         objective_value: None,
+        stopped_early: None,
         trace: None,
     }
 }

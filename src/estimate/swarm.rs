@@ -46,34 +46,38 @@ pub struct Problem<'a> {
 pub struct OutputError<'a> {
     pub vehicle: &'a crate::model::Vehicle,
     pub responses: &'a [&'a crate::io::Response],
-    /// 1 / mean square velocity per DOF over all cases, so m/s and rad/s compare.
-    pub weight: [f64; 6],
+    /// Per case and DOF, 1 / its mean square velocity: every case counts by its relative
+    /// error, so the slow cases that pin the linear drag weigh as much as the fast ones.
+    pub weight: Vec<[f64; 6]>,
 }
 
 impl<'a> OutputError<'a> {
     pub fn new(vehicle: &'a crate::model::Vehicle, responses: &'a [&'a crate::io::Response]) -> OutputError<'a> {
-        let mut ss = [0.0; 6];
-        let mut n = [0usize; 6];
-        for r in responses {
-            for (d, s) in &r.dofs {
-                ss[d.index()] += s.velocity.iter().map(|v| v * v).sum::<f64>();
-                n[d.index()] += s.velocity.len();
-            }
-        }
-        OutputError { vehicle, responses, weight: std::array::from_fn(|i| if ss[i] > 0.0 { n[i] as f64 / ss[i] } else { 0.0 }) }
+        let weight = responses
+            .iter()
+            .map(|r| {
+                let mut w = [0.0; 6];
+                for (d, s) in &r.dofs {
+                    let ms = s.velocity.iter().map(|v| v * v).sum::<f64>() / s.velocity.len().max(1) as f64;
+                    w[d.index()] = if ms > 1e-12 { 1.0 / ms } else { 0.0 };
+                }
+                w
+            })
+            .collect();
+        OutputError { vehicle, responses, weight }
     }
 
     /// Mean weighted squared velocity error of the model `theta` over every case.
     fn cost(&self, layout: &crate::model::ParamLayout, theta: &[f64]) -> f64 {
         let plant = crate::model::Plant::new(self.vehicle, layout.to_hydro(theta));
         let (mut s, mut n) = (0.0, 0usize);
-        for r in self.responses {
+        for (r, w) in self.responses.iter().zip(&self.weight) {
             let sim = crate::validate::simulate_response(&plant, r);
             for (d, series) in &r.dofs {
                 let i = d.index();
                 for (k, v) in series.velocity.iter().enumerate() {
                     let e = sim[k][i] - v;
-                    s += self.weight[i] * if e.is_finite() { e * e } else { 1e6 };
+                    s += w[i] * if e.is_finite() { e * e } else { 1e6 };
                 }
                 n += series.velocity.len();
             }
@@ -85,7 +89,8 @@ impl<'a> OutputError<'a> {
 impl<'a> Problem<'a> {
     /// Bounds: every coefficient is negative (FORMATS.md sign convention); its magnitude is
     /// bounded by a scale read from the data: added mass by 5 x the rigid-body mass of its DOF,
-    /// linear drag by 3 max|tau| / max|nu|, quadratic drag by 3 max|tau| / max|nu|^2.
+    /// linear drag by 3 x the smallest |force| / |speed| over samples moving at >= 5 % of the
+    /// top speed, quadratic drag by 3 max|tau| / max|nu|^2.
     pub fn new(reg: &'a Regression, rigid_mass: &[f64; 6], norm: Norm) -> Problem<'a> {
         let p = reg.cols();
         let mut fmax = [0.0f64; 6];
@@ -106,6 +111,27 @@ impl<'a> Problem<'a> {
             }
         }
         let w: Vec<f64> = reg.row_dof.iter().map(|d| 1.0 / (scale[d.index()] / count[d.index()].max(1) as f64).sqrt().max(1e-9)).collect();
+        // Linear drag can be no larger than force / speed at any moving sample near steady
+        // state; the smallest such ratio (the slowest steady case) bounds it far tighter than
+        // max force / max speed.
+        let col = |g: crate::model::params::Group, d: usize| (0..p).find(|&j| reg.layout.slot(j) == (g, crate::dof::Dof::ALL[d]));
+        let mut amax = [0.0f64; 6];
+        for i in 0..reg.rows() {
+            let d = reg.row_dof[i].index();
+            if let Some(j) = col(crate::model::params::Group::AddedMass, d) {
+                amax[d] = amax[d].max(reg.row(i)[j].abs());
+            }
+        }
+        let mut lin_bound = [f64::INFINITY; 6];
+        for i in 0..reg.rows() {
+            let d = reg.row_dof[i].index();
+            let (Some(jl), Some(ja)) = (col(crate::model::params::Group::LinearDrag, d), col(crate::model::params::Group::AddedMass, d)) else { continue };
+            let (v, a) = (reg.row(i)[jl].abs(), reg.row(i)[ja].abs());
+            // Steady samples only (acceleration under 2 % of its peak): there force = drag.
+            if v >= 0.05 * vmax[d] && v > 0.0 && a <= 0.02 * amax[d] {
+                lin_bound[d] = lin_bound[d].min(reg.y[i].abs() / v);
+            }
+        }
         let mut lo = vec![0.0; p];
         let hi = vec![0.0; p];
         for (j, l) in lo.iter_mut().enumerate() {
@@ -114,7 +140,7 @@ impl<'a> Problem<'a> {
             let v = vmax[d].max(1e-3);
             *l = -match g {
                 crate::model::params::Group::AddedMass => 5.0 * rigid_mass[d],
-                crate::model::params::Group::LinearDrag => 3.0 * fmax[d] / v,
+                crate::model::params::Group::LinearDrag => 3.0 * lin_bound[d].min(fmax[d] / v),
                 crate::model::params::Group::QuadraticDrag => 3.0 * fmax[d] / (v * v),
             };
         }
@@ -450,17 +476,26 @@ pub fn execute(name: &str, make: &dyn Fn() -> Box<dyn Solver>, reg: &Regression,
         problem = problem.with_output_error(OutputError::new(vehicle, responses));
     }
     let mut answers: Vec<(Vec<f64>, f64)> = Vec::new();
+    let started = std::time::Instant::now();
+    let mut stopped_early = None;
     for r in 0..opts.restarts.max(1) {
         let mut rng = Rng::derive(opts.seed, &format!("{name}/restart/{r}"));
         let mut solver = make();
         let mut swarm = solver.init(&problem, &mut rng, opts.population);
         for it in 0..opts.iterations {
+            if let Some(limit) = opts.max_seconds.filter(|l| started.elapsed().as_secs_f64() > *l) {
+                stopped_early = Some(format!("time limit of {limit} s reached in restart {} of {} after {it} of {} iterations", r + 1, opts.restarts.max(1), opts.iterations));
+                break;
+            }
             solver.step(&problem, &mut swarm, &mut rng, it as f64 / opts.iterations.max(1) as f64);
             if let Some(p) = opts.progress {
                 p((r * opts.iterations + it + 1) as f64 / (opts.restarts.max(1) * opts.iterations) as f64);
             }
         }
         answers.push((swarm.best[swarm.g].clone(), swarm.best_cost[swarm.g]));
+        if stopped_early.is_some() {
+            break;
+        }
     }
     answers.sort_by(|a, b| a.1.total_cmp(&b.1));
     let best = answers[0].0.clone();
@@ -494,6 +529,7 @@ pub fn execute(name: &str, make: &dyn Fn() -> Box<dyn Solver>, reg: &Regression,
         condition_number,
         evaluations: Some(problem.evaluations()),
         objective_value: Some(answers[0].1),
+        stopped_early,
         trace: None,
     })
 }

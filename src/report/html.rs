@@ -73,6 +73,12 @@ impl Page<'_> {
                  <table><tr><th>parameter</th><th>value</th><th>± std. error</th><th>unit</th><th>rel. error</th><th>provenance</th></tr>\n",
                 s = esc(&f.stage), m = esc(&f.method), o = f.objective.label(), n = f.fit.samples, c = f.cases.len(), k = num(f.fit.condition_number),
             );
+            if let Some(why) = &f.fit.stopped_early {
+                let _ = writeln!(h, "<p class=\"warn\">The search was cut short: {}. These values depend on the machine's speed, not only on the seed.</p>", esc(why));
+            }
+            if let Some(e) = f.fit.evaluations {
+                let _ = writeln!(h, "<p class=\"small\">{e} objective evaluations; ± is the standard deviation over seeded restarts, the interval their range (see parameters.json).</p>");
+            }
             for p in self.parameters.parameters.iter().filter(|p| p.model == f.stage) {
                 let rel = 100.0 * p.stderr / p.value.abs();
                 let flag = if p.identifiable { String::new() } else { " <span class=\"warn\">not identifiable from these cases</span>".into() };

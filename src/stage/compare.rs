@@ -120,6 +120,7 @@ impl StageImpl for Settings {
                 forgetting: m.forgetting,
                 progress: None,
                 output_error: (m.objective == fit::Objective::OutputError).then_some((ctx.vehicle, &refs[..])),
+                max_seconds: m.max_seconds,
             };
             let start = std::time::Instant::now();
             let fit = est.fit(&problem, &opts);

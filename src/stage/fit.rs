@@ -68,6 +68,11 @@ pub struct Settings {
     pub norm: crate::estimate::swarm::Norm,
     /// Forgetting factor of rls (seed 000 eq. 19); 1 keeps every row equally.
     pub forgetting: f64,
+    /// Wall-clock limit for qpso, pso and ga, s; the best so far is kept and the report says
+    /// the search was cut short. Not part of the numbers' identity: leave it unset for
+    /// reproducible results.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_seconds: Option<f64>,
 }
 
 impl Default for Settings {
@@ -82,6 +87,7 @@ impl Default for Settings {
             restarts: 5,
             norm: crate::estimate::swarm::Norm::L2,
             forgetting: 1.0,
+            max_seconds: None,
         }
     }
 }
@@ -122,7 +128,7 @@ impl StageImpl for Settings {
         let obj = v.as_object_mut().expect("settings are a map");
         let stochastic = estimate::by_name(&self.method).is_some_and(|e| e.stochastic());
         if !stochastic {
-            for k in ["seed", "population", "iterations", "restarts", "norm"] {
+            for k in ["seed", "population", "iterations", "restarts", "norm", "max_seconds"] {
                 obj.remove(k);
             }
         }
@@ -157,6 +163,7 @@ impl StageImpl for Settings {
             forgetting: self.forgetting,
             progress: Some(&report),
             output_error: (self.objective == Objective::OutputError).then_some((ctx.vehicle, &refs[..])),
+            max_seconds: self.max_seconds,
         };
         let fit = estimator.fit(&problem, &opts)?;
         let result = FitResult {
