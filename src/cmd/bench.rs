@@ -6,6 +6,7 @@ use crate::estimate::swarm::{Norm, Problem, Qpso, Solver};
 use crate::estimate::Regression;
 use crate::model::{Hydro, Vehicle};
 use crate::rng::Rng;
+use rayon::prelude::*;
 use std::io::Write as _;
 use std::path::Path;
 use std::process::ExitCode;
@@ -84,6 +85,25 @@ pub fn run(norm: &str, objective: &str, population: usize, iterations: usize, ex
     );
     println!("  {evals} evaluations in {secs:.3} s = {rate:.0} evaluations/s");
     println!("  per evaluation: {flops} flops, {bytes} bytes read -> {:.2} GFLOP/s, {:.2} GB/s", rate * flops as f64 / 1e9, rate * bytes as f64 / 1e9);
+    // The objective alone: the final swarm evaluated repeatedly (no solver bookkeeping).
+    let reps = match norm {
+        Norm::L2 => 20_000,
+        Norm::L1 => 100,
+    };
+    let t0 = std::time::Instant::now();
+    for _ in 0..reps {
+        std::hint::black_box(problem.cost_all(&swarm.x));
+    }
+    let eval_rate = (reps * swarm.x.len()) as f64 / t0.elapsed().as_secs_f64();
+    let peak = fma_peak();
+    let achieved = eval_rate * flops as f64 / 1e9;
+    println!("  objective alone: {eval_rate:.0} evaluations/s = {achieved:.1} GFLOP/s");
+    println!(
+        "  machine bound (measured FMA peak on {} threads): {peak:.1} GFLOP/s -> the objective runs at {:.0} % of it ({:.2}x from the bound)",
+        rayon::current_num_threads(),
+        100.0 * achieved / peak,
+        peak / achieved
+    );
     println!("  best cost {:.6e}", swarm.best_cost[swarm.g]);
     Ok(ExitCode::SUCCESS)
 }
@@ -143,4 +163,53 @@ fn output_error(population: usize, iterations: usize, export: Option<&Path>) -> 
     println!("  {evals} evaluations in {secs:.3} s = {:.1} evaluations/s ({:.2} ms each)", evals as f64 / secs, 1e3 * secs / evals as f64);
     println!("  best cost {:.6e}", swarm.best_cost[swarm.g]);
     Ok(ExitCode::SUCCESS)
+}
+
+/// The machine's double-precision multiply-add bound, measured: independent FMA chains on
+/// every core (AVX-512 when the CPU has it, else AVX2, else scalar), in GFLOP/s.
+pub fn fma_peak() -> f64 {
+    #[inline(always)]
+    fn chains<const FMA: bool>(n: usize) -> f64 {
+        let mut acc = [[1.0f64; 8]; 12];
+        let (a, b) = (0.999_999_9, 1e-9);
+        for _ in 0..n {
+            for v in acc.iter_mut() {
+                for x in v.iter_mut() {
+                    *x = if FMA { x.mul_add(a, b) } else { *x * a + b };
+                }
+            }
+        }
+        acc.iter().flatten().sum()
+    }
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,fma")]
+    fn chains512(n: usize) -> f64 {
+        chains::<true>(n)
+    }
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn chains256(n: usize) -> f64 {
+        chains::<true>(n)
+    }
+    let run = |n: usize| -> f64 {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("fma") {
+                // SAFETY: features checked just above.
+                return unsafe { chains512(n) };
+            }
+            if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+                // SAFETY: features checked just above.
+                return unsafe { chains256(n) };
+            }
+        }
+        chains::<false>(n)
+    };
+    let n = 2_000_000;
+    let threads = rayon::current_num_threads();
+    let start = std::time::Instant::now();
+    let sink: f64 = (0..threads).into_par_iter().map(|_| run(n)).sum();
+    let secs = start.elapsed().as_secs_f64();
+    std::hint::black_box(sink);
+    (threads * n * 12 * 8 * 2) as f64 / secs / 1e9
 }
