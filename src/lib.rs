@@ -11,6 +11,7 @@ pub mod dof;
 pub mod estimate;
 pub mod fsutil;
 pub mod fusion;
+pub mod interrupt;
 pub mod io;
 pub mod model;
 pub mod pipeline;

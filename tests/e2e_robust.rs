@@ -122,3 +122,39 @@ fn two_concurrent_builds_do_not_interleave() {
     assert!(stderr(&a).contains("waiting for another build") || stderr(&b).contains("waiting for another build"));
     assert_eq!(reports(dir), reports(clean.path()));
 }
+
+#[test]
+fn ctrl_c_stops_a_long_search_keeps_what_finished_and_the_next_build_resumes() {
+    let p = project();
+    let dir = p.path();
+    let yaml = read(dir, "pipeline.yaml");
+    let endless = yaml.replace("      method: ols\n", "      method: qpso\n      seed: 1\n      iterations: 100000000\n      restarts: 1\n");
+    assert_ne!(endless, yaml);
+    std::fs::write(dir.join("pipeline.yaml"), &endless).unwrap();
+    let child = Command::new(BIN).arg("--project").arg(dir).args(["build", "-j", "2"]).stderr(Stdio::piped()).spawn().unwrap();
+    // Wait until the fit is searching: every import has finished and been logged.
+    let start = Instant::now();
+    let imports = count(dir, "cases/cfd/starccm") + count(dir, "cases/pool");
+    while read_opt(dir, ".hydrofit/log").lines().count() < imports && start.elapsed() < Duration::from_secs(120) {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    std::thread::sleep(Duration::from_millis(500));
+    let killed = Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
+    assert!(killed.success());
+    let t = Instant::now();
+    let out = child.wait_with_output().unwrap();
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(130), "{err}");
+    assert!(t.elapsed() < Duration::from_secs(20), "took {:?} to stop", t.elapsed());
+    assert!(err.contains("interrupted") && !err.contains("failed"), "{err}");
+    assert!(!dir.join("reports/index.html").exists());
+    // The imports are cached: with a finite search the next build runs only what depends on the fit.
+    std::fs::write(dir.join("pipeline.yaml"), yaml.replace("      method: ols\n", "      method: qpso\n      seed: 1\n      iterations: 50\n      restarts: 1\n")).unwrap();
+    let out = ok(dir, &["build"]);
+    assert!(ran(&out) > 0 && ran(&out) <= SINGLE_STAGES, "{out}");
+    assert!(dir.join("reports/index.html").exists());
+}
+
+fn read_opt(dir: &std::path::Path, rel: &str) -> String {
+    std::fs::read_to_string(dir.join(rel)).unwrap_or_default()
+}

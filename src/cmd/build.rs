@@ -17,10 +17,15 @@ pub fn run(root: &Path, targets: Vec<String>, jobs: Option<usize>, explain: bool
     plan.cache().recover()?;
     let jobs = jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     let progress = Progress::new();
+    crate::interrupt::install();
     let s = executor::build(&plan, &Options { targets, jobs, explain }, &progress)?;
     let secs = start.elapsed().as_secs_f64();
     for p in &s.published {
         progress.println(format!("wrote {p}"));
+    }
+    if s.interrupted {
+        eprintln!("hydrofit: interrupted: {} ran and are cached, the rest will run next time ({secs:.2} s)", s.ran.len());
+        return Ok(ExitCode::from(130));
     }
     if !s.failed.is_empty() {
         let names: Vec<&str> = s.failed.iter().map(|(id, _)| id.as_str()).collect();

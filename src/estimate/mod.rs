@@ -127,6 +127,8 @@ pub enum EstimateError {
     NoData,
     #[error("the least-squares solution is not finite (the regressor is singular)")]
     Singular,
+    #[error("interrupted (Ctrl-C): nothing was kept")]
+    Interrupted,
     #[error("{0} minimises the equation error only; for objective: output_error use qpso, pso or ga")]
     NoOutputError(&'static str),
 }

@@ -599,6 +599,9 @@ pub fn execute(name: &str, make: &dyn Fn() -> Box<dyn Solver>, reg: &Regression,
         let mut solver = make();
         let mut swarm = solver.init(&problem, &mut rng, opts.population);
         for it in 0..opts.iterations {
+            if crate::interrupt::requested() {
+                return Err(EstimateError::Interrupted);
+            }
             if let Some(limit) = opts.max_seconds.filter(|l| started.elapsed().as_secs_f64() > *l) {
                 stopped_early = Some(format!("time limit of {limit} s reached in restart {} of {} after {it} of {} iterations", r + 1, opts.restarts.max(1), opts.iterations));
                 break;

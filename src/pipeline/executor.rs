@@ -26,6 +26,8 @@ pub struct Summary {
     /// Instances not run because something they depend on failed.
     pub skipped: Vec<String>,
     pub published: Vec<String>,
+    /// Ctrl-C stopped the build: instances not started are neither run nor failed.
+    pub interrupted: bool,
 }
 
 #[derive(Clone, Copy, PartialEq)]
@@ -57,8 +59,9 @@ pub fn build(plan: &Plan, opts: &Options, progress: &Progress) -> anyhow::Result
     std::thread::scope(|scope| {
         let mut running = 0;
         loop {
+            let stop = crate::interrupt::requested();
             let ready: Vec<usize> = (0..n)
-                .filter(|&i| state[i] == State::Waiting && plan.graph.instances[i].deps.iter().all(|&d| state[d] == State::Done))
+                .filter(|&i| !stop && state[i] == State::Waiting && plan.graph.instances[i].deps.iter().all(|&d| state[d] == State::Done))
                 .take(jobs - running)
                 .collect();
             for i in ready {
@@ -87,6 +90,11 @@ pub fn build(plan: &Plan, opts: &Options, progress: &Progress) -> anyhow::Result
                     state[i] = State::Done;
                     summary.ran.push(id);
                 }
+                Err(_) if crate::interrupt::requested() => {
+                    // Stopped by Ctrl-C, not a failure: it runs again next time.
+                    state[i] = State::Failed;
+                    progress.println(format!("{id}: stopped"));
+                }
                 Err(e) => {
                     state[i] = State::Failed;
                     progress.println(format!("error: stage {id} failed\n  {}", e.replace('\n', "\n  ")));
@@ -97,6 +105,7 @@ pub fn build(plan: &Plan, opts: &Options, progress: &Progress) -> anyhow::Result
         }
     });
     bar.finish_and_clear();
+    summary.interrupted = crate::interrupt::requested();
     for i in (0..n).filter(|&i| state[i] == State::Done) {
         summary.published.extend(publish(plan, i, &cache)?);
     }
