@@ -51,6 +51,11 @@ pub enum Command {
         #[command(subcommand)]
         what: TwinCommand,
     },
+    /// Write OpenFOAM cases: the 2D circular cylinder of the project's CFD series.
+    Openfoam {
+        #[command(subcommand)]
+        what: OpenfoamCommand,
+    },
     /// Benchmark QPSO on a seed-001-sized equation-error problem (52,690 rows, 12 parameters).
     Bench {
         /// l2 (quadratic form) or l1 (seed 001 eq. 14, every row per evaluation).
@@ -68,6 +73,27 @@ pub enum Command {
         /// Python comparison in bench/qpso_compare.py.
         #[arg(long)]
         export: Option<PathBuf>,
+    },
+}
+
+#[derive(Debug, Subcommand)]
+pub enum OpenfoamCommand {
+    /// A new surge case of a 2D circular cylinder (per metre of span) pushed by a constant
+    /// force from rest in still water: mesh (blockMesh), pimpleFoam, sixDoFRigidBodyMotion.
+    New {
+        /// The case folder to create (relative to the project), e.g. cases/cfd/openfoam/cylinder_2N.
+        dir: PathBuf,
+        /// Applied force along +x, N per metre of span.
+        #[arg(long)]
+        force: f64,
+        /// Body mass, kg per metre of span (default: twice the displaced water, 62.83 kg).
+        #[arg(long)]
+        mass: Option<f64>,
+        #[arg(long, default_value_t = 0.1)]
+        radius: f64,
+        /// Simulated time, s (default: long enough for about 2.5 m of travel).
+        #[arg(long)]
+        end_time: Option<f64>,
     },
 }
 
@@ -110,6 +136,14 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Graph { dot } => cmd::graph::run(&root, dot),
         Command::Twin { what: TwinCommand::Starccm { out, seed } } => cmd::twin::starccm(&root, &out, seed),
         Command::Bench { norm, objective, population, iterations, export } => cmd::bench::run(&norm, &objective, population, iterations, export.as_deref()),
+        Command::Openfoam { what: OpenfoamCommand::New { dir, force, mass, radius, end_time } } => {
+            let mut c = crate::openfoam::case::CylinderCase { force_n: force, mass_kg: 0.0, radius_m: radius, end_time_s: end_time };
+            c.mass_kg = mass.unwrap_or(2.0 * c.displaced_mass());
+            let dir = root.join(dir);
+            c.write(&dir)?;
+            println!("wrote {} (force {force} N/m, mass {:.3} kg/m, end time {} s)", dir.display(), c.mass_kg, c.end_time());
+            Ok(ExitCode::SUCCESS)
+        }
         Command::Twin { what: TwinCommand::Pool { out, truth, seed, effects } } => cmd::twin::pool(&root, &out, &truth, seed, &effects),
     }
 }

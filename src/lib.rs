@@ -14,6 +14,7 @@ pub mod fusion;
 pub mod interrupt;
 pub mod io;
 pub mod model;
+pub mod openfoam;
 pub mod pipeline;
 pub mod progress;
 pub mod report;

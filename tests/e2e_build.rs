@@ -8,7 +8,7 @@ fn cold_build_then_nothing_to_do() {
     let p = project();
     let dir = p.path();
     let out = ok(dir, &["build"]);
-    let n = count(dir, "cases/cfd/starccm") + count(dir, "cases/pool");
+    let n = count(dir, "cases/cfd/starccm") + count(dir, "cases/cfd/openfoam") + count(dir, "cases/pool");
     assert_eq!(ran(&out), n + SINGLE_STAGES, "{out}");
     for f in ["index.html", "parameters.json", "validation.json", "fusion.json"] {
         assert!(dir.join("reports").join(f).is_file(), "reports/{f} missing");
@@ -30,7 +30,8 @@ fn parameters_json_has_the_contract_shape_and_recovers_the_truth() {
         ("X_uu", -44.17), ("Y_vv", -114.30), ("Z_ww", -121.30), ("N_rr", -2.64),
     ];
     let params = json(dir, "reports/parameters.json");
-    let list = params["parameters"].as_array().unwrap();
+    // The vehicle's model; the OpenFOAM cylinder's parameters follow under model `cylinder`.
+    let list: Vec<&serde_json::Value> = params["parameters"].as_array().unwrap().iter().filter(|p| p["model"] == "fit").collect();
     assert_eq!(list.len(), truth.len());
     for (name, t) in truth {
         let p = list.iter().find(|p| p["name"] == name).unwrap_or_else(|| panic!("{name} missing"));
@@ -92,11 +93,12 @@ fn a_changed_setting_reruns_the_fit_but_not_the_imports() {
     assert!(status.starts_with("fit: setting.skip_start_s changed: 0.0 -> 0.1\n"), "{status}");
     assert_eq!(status.lines().count(), 3, "{status}");
     assert_eq!(ran(&ok(dir, &["build"])), 3);
-    // A new vehicle mass reruns the fits (fit, compare), not the imports or the fusion (they
-    // depend on the DOF list only).
+    // A new vehicle mass reruns the fits (fit, compare, and cylinder: a fit's key holds the
+    // vehicle section even when the fit names its own body), not the imports or the fusion
+    // (they depend on the DOF list only).
     let spec = read(dir, "pipeline.yaml").replace("mass_kg: 35.2", "mass_kg: 35.3");
     std::fs::write(dir.join("pipeline.yaml"), spec).unwrap();
-    assert_eq!(ran(&ok(dir, &["build"])), 4);
+    assert_eq!(ran(&ok(dir, &["build"])), 5);
 }
 
 #[test]
@@ -120,7 +122,9 @@ fn provenance_traces_a_parameter_to_its_files() {
     assert!(stderr(&before).contains("run `hydrofit build` first"), "{}", stderr(&before));
     ok(dir, &["build"]);
     let out = stdout(&run(dir, &["provenance", "X_uu"]));
-    assert!(out.starts_with("X_uu = -4"), "{out}");
+    // The vehicle's X_uu (and the OpenFOAM cylinder's, under stage cylinder).
+    assert!(out.lines().any(|l| l.starts_with("X_uu = -4")), "{out}");
+    assert!(out.contains("<- stage cylinder (kind fit") && out.contains("cylinder_2N/constant/dynamicMeshDict blake3 "), "{out}");
     assert!(out.contains("<- stage fit (kind fit, key "), "{out}");
     let h = hydrofit::fsutil::hash_file(&dir.join("cases/cfd/starccm/surge_100N.csv")).unwrap();
     assert!(out.contains(&"cfd[surge_100N] (key ".to_string()), "{out}");

@@ -31,7 +31,14 @@ pub fn run(root: &Path, name: &str) -> anyhow::Result<ExitCode> {
         crate::outln!("  <- {} imported cases:", r.cases.len());
         for c in &r.cases {
             let key = g.instances.iter().position(|x| x.id == c.id).map_or("?", |j| short(&plan.keys[j]));
-            crate::outln!("       {} (key {key}) <- {} blake3 {}", c.id, c.source.path, c.source.blake3);
+            if c.inputs.is_empty() {
+                crate::outln!("       {} (key {key}) <- {} blake3 {}", c.id, c.source.path, c.source.blake3);
+            } else {
+                crate::outln!("       {} (key {key}) <- {} files:", c.id, c.inputs.len());
+                for f in &c.inputs {
+                    crate::outln!("           {} blake3 {}", f.path, f.blake3);
+                }
+            }
         }
     }
     if !found {

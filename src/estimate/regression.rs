@@ -26,6 +26,14 @@ impl Regression {
         self.layout.len()
     }
 
+    /// Appends the rows of `other` (same parameter layout).
+    pub fn append(&mut self, other: Regression) {
+        assert_eq!(self.layout.len(), other.layout.len(), "same parameters");
+        self.phi.extend(other.phi);
+        self.y.extend(other.y);
+        self.row_dof.extend(other.row_dof);
+    }
+
     pub fn row(&self, i: usize) -> &[f64] {
         let p = self.cols();
         &self.phi[i * p..(i + 1) * p]

@@ -15,6 +15,8 @@ pub enum Source {
     Column,
     /// Applied force taken from `pipeline.yaml` (the file had no force column).
     Configured,
+    /// Read from the case's own dictionaries (an OpenFOAM case's body acceleration x mass).
+    Case,
     /// Acceleration by central differences of the velocity (the file had no acceleration column).
     Differentiated,
 }

@@ -70,6 +70,10 @@ fn fan_out(root: &Path, st: &StageSpec) -> Result<Vec<(String, Vec<String>)>, Gr
             let mut files = Vec::new();
             if p.is_dir() {
                 files_under(root, &p, &mut files).map_err(|source| GraphError::Read { path: r.clone(), source })?;
+                if let Some(keep) = st.kind.input_filter {
+                    let prefix = format!("{r}/");
+                    files.retain(|f| f.strip_prefix(&prefix).is_some_and(keep));
+                }
             } else {
                 files.push(r.clone());
             }

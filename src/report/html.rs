@@ -35,6 +35,8 @@ pub struct Page<'a> {
     pub notes: Vec<(String, Vec<String>)>,
     /// The pool sections (fusion, validation against recordings), already rendered.
     pub pool_html: String,
+    /// Sections on CFD test bodies other than the vehicle (the OpenFOAM cylinder).
+    pub body_html: String,
 }
 
 impl Page<'_> {
@@ -60,6 +62,7 @@ impl Page<'_> {
         }
         self.validation_table(&mut h);
         h.push_str(&self.pool_html);
+        h.push_str(&self.body_html);
         self.provenance(&mut h);
         h.push_str("</body></html>\n");
         h

@@ -32,7 +32,7 @@ pub struct Parameters {
 pub fn parameters(fits: &[FitResult]) -> Parameters {
     let mut out = Vec::new();
     for f in fits {
-        let inputs: Vec<InputFile> = f.cases.iter().map(|c| c.source.clone()).collect();
+        let inputs: Vec<InputFile> = f.cases.iter().flat_map(|c| if c.inputs.is_empty() { vec![c.source.clone()] } else { c.inputs.clone() }).collect();
         let mut settings = f.settings.clone();
         // Deterministic methods have no seed; say so rather than leave the reader guessing.
         if let Some(obj) = settings.as_object_mut() {

@@ -5,4 +5,5 @@ pub mod compare;
 pub mod html;
 pub mod json;
 pub mod plots;
+pub mod openfoam;
 pub mod pool;

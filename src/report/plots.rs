@@ -62,11 +62,19 @@ const LEGEND: u32 = 200;
 /// Velocity responses of one DOF: each CFD case in colour, the fitted model dashed black on
 /// top, and a legend naming every case in a column of its own.
 pub fn velocity(dof: Dof, traces: &[Trace]) -> anyhow::Result<String> {
+    curves(&format!("{dof}: CFD response and identified model"), "time (s)", &format!("{} ({})", dof.velocity(), dof.velocity_unit()), traces, "identified model (dashed)")
+}
+
+/// Measured curves in colour against x, each with its model curve dashed black on top.
+pub fn curves(title: &str, x_desc: &str, y_desc: &str, traces: &[Trace], dashed: &str) -> anyhow::Result<String> {
     ensure_font();
-    let tmax = traces.iter().filter_map(|tr| tr.t.last()).fold(0.0f64, |a, b| a.max(*b)).max(1e-3);
+    let finite = |v: &&f64| v.is_finite();
+    let xmax = traces.iter().flat_map(|tr| tr.t.iter().filter(finite)).fold(f64::MIN, |a, b| a.max(*b));
+    let xmin = traces.iter().flat_map(|tr| tr.t.iter().filter(finite)).fold(f64::MAX, |a, b| a.min(*b)).min(0.0);
+    let xmax = if xmax > xmin { xmax } else { xmin + 1e-3 };
     let (lo, hi) = traces
         .iter()
-        .flat_map(|tr| tr.measured.iter().chain(tr.simulated))
+        .flat_map(|tr| tr.measured.iter().chain(tr.simulated).filter(finite))
         .fold((0.0f64, 0.0f64), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
     let pad = 0.05 * (hi - lo).max(1e-6);
     let mut svg = String::new();
@@ -75,30 +83,26 @@ pub fn velocity(dof: Dof, traces: &[Trace]) -> anyhow::Result<String> {
         root.fill(&WHITE)?;
         let (plot, legend) = root.split_horizontally(WIDTH - LEGEND);
         let mut chart = ChartBuilder::on(&plot)
-            .caption(format!("{dof}: CFD response and identified model"), ("sans-serif", 18))
+            .caption(title, ("sans-serif", 18))
             .margin(12)
             .x_label_area_size(40)
             .y_label_area_size(64)
-            .build_cartesian_2d(0f64..tmax, (lo - pad)..(hi + pad))?;
-        chart
-            .configure_mesh()
-            .x_desc("time (s)")
-            .y_desc(format!("{} ({})", dof.velocity(), dof.velocity_unit()))
-            .label_style(("sans-serif", 13))
-            .draw()?;
+            .build_cartesian_2d(xmin..xmax, (lo - pad)..(hi + pad))?;
+        chart.configure_mesh().x_desc(x_desc).y_desc(y_desc).label_style(("sans-serif", 13)).draw()?;
+        let ok = |p: &(f64, f64)| p.0.is_finite() && p.1.is_finite();
         for (i, tr) in traces.iter().enumerate() {
-            chart.draw_series(LineSeries::new(thin(tr.t, tr.measured), PALETTE[i % PALETTE.len()].stroke_width(3)))?;
+            chart.draw_series(LineSeries::new(thin(tr.t, tr.measured).filter(ok), PALETTE[i % PALETTE.len()].stroke_width(3)))?;
         }
         for tr in traces {
-            chart.draw_series(DashedLineSeries::new(thin(tr.t, tr.simulated), 6, 4, BLACK.stroke_width(1)))?;
+            chart.draw_series(DashedLineSeries::new(thin(tr.t, tr.simulated).filter(ok), 6, 4, BLACK.stroke_width(1)))?;
         }
-        draw_legend(&legend, traces)?;
+        draw_legend(&legend, traces, dashed)?;
         root.present()?;
     }
     Ok(svg)
 }
 
-fn draw_legend<DB: DrawingBackend>(area: &DrawingArea<DB, plotters::coord::Shift>, traces: &[Trace]) -> anyhow::Result<()>
+fn draw_legend<DB: DrawingBackend>(area: &DrawingArea<DB, plotters::coord::Shift>, traces: &[Trace], dashed: &str) -> anyhow::Result<()>
 where
     DB::ErrorType: 'static,
 {
@@ -112,7 +116,7 @@ where
         y += row;
     }
     area.draw(&PathElement::new(vec![(8, y), (30, y)], BLACK.stroke_width(1)))?;
-    area.draw(&Text::new("identified model (dashed)", (36, y - 7), font))?;
+    area.draw(&Text::new(dashed.to_string(), (36, y - 7), font))?;
     Ok(())
 }
 

@@ -15,6 +15,7 @@ pub static KIND: Kind = Kind {
     version: 1,
     fan_out: false,
     reads_files: false,
+    input_filter: None,
     produces: Artifact::Comparison,
     consumes: &[Artifact::Responses, Artifact::PoolRuns],
     requires: &[Artifact::Responses],

@@ -5,6 +5,7 @@ use crate::dof::Dof;
 use crate::estimate::{self, Fit, Regression};
 use crate::model::Structure;
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -13,6 +14,7 @@ pub static KIND: Kind = Kind {
     version: 1,
     fan_out: false,
     reads_files: false,
+    input_filter: None,
     produces: Artifact::Model,
     consumes: &[Artifact::Responses],
     requires: &[Artifact::Responses],
@@ -73,6 +75,33 @@ pub struct Settings {
     /// reproducible results.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub max_seconds: Option<f64>,
+    /// The body this fit identifies, when it is not the pipeline's vehicle (a CFD test body
+    /// such as the OpenFOAM cylinder). A case that states its own mass overrides `mass_kg`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub vehicle: Option<crate::model::Vehicle>,
+    /// Reference values to show beside the identified ones (e.g. potential-flow added mass);
+    /// not used by the fit.
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub expected: BTreeMap<String, Expected>,
+    /// Length for the drag coefficients the report shows for a 2D body per metre of span,
+    /// Cd = drag / (1/2 rho u^2 L) (a cylinder: its diameter), m.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reference_length_m: Option<f64>,
+    /// Two-step identification (method ols): the added mass from the first this-many seconds
+    /// of each case after `skip_start_s`, while the body accelerates from rest and its drag is
+    /// still negligible, then the drag coefficients from every sample with that added mass
+    /// held. For bodies whose drag depends on the history of the motion (a wake that builds
+    /// up), which a one-step fit would fold into the added mass.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub added_mass_window_s: Option<f64>,
+}
+
+/// A reference value of one parameter and where it comes from.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Expected {
+    pub value: f64,
+    pub source: String,
 }
 
 impl Default for Settings {
@@ -88,6 +117,10 @@ impl Default for Settings {
             norm: crate::estimate::swarm::Norm::L2,
             forgetting: 1.0,
             max_seconds: None,
+            vehicle: None,
+            expected: BTreeMap::new(),
+            reference_length_m: None,
+            added_mass_window_s: None,
         }
     }
 }
@@ -98,6 +131,12 @@ pub struct CaseRef {
     pub id: String,
     pub case: String,
     pub source: InputFile,
+    /// All of the case's input files when it has more than `source` (an OpenFOAM case).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub inputs: Vec<InputFile>,
+    /// The body mass the case states, when it does.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mass_kg: Option<f64>,
 }
 
 /// The fit stage's artifact: parameters with their provenance.
@@ -112,6 +151,14 @@ pub struct FitResult {
     pub fit: Fit,
     pub cases: Vec<CaseRef>,
     pub elapsed_s: f64,
+    /// The body, when it is not the pipeline's vehicle.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub vehicle: Option<crate::model::Vehicle>,
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub expected: BTreeMap<String, Expected>,
+    /// With `added_mass_window_s`: what the one-step fit over whole runs gives, for contrast.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub one_step: Option<Vec<estimate::Estimate>>,
 }
 
 pub const RESULT: &str = "fit.json";
@@ -140,21 +187,41 @@ impl StageImpl for Settings {
 
     fn run(&self, ctx: &RunCtx) -> anyhow::Result<()> {
         let start = std::time::Instant::now();
+        let vehicle = self.vehicle.as_ref().unwrap_or(ctx.vehicle);
         let mut cases = Vec::new();
         let mut responses = Vec::new();
         for up in ctx.upstream_of(Artifact::Responses) {
             let (meta, r) = starccm::load(&up.dir)?;
-            cases.push(CaseRef { id: up.id.clone(), case: meta.case, source: meta.source });
+            cases.push(CaseRef { id: up.id.clone(), case: meta.case, source: meta.source, inputs: meta.all_inputs, mass_kg: meta.body_mass_kg });
             responses.push(r);
         }
         let refs: Vec<_> = responses.iter().collect();
-        let problem = Regression::build(ctx.vehicle, &refs, self.skip_start_s);
+        // Cases that state their own body mass (OpenFOAM) are regressed with it.
+        let mut problem = Regression::build(vehicle, &[], self.skip_start_s);
+        let mut masses = Vec::new();
+        for (c, r) in cases.iter().zip(&refs) {
+            let mut v = vehicle.clone();
+            if let Some(m) = c.mass_kg {
+                v.mass_kg = m;
+            }
+            masses.push(v.mass_kg);
+            problem.append(Regression::build(&v, &[*r], self.skip_start_s));
+        }
+        let one_mass = masses.windows(2).all(|w| w[0] == w[1]);
+        anyhow::ensure!(
+            one_mass || self.objective == Objective::EquationError,
+            "the output error simulates one body: these cases state different body masses ({masses:?} kg); use objective: equation_error"
+        );
+        let mut sim_vehicle = vehicle.clone();
+        if let Some(m) = masses.first() {
+            sim_vehicle.mass_kg = *m;
+        }
         let estimator = estimate::by_name(&self.method).expect("checked when parsed");
         ctx.progress.set_message(format!("{} on {} samples", self.method, problem.rows()));
         let bar = ctx.progress;
         let report = move |f: f64| bar.set_message(format!("{:.0} %", 100.0 * f));
         let opts = estimate::Options {
-            rigid_mass: ctx.vehicle.rigid_mass(),
+            rigid_mass: sim_vehicle.rigid_mass(),
             seed: self.seed,
             population: self.population.max(2),
             iterations: self.iterations.max(1),
@@ -162,21 +229,120 @@ impl StageImpl for Settings {
             norm: self.norm,
             forgetting: self.forgetting,
             progress: Some(&report),
-            output_error: (self.objective == Objective::OutputError).then_some((ctx.vehicle, &refs[..])),
+            output_error: (self.objective == Objective::OutputError).then_some((&sim_vehicle, &refs[..])),
             max_seconds: self.max_seconds,
         };
-        let fit = estimator.fit(&problem, &opts)?;
+        let (fit, one_step) = match self.added_mass_window_s {
+            None => (estimator.fit(&problem, &opts)?, None),
+            Some(window) => {
+                anyhow::ensure!(self.method == "ols" && self.objective == Objective::EquationError, "added_mass_window_s is a two-step least-squares fit: use method: ols, objective: equation_error");
+                anyhow::ensure!(window > 0.0, "added_mass_window_s must be positive");
+                let mut early = Regression::build(vehicle, &[], self.skip_start_s);
+                for (c, r) in cases.iter().zip(&refs) {
+                    let mut v = vehicle.clone();
+                    if let Some(m) = c.mass_kg {
+                        v.mass_kg = m;
+                    }
+                    early.append(Regression::build(&v, &[&truncate(r, self.skip_start_s + window)], self.skip_start_s));
+                }
+                let one = estimator.fit(&problem, &opts).ok().map(|f| f.parameters);
+                (two_step(&early, &problem)?, one)
+            }
+        };
         let result = FitResult {
             stage: ctx.stage.to_string(),
             method: self.method.clone(),
             objective: self.objective,
             settings: self.settings(),
-            structure: ctx.vehicle.structure,
-            dofs: ctx.vehicle.dofs.clone(),
+            structure: vehicle.structure,
+            dofs: vehicle.dofs.clone(),
             fit,
             cases,
             elapsed_s: start.elapsed().as_secs_f64(),
+            vehicle: self.vehicle.clone(),
+            expected: self.expected.clone(),
+            one_step,
         };
         super::write_json(&ctx.out.join(RESULT), &result)
     }
+}
+
+/// The samples of a response up to `t_end`.
+fn truncate(r: &crate::io::Response, t_end: f64) -> crate::io::Response {
+    let n = r.t.iter().take_while(|t| **t <= t_end).count();
+    let mut out = r.clone();
+    out.t.truncate(n);
+    for s in out.dofs.values_mut() {
+        s.force.truncate(n);
+        s.velocity.truncate(n);
+        s.accel.truncate(n);
+    }
+    out
+}
+
+/// Least squares over the columns `cols` of `reg`, with the other parameters held at `held`:
+/// values, standard errors and the condition number of that sub-problem.
+fn subset_lstsq(reg: &Regression, cols: &[usize], held: &[f64]) -> anyhow::Result<(Vec<f64>, Vec<f64>, f64)> {
+    use nalgebra::{DMatrix, DVector};
+    let (n, c) = (reg.rows(), cols.len());
+    anyhow::ensure!(n > c, "{n} equation rows cannot determine {c} parameters: lengthen the window");
+    let a = DMatrix::from_fn(n, c, |i, j| reg.row(i)[cols[j]]);
+    let b = DVector::from_fn(n, |i, _| reg.y[i] - (0..reg.cols()).filter(|j| !cols.contains(j)).map(|j| reg.row(i)[j] * held[j]).sum::<f64>());
+    let svd = a.clone().svd(true, true);
+    let (smax, smin) = (svd.singular_values.max(), svd.singular_values.min());
+    let x = svd.solve(&b, 1e-12 * smax).map_err(|e| anyhow::anyhow!("least squares: {e}"))?;
+    let res = &b - &a * &x;
+    let s2 = res.norm_squared() / (n - c) as f64;
+    let cov = (a.transpose() * &a).try_inverse().unwrap_or_else(|| DMatrix::from_element(c, c, f64::INFINITY));
+    Ok((x.iter().copied().collect(), (0..c).map(|j| (s2 * cov[(j, j)]).sqrt()).collect(), smax / smin.max(f64::MIN_POSITIVE)))
+}
+
+/// Added mass from the acceleration window (drag neglected there), then the drag from every
+/// sample with that added mass held.
+fn two_step(early: &Regression, all: &Regression) -> anyhow::Result<Fit> {
+    use crate::model::params::Group;
+    let layout = &all.layout;
+    let p = layout.len();
+    let added: Vec<usize> = (0..p).filter(|&j| layout.slot(j).0 == Group::AddedMass).collect();
+    let drag: Vec<usize> = (0..p).filter(|&j| layout.slot(j).0 != Group::AddedMass).collect();
+    // Step 1: drag held at zero over the window.
+    let (am, am_se, k1) = subset_lstsq(early, &added, &vec![0.0; p])?;
+    let mut theta = vec![0.0; p];
+    let mut se = vec![0.0; p];
+    for (k, &j) in added.iter().enumerate() {
+        theta[j] = am[k];
+        se[j] = am_se[k];
+    }
+    let (dr, dr_se, k2) = subset_lstsq(all, &drag, &theta)?;
+    for (k, &j) in drag.iter().enumerate() {
+        theta[j] = dr[k];
+        se[j] = dr_se[k];
+    }
+    let mut sigma: BTreeMap<String, (f64, usize)> = BTreeMap::new();
+    for i in 0..all.rows() {
+        let r = all.y[i] - all.row(i).iter().zip(&theta).map(|(a, t)| a * t).sum::<f64>();
+        let e = sigma.entry(all.row_dof[i].name().to_string()).or_default();
+        e.0 += r * r;
+        e.1 += 1;
+    }
+    let condition_number = k1.max(k2);
+    Ok(Fit {
+        parameters: (0..p)
+            .map(|j| estimate::Estimate {
+                name: layout.name(j),
+                value: theta[j],
+                unit: layout.unit(j).to_string(),
+                stderr: se[j],
+                interval: None,
+                identifiable: se[j].is_finite() && se[j] < 0.5 * theta[j].abs() && condition_number < 1e8,
+            })
+            .collect(),
+        residual_sigma: sigma.into_iter().map(|(d, (ss, n))| (d, (ss / n.max(1) as f64).sqrt())).collect(),
+        samples: all.rows(),
+        condition_number,
+        evaluations: None,
+        objective_value: None,
+        stopped_early: None,
+        trace: None,
+    })
 }

@@ -3,6 +3,7 @@
 
 pub mod compare;
 pub mod fit;
+pub mod openfoam;
 pub mod pool;
 pub mod report;
 pub mod starccm;
@@ -72,6 +73,9 @@ pub struct Kind {
     /// A single-instance kind that may also read files by glob (the report reads the twin's
     /// truth when there is one); a glob that matches nothing is then not an error.
     pub reads_files: bool,
+    /// For a fan-out over folders: which files of a matched folder (path relative to it) are
+    /// inputs; None takes them all. An OpenFOAM case folder also holds the results of its runs.
+    pub input_filter: Option<fn(&str) -> bool>,
     pub produces: Artifact,
     /// What it may read from (`from`), and what it must read from.
     pub consumes: &'static [Artifact],
@@ -84,7 +88,7 @@ pub struct Kind {
     pub parse: fn(serde_yaml_ng::Value) -> Result<std::sync::Arc<dyn StageImpl>, serde_yaml_ng::Error>,
 }
 
-pub const KINDS: &[&Kind] = &[&starccm::KIND, &pool::KIND, &fit::KIND, &validate::KIND, &compare::KIND, &report::KIND];
+pub const KINDS: &[&Kind] = &[&starccm::KIND, &openfoam::KIND, &pool::KIND, &fit::KIND, &validate::KIND, &compare::KIND, &report::KIND];
 
 pub fn kind(name: &str) -> Option<&'static Kind> {
     KINDS.iter().copied().find(|k| k.name == name)

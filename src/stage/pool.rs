@@ -15,6 +15,7 @@ pub static KIND: Kind = Kind {
     version: 1,
     fan_out: true,
     reads_files: false,
+    input_filter: None,
     produces: Artifact::PoolRuns,
     consumes: &[],
     requires: &[],

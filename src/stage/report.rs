@@ -16,6 +16,7 @@ pub static KIND: Kind = Kind {
     version: 1,
     fan_out: false,
     reads_files: true,
+    input_filter: None,
     produces: Artifact::Report,
     consumes: &[Artifact::Model, Artifact::Responses, Artifact::PoolRuns, Artifact::Validation, Artifact::Comparison],
     requires: &[Artifact::Model],
@@ -35,6 +36,10 @@ struct Case {
     name: String,
     response: Response,
     notes: Vec<String>,
+    /// The body mass the case states (OpenFOAM), which replaces the vehicle's.
+    mass: Option<f64>,
+    openfoam: Option<crate::stage::openfoam::RunInfo>,
+    track: Option<crate::openfoam::Track>,
 }
 
 impl StageImpl for Settings {
@@ -47,28 +52,57 @@ impl StageImpl for Settings {
         let mut cases = Vec::new();
         for u in ctx.upstream_of(Artifact::Responses) {
             let (meta, response) = starccm::load(&u.dir)?;
-            cases.push(Case { id: u.id.clone(), name: meta.case, response, notes: meta.notes });
+            let track = crate::stage::openfoam::load_track(&u.dir);
+            cases.push(Case { id: u.id.clone(), name: meta.case, response, notes: meta.notes, mass: meta.body_mass_kg, openfoam: meta.openfoam, track });
         }
         let pool_runs: Vec<crate::stage::pool::FusedRun> = ctx.upstream_of(Artifact::PoolRuns).map(|u| crate::stage::pool::load(&u.dir)).collect::<Result<_, _>>()?;
         let pool_scores = ctx.upstream_of(Artifact::Validation).next().map(|u| crate::stage::validate::load(&u.dir)).transpose()?;
         let mut models = Vec::new();
-        let mut first_sims = Vec::new();
+        let mut first_sims: Vec<Option<Vec<Vec6>>> = vec![None; cases.len()];
+        let mut body_html = String::new();
         for f in &fits {
             let layout = ParamLayout::new(&f.dofs);
             let theta: Vec<f64> = f.fit.parameters.iter().map(|p| p.value).collect();
-            let plant = Plant::new(ctx.vehicle, layout.to_hydro(&theta));
+            let vehicle = f.vehicle.as_ref().unwrap_or(ctx.vehicle);
             let mut runs = Vec::new();
-            for c in &cases {
+            let mut own_cases = Vec::new();
+            for (ci, c) in cases.iter().enumerate() {
+                let trained = f.cases.iter().any(|x| x.id == c.id);
+                // A model of another body (the OpenFOAM cylinder) is scored on its own cases only,
+                // and the vehicle's models are not scored on cases of other bodies.
+                if (f.vehicle.is_some() && !trained) || (f.vehicle.is_none() && c.mass.is_some()) {
+                    continue;
+                }
+                let mut v = vehicle.clone();
+                if let Some(m) = c.mass {
+                    v.mass_kg = m;
+                }
+                let plant = Plant::new(&v, layout.to_hydro(&theta));
                 let sim = validate::simulate_response(&plant, &c.response);
-                let role = if f.cases.iter().any(|x| x.id == c.id) { "train" } else { "validate" };
-                let dofs = validate::score(&c.response, &sim)
+                let role = if trained { "train" } else { "validate" };
+                let scores = validate::score(&c.response, &sim);
+                if f.vehicle.is_some() {
+                    own_cases.push((ci, scores.first().map_or(f64::NAN, |(_, m)| m.nmae), sim.iter().map(|nu| nu[0]).collect::<Vec<f64>>()));
+                }
+                let dofs = scores
                     .into_iter()
                     .map(|(d, metrics)| (d.name().to_string(), DofMetrics { metrics, residual_acf_outside_band: None }))
                     .collect();
                 runs.push(RunScore { run: c.name.clone(), role: role.into(), dofs });
-                if models.is_empty() {
-                    first_sims.push(sim);
+                if first_sims[ci].is_none() && f.vehicle.is_none() {
+                    first_sims[ci] = Some(sim);
                 }
+            }
+            let of_cases: Vec<crate::report::openfoam::Case> = own_cases
+                .into_iter()
+                .filter_map(|(ci, nmae, simulated)| {
+                    let c = &cases[ci];
+                    let s = c.response.dofs.get(&Dof::Surge)?;
+                    Some(crate::report::openfoam::Case { name: &c.name, info: c.openfoam.as_ref()?, t: &c.response.t, velocity: &s.velocity, accel: &s.accel, simulated, nmae, track: c.track.as_ref() })
+                })
+                .collect();
+            if !of_cases.is_empty() {
+                body_html += &crate::report::openfoam::section(f, &of_cases)?;
             }
             if let Some(ms) = pool_scores.as_ref().and_then(|(s, _)| s.models.iter().find(|m| m.model == f.stage)) {
                 for r in &ms.runs {
@@ -87,7 +121,8 @@ impl StageImpl for Settings {
         let comparison = ctx.upstream_of(Artifact::Comparison).next().map(|u| crate::stage::compare::load(&u.dir)).transpose()?;
         let compare_html = comparison.as_ref().map_or(String::new(), crate::report::compare::section);
         let pool_html = compare_html + &crate::report::pool::section(&pool_runs, pool_scores.as_ref().map(|(s, _)| s), pool_scores.as_ref().map_or(&[][..], |(_, v)| v), &accuracy)?;
-        let svgs = velocity_plots(&cases, &first_sims)?;
+        let plotted: Vec<(&Case, &Vec<Vec6>)> = cases.iter().zip(&first_sims).filter_map(|(c, s)| Some((c, s.as_ref()?))).collect();
+        let svgs = velocity_plots(&plotted)?;
         let parameters = json::parameters(&fits);
         let validation = Validation { models };
         let page = html::Page {
@@ -98,6 +133,7 @@ impl StageImpl for Settings {
             plots: svgs,
             notes: cases.iter().map(|c| (c.name.clone(), c.notes.clone())).chain(pool_runs.iter().map(|r| (r.meta.run.clone(), r.meta.notes.clone()))).collect(),
             pool_html,
+            body_html,
         };
         crate::fsutil::write_atomic(&ctx.out.join("index.html"), page.render().as_bytes())?;
         super::write_json(&ctx.out.join("parameters.json"), &parameters)?;
@@ -112,9 +148,9 @@ impl StageImpl for Settings {
 }
 
 /// One plot per DOF with every case that moves in it, against the first model's simulation.
-fn velocity_plots(cases: &[Case], sims: &[Vec<Vec6>]) -> anyhow::Result<Vec<(String, String)>> {
+fn velocity_plots(plotted: &[(&Case, &Vec<Vec6>)]) -> anyhow::Result<Vec<(String, String)>> {
     let mut by_dof: BTreeMap<Dof, Vec<(&Case, Vec<f64>)>> = BTreeMap::new();
-    for (c, sim) in cases.iter().zip(sims) {
+    for (c, sim) in plotted {
         for d in c.response.dofs.keys() {
             by_dof.entry(*d).or_default().push((c, sim.iter().map(|nu| nu[d.index()]).collect()));
         }

@@ -13,6 +13,7 @@ pub static KIND: Kind = Kind {
     version: 1,
     fan_out: true,
     reads_files: false,
+    input_filter: None,
     produces: Artifact::Responses,
     consumes: &[],
     requires: &[],
@@ -46,6 +47,16 @@ pub struct ResponseMeta {
     pub rows_read: usize,
     pub rows_kept: usize,
     pub notes: Vec<String>,
+    /// The body's mass when the case states its own (an OpenFOAM case), kg; otherwise the
+    /// vehicle's in pipeline.yaml applies.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub body_mass_kg: Option<f64>,
+    /// Every input file when the case is more than `source` (an OpenFOAM case folder).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub all_inputs: Vec<super::InputFile>,
+    /// How an OpenFOAM case was run.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub openfoam: Option<crate::stage::openfoam::RunInfo>,
 }
 
 pub const TABLE: &str = "response.parquet";
@@ -87,6 +98,9 @@ impl StageImpl for Settings {
             rows_read: imported.rows_read,
             rows_kept: imported.rows_kept,
             notes: imported.notes,
+            body_mass_kg: None,
+            all_inputs: Vec::new(),
+            openfoam: None,
         };
         super::write_json(&ctx.out.join(META), &meta)
     }

@@ -16,6 +16,7 @@ pub static KIND: Kind = Kind {
     version: 1,
     fan_out: false,
     reads_files: false,
+    input_filter: None,
     produces: Artifact::Validation,
     consumes: &[Artifact::Model, Artifact::PoolRuns],
     requires: &[Artifact::Model, Artifact::PoolRuns],

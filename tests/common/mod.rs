@@ -19,8 +19,8 @@ pub fn project() -> tempfile::TempDir {
     dir
 }
 
-/// Stage instances of the shipped pipeline besides the imports: fit, validate, compare, report.
-pub const SINGLE_STAGES: usize = 4;
+/// Stage instances of the shipped pipeline besides the imports: fit, cylinder, validate, compare, report.
+pub const SINGLE_STAGES: usize = 5;
 
 pub fn count(dir: &Path, rel: &str) -> usize {
     std::fs::read_dir(dir.join(rel)).unwrap().count()
