@@ -7,6 +7,7 @@
 pub mod cli;
 pub mod cmd;
 pub mod diag;
+pub mod diagnose;
 pub mod dof;
 pub mod estimate;
 pub mod fsutil;

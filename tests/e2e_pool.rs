@@ -11,12 +11,13 @@ fn a_new_pool_run_reruns_only_its_fusion_and_the_validation() {
     hydrofit::fsutil::copy_dir(&dir.join("cases/pool/mixed"), &dir.join("cases/pool/mixed_again")).unwrap();
     let status = stdout(&run(dir, &["status"]));
     let lines: Vec<&str> = status.lines().collect();
-    assert_eq!(lines.len(), 4, "{status}");
+    assert_eq!(lines.len(), 5, "{status}");
     assert!(lines[0].starts_with("pool[mixed_again]: never built"), "{status}");
     assert!(lines.iter().any(|l| l.starts_with("validate: new upstream pool[mixed_again]")), "{status}");
     assert!(lines.iter().any(|l| l.starts_with("compare: new upstream pool[mixed_again]")), "{status}");
-    assert!(lines[3].starts_with("report: "), "{status}");
-    assert_eq!(ran(&ok(dir, &["build"])), 4);
+    assert!(lines.iter().any(|l| l.starts_with("diagnose: new upstream pool[mixed_again]")), "{status}");
+    assert!(lines[4].starts_with("report: "), "{status}");
+    assert_eq!(ran(&ok(dir, &["build"])), 5);
 }
 
 #[test]

@@ -2,6 +2,7 @@
 //! (shapes fixed by FORMATS.md).
 
 pub mod compare;
+pub mod diagnose;
 pub mod html;
 pub mod json;
 pub mod plots;

@@ -2,6 +2,7 @@
 //! one line in `KINDS`.
 
 pub mod compare;
+pub mod diagnose;
 pub mod fit;
 pub mod openfoam;
 pub mod pool;
@@ -27,6 +28,8 @@ pub enum Artifact {
     Validation,
     /// Estimators side by side.
     Comparison,
+    /// Why the recordings and the model differ.
+    Diagnosis,
     /// The published report.
     Report,
 }
@@ -39,6 +42,7 @@ impl Artifact {
             Artifact::PoolRuns => "fused pool runs",
             Artifact::Validation => "validation scores",
             Artifact::Comparison => "an estimator comparison",
+            Artifact::Diagnosis => "a missing-physics diagnosis",
             Artifact::Report => "a report",
         }
     }
@@ -50,6 +54,7 @@ impl Artifact {
             Artifact::PoolRuns => "a `pool` stage",
             Artifact::Validation => "a `validate` stage",
             Artifact::Comparison => "a `compare` stage",
+            Artifact::Diagnosis => "a `diagnose` stage",
             Artifact::Report => "a `report` stage",
         }
     }
@@ -88,7 +93,7 @@ pub struct Kind {
     pub parse: fn(serde_yaml_ng::Value) -> Result<std::sync::Arc<dyn StageImpl>, serde_yaml_ng::Error>,
 }
 
-pub const KINDS: &[&Kind] = &[&starccm::KIND, &openfoam::KIND, &pool::KIND, &fit::KIND, &validate::KIND, &compare::KIND, &report::KIND];
+pub const KINDS: &[&Kind] = &[&starccm::KIND, &openfoam::KIND, &pool::KIND, &fit::KIND, &validate::KIND, &compare::KIND, &diagnose::KIND, &report::KIND];
 
 pub fn kind(name: &str) -> Option<&'static Kind> {
     KINDS.iter().copied().find(|k| k.name == name)

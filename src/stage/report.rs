@@ -18,7 +18,7 @@ pub static KIND: Kind = Kind {
     reads_files: true,
     input_filter: None,
     produces: Artifact::Report,
-    consumes: &[Artifact::Model, Artifact::Responses, Artifact::PoolRuns, Artifact::Validation, Artifact::Comparison],
+    consumes: &[Artifact::Model, Artifact::Responses, Artifact::PoolRuns, Artifact::Validation, Artifact::Comparison, Artifact::Diagnosis],
     requires: &[Artifact::Model],
     uses_vehicle: super::VehicleUse::All,
     publishes_to: Some("reports"),
@@ -29,7 +29,7 @@ pub static KIND: Kind = Kind {
 #[serde(deny_unknown_fields, default)]
 pub struct Settings {}
 
-pub const FILES: [&str; 4] = ["index.html", "parameters.json", "validation.json", "fusion.json"];
+pub const FILES: [&str; 5] = ["index.html", "parameters.json", "validation.json", "fusion.json", "diagnosis.json"];
 
 struct Case {
     id: String,
@@ -120,7 +120,9 @@ impl StageImpl for Settings {
         let accuracy = crate::report::pool::fusion_accuracy(ctx.root, &truth_files, &pool_runs)?;
         let comparison = ctx.upstream_of(Artifact::Comparison).next().map(|u| crate::stage::compare::load(&u.dir)).transpose()?;
         let compare_html = comparison.as_ref().map_or(String::new(), crate::report::compare::section);
-        let pool_html = compare_html + &crate::report::pool::section(&pool_runs, pool_scores.as_ref().map(|(s, _)| s), pool_scores.as_ref().map_or(&[][..], |(_, v)| v), &accuracy)?;
+        let diagnosis = ctx.upstream_of(Artifact::Diagnosis).next().map(|u| crate::stage::diagnose::load(&u.dir)).transpose()?;
+        let diagnosis_html = diagnosis.as_ref().map_or(String::new(), |(d, figs)| crate::report::diagnose::section(d, figs));
+        let pool_html = compare_html + &diagnosis_html + &crate::report::pool::section(&pool_runs, pool_scores.as_ref().map(|(s, _)| s), pool_scores.as_ref().map_or(&[][..], |(_, v)| v), &accuracy)?;
         let plotted: Vec<(&Case, &Vec<Vec6>)> = cases.iter().zip(&first_sims).filter_map(|(c, s)| Some((c, s.as_ref()?))).collect();
         let svgs = velocity_plots(&plotted)?;
         let parameters = json::parameters(&fits);
@@ -143,6 +145,9 @@ impl StageImpl for Settings {
             .map(|r| serde_json::json!({"run": r.meta.run, "role": r.meta.role, "sensors": r.meta.sensors, "stats": r.meta.stats, "accuracy_against_truth": accuracy.iter().find(|a| a.run == r.meta.run)}))
             .collect();
         super::write_json(&ctx.out.join("fusion.json"), &serde_json::json!({ "runs": fusion }))?;
+        if let Some((d, _)) = &diagnosis {
+            super::write_json(&ctx.out.join("diagnosis.json"), d)?;
+        }
         Ok(())
     }
 }

@@ -20,7 +20,7 @@ pub fn project() -> tempfile::TempDir {
 }
 
 /// Stage instances of the shipped pipeline besides the imports: fit, cylinder, validate, compare, report.
-pub const SINGLE_STAGES: usize = 5;
+pub const SINGLE_STAGES: usize = 6;
 
 pub fn count(dir: &Path, rel: &str) -> usize {
     std::fs::read_dir(dir.join(rel)).unwrap().count()

@@ -1,0 +1,639 @@
+//! Missing-physics diagnosis: why do the pool recordings and the CFD-identified model differ?
+//!
+//! 1. **Drift or structure.** The model's own parameters are re-estimated on the training runs
+//!    (equation error, least squares). If that explains the held-out runs to within their
+//!    measurement noise, nothing is missing: the parameters drifted.
+//! 2. **Locate.** The CFD model's residual on the held-out runs: which run and DOF carries it,
+//!    in which time windows, and in which regimes (after command steps, reverse or small
+//!    commands, far from the tether anchor, near walls, ...), as shares of the error.
+//! 3. **Test hypotheses.** Every effect of FORMATS.md's table is a physically formed augmentation
+//!    of the model ([`crate::model::effects`]) with one or two parameters, fitted by output
+//!    error (the simulator driven by the logged thrust, the fused pose) on the training runs.
+//!    The winner is the one with the lowest held-out error after a penalty per parameter; it is
+//!    kept only if it improves the held-out error significantly, then the next effect is tested
+//!    on top of it (greedy). What stays structured and large after that is `unexplained`.
+//!
+//! Errors are normalised per DOF by the mean square measured velocity of all runs in that DOF,
+//! so surge (m/s) and yaw (rad/s) weigh alike; the noise floor is the same sum over the fused
+//! velocities' own variances.
+
+pub mod scenario;
+pub mod search;
+#[cfg(test)]
+mod tests;
+
+use crate::dof::Dof;
+use crate::fusion::interp;
+use crate::model::effects::{Effect, Pool, State, WorldPlant};
+use crate::model::{Plant, Vec6};
+use crate::stage::pool::FusedRun;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// The pool DOFs, in the order of the fused tables: surge, sway, heave, yaw.
+pub const DOFS: [Dof; 4] = [Dof::Surge, Dof::Sway, Dof::Heave, Dof::Yaw];
+const NU: [usize; 4] = [0, 1, 2, 5];
+
+/// Integration step of the simulator, s (the twin and the thruster lag both need < 0.05).
+const STEP: f64 = 0.025;
+
+/// A fused pool run as the diagnosis reads it.
+#[derive(Debug, Clone)]
+pub struct Run {
+    pub name: String,
+    pub validate: bool,
+    pub t: Vec<f64>,
+    /// Logged command [X, Y, Z, N].
+    pub cmd: Vec<[f64; 4]>,
+    pub vel: [Vec<f64>; 4],
+    pub std: [Vec<f64>; 4],
+    pub pos: [Vec<f64>; 3],
+    pub psi: Vec<f64>,
+    pub pool: Option<Pool>,
+    pub anchor: Option<[f64; 3]>,
+}
+
+impl Run {
+    /// None when a DOF was not fused (the run lacks a sensor it needs).
+    pub fn from_fused(r: &FusedRun) -> Option<Run> {
+        let validate = r.meta.role == crate::io::pool::Role::Validate;
+        Run::from_parts(&r.meta.run, validate, &r.thrust, &r.fused, r.meta.pool, r.meta.tether_anchor_m)
+    }
+
+    pub fn from_parts(name: &str, validate: bool, thrust: &[[f64; 4]], f: &crate::fusion::Fused, pool: Option<Pool>, anchor: Option<[f64; 3]>) -> Option<Run> {
+        let vel: [Vec<f64>; 4] = [f.vel[0].clone()?, f.vel[1].clone()?, f.vel[2].clone()?, f.vel[3].clone()?];
+        let std: [Vec<f64>; 4] = [f.std[0].clone()?, f.std[1].clone()?, f.std[2].clone()?, f.std[3].clone()?];
+        Some(Run {
+            name: name.into(),
+            validate,
+            t: f.t.clone(),
+            cmd: thrust.to_vec(),
+            vel,
+            std,
+            pos: [f.x.clone(), f.y.clone(), f.z.clone()],
+            psi: f.psi.clone(),
+            pool,
+            anchor,
+        })
+    }
+
+    fn tether_length(&self, k: usize) -> Option<f64> {
+        let a = self.anchor?;
+        Some(((self.pos[0][k] - a[0]).powi(2) + (self.pos[1][k] - a[1]).powi(2) + (self.pos[2][k] - a[2]).powi(2)).sqrt())
+    }
+
+    fn wall_distance(&self, k: usize) -> Option<f64> {
+        let p = self.pool?;
+        let (x, y) = (self.pos[0][k], self.pos[1][k]);
+        Some([x, p.length_m - x, y, p.width_m - y].into_iter().fold(f64::INFINITY, f64::min))
+    }
+}
+
+/// What a hypothesis adds to the model: plant effects and a sensor time offset.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Augmentation {
+    pub effects: Vec<Effect>,
+    pub delay_s: f64,
+}
+
+/// What an effect needs from the run's metadata.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Needs {
+    Nothing,
+    Anchor,
+    Pool,
+}
+
+/// An effect as a hypothesis: its parameters with physical bounds, and how it augments the model.
+pub struct Hypothesis {
+    pub name: &'static str,
+    /// (name, lower bound, upper bound).
+    pub params: &'static [(&'static str, f64, f64)],
+    needs: Needs,
+    build: fn(&[f64], &mut Augmentation),
+    /// The DOFs it acts on first (for its evidence plot), in DOFS indices.
+    main_dof: usize,
+    /// The regime its evidence quotes (an index into `REGIMES`).
+    regime: &'static str,
+}
+
+/// Every effect of FORMATS.md's table. Bounds are what a pool test can physically show: a few
+/// tens of newtons of net buoyancy, thruster time constants up to 1.5 s, currents below 0.5 m/s.
+pub static HYPOTHESES: &[Hypothesis] = &[
+    Hypothesis { name: "net_buoyancy", params: &[("force_n", -60.0, 60.0)], needs: Needs::Nothing, build: |p, a| a.effects.push(Effect::NetBuoyancy { force_n: p[0] }), main_dof: 2, regime: "heave" },
+    Hypothesis { name: "thruster_lag", params: &[("time_constant_s", 0.0, 1.5)], needs: Needs::Nothing, build: |p, a| a.effects.push(Effect::ThrusterLag { time_constant_s: p[0] }), main_dof: 0, regime: "after_command_step" },
+    Hypothesis { name: "reverse_thrust_loss", params: &[("loss", -0.5, 0.9)], needs: Needs::Nothing, build: |p, a| a.effects.push(Effect::ReverseThrustLoss { loss: p[0] }), main_dof: 0, regime: "reverse_command" },
+    Hypothesis {
+        name: "thruster_deadband",
+        params: &[("force_n", 0.0, 30.0), ("moment_nm", 0.0, 3.0)],
+        needs: Needs::Nothing,
+        build: |p, a| a.effects.push(Effect::ThrusterDeadband { force_n: p[0], moment_nm: p[1] }),
+        main_dof: 0,
+        regime: "small_command",
+    },
+    Hypothesis {
+        name: "tether_drag",
+        params: &[("coefficient", 0.0, 6.0), ("slack_m", 0.0, 10.0)],
+        needs: Needs::Anchor,
+        build: |p, a| a.effects.push(Effect::TetherDrag { coefficient: p[0], slack_m: p[1] }),
+        main_dof: 0,
+        regime: "far_from_anchor",
+    },
+    Hypothesis {
+        name: "water_current",
+        params: &[("current_x_m_s", -0.5, 0.5), ("current_y_m_s", -0.5, 0.5)],
+        needs: Needs::Nothing,
+        build: |p, a| a.effects.push(Effect::WaterCurrent { velocity_m_s: [p[0], p[1]] }),
+        main_dof: 0,
+        regime: "heading_pool_x",
+    },
+    Hypothesis {
+        name: "wall_effect",
+        params: &[("coefficient", 0.0, 300.0), ("decay_m", 0.1, 3.0)],
+        needs: Needs::Pool,
+        build: |p, a| a.effects.push(Effect::WallEffect { coefficient: p[0], decay_m: p[1] }),
+        main_dof: 0,
+        regime: "near_wall",
+    },
+    Hypothesis { name: "coupled_drag", params: &[("coefficient", -100.0, 300.0)], needs: Needs::Nothing, build: |p, a| a.effects.push(Effect::CoupledDrag { coefficient: p[0] }), main_dof: 1, regime: "cross_flow" },
+    Hypothesis { name: "sensor_delay", params: &[("delay_s", 0.0, 1.0)], needs: Needs::Nothing, build: |p, a| a.delay_s += p[0], main_dof: 0, regime: "after_command_step" },
+];
+
+pub fn hypothesis(name: &str) -> Option<&'static Hypothesis> {
+    HYPOTHESES.iter().find(|h| h.name == name)
+}
+
+/// A set of effects with their parameter values.
+pub type Selection = Vec<(&'static Hypothesis, Vec<f64>)>;
+
+pub fn augmentation(sel: &[(&'static Hypothesis, Vec<f64>)]) -> Augmentation {
+    let mut a = Augmentation::default();
+    for (h, p) in sel {
+        (h.build)(p, &mut a);
+    }
+    a
+}
+
+/// The model's velocities [u, v, w, r] at the run's sample times, driven by the logged command,
+/// from the run's first fused velocity. Position and heading are taken from the fused track
+/// at each sample (they are measured to centimetres; integrating them would let a small
+/// velocity error move the vehicle to the wrong tether length or wall distance). With a sensor
+/// delay d, the recording at t + d is what the vehicle did at t.
+pub fn simulate(plant: &Plant, aug: &Augmentation, run: &Run) -> Vec<[f64; 4]> {
+    let mut w = WorldPlant::new(plant.clone());
+    w.effects = aug.effects.clone();
+    w.pool = run.pool;
+    w.tether_anchor = run.anchor;
+    let d = aug.delay_s;
+    let n = run.t.len();
+    let cmd6 = |k: usize| -> Vec6 {
+        let c = run.cmd[k];
+        [c[0], c[1], c[2], 0.0, 0.0, c[3]]
+    };
+    let at = |series: &[f64], k: usize| interp(&run.t, series, run.t[k] + d);
+    let mut s = State::default();
+    for (j, &i) in NU.iter().enumerate() {
+        s.nu[i] = at(&run.vel[j], 0);
+    }
+    s.thrust = w.shape_command(&cmd6(0));
+    let mut out = Vec::with_capacity(n);
+    for k in 0..n {
+        out.push([s.nu[0], s.nu[1], s.nu[2], s.nu[5]]);
+        if k + 1 == n {
+            break;
+        }
+        s.pos = [at(&run.pos[0], k), at(&run.pos[1], k), at(&run.pos[2], k)];
+        s.psi = at(&run.psi, k);
+        let span = run.t[k + 1] - run.t[k];
+        let m = (span / STEP).ceil().max(1.0) as usize;
+        let c = cmd6(k);
+        for _ in 0..m {
+            s = w.step(&s, &c, span / m as f64);
+        }
+        if s.nu.iter().any(|x| !x.is_finite() || x.abs() > 50.0) {
+            // Diverged: hold the last finite state so the cost is large but finite.
+            let last = out[k];
+            out.extend(std::iter::repeat_n([last[0] + 50.0, last[1] + 50.0, last[2] + 50.0, last[3] + 50.0], n - k - 1));
+            break;
+        }
+    }
+    out
+}
+
+/// Per-DOF sums of a simulation against a run's recording.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Sums {
+    pub sse: [f64; 4],
+    pub sae: [f64; 4],
+    pub sam: [f64; 4],
+    pub n: [f64; 4],
+}
+
+impl Sums {
+    fn add(&mut self, o: &Sums) {
+        for j in 0..4 {
+            self.sse[j] += o.sse[j];
+            self.sae[j] += o.sae[j];
+            self.sam[j] += o.sam[j];
+            self.n[j] += o.n[j];
+        }
+    }
+
+    /// Normalised cost: sum over DOFs of MSE / mean square velocity.
+    pub fn cost(&self, scale: &[f64; 4]) -> f64 {
+        (0..4).map(|j| if self.n[j] > 0.0 { self.sse[j] / self.n[j] / scale[j] } else { 0.0 }).sum()
+    }
+
+    /// Normalised MAE per DOF (seed 003): mean |error| / mean |measured|.
+    pub fn nmae(&self) -> [f64; 4] {
+        std::array::from_fn(|j| if self.sam[j] > 0.0 { self.sae[j] / self.sam[j] } else { f64::NAN })
+    }
+}
+
+/// Residual (simulated - recorded) at each sample, per DOF; samples whose shifted time falls
+/// past the end of the recording are NaN.
+pub fn residual(sim: &[[f64; 4]], run: &Run, delay: f64) -> [Vec<f64>; 4] {
+    let end = *run.t.last().unwrap_or(&0.0);
+    std::array::from_fn(|j| {
+        (0..run.t.len())
+            .map(|k| {
+                let tm = run.t[k] + delay;
+                if tm > end + 1e-9 {
+                    f64::NAN
+                } else {
+                    sim[k][j] - interp(&run.t, &run.vel[j], tm)
+                }
+            })
+            .collect()
+    })
+}
+
+pub fn sums(sim: &[[f64; 4]], run: &Run, delay: f64) -> Sums {
+    let e = residual(sim, run, delay);
+    let mut s = Sums::default();
+    for j in 0..4 {
+        for (k, x) in e[j].iter().enumerate() {
+            if x.is_finite() {
+                s.sse[j] += x * x;
+                s.sae[j] += x.abs();
+                s.sam[j] += (sim[k][j] - x).abs();
+                s.n[j] += 1.0;
+            }
+        }
+    }
+    s
+}
+
+/// The data of one diagnosis: runs split by role, with the scale of each DOF.
+pub struct Data {
+    pub train: Vec<Run>,
+    pub validate: Vec<Run>,
+    pub scale: [f64; 4],
+    /// Noise floor of the normalised cost on the held-out runs (fused variances).
+    pub noise_cost: f64,
+}
+
+impl Data {
+    pub fn new(runs: Vec<Run>) -> anyhow::Result<Data> {
+        let (validate, train): (Vec<Run>, Vec<Run>) = runs.into_iter().partition(|r| r.validate);
+        if train.is_empty() || validate.is_empty() {
+            anyhow::bail!(
+                "the diagnosis needs training and held-out pool runs ({} with role: train, {} with role: validate)\n  help: set `role: validate` in the run.yaml of at least one run and `role: train` in another",
+                train.len(),
+                validate.len()
+            );
+        }
+        let all = || train.iter().chain(&validate);
+        let scale: [f64; 4] = std::array::from_fn(|j| {
+            let (s, n) = all().fold((0.0, 0.0), |(s, n), r| (s + r.vel[j].iter().map(|v| v * v).sum::<f64>(), n + r.vel[j].len() as f64));
+            (s / n.max(1.0)).max(1e-12)
+        });
+        let noise_cost = (0..4)
+            .map(|j| {
+                let (s, n) = validate.iter().fold((0.0, 0.0), |(s, n), r| (s + r.std[j].iter().map(|v| v * v).sum::<f64>(), n + r.std[j].len() as f64));
+                s / n.max(1.0) / scale[j]
+            })
+            .sum();
+        Ok(Data { train, validate, scale, noise_cost })
+    }
+
+    pub fn eval(&self, plant: &Plant, aug: &Augmentation, validate: bool) -> Sums {
+        let runs = if validate { &self.validate } else { &self.train };
+        let mut total = Sums::default();
+        for r in runs {
+            total.add(&sums(&simulate(plant, aug, r), r, aug.delay_s));
+        }
+        total
+    }
+
+    pub fn cost(&self, plant: &Plant, aug: &Augmentation, validate: bool) -> f64 {
+        self.eval(plant, aug, validate).cost(&self.scale)
+    }
+}
+
+/// Decision thresholds, stated in the report.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct Criteria {
+    /// An effect is kept when it lowers the held-out cost by at least this fraction...
+    pub min_gain: f64,
+    /// ... plus this much per parameter it adds (the penalty for extra parameters) ...
+    pub gain_per_parameter: f64,
+    /// ... and by at least this multiple of the noise floor (it explains more than noise).
+    pub min_noise_multiple: f64,
+    /// The held-out cost counts as "within noise" below this multiple of the noise floor.
+    pub within_noise: f64,
+    /// Greedy rounds at most.
+    pub max_effects: usize,
+}
+
+impl Default for Criteria {
+    fn default() -> Criteria {
+        Criteria { min_gain: 0.08, gain_per_parameter: 0.02, min_noise_multiple: 0.5, within_noise: 5.0, max_effects: 3 }
+    }
+}
+
+/// One hypothesis tested in one greedy round.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Tested {
+    pub round: usize,
+    pub name: String,
+    pub parameters: BTreeMap<String, f64>,
+    pub train_cost: f64,
+    pub validation_cost: f64,
+    /// Fractional drop of the held-out cost from the round's starting model.
+    pub gain: f64,
+    /// gain less the per-parameter penalty: what the winner is chosen by.
+    pub score: f64,
+    pub accepted: bool,
+}
+
+pub fn params_map(h: &Hypothesis, p: &[f64]) -> BTreeMap<String, f64> {
+    h.params.iter().zip(p).map(|((n, _, _), v)| (n.to_string(), *v)).collect()
+}
+
+fn applicable(h: &Hypothesis, data: &Data) -> bool {
+    let all = || data.train.iter().chain(&data.validate);
+    match h.needs {
+        Needs::Nothing => true,
+        Needs::Anchor => all().all(|r| r.anchor.is_some()),
+        Needs::Pool => all().all(|r| r.pool.is_some()),
+    }
+}
+
+/// Result of the greedy search.
+pub struct Search {
+    pub selected: Selection,
+    pub tested: Vec<Tested>,
+    /// Held-out cost of the CFD model, then after each accepted effect.
+    pub costs: Vec<f64>,
+}
+
+/// Greedy forward selection of effects on top of `plant` (module docs, step 3).
+pub fn select(plant: &Plant, data: &Data, criteria: &Criteria, progress: &(dyn Fn(&str) + Sync)) -> Search {
+    let mut selected: Selection = Vec::new();
+    let mut tested = Vec::new();
+    let mut current = data.cost(plant, &Augmentation::default(), true);
+    let mut costs = vec![current];
+    for round in 1..=criteria.max_effects {
+        let candidates: Vec<&'static Hypothesis> = HYPOTHESES.iter().filter(|h| applicable(h, data) && !selected.iter().any(|(s, _)| s.name == h.name)).collect();
+        progress(&format!("round {round}: testing {} effects", candidates.len()));
+        let fitted: Vec<(&'static Hypothesis, Vec<f64>, f64, f64)> = candidates
+            .par_iter()
+            .map(|h| {
+                let (p, train_cost) = search::fit_one(plant, data, &selected, h);
+                let mut sel = selected.clone();
+                sel.push((*h, p.clone()));
+                let val = data.cost(plant, &augmentation(&sel), true);
+                (*h, p, train_cost, val)
+            })
+            .collect();
+        let mut rows: Vec<Tested> = fitted
+            .iter()
+            .map(|(h, p, tc, vc)| {
+                let gain = (current - vc) / current;
+                Tested { round, name: h.name.into(), parameters: params_map(h, p), train_cost: *tc, validation_cost: *vc, gain, score: gain - criteria.gain_per_parameter * h.params.len() as f64, accepted: false }
+            })
+            .collect();
+        let best = (0..rows.len()).max_by(|&a, &b| rows[a].score.total_cmp(&rows[b].score));
+        let Some(b) = best else { break };
+        let row = &rows[b];
+        let significant = row.score >= criteria.min_gain && current - row.validation_cost >= criteria.min_noise_multiple * data.noise_cost;
+        if !significant {
+            tested.extend(rows);
+            break;
+        }
+        rows[b].accepted = true;
+        let (h, p, _, _) = &fitted[b];
+        selected.push((*h, p.clone()));
+        progress(&format!("round {round}: {} kept, refining every kept effect together", h.name));
+        if selected.len() > 1 {
+            selected = search::refine_all(plant, data, &selected);
+        }
+        current = data.cost(plant, &augmentation(&selected), true);
+        costs.push(current);
+        tested.extend(rows);
+    }
+    Search { selected, tested, costs }
+}
+
+/// A regime of the runs: a condition per sample and DOF.
+pub struct Regime {
+    pub name: &'static str,
+    pub label: &'static str,
+}
+
+pub static REGIMES: &[Regime] = &[
+    Regime { name: "after_command_step", label: "within 1.5 s after a command step" },
+    Regime { name: "reverse_command", label: "reverse command in the DOF" },
+    Regime { name: "small_command", label: "small command in the DOF (< 15 % of its largest)" },
+    Regime { name: "far_from_anchor", label: "far from the tether anchor (beyond the median length)" },
+    Regime { name: "near_wall", label: "within 2 m of a wall" },
+    Regime { name: "deep", label: "deeper than the run's median depth" },
+    Regime { name: "heading_pool_x", label: "heading within 90 degrees of pool +x" },
+    Regime { name: "cross_flow", label: "moving in surge and sway at once (|u||v| above its median)" },
+    Regime { name: "heave", label: "heave DOF" },
+];
+
+/// Whether sample k of a run, DOF j, is in the regime; None when the run cannot tell.
+fn in_regime(name: &str, run: &Run, k: usize, j: usize, med: &RunMedians) -> Option<bool> {
+    let c = &run.cmd;
+    Some(match name {
+        "after_command_step" => {
+            let lo = run.t[k] - 1.5;
+            let mut i = k;
+            let mut hit = false;
+            while i > 0 && run.t[i - 1] >= lo {
+                if (0..4).any(|q| (c[i][q] - c[i - 1][q]).abs() > 0.15 * med.cmd_max[q]) {
+                    hit = true;
+                    break;
+                }
+                i -= 1;
+            }
+            hit
+        }
+        "reverse_command" => c[k][j] < 0.0,
+        "small_command" => c[k][j].abs() < 0.15 * med.cmd_max[j],
+        "far_from_anchor" => run.tether_length(k)? > med.tether?,
+        "near_wall" => run.wall_distance(k)? < 2.0,
+        "deep" => run.pos[2][k] > med.depth,
+        "heading_pool_x" => run.psi[k].cos() > 0.0,
+        "cross_flow" => (run.vel[0][k] * run.vel[1][k]).abs() > med.cross,
+        "heave" => j == 2,
+        _ => return None,
+    })
+}
+
+struct RunMedians {
+    cmd_max: [f64; 4],
+    tether: Option<f64>,
+    depth: f64,
+    cross: f64,
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.retain(|x| x.is_finite());
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn medians(run: &Run) -> RunMedians {
+    let n = run.t.len();
+    RunMedians {
+        cmd_max: std::array::from_fn(|q| run.cmd.iter().fold(1e-9f64, |a, c| a.max(c[q].abs()))),
+        tether: run.anchor.map(|_| median((0..n).filter_map(|k| run.tether_length(k)).collect())),
+        depth: median(run.pos[2].clone()),
+        cross: median((0..n).map(|k| (run.vel[0][k] * run.vel[1][k]).abs()).collect()),
+    }
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct RegimeShare {
+    pub regime: String,
+    pub label: String,
+    pub share_of_error: f64,
+    pub share_of_time: f64,
+}
+
+/// Share of the normalised squared residual, and of the samples, in each regime (over DOFs).
+pub fn regime_shares(runs: &[Run], residuals: &[[Vec<f64>; 4]], scale: &[f64; 4]) -> Vec<RegimeShare> {
+    REGIMES
+        .iter()
+        .filter_map(|g| {
+            let (mut err_in, mut err_all, mut n_in, mut n_all) = (0.0, 0.0, 0.0, 0.0);
+            for (run, e) in runs.iter().zip(residuals) {
+                let med = medians(run);
+                for j in 0..4 {
+                    for (k, x) in e[j].iter().enumerate() {
+                        if !x.is_finite() {
+                            continue;
+                        }
+                        let inside = in_regime(g.name, run, k, j, &med)?;
+                        let w = x * x / scale[j];
+                        err_all += w;
+                        n_all += 1.0;
+                        if inside {
+                            err_in += w;
+                            n_in += 1.0;
+                        }
+                    }
+                }
+            }
+            (n_all > 0.0 && err_all > 0.0).then(|| RegimeShare { regime: g.name.into(), label: g.label.into(), share_of_error: err_in / err_all, share_of_time: n_in / n_all })
+        })
+        .collect()
+}
+
+/// Where a residual is: per run and DOF, the share of the error and its worst windows.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Mismatch {
+    pub run: String,
+    pub dof: Dof,
+    pub windows_s: Vec<[f64; 2]>,
+    pub share_of_error: f64,
+}
+
+/// Windows where the 1-s moving mean of the squared residual exceeds twice its run mean (and
+/// the noise), merged across gaps under 1 s, the five with the most error.
+pub fn locate(runs: &[Run], residuals: &[[Vec<f64>; 4]], scale: &[f64; 4]) -> Vec<Mismatch> {
+    let mut total = 0.0;
+    let mut parts = Vec::new();
+    for (run, e) in runs.iter().zip(residuals) {
+        for j in 0..4 {
+            let sq: Vec<f64> = e[j].iter().map(|x| if x.is_finite() { x * x } else { 0.0 }).collect();
+            let energy: f64 = sq.iter().sum::<f64>() / scale[j];
+            total += energy;
+            let n = sq.len();
+            let dt = if n > 1 { (run.t[n - 1] - run.t[0]) / (n - 1) as f64 } else { 0.05 };
+            let half = ((0.5 / dt).round() as usize).max(1);
+            let mut pre = vec![0.0; n + 1];
+            for k in 0..n {
+                pre[k + 1] = pre[k] + sq[k];
+            }
+            let mean = pre[n] / n.max(1) as f64;
+            let noise = run.std[j].iter().map(|s| s * s).sum::<f64>() / n.max(1) as f64;
+            let thr = (2.0 * mean).max(4.0 * noise);
+            let mut windows: Vec<(f64, f64, f64)> = Vec::new();
+            let mut k = 0;
+            while k < n {
+                let mov = |k: usize| {
+                    let (a, b) = (k.saturating_sub(half), (k + half + 1).min(n));
+                    (pre[b] - pre[a]) / (b - a) as f64
+                };
+                if mov(k) > thr {
+                    let start = k;
+                    while k < n && mov(k) > thr {
+                        k += 1;
+                    }
+                    let (t0, t1) = (run.t[start], run.t[k - 1]);
+                    let en = (pre[k] - pre[start]) / scale[j];
+                    match windows.last_mut() {
+                        Some(w) if t0 - w.1 < 1.0 => {
+                            w.1 = t1;
+                            w.2 += en;
+                        }
+                        _ => windows.push((t0, t1, en)),
+                    }
+                } else {
+                    k += 1;
+                }
+            }
+            windows.retain(|w| w.1 - w.0 >= 0.5);
+            windows.sort_by(|a, b| b.2.total_cmp(&a.2));
+            windows.truncate(5);
+            windows.sort_by(|a, b| a.0.total_cmp(&b.0));
+            parts.push((run.name.clone(), DOFS[j], windows.iter().map(|w| [round2(w.0), round2(w.1)]).collect(), energy));
+        }
+    }
+    let mut out: Vec<Mismatch> = parts.into_iter().map(|(run, dof, windows_s, e)| Mismatch { run, dof, windows_s, share_of_error: if total > 0.0 { e / total } else { 0.0 } }).collect();
+    out.sort_by(|a, b| b.share_of_error.total_cmp(&a.share_of_error));
+    out
+}
+
+fn round2(x: f64) -> f64 {
+    (x * 100.0).round() / 100.0
+}
+
+/// Per-DOF held-out normalised MAE as FORMATS.md writes it.
+pub fn nmae_map(s: &Sums) -> BTreeMap<Dof, f64> {
+    let v = s.nmae();
+    DOFS.iter().enumerate().filter(|(j, _)| v[*j].is_finite()).map(|(j, d)| (*d, v[j])).collect()
+}
+
+/// Runs the residual of a model over a set of runs.
+pub fn residuals(plant: &Plant, aug: &Augmentation, runs: &[Run]) -> Vec<[Vec<f64>; 4]> {
+    runs.par_iter().map(|r| residual(&simulate(plant, aug, r), r, aug.delay_s)).collect()
+}
+
+/// The effect's hypothesis and its main DOF index, for the evidence.
+pub fn main_dof(h: &Hypothesis) -> usize {
+    h.main_dof
+}
+
+pub fn evidence_regime(h: &Hypothesis) -> &'static str {
+    h.regime
+}

@@ -1,0 +1,80 @@
+//! Scenarios for proving the diagnosis: the twin's six pool runs with chosen effects concealed,
+//! written to a scratch folder, read back and fused exactly as the `pool` stage does.
+
+use super::Run;
+use crate::stage::pool::{FusedRun, RunMeta};
+use rayon::prelude::*;
+use crate::model::effects::Effect;
+use crate::twin::pool as twin;
+
+/// The fused runs of one generated scenario, as the `pool` stage would store them.
+pub fn fused_runs(effects: &[Effect], seed: u64) -> anyhow::Result<Vec<FusedRun>> {
+    let tmp = tempfile::tempdir()?;
+    let root = tmp.path();
+    let specs = twin::default_runs();
+    twin::write_runs(&root.join("cases/pool"), &root.join("truth/pool"), &specs, effects, seed)?;
+    specs
+        .par_iter()
+        .map(|spec| {
+            let dir = format!("cases/pool/{}", spec.name);
+            let files: Vec<String> = std::fs::read_dir(root.join(&dir))?.map(|e| e.map(|e| format!("{dir}/{}", e.file_name().to_string_lossy()))).collect::<Result<_, _>>()?;
+            let run = crate::io::pool::load(root, &dir, &files)?;
+            let fused = crate::fusion::fuse(&run, &Default::default());
+            let thrust: Vec<[f64; 4]> = (0..run.thrust.len()).map(|k| std::array::from_fn(|q| run.thrust.cols[q][k])).collect();
+            let meta = RunMeta {
+                run: spec.name.clone(),
+                role: run.meta.role,
+                description: run.meta.description.clone(),
+                pool: run.meta.pool,
+                tether_anchor_m: run.meta.tether_anchor_m,
+                sources: vec![],
+                known: std::array::from_fn(|j| fused.vel[j].is_some()),
+                sensors: vec![],
+                stats: fused.stats.clone(),
+                stats_without_sonar: None,
+                notes: vec![],
+            };
+            Ok(FusedRun { meta, thrust, fused, without_sonar: None })
+        })
+        .collect()
+}
+
+/// The diagnosis' view of [`fused_runs`].
+pub fn runs(effects: &[Effect], seed: u64) -> anyhow::Result<Vec<Run>> {
+    fused_runs(effects, seed)?.iter().map(|r| Run::from_fused(r).ok_or_else(|| anyhow::anyhow!("{}: not every DOF fused", r.meta.run))).collect()
+}
+
+/// The reference vehicle identified from the twin's STAR-CCM+ cases by least squares, as the
+/// shipped `fit` stage does (seed: the CFD noise).
+pub fn cfd_fit_plant(seed: u64) -> anyhow::Result<crate::model::Plant> {
+    use crate::estimate::Estimator as _;
+    use crate::model::{Hydro, Plant, Vehicle};
+    let vehicle = Vehicle::reference();
+    let mut responses = Vec::new();
+    for c in &crate::twin::cfd::default_cases() {
+        let text = crate::twin::cfd::export(&vehicle, Hydro::reference(), c, seed);
+        let opts = crate::io::starccm::ImportOptions { columns: &Default::default(), dofs: &vehicle.dofs, configured_force: Default::default() };
+        responses.push(crate::io::starccm::parse("twin.csv", &text, &opts).map_err(|e| anyhow::anyhow!("{e}"))?.response);
+    }
+    let refs: Vec<_> = responses.iter().collect();
+    let reg = crate::estimate::Regression::build(&vehicle, &refs, 0.0);
+    let fit = crate::estimate::ols::Ols.fit(&reg, &Default::default())?;
+    let theta: Vec<f64> = fit.parameters.iter().map(|p| p.value).collect();
+    Ok(Plant::new(&vehicle, reg.layout.to_hydro(&theta)))
+}
+
+/// The reference vehicle's model as a CFD identification would give it: every coefficient off
+/// by 1 to 2.5 %, alternating in sign (the shipped CFD fit is 1.5 % off at worst).
+pub fn cfd_plant() -> crate::model::Plant {
+    use crate::model::{Hydro, Plant, Vehicle};
+    let mut h = Hydro::reference();
+    let mut k = 0;
+    for arr in [&mut h.added, &mut h.lin, &mut h.quad] {
+        for x in arr.iter_mut() {
+            let f = [0.015, -0.02, 0.01, -0.025, 0.02, -0.01][k % 6];
+            *x *= 1.0 + f;
+            k += 1;
+        }
+    }
+    Plant::new(&Vehicle::reference(), h)
+}

@@ -1,0 +1,106 @@
+//! The report's section on the missing-physics diagnosis: the verdict, each effect with its
+//! parameters, evidence and held-out error before and after, where the mismatch is, and every
+//! hypothesis tested.
+
+use super::html::esc;
+use crate::stage::diagnose::{Diagnosis, Figure};
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+
+fn nmae(m: &BTreeMap<crate::dof::Dof, f64>) -> String {
+    m.iter().map(|(d, v)| format!("{d} {v:.3}")).collect::<Vec<_>>().join(", ")
+}
+
+pub fn section(d: &Diagnosis, figures: &[Figure]) -> String {
+    let mut h = String::new();
+    let _ = writeln!(
+        h,
+        "<h2 id=\"diagnosis\">Why the pool runs and the CFD model differ</h2>\n<p><b>{}</b></p>\n<p>Model diagnosed: <code>{}</code>. Effects are fitted on the training runs ({}) by output error and judged on the held-out runs ({}) only. Error cost: sum over DOFs of mean squared velocity error / mean squared velocity; noise floor {:.4} (the fused velocities' own variance). An effect is kept when it lowers the held-out cost by at least {:.0} % plus {:.0} % per parameter and by more than {:.1}× the noise floor. Took {:.1} s.</p>",
+        esc(&d.verdict),
+        esc(&d.baseline.model),
+        esc(&d.runs.train.join(", ")),
+        esc(&d.runs.validate.join(", ")),
+        d.baseline.noise_cost,
+        100.0 * d.criteria.min_gain,
+        100.0 * d.criteria.gain_per_parameter,
+        d.criteria.min_noise_multiple,
+        d.elapsed_s
+    );
+    h.push_str("<table><tr><th>model</th><th>held-out NMAE per DOF</th><th>error cost</th></tr>\n");
+    let _ = writeln!(h, "<tr><td>CFD model</td><td>{}</td><td>{:.4}</td></tr>", nmae(&d.baseline.validation_nmae), d.baseline.validation_cost);
+    let _ = writeln!(
+        h,
+        "<tr><td>its parameters re-estimated on the training runs (drift)</td><td>{}</td><td>{:.4}{}</td></tr>",
+        nmae(&d.baseline.reestimated.validation_nmae),
+        d.baseline.reestimated.validation_cost,
+        if d.baseline.reestimated.within_noise { " (within noise)" } else { "" }
+    );
+    for e in d.effects.iter().filter(|e| e.name != "unexplained") {
+        let _ = writeln!(h, "<tr><td>+ <code>{}</code></td><td>{}</td><td>{:.4}</td></tr>", esc(&e.name), nmae(&e.validation_nmae_after), e.validation_cost_after);
+    }
+    h.push_str("</table>\n");
+    if !d.effects.is_empty() {
+        h.push_str("<table><tr><th>effect</th><th>DOFs</th><th>parameters</th><th>held-out NMAE before</th><th>after</th><th>evidence</th></tr>\n");
+        for e in &d.effects {
+            let _ = writeln!(
+                h,
+                "<tr><td><code>{}</code></td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+                esc(&e.name),
+                e.dofs.iter().map(|x| x.name()).collect::<Vec<_>>().join(", "),
+                esc(&e.parameters.iter().map(|(k, v)| format!("{k} = {v:.3}")).collect::<Vec<_>>().join(", ")),
+                nmae(&e.validation_nmae_before),
+                nmae(&e.validation_nmae_after),
+                esc(&e.evidence)
+            );
+        }
+        h.push_str("</table>\n");
+    }
+    if d.baseline.parameters_reestimated {
+        h.push_str("<p>Re-estimated parameters:</p><table><tr>");
+        for p in &d.baseline.reestimated.parameters {
+            let _ = write!(h, "<th>{}</th>", esc(&p.name));
+        }
+        h.push_str("</tr><tr>");
+        for p in &d.baseline.reestimated.parameters {
+            let _ = write!(h, "<td>{:.3} ± {:.3}</td>", p.value, p.stderr);
+        }
+        h.push_str("</tr></table>\n");
+    }
+    h.push_str("<h3>Where the CFD model misses (held-out runs)</h3>\n<table><tr><th>run</th><th>DOF</th><th>share of the error</th><th>worst windows (s)</th></tr>\n");
+    for m in &d.mismatch {
+        let w = m.windows_s.iter().map(|w| format!("{:.1}–{:.1}", w[0], w[1])).collect::<Vec<_>>().join(", ");
+        let _ = writeln!(h, "<tr><td>{}</td><td>{}</td><td>{:.0} %</td><td>{}</td></tr>", esc(&m.run), m.dof, 100.0 * m.share_of_error, w);
+    }
+    h.push_str("</table>\n<table><tr><th>regime</th><th>share of the error</th><th>share of the time</th><th>concentration</th></tr>\n");
+    for r in &d.regimes {
+        let _ = writeln!(
+            h,
+            "<tr><td>{}</td><td>{:.0} %</td><td>{:.0} %</td><td>{:.2}</td></tr>",
+            esc(&r.label),
+            100.0 * r.share_of_error,
+            100.0 * r.share_of_time,
+            if r.share_of_time > 0.0 { r.share_of_error / r.share_of_time } else { f64::NAN }
+        );
+    }
+    h.push_str("</table>\n");
+    for f in figures {
+        let _ = writeln!(h, "<figure>{}<figcaption>{}</figcaption></figure>", f.svg, esc(&f.caption));
+    }
+    h.push_str("<details><summary>Every hypothesis tested</summary><table><tr><th>round</th><th>effect</th><th>parameters</th><th>training cost</th><th>held-out cost</th><th>gain</th><th>score</th><th>kept</th></tr>\n");
+    for t in &d.hypotheses {
+        let _ = writeln!(
+            h,
+            "<tr><td>{}</td><td><code>{}</code></td><td>{}</td><td>{:.4}</td><td>{:.4}</td><td>{:+.1} %</td><td>{:+.1} %</td><td>{}</td></tr>",
+            t.round,
+            esc(&t.name),
+            esc(&t.parameters.iter().map(|(k, v)| format!("{k} = {v:.3}")).collect::<Vec<_>>().join(", ")),
+            t.train_cost,
+            t.validation_cost,
+            100.0 * t.gain,
+            100.0 * t.score,
+            if t.accepted { "yes" } else { "" }
+        );
+    }
+    h.push_str("</table></details>\n");
+    h
+}
