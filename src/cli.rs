@@ -124,6 +124,13 @@ pub enum TwinCommand {
         #[arg(long = "effect")]
         effects: Vec<String>,
     },
+    /// Proves the diagnosis on generated scenarios (each effect alone at two magnitudes, pairs,
+    /// none) and prints the confusion table of concealed vs named effects.
+    CheckDiagnosis {
+        /// Seeds of the scenarios' manoeuvres and sensor noise.
+        #[arg(long = "seed", default_values_t = [2u64, 3])]
+        seeds: Vec<u64>,
+    },
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
@@ -145,5 +152,6 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             Ok(ExitCode::SUCCESS)
         }
         Command::Twin { what: TwinCommand::Pool { out, truth, seed, effects } } => cmd::twin::pool(&root, &out, &truth, seed, &effects),
+        Command::Twin { what: TwinCommand::CheckDiagnosis { seeds } } => cmd::twin::check_diagnosis(&seeds),
     }
 }

@@ -72,12 +72,12 @@ fn a_new_case_reruns_only_its_import_and_what_depends_on_it() {
     std::fs::write(dir.join("cases/cfd/starccm/surge_40N_rerun.csv"), text).unwrap();
     let status = stdout(&run(dir, &["status"]));
     let lines: Vec<&str> = status.lines().collect();
-    assert_eq!(lines.len(), 5, "{status}");
+    assert_eq!(lines.len(), 6, "{status}");
     assert_eq!(lines[0], "cfd[surge_40N_rerun]: new input cases/cfd/starccm/surge_40N_rerun.csv (never built)");
-    for want in ["fit: new upstream cfd[surge_40N_rerun]", "compare: new upstream cfd[surge_40N_rerun]", "validate: upstream fit changed"] {
+    for want in ["fit: new upstream cfd[surge_40N_rerun]", "compare: new upstream cfd[surge_40N_rerun]", "validate: upstream fit changed", "diagnose: upstream fit changed"] {
         assert!(lines.contains(&want), "{want}: {status}");
     }
-    assert!(lines[4].starts_with("report: "), "{status}");
+    assert!(lines[5].starts_with("report: "), "{status}");
     let out = ok(dir, &["build", "--explain"]);
     assert_eq!(ran(&out), 6, "{out}");
 }

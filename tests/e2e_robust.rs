@@ -5,13 +5,13 @@ use common::*;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-/// The published reports, with the estimator comparison's wall-clock times (the one part that
-/// legitimately differs between two builds) masked out.
+/// The published reports, with the wall-clock times (the estimator comparison's and the
+/// diagnosis's, the one part that legitimately differs between two builds) masked out.
 fn reports(dir: &std::path::Path) -> Vec<String> {
-    ["index.html", "parameters.json", "validation.json", "fusion.json"]
+    ["index.html", "parameters.json", "validation.json", "fusion.json", "diagnosis.json"]
         .iter()
         .map(|f| {
-            let text = read(dir, &format!("reports/{f}"));
+            let text = mask_diagnosis_time(&read(dir, &format!("reports/{f}")));
             match (text.find("id=\"comparison\""), text.find("id=\"fusion\"")) {
                 (Some(a), Some(b)) if a < b => {
                     let table = &text[a..b];
@@ -28,6 +28,17 @@ fn reports(dir: &std::path::Path) -> Vec<String> {
         .collect()
 }
 
+/// Drops the diagnosis's "Took 15.2 s." (HTML) and `"elapsed_s": 15.2` (JSON).
+fn mask_diagnosis_time(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut rest = text;
+    while let Some(i) = ["Took ", "\"elapsed_s\": "].iter().filter_map(|m| rest.find(m).map(|i| i + m.len())).min() {
+        out.push_str(&rest[..i]);
+        rest = rest[i..].trim_start_matches(|c: char| c.is_ascii_digit() || c == '.' || c == 'e' || c == '-');
+    }
+    out + rest
+}
+
 #[test]
 fn a_bad_case_fails_only_what_depends_on_it() {
     let p = project();
@@ -38,7 +49,7 @@ fn a_bad_case_fails_only_what_depends_on_it() {
     assert_eq!(o.status.code(), Some(1));
     let err = stderr(&o);
     assert!(err.contains("error: stage cfd[zz_bad] failed\n  cases/cfd/starccm/zz_bad.csv:3:9: cannot read \"0.o2\""), "{err}");
-    assert!(err.contains("not run because they depend on it: compare, fit, validate, report"), "{err}");
+    assert!(err.contains("not run because they depend on it: compare, fit, diagnose, validate, report"), "{err}");
     assert!(!dir.join("reports/index.html").exists());
     // The good imports are cached: fixing the file reruns it and the downstream only.
     std::fs::write(&bad, std::fs::read_to_string(&bad).unwrap().replace("0.o2", "0.02")).unwrap();

@@ -33,3 +33,96 @@ pub fn pool(root: &Path, out: &Path, truth: &Path, seed: u64, effects: &[String]
     );
     Ok(ExitCode::SUCCESS)
 }
+
+/// `hydrofit twin check-diagnosis`: the diagnosis on generated scenarios, each effect concealed
+/// alone at two magnitudes, pairs of effects, and nothing, for each seed; prints every verdict
+/// and the confusion table (concealed vs named).
+pub fn check_diagnosis(seeds: &[u64]) -> anyhow::Result<ExitCode> {
+    use crate::diagnose::scenario;
+    use crate::model::effects::{Effect, NAMES};
+    let singles = [
+        ("net_buoyancy", [6.0, -20.0]),
+        ("thruster_lag", [0.2, 0.6]),
+        ("reverse_thrust_loss", [0.2, 0.5]),
+        ("thruster_deadband", [5.0, 15.0]),
+        ("tether_drag", [0.5, 2.0]),
+        ("water_current", [0.08, -0.2]),
+        ("wall_effect", [120.0, 300.0]),
+        ("coupled_drag", [40.0, 120.0]),
+        ("sensor_delay", [0.15, 0.5]),
+    ];
+    let mut scenarios: Vec<Vec<Effect>> = vec![vec![]];
+    for (name, mags) in singles {
+        for m in mags {
+            scenarios.push(vec![Effect::from_arg(&format!("{name}={m}")).map_err(anyhow::Error::msg)?]);
+        }
+    }
+    for pair in [["thruster_lag=0.35", "tether_drag=1.2"], ["net_buoyancy=10", "sensor_delay=0.2"], ["water_current=0.12", "coupled_drag=60"], ["reverse_thrust_loss=0.3", "wall_effect=200"]] {
+        scenarios.push(pair.iter().map(|a| Effect::from_arg(a)).collect::<Result<_, _>>().map_err(anyhow::Error::msg)?);
+    }
+    let vehicle = crate::model::Vehicle::reference();
+    let plant = scenario::cfd_fit_plant(1)?;
+    let mut labels: Vec<&str> = vec!["nothing"];
+    labels.extend(NAMES);
+    labels.push("unexplained");
+    let mut table = vec![vec![0usize; labels.len()]; labels.len()];
+    let (mut right, mut total, mut worst_s) = (0, 0, 0.0f64);
+    for &seed in seeds {
+        for effects in &scenarios {
+            let fused = scenario::fused_runs(effects, seed)?;
+            let t = std::time::Instant::now();
+            let (d, _) = crate::stage::diagnose::diagnose(&vehicle, "fit", &plant, &fused, &Default::default(), &|_| {})?;
+            worst_s = worst_s.max(t.elapsed().as_secs_f64());
+            let named: Vec<&str> = d.effects.iter().map(|e| e.name.as_str()).collect();
+            let truth: Vec<&str> = effects.iter().map(|e| e.name()).collect();
+            let row = |n: &str| labels.iter().position(|l| *l == n).unwrap_or(0);
+            if truth.is_empty() {
+                table[0][named.first().map_or(0, |n| row(n))] += 1;
+            }
+            for (i, tn) in truth.iter().enumerate() {
+                // Each concealed effect counts once: named anywhere, else what took its place.
+                let col = if named.contains(tn) { row(tn) } else { named.get(i).map_or(0, |n| row(n)) };
+                table[row(tn)][col] += 1;
+            }
+            let ok = {
+                let mut a = truth.clone();
+                let mut b: Vec<&str> = named.clone();
+                a.sort();
+                b.sort();
+                a == b
+            };
+            right += usize::from(ok);
+            total += 1;
+            let params: Vec<String> = d.effects.iter().map(|e| format!("{} {:?}", e.name, e.parameters.values().map(|v| (v * 1000.0).round() / 1000.0).collect::<Vec<_>>())).collect();
+            println!(
+                "seed {seed} concealed [{}] named [{}] {} held-out cost {:.4} -> {:.4} (noise {:.4}) {:.1} s",
+                effects.iter().map(|e| format!("{e:?}")).collect::<Vec<_>>().join(", "),
+                params.join("; "),
+                if ok { "ok" } else { "WRONG" },
+                d.baseline.validation_cost,
+                d.effects.last().map_or(d.baseline.validation_cost, |e| e.validation_cost_after),
+                d.baseline.noise_cost,
+                t.elapsed().as_secs_f64()
+            );
+        }
+    }
+    println!("\nconfusion (rows: concealed, columns: named; pairs count each concealed effect once)");
+    let short = |s: &str| s.chars().take(8).collect::<String>();
+    print!("{:>20}", "");
+    for l in &labels {
+        print!(" {:>8}", short(l));
+    }
+    println!();
+    for (i, l) in labels.iter().enumerate() {
+        if table[i].iter().sum::<usize>() == 0 {
+            continue;
+        }
+        print!("{l:>20}");
+        for c in &table[i] {
+            print!(" {c:>8}");
+        }
+        println!();
+    }
+    println!("\n{right} of {total} scenarios exactly right; slowest diagnosis {worst_s:.1} s");
+    Ok(if right == total { ExitCode::SUCCESS } else { ExitCode::FAILURE })
+}
