@@ -4,7 +4,8 @@
 #   bash bench/qpso.sh            # population 40, 300 iterations (L2) and 100 (L1)
 set -euo pipefail
 cd "$(dirname "$0")/.."
-cargo build --release --locked --quiet
+# --all-targets: the same feature set as `cargo test`, so the test build is reused.
+cargo build --release --locked --all-targets --quiet
 bin="$(realpath "${CARGO_TARGET_DIR:-target}/release/hydrofit")"
 venv="${HYDROFIT_BENCH_VENV:-$HOME/.cache/hydrofit-bench-venv}"
 if [ ! -x "$venv/bin/python" ]; then
