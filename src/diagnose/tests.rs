@@ -84,7 +84,9 @@ fn each_concealed_effect_is_named_first_with_its_parameter_and_the_held_out_erro
 
 #[test]
 fn nothing_is_claimed_on_effect_free_data() {
-    for seed in [2, 3] {
+    // Seed 4's held-out run `mixed` holds a short burst no effect models: held-out gains from
+    // tiny parameters there must not be claimed (the training runs do not corroborate them).
+    for seed in [2, 3, 4] {
         let d = scenario_diagnosis(&[], seed);
         assert!(d.effects.is_empty(), "seed {seed}: {:?}\n{}", d.effects.iter().map(|e| &e.name).collect::<Vec<_>>(), d.verdict);
         assert!(d.verdict.starts_with("No missing physics") && !d.baseline.parameters_reestimated, "{}", d.verdict);
@@ -93,7 +95,9 @@ fn nothing_is_claimed_on_effect_free_data() {
 
 #[test]
 fn two_concealed_effects_are_both_named() {
-    for (args, seed) in [(["thruster_lag=0.25", "water_current=0.1"], 3), (["net_buoyancy=8", "coupled_drag=70"], 4)] {
+    for (args, seed) in [(["thruster_lag=0.25", "water_current=0.1"], 3), (["net_buoyancy=8", "coupled_drag=70"], 4), (["water_current=0.12", "coupled_drag=60"], 2)] {
+        // The last pair needs the swap step: neither effect alone fits, and tether drag stands in
+        // for coupled drag in the first round.
         let effects: Vec<Effect> = args.iter().map(|a| Effect::from_arg(a).unwrap()).collect();
         let d = scenario_diagnosis(&effects, seed);
         let mut named: Vec<&str> = d.effects.iter().map(|e| e.name.as_str()).collect();
@@ -139,6 +143,10 @@ fn a_residual_no_effect_explains_is_unexplained_not_named() {
     assert!(d.effects.last().unwrap().dofs.contains(&crate::dof::Dof::Surge));
 }
 
+fn plant_for_experiment() -> crate::model::Plant {
+    scenario::cfd_fit_plant(1).unwrap()
+}
+
 /// Prints every hypothesis of every round for one scenario, for working on the search:
 /// `EFFECTS=thruster_lag=0.3,tether_drag=1 SEED=2 cargo test --release experiment -- --ignored --nocapture`.
 #[test]
@@ -159,6 +167,19 @@ fn experiment() {
         }
         for (h, p) in &s.selected {
             eprintln!("  selected {} {:?}", h.name, p);
+        }
+        if std::env::var("PER_RUN").is_ok() {
+            let aug = augmentation(&s.selected);
+            for r in data.train.iter().chain(&data.validate) {
+                let sm = sums(&simulate(&plant_for_experiment(), &aug, r), r, 0.0);
+                eprintln!("  run {:12} validate {} cost {:.5} nmae {:?}", r.name, data.validate.iter().any(|v| v.name == r.name), sm.cost(&data.scale), sm.nmae().map(|x| (x * 1000.0).round() / 1000.0));
+                let res = residual(&simulate(&plant_for_experiment(), &aug, r), r, 0.0);
+                for (j, e) in res.iter().enumerate() {
+                    let (k, m) = e.iter().enumerate().fold((0, 0.0f64), |b, (k, v)| if v.abs() > b.1 { (k, v.abs()) } else { b });
+                    let rms = (e.iter().map(|v| v * v).sum::<f64>() / e.len() as f64).sqrt();
+                    eprintln!("     dof {j}: max |res| {m:.4} at sample {k} of {}, rms {rms:.4}, std there {:.4}", e.len(), r.std[j].get(k).copied().unwrap_or(f64::NAN));
+                }
+            }
         }
     }
 }

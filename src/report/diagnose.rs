@@ -86,18 +86,18 @@ pub fn section(d: &Diagnosis, figures: &[Figure]) -> String {
     for f in figures {
         let _ = writeln!(h, "<figure>{}<figcaption>{}</figcaption></figure>", f.svg, esc(&f.caption));
     }
-    h.push_str("<details><summary>Every hypothesis tested</summary><table><tr><th>round</th><th>effect</th><th>parameters</th><th>training cost</th><th>held-out cost</th><th>gain</th><th>score</th><th>kept</th></tr>\n");
+    h.push_str("<details><summary>Every hypothesis tested</summary><table><tr><th>round</th><th>effect</th><th>parameters</th><th>training cost</th><th>held-out cost</th><th>gain</th><th>score (ln before/after − penalty)</th><th>kept</th></tr>\n");
     for t in &d.hypotheses {
         let _ = writeln!(
             h,
-            "<tr><td>{}</td><td><code>{}</code></td><td>{}</td><td>{:.4}</td><td>{:.4}</td><td>{:+.1} %</td><td>{:+.1} %</td><td>{}</td></tr>",
+            "<tr><td>{}</td><td><code>{}</code></td><td>{}</td><td>{:.4}</td><td>{:.4}</td><td>{:+.1} %</td><td>{:+.3}</td><td>{}</td></tr>",
             t.round,
             esc(&t.name),
             esc(&t.parameters.iter().map(|(k, v)| format!("{k} = {v:.3}")).collect::<Vec<_>>().join(", ")),
             t.train_cost,
             t.validation_cost,
             100.0 * t.gain,
-            100.0 * t.score,
+            t.score,
             if t.accepted { "yes" } else { "" }
         );
     }
