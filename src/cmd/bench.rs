@@ -92,15 +92,11 @@ pub fn run(norm: &str, objective: &str, population: usize, iterations: usize, ex
         Norm::L2 => 4_000,
         Norm::L1 => 20,
     };
-    let best = (0..5)
-        .map(|_| {
-            let t0 = std::time::Instant::now();
-            for _ in 0..reps {
-                std::hint::black_box(problem.cost_all(&swarm.x));
-            }
-            t0.elapsed().as_secs_f64()
-        })
-        .fold(f64::INFINITY, f64::min);
+    let best = best_of_five(|| {
+        for _ in 0..reps {
+            std::hint::black_box(problem.cost_all(&swarm.x));
+        }
+    });
     let eval_rate = (reps * swarm.x.len()) as f64 / best;
     let peak = fma_peak();
     let achieved = eval_rate * flops as f64 / 1e9;
@@ -218,14 +214,20 @@ pub fn fma_peak() -> f64 {
     let (lanes, run) = pick();
     let n = 2_000_000;
     let threads = rayon::current_num_threads();
-    // The best of five: another process on the machine can only slow a run down.
-    let secs = (0..5)
+    let secs = best_of_five(|| {
+        std::hint::black_box((0..threads).into_par_iter().map(|_| run(n)).sum::<f64>());
+    });
+    (threads * n * 12 * lanes * 2) as f64 / secs / 1e9
+}
+
+/// The shortest of five timed runs of `f`, in seconds: another process on the machine can
+/// only slow a run down.
+fn best_of_five(f: impl Fn()) -> f64 {
+    (0..5)
         .map(|_| {
             let start = std::time::Instant::now();
-            let sink: f64 = (0..threads).into_par_iter().map(|_| run(n)).sum();
-            std::hint::black_box(sink);
+            f();
             start.elapsed().as_secs_f64()
         })
-        .fold(f64::INFINITY, f64::min);
-    (threads * n * 12 * lanes * 2) as f64 / secs / 1e9
+        .fold(f64::INFINITY, f64::min)
 }

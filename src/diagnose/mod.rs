@@ -19,6 +19,7 @@
 
 pub mod scenario;
 pub mod search;
+mod select;
 #[cfg(test)]
 mod tests;
 
@@ -30,6 +31,8 @@ use crate::stage::pool::FusedRun;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
+
+pub use select::{params_map, select, Criteria, Search, Tested};
 
 /// The pool DOFs, in the order of the fused tables: surge, sway, heave, yaw.
 pub const DOFS: [Dof; 4] = [Dof::Surge, Dof::Sway, Dof::Heave, Dof::Yaw];
@@ -330,191 +333,6 @@ impl Data {
     pub fn cost(&self, plant: &Plant, aug: &Augmentation, validate: bool) -> f64 {
         self.eval(plant, aug, validate).cost(&self.scale)
     }
-}
-
-/// Decision thresholds, stated in the report.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields, default)]
-pub struct Criteria {
-    /// An effect is kept when it lowers the held-out cost by at least this fraction...
-    pub min_gain: f64,
-    /// ... plus this much per parameter it adds (the penalty for extra parameters) ...
-    pub gain_per_parameter: f64,
-    /// ... and by at least this multiple of the noise floor (it explains more than noise).
-    pub min_noise_multiple: f64,
-    /// The held-out cost counts as "within noise" below this multiple of the noise floor.
-    pub within_noise: f64,
-    /// Greedy rounds at most.
-    pub max_effects: usize,
-}
-
-impl Default for Criteria {
-    fn default() -> Criteria {
-        Criteria { min_gain: 0.08, gain_per_parameter: 0.02, min_noise_multiple: 0.5, within_noise: 5.0, max_effects: 3 }
-    }
-}
-
-/// One hypothesis tested in one greedy round.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct Tested {
-    pub round: usize,
-    pub name: String,
-    pub parameters: BTreeMap<String, f64>,
-    pub train_cost: f64,
-    pub validation_cost: f64,
-    /// Fractional drop of the held-out cost from the round's starting model.
-    pub gain: f64,
-    /// ln(cost before / cost after) less the per-parameter penalty: what the winner is chosen
-    /// by. For small gains it equals the gain less the penalty; when several effects explain
-    /// nearly everything it still tells them apart by what they leave (0.006 vs 0.002 is a
-    /// threefold difference, though both are "a 98 % gain").
-    pub score: f64,
-    pub accepted: bool,
-}
-
-pub fn params_map(h: &Hypothesis, p: &[f64]) -> BTreeMap<String, f64> {
-    h.params.iter().zip(p).map(|((n, _, _), v)| (n.to_string(), *v)).collect()
-}
-
-fn applicable(h: &Hypothesis, data: &Data) -> bool {
-    let all = || data.train.iter().chain(&data.validate);
-    match h.needs {
-        Needs::Nothing => true,
-        Needs::Anchor => all().all(|r| r.anchor.is_some()),
-        Needs::Pool => all().all(|r| r.pool.is_some()),
-    }
-}
-
-/// Result of the greedy search.
-pub struct Search {
-    pub selected: Selection,
-    pub tested: Vec<Tested>,
-    /// Held-out cost of the CFD model, then after each accepted effect.
-    pub costs: Vec<f64>,
-}
-
-/// The winner's score: ln(before / after) less `gain_per_parameter` per parameter.
-fn score(criteria: &Criteria, before: f64, after: f64, params: f64) -> f64 {
-    (before.max(1e-300) / after.max(1e-300)).ln() - criteria.gain_per_parameter * params
-}
-
-/// Greedy forward selection of effects on top of `plant` (module docs, step 3).
-pub fn select(plant: &Plant, data: &Data, criteria: &Criteria, progress: &(dyn Fn(&str) + Sync)) -> Search {
-    let mut selected: Selection = Vec::new();
-    let mut tested = Vec::new();
-    let mut current = data.cost(plant, &Augmentation::default(), true);
-    let mut current_train = data.cost(plant, &Augmentation::default(), false);
-    let mut costs = vec![current];
-    for round in 1..=criteria.max_effects {
-        let candidates: Vec<&'static Hypothesis> = HYPOTHESES.iter().filter(|h| applicable(h, data) && !selected.iter().any(|(s, _)| s.name == h.name)).collect();
-        progress(&format!("round {round}: testing {} effects", candidates.len()));
-        let fitted: Vec<(&'static Hypothesis, Vec<f64>, f64, f64)> = candidates
-            .par_iter()
-            .map(|h| {
-                let (p, train_cost) = search::fit_one(plant, data, &selected, h);
-                let mut sel = selected.clone();
-                sel.push((*h, p.clone()));
-                let val = data.cost(plant, &augmentation(&sel), true);
-                (*h, p, train_cost, val)
-            })
-            .collect();
-        let mut rows: Vec<Tested> = fitted
-            .iter()
-            .map(|(h, p, tc, vc)| {
-                let gain = (current - vc) / current;
-                Tested { round, name: h.name.into(), parameters: params_map(h, p), train_cost: *tc, validation_cost: *vc, gain, score: score(criteria, current, *vc, h.params.len() as f64), accepted: false }
-            })
-            .collect();
-        // An effect is fitted on the training runs: when it is real it explains them too. A
-        // held-out gain the training runs do not share is the held-out runs' sensitivity to
-        // any small change (an open-loop simulation far from the data), not physics.
-        let corroborated = |tc: f64| (current_train - tc) / current_train >= 0.5 * criteria.min_gain;
-        let best = (0..rows.len()).filter(|&i| corroborated(rows[i].train_cost)).max_by(|&a, &b| rows[a].score.total_cmp(&rows[b].score));
-        let Some(b) = best else { break };
-        let row = &rows[b];
-        let significant = row.gain - criteria.gain_per_parameter * fitted[b].0.params.len() as f64 >= criteria.min_gain && current - row.validation_cost >= criteria.min_noise_multiple * data.noise_cost;
-        if !significant {
-            tested.extend(rows);
-            break;
-        }
-        rows[b].accepted = true;
-        let (h, p, _, _) = &fitted[b];
-        selected.push((*h, p.clone()));
-        progress(&format!("round {round}: {} kept, refining every kept effect together", h.name));
-        if selected.len() > 1 {
-            selected = search::refine_all(plant, data, &selected);
-        }
-        current = data.cost(plant, &augmentation(&selected), true);
-        current_train = data.cost(plant, &augmentation(&selected), false);
-        costs.push(current);
-        tested.extend(rows);
-        if selected.len() > 1 {
-            if let Some((out, row)) = swap(plant, data, criteria, &mut selected, (current, current_train), round, progress) {
-                current_train = row.train_cost;
-                // The effect swapped out no longer counts as kept; the cost after this round is the swapped set's.
-                if let Some(t) = tested.iter_mut().find(|t| t.accepted && t.name == out) {
-                    t.accepted = false;
-                }
-                current = row.validation_cost;
-                *costs.last_mut().expect("pushed above") = current;
-                tested.push(row);
-            }
-        }
-    }
-    Search { selected, tested, costs }
-}
-
-/// A greedy pick can be wrong when two missing effects only make sense together (a current
-/// and coupled drag: neither alone fits, and a third effect stands in for one of them). After
-/// each round, every earlier kept effect is tried replaced by every untried one, refitted with
-/// the rest; the best replacement is made when it lowers the held-out cost by the same margin
-/// a new effect must reach. Returns the name swapped out and the row of the one swapped in.
-fn swap(plant: &Plant, data: &Data, criteria: &Criteria, selected: &mut Selection, (current, current_train): (f64, f64), round: usize, progress: &(dyn Fn(&str) + Sync)) -> Option<(String, Tested)> {
-    let n = selected.len();
-    let options: Vec<(usize, &'static Hypothesis)> = (0..n - 1)
-        .flat_map(|i| HYPOTHESES.iter().filter(|h| applicable(h, data) && !selected.iter().any(|(s, _)| s.name == h.name)).map(move |h| (i, h)))
-        .collect();
-    progress(&format!("round {round}: trying {} replacements of earlier effects", options.len()));
-    let fitted: Vec<(usize, &'static Hypothesis, Vec<f64>, f64)> = options
-        .par_iter()
-        .map(|&(i, h)| {
-            let mut rest = selected.clone();
-            rest.remove(i);
-            let (p, train) = search::fit_one(plant, data, &rest, h);
-            rest.push((h, p.clone()));
-            (i, h, p, data.cost(plant, &augmentation(&rest), true), train)
-        })
-        .filter(|f| (current_train - f.4) / current_train >= 0.5 * criteria.min_gain)
-        .map(|(i, h, p, val, _)| (i, h, p, val))
-        .collect();
-    let extra = |i: usize, h: &Hypothesis| (h.params.len() as f64 - selected[i].0.params.len() as f64).max(0.0);
-    let (i, h, p, val) = fitted.into_iter().max_by(|a, b| score(criteria, current, a.3, extra(a.0, a.1)).total_cmp(&score(criteria, current, b.3, extra(b.0, b.1))))?;
-    if (current - val) / current - criteria.gain_per_parameter * extra(i, h) < criteria.min_gain || current - val < criteria.min_noise_multiple * data.noise_cost {
-        return None;
-    }
-    let mut next = selected.clone();
-    let (out, _) = next.remove(i);
-    next.push((h, p));
-    let next = search::refine_all(plant, data, &next);
-    let after = data.cost(plant, &augmentation(&next), true);
-    if after >= current {
-        return None;
-    }
-    progress(&format!("round {round}: {} replaces {}", h.name, out.name));
-    let (_, p) = next.last().expect("pushed above");
-    let gain = (current - after) / current;
-    let row = Tested {
-        round,
-        name: h.name.into(),
-        parameters: params_map(h, p),
-        train_cost: data.cost(plant, &augmentation(&next), false),
-        validation_cost: after,
-        gain,
-        score: score(criteria, current, after, h.params.len() as f64),
-        accepted: true,
-    };
-    *selected = next;
-    Some((out.name.to_string(), row))
 }
 
 /// A regime of the runs: a condition per sample and DOF.

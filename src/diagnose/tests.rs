@@ -143,12 +143,9 @@ fn a_residual_no_effect_explains_is_unexplained_not_named() {
     assert!(d.effects.last().unwrap().dofs.contains(&crate::dof::Dof::Surge));
 }
 
-fn plant_for_experiment() -> crate::model::Plant {
-    scenario::cfd_fit_plant(1).unwrap()
-}
-
 /// Prints every hypothesis of every round for one scenario, for working on the search:
-/// `EFFECTS=thruster_lag=0.3,tether_drag=1 SEED=2 cargo test --release experiment -- --ignored --nocapture`.
+/// `EFFECTS=thruster_lag=0.3,tether_drag=1 SEED=2 cargo test --release experiment -- --ignored --nocapture`
+/// (`PER_RUN=1` adds each run's cost and largest residual under the selected effects).
 #[test]
 #[ignore]
 fn experiment() {
@@ -169,12 +166,12 @@ fn experiment() {
             eprintln!("  selected {} {:?}", h.name, p);
         }
         if std::env::var("PER_RUN").is_ok() {
-            let aug = augmentation(&s.selected);
+            let (plant, aug) = (scenario::cfd_fit_plant(1).unwrap(), augmentation(&s.selected));
             for r in data.train.iter().chain(&data.validate) {
-                let sm = sums(&simulate(&plant_for_experiment(), &aug, r), r, 0.0);
+                let sim = simulate(&plant, &aug, r);
+                let sm = sums(&sim, r, 0.0);
                 eprintln!("  run {:12} validate {} cost {:.5} nmae {:?}", r.name, data.validate.iter().any(|v| v.name == r.name), sm.cost(&data.scale), sm.nmae().map(|x| (x * 1000.0).round() / 1000.0));
-                let res = residual(&simulate(&plant_for_experiment(), &aug, r), r, 0.0);
-                for (j, e) in res.iter().enumerate() {
+                for (j, e) in residual(&sim, r, 0.0).iter().enumerate() {
                     let (k, m) = e.iter().enumerate().fold((0, 0.0f64), |b, (k, v)| if v.abs() > b.1 { (k, v.abs()) } else { b });
                     let rms = (e.iter().map(|v| v * v).sum::<f64>() / e.len() as f64).sqrt();
                     eprintln!("     dof {j}: max |res| {m:.4} at sample {k} of {}, rms {rms:.4}, std there {:.4}", e.len(), r.std[j].get(k).copied().unwrap_or(f64::NAN));

@@ -1,5 +1,6 @@
 //! Estimators of the hydrodynamic parameters, behind one registry so `pipeline.yaml` can name them.
 
+mod kernels;
 pub mod ols;
 pub mod regression;
 pub mod rls;
