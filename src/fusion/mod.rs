@@ -16,6 +16,8 @@
 //! ROV is passively stable in both; the IMU's roll and pitch are used for gravity).
 
 pub mod kalman;
+pub mod nav;
+pub mod run;
 
 use crate::io::pool::{PoolRun, G};
 use crate::io::csvlog::Log;
@@ -98,14 +100,14 @@ fn unwrap_angles(a: &[f64]) -> Vec<f64> {
 
 impl Settings {
     fn noise(&self, run: &PoolRun) -> Noise {
-        let est = |l: Option<&Log>, c: usize, floor: f64| l.map_or(floor, |l| noise_sigma(&l.cols[c], floor));
+        let est = |l: Option<&Log>, c: usize, floor: f64| l.and_then(|l| l.col(c)).map_or(floor, |x| noise_sigma(x, floor));
         let uwb = run.uwb.as_ref();
         let imu = run.imu.as_ref();
         Noise {
             uwb_m: self.uwb_sigma_m.unwrap_or_else(|| std::array::from_fn(|c| est(uwb, c, 0.005))),
             sonar_m: self.sonar_sigma_m.unwrap_or_else(|| est(run.sonar.as_ref(), 0, 0.005).max(est(run.sonar.as_ref(), 1, 0.005))),
             depth_m: self.depth_sigma_m.unwrap_or_else(|| est(run.depth.as_ref(), 0, 0.002)),
-            yaw_rad: self.yaw_sigma_deg.map(f64::to_radians).unwrap_or_else(|| imu.map_or(0.01, |l| noise_sigma(&unwrap_angles(&l.cols[2]), 0.1f64.to_radians()))),
+            yaw_rad: self.yaw_sigma_deg.map(f64::to_radians).unwrap_or_else(|| imu.and_then(|l| l.col(2)).map_or(0.01, |y| noise_sigma(&unwrap_angles(y), 0.1f64.to_radians()))),
             gyro_rad_s: self.gyro_sigma_dps.map(f64::to_radians).unwrap_or_else(|| est(imu, 5, 0.05f64.to_radians())),
             accel_m_s2: self.accel_sigma_g.map(|g| g * G).unwrap_or_else(|| (0..2).map(|c| est(imu, 6 + c, 0.002 * G)).fold(0.0, f64::max)),
         }
@@ -131,6 +133,9 @@ pub struct Fused {
 
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
 pub struct Stats {
+    /// Noise of each navigation-log velocity channel (u, v, w), when the run has one.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub nav: Vec<(String, nav::Noise)>,
     pub uwb_fixes: usize,
     pub uwb_rejected_median: usize,
     pub uwb_rejected_gate: usize,
@@ -193,30 +198,63 @@ struct Heading {
     bias: f64,
 }
 
-fn heading(imu: &Log, n: &Noise) -> Heading {
-    let (yaw, gyro) = (&imu.cols[2], &imu.cols[5]);
+/// A heading source: absolute yaw and/or a yaw-rate gyro at times `t` (either may be absent).
+struct HeadingInput<'a> {
+    t: &'a [f64],
+    yaw: Option<&'a [f64]>,
+    gyro: Option<&'a [f64]>,
+}
+
+impl<'a> HeadingInput<'a> {
+    /// From the IMU when it has yaw or a z gyro, else from the navigation log's.
+    fn of(imu: Option<&'a Log>, nav: Option<&'a Log>) -> Option<HeadingInput<'a>> {
+        let from = |l: &'a Log, yaw: usize, rate: usize| (l.has(yaw) || l.has(rate)).then(|| HeadingInput { t: &l.t, yaw: l.col(yaw), gyro: l.col(rate) });
+        imu.and_then(|l| from(l, 2, 5)).or_else(|| nav.and_then(|l| from(l, 5, 8)))
+    }
+}
+
+fn heading(src: &HeadingInput, n: &Noise) -> Heading {
+    let len = src.t.len();
+    let nan = vec![f64::NAN; len];
+    let (yaw, gyro) = (src.yaw.unwrap_or(&nan), src.gyro.unwrap_or(&nan));
     let (sy, sg) = (n.yaw_rad, n.gyro_rad_s);
     // Yaw acceleration of a thruster-driven ROV: a few rad/s^2 at most; bias wanders slowly.
     let (q_r, q_b) = (2.0, 1e-8);
-    let x0 = Vector::<3>::new(yaw[0], gyro[0], 0.0);
-    let mut f = Filter::<3>::new(x0, Mat::<3>::from_diagonal(&Vector::<3>::new(sy * sy, 0.1, 0.03f64.powi(2))));
+    let finite_or = |x: f64, d: f64| if x.is_finite() { x } else { d };
+    let x0 = Vector::<3>::new(finite_or(yaw[0], 0.0), finite_or(gyro[0], 0.0), 0.0);
+    let psi_var0 = if yaw[0].is_finite() { sy * sy } else { 10.0 };
+    let mut f = Filter::<3>::new(x0, Mat::<3>::from_diagonal(&Vector::<3>::new(psi_var0, 0.1, 0.03f64.powi(2))));
     let wrap = |v: &mut SVector<f64, 1>| v[0] = wrap_pi(v[0]);
-    for k in 0..imu.len() {
+    for k in 0..len {
         if k > 0 {
-            let dt = imu.t[k] - imu.t[k - 1];
+            let dt = src.t[k] - src.t[k - 1];
+            if dt <= 0.0 {
+                continue;
+            }
             let a = white_accel(q_r, dt);
             let fm = Mat::<3>::new(1.0, dt, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0);
             let q = Mat::<3>::new(a[0][0], a[0][1], 0.0, a[1][0], a[1][1], 0.0, 0.0, 0.0, q_b * dt);
             f.predict(fm, Vector::<3>::zeros(), q);
         }
-        let h = SMatrix::<f64, 1, 3>::new(1.0, 0.0, 0.0);
-        f.update(SVector::<f64, 1>::new(yaw[k]), h, SMatrix::<f64, 1, 1>::new(sy * sy), f64::INFINITY, wrap);
-        let h = SMatrix::<f64, 1, 3>::new(0.0, 1.0, 1.0);
-        f.update(SVector::<f64, 1>::new(gyro[k]), h, SMatrix::<f64, 1, 1>::new(sg * sg), f64::INFINITY, |_| {});
+        if yaw[k].is_finite() {
+            let h = SMatrix::<f64, 1, 3>::new(1.0, 0.0, 0.0);
+            f.update(SVector::<f64, 1>::new(yaw[k]), h, SMatrix::<f64, 1, 1>::new(sy * sy), f64::INFINITY, wrap);
+        }
+        if gyro[k].is_finite() {
+            let h = SMatrix::<f64, 1, 3>::new(0.0, 1.0, 1.0);
+            f.update(SVector::<f64, 1>::new(gyro[k]), h, SMatrix::<f64, 1, 1>::new(sg * sg), f64::INFINITY, |_| {});
+        }
     }
     let sm = f.smooth();
+    // Steps are taken only at increasing times: keep the times of the steps.
+    let mut t = Vec::with_capacity(len);
+    for (k, &tk) in src.t.iter().enumerate() {
+        if k == 0 || tk > src.t[k - 1] {
+            t.push(tk);
+        }
+    }
     Heading {
-        t: imu.t.clone(),
+        t,
         psi: sm.iter().map(|(x, _)| x[0]).collect(),
         psi_var: sm.iter().map(|(_, p)| p[(0, 0)]).collect(),
         r: sm.iter().map(|(x, _)| x[1]).collect(),
@@ -259,12 +297,15 @@ pub fn fuse(run: &PoolRun, s: &Settings) -> Fused {
     let out_t = run.thrust.t.clone();
     let mut stats = Stats::default();
     let noise = s.noise(run);
-    let hd = imu.map(|imu| heading(imu, &noise));
+    let nav = run.nav.as_ref().filter(|_| use_("nav"));
+    let hd = HeadingInput::of(imu, nav).map(|src| heading(&src, &noise));
     stats.gyro_bias_dps = hd.as_ref().map(|h| h.bias.to_degrees());
     stats.noise = noise.clone();
 
     let mut events: Vec<(f64, u8, Event)> = Vec::new();
-    if let Some(l) = imu {
+    // Only an IMU with accelerometers drives the position filter.
+    let imu_accel = imu.filter(|l| (6..9).all(|c| l.has(c)));
+    if let Some(l) = imu_accel {
         events.extend(l.t.iter().enumerate().map(|(k, &t)| (t, 0, Event::Imu(k))));
     }
     if let Some(l) = uwb {
@@ -304,7 +345,7 @@ pub fn fuse(run: &PoolRun, s: &Settings) -> Fused {
     for (t, _, ev) in &events {
         let dt = t - last_t;
         if dt > 0.0 {
-            let (fm, u, q) = transition(dt, last_imu.map(|k| (imu.unwrap(), hd.as_ref().unwrap(), k)), &noise);
+            let (fm, u, q) = transition(dt, last_imu.and_then(|k| Some((imu_accel?, hd.as_ref()?, k))), &noise);
             kf.predict(fm, u, q);
             last_t = *t;
         }
@@ -317,12 +358,16 @@ pub fn fuse(run: &PoolRun, s: &Settings) -> Fused {
                     stats.uwb_rejected_median += 1;
                     continue;
                 }
-                let z = SVector::<f64, 3>::new(l.cols[0][k], l.cols[1][k], l.cols[2][k]);
+                // A UWB log without heights gives the horizontal position only.
+                let z = SVector::<f64, 3>::new(l.cols[0][k], l.cols[1][k], if l.has(2) { l.cols[2][k] } else { 0.0 });
                 let mut h = SMatrix::<f64, 3, 9>::zeros();
                 h[(0, 0)] = 1.0;
                 h[(1, 1)] = 1.0;
                 h[(2, 2)] = 1.0;
                 let r = SMatrix::<f64, 3, 3>::from_diagonal(&SVector::<f64, 3>::from_iterator(noise.uwb_m.iter().map(|x| x * x)));
+                if !l.has(2) {
+                    h[(2, 2)] = 0.0;
+                }
                 // After a second of rejections the filter, not the fixes, is wrong: re-acquire.
                 let gate = if rejected_in_row >= 10 { f64::INFINITY } else { gate3 };
                 match kf.update(z, h, r, gate, |_| {}) {
@@ -357,7 +402,49 @@ pub fn fuse(run: &PoolRun, s: &Settings) -> Fused {
         }
     }
     let sm = kf.smooth();
-    assemble(run, out_t, &out_step, &sm, hd.as_ref(), uwb.is_some() || sonar.is_some(), depth.is_some() || uwb.is_some(), stats)
+    let vertical = depth.is_some() || uwb.is_some_and(|l| l.has(2));
+    let mut fused = assemble(run, out_t, &out_step, &sm, hd.as_ref(), uwb.is_some() || sonar.is_some(), vertical, stats);
+    if let Some(nav) = nav {
+        use_nav(&mut fused, nav, hd.as_ref());
+    }
+    fused
+}
+
+/// Typical jerk of a thruster-driven vehicle's velocity, ((m/s^3)^2 s): a thrust step brings
+/// ~1 m/s^2 within a few tenths of a second.
+const NAV_JERK: f64 = 20.0;
+
+/// The navigation log's body velocities replace what the position filter derived (a DVL
+/// measures them directly; differentiating positions only adds noise), channel by channel.
+/// Its yaw rate is used when no IMU gave one.
+fn use_nav(fused: &mut Fused, nav: &Log, hd: Option<&Heading>) {
+    let floors = [0.002, 0.002, 0.002];
+    for (j, name) in ["u", "v", "w"].iter().enumerate() {
+        let Some(z) = nav.col(j) else { continue };
+        let noise = nav::noise_level(&nav.t, z, floors[j]);
+        let s = nav::smooth(&nav.t, z, &fused.t, noise, NAV_JERK);
+        fused.vel[j] = Some(s.v);
+        fused.std[j] = Some(s.std);
+        fused.stats.nav.push((name.to_string(), noise));
+    }
+    if fused.vel[3].is_none() && hd.is_none() {
+        if let Some(r) = nav.col(8) {
+            let noise = nav::noise_level(&nav.t, r, 0.05f64.to_radians());
+            let s = nav::smooth(&nav.t, r, &fused.t, noise, NAV_JERK);
+            fused.vel[3] = Some(s.v);
+            fused.std[3] = Some(s.std);
+        }
+    }
+    // The position filter's reasons for unknown velocities no longer hold where the log gave them.
+    let known = |j: usize| fused.vel[j].is_some();
+    let (horizontal, vertical, yaw) = (known(0) && known(1), known(2), known(3));
+    fused.stats.notes.retain(|n| !((horizontal && n.contains("so surge and sway are unknown")) || (vertical && n.contains("so heave is unknown")) || (horizontal && yaw && n.contains("so surge, sway and yaw rate are unknown"))));
+    if fused.vel[3].is_none() {
+        fused.stats.notes.push("no yaw rate: neither an IMU nor the navigation log gives heading or r".into());
+    }
+    if fused.x.iter().all(|x| x.is_nan()) {
+        fused.stats.notes.push("no pool-frame position (no UWB or sonar): tether length and wall distance are unknown".into());
+    }
 }
 
 /// Transition of the position filter over `dt`, driven by the IMU sample `k` when there is one.
@@ -371,7 +458,8 @@ fn transition(dt: f64, imu: Option<(&Log, &Heading, usize)>, n: &Noise) -> (Mat<
     match imu {
         Some((l, hd, k)) => {
             let psi = interp(&hd.t, &hd.psi, l.t[k]);
-            let (phi, theta) = (l.cols[0][k], l.cols[1][k]);
+            let level = |x: f64| if x.is_finite() { x } else { 0.0 };
+            let (phi, theta) = (level(l.cols[0][k]), level(l.cols[1][k]));
             let rot = nalgebra::Rotation3::from_euler_angles(phi, theta, psi);
             let fb = nalgebra::Vector3::new(l.cols[6][k], l.cols[7][k], l.cols[8][k]);
             let a = rot * fb + nalgebra::Vector3::new(0.0, 0.0, G);

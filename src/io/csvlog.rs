@@ -10,6 +10,8 @@ pub struct Log {
     pub cols: Vec<Vec<f64>>,
     /// What was done to the data (repeated times dropped, extra columns ignored).
     pub notes: Vec<String>,
+    /// Which of the requested columns (after `t`) the file has; a missing one is all NaN.
+    pub present: Vec<bool>,
 }
 
 impl Log {
@@ -24,6 +26,31 @@ impl Log {
     pub fn row(&self, k: usize) -> Vec<f64> {
         self.cols.iter().map(|c| c[k]).collect()
     }
+
+    /// Whether column `c` (0 = the first after `t`) was in the file.
+    pub fn has(&self, c: usize) -> bool {
+        self.present.get(c).copied().unwrap_or(false)
+    }
+
+    /// The column, when the file had it.
+    pub fn col(&self, c: usize) -> Option<&[f64]> {
+        self.has(c).then(|| self.cols[c].as_slice())
+    }
+
+    /// Keeps the last of the rows that share a time stamp (a logger writing twice in one
+    /// tick, inner iterations written out), and says how many were dropped.
+    pub fn dedupe_times(&mut self, path: &str) {
+        let n = self.t.len();
+        let keep: Vec<usize> = (0..n).filter(|&k| k + 1 == n || self.t[k + 1] != self.t[k]).collect();
+        if keep.len() == n {
+            return;
+        }
+        self.notes.push(format!("{path}: {} rows repeated a time stamp; the last of each was kept", n - keep.len()));
+        self.t = keep.iter().map(|&k| self.t[k]).collect();
+        for c in &mut self.cols {
+            *c = keep.iter().map(|&k| c[k]).collect();
+        }
+    }
 }
 
 fn unquote(s: &str) -> &str {
@@ -35,6 +62,28 @@ fn unquote(s: &str) -> &str {
 /// time `t`. Column names match ignoring case and surrounding quotes; extra columns are ignored.
 /// `what` names the log for messages ("UWB log"), `source` says where such a file comes from.
 pub fn parse(path: &str, text: &str, columns: &[&str], what: &str, min_rows: usize) -> Result<Log, InputError> {
+    let mut log = parse_columns(path, text, columns, columns.len(), what, min_rows)?;
+    log.dedupe_times(path);
+    Ok(log)
+}
+
+/// As [`parse`], but rows that repeat a time stamp are kept: a log written by receive time
+/// holds many distinct rows within one tick of its clock, which only a clock repair
+/// ([`super::timing`]) can place; call [`Log::dedupe_times`] when no repair applies.
+pub fn parse_keeping_repeats(path: &str, text: &str, columns: &[&str], what: &str, min_rows: usize) -> Result<Log, InputError> {
+    parse_columns(path, text, columns, columns.len(), what, min_rows)
+}
+
+/// As [`parse`], but only `t` and the first `required - 1` data columns must be there; the
+/// others may be missing (a navigation log without rates, an AHRS without accelerometers),
+/// are NaN in the log, and are named in its notes. A file with none of them is an error.
+pub fn parse_subset(path: &str, text: &str, columns: &[&str], what: &str, min_rows: usize) -> Result<Log, InputError> {
+    let mut log = parse_columns(path, text, columns, 1, what, min_rows)?;
+    log.dedupe_times(path);
+    Ok(log)
+}
+
+fn parse_columns(path: &str, text: &str, columns: &[&str], required: usize, what: &str, min_rows: usize) -> Result<Log, InputError> {
     let err = |line: usize, col: Option<usize>, msg: String, fix: String| InputError::file(path, msg, fix).at(line, col).with_source(text);
     let mut lines = text.lines().enumerate().map(|(i, l)| (i + 1, l.trim_end_matches('\r'))).filter(|(_, l)| !l.trim().is_empty());
     let Some((hline, header)) = lines.next() else {
@@ -50,9 +99,17 @@ pub fn parse(path: &str, text: &str, columns: &[&str], what: &str, min_rows: usi
         return Err(err(hline, Some(1), format!("the header has one column; expected {}", columns.join(",")), fix));
     }
     let mut index = Vec::with_capacity(columns.len());
-    for c in columns {
+    let mut present = Vec::with_capacity(columns.len());
+    for (ci, c) in columns.iter().enumerate() {
         match names.iter().position(|n| n.eq_ignore_ascii_case(c)) {
-            Some(i) => index.push(i),
+            Some(i) => {
+                index.push(i);
+                present.push(true);
+            }
+            None if ci >= required => {
+                index.push(usize::MAX);
+                present.push(false);
+            }
             None => {
                 let hint = crate::diag::nearest(c, names.iter().copied().filter(|n| !columns.iter().any(|x| x.eq_ignore_ascii_case(n)))).map_or(String::new(), |n| format!(" (`{n}` is close; rename it)"));
                 return Err(err(
@@ -64,13 +121,19 @@ pub fn parse(path: &str, text: &str, columns: &[&str], what: &str, min_rows: usi
             }
         }
     }
+    if required < columns.len() && !present[1..].iter().any(|p| *p) {
+        return Err(err(hline, None, format!("the {what} has none of its columns {}", columns[1..].join(",")), format!("the header must be `t` and any of {}", columns[1..].join(","))));
+    }
     let mut notes = Vec::new();
+    let missing: Vec<&str> = columns.iter().zip(&present).filter(|(_, p)| !**p).map(|(c, _)| *c).collect();
+    if !missing.is_empty() {
+        notes.push(format!("{path}: no {} column{}; used what is there", missing.join(", "), if missing.len() > 1 { "s" } else { "" }));
+    }
     let extra: Vec<&str> = names.iter().enumerate().filter(|(i, _)| !index.contains(i)).map(|(_, n)| *n).collect();
     if !extra.is_empty() {
         notes.push(format!("{path}: ignored columns {}", extra.join(", ")));
     }
-    let mut log = Log { t: Vec::new(), cols: vec![Vec::new(); columns.len() - 1], notes };
-    let mut repeated = 0;
+    let mut log = Log { t: Vec::new(), cols: vec![Vec::new(); columns.len() - 1], notes, present: present[1..].to_vec() };
     for (lno, line) in lines {
         let fields: Vec<&str> = line.split(',').collect();
         if fields.len() != names.len() {
@@ -84,6 +147,10 @@ pub fn parse(path: &str, text: &str, columns: &[&str], what: &str, min_rows: usi
         let col_of = |i: usize| fields[..i].iter().map(|f| f.len() + 1).sum::<usize>() + 1;
         let mut row = Vec::with_capacity(columns.len());
         for (&i, name) in index.iter().zip(columns) {
+            if i == usize::MAX {
+                row.push(f64::NAN);
+                continue;
+            }
             let raw = unquote(fields[i]);
             let v: f64 = raw.parse().map_err(|_| {
                 let fix = if raw.contains(';') || raw.matches('.').count() == 0 && raw.contains(',') {
@@ -108,22 +175,11 @@ pub fn parse(path: &str, text: &str, columns: &[&str], what: &str, min_rows: usi
                     "the log must be in time order; two recordings appended into one file must be split into two runs".into(),
                 ));
             }
-            if t == prev {
-                // A logger writing twice in one tick: keep the last value, as for inner iterations.
-                repeated += 1;
-                log.t.pop();
-                for c in &mut log.cols {
-                    c.pop();
-                }
-            }
         }
         log.t.push(t);
         for (c, v) in log.cols.iter_mut().zip(&row[1..]) {
             c.push(*v);
         }
-    }
-    if repeated > 0 {
-        log.notes.push(format!("{path}: {repeated} rows repeated a time stamp; the last of each was kept"));
     }
     if log.len() < min_rows {
         return Err(InputError::file(

@@ -4,5 +4,6 @@ pub mod csvlog;
 pub mod pool;
 pub mod response;
 pub mod starccm;
+pub mod timing;
 
 pub use response::{Response, Series};

@@ -1,6 +1,8 @@
 //! A free-running pool test folder (FORMATS.md): `run.yaml`, `thrust.csv` and whichever of
-//! `uwb.csv`, `sonar.csv`, `imu.csv`, `depth.csv` were recorded. Angles become radians and
-//! accelerations m/s^2 on import.
+//! `uwb.csv`, `sonar.csv`, `imu.csv`, `depth.csv`, `nav.csv` were recorded. A sensor file may
+//! hold a subset of its columns (missing ones are NaN and named in the notes). Angles become
+//! radians and accelerations m/s^2 on import; the command log's receive-time bursts are
+//! repaired (see [`super::timing`]).
 
 use super::csvlog::{self, Log};
 use crate::diag::InputError;
@@ -53,7 +55,11 @@ pub struct PoolRun {
     pub imu: Option<Log>,
     /// t, depth.
     pub depth: Option<Log>,
+    /// t, u, v, w (m/s), roll, pitch, yaw (rad), p, q, r (rad/s): a vehicle's navigation log.
+    pub nav: Option<Log>,
     pub notes: Vec<String>,
+    /// What was done to the logs' timing (receive-time bursts, spans trimmed to the overlap).
+    pub repairs: Vec<String>,
 }
 
 pub const THRUST: [&str; 5] = ["t", "X_N", "Y_N", "Z_N", "N_Nm"];
@@ -61,7 +67,8 @@ pub const UWB: [&str; 4] = ["t", "x_m", "y_m", "z_m"];
 pub const SONAR: [&str; 3] = ["t", "x_m", "y_m"];
 pub const IMU: [&str; 10] = ["t", "roll_deg", "pitch_deg", "yaw_deg", "p_dps", "q_dps", "r_dps", "ax_g", "ay_g", "az_g"];
 pub const DEPTH: [&str; 2] = ["t", "depth_m"];
-const KNOWN: [&str; 6] = ["run.yaml", "thrust.csv", "uwb.csv", "sonar.csv", "imu.csv", "depth.csv"];
+pub const NAV: [&str; 10] = ["t", "u_m_s", "v_m_s", "w_m_s", "roll_deg", "pitch_deg", "yaw_deg", "p_dps", "q_dps", "r_dps"];
+const KNOWN: [&str; 7] = ["run.yaml", "thrust.csv", "uwb.csv", "sonar.csv", "imu.csv", "depth.csv", "nav.csv"];
 
 fn read(root: &Path, rel: &str) -> Result<String, InputError> {
     let bytes = std::fs::read(root.join(rel)).map_err(|e| InputError::file(rel, format!("cannot read: {e}"), "check the file's permissions"))?;
@@ -98,20 +105,26 @@ pub fn load(root: &Path, dir: &str, files: &[String]) -> Result<PoolRun, InputEr
     let thrust_path = file("thrust.csv").ok_or_else(|| {
         InputError::file(format!("{dir}/thrust.csv"), "the run has no thrust log", "add thrust.csv (t,X_N,Y_N,Z_N,N_Nm): without the commanded force the model cannot be simulated")
     })?;
-    let thrust = csvlog::parse(&thrust_path, &read(root, &thrust_path)?, &THRUST, "thrust log", 10)?;
+    let mut thrust = csvlog::parse_keeping_repeats(&thrust_path, &read(root, &thrust_path)?, &THRUST, "thrust log", 10)?;
     let mut optional = |n: &str, cols: &[&str], what: &str| -> Result<Option<Log>, InputError> {
         match file(n) {
             None => {
                 notes.push(format!("{dir}: no {n}"));
                 Ok(None)
             }
-            Some(p) => csvlog::parse(&p, &read(root, &p)?, cols, what, 2).map(Some),
+            Some(p) => csvlog::parse_subset(&p, &read(root, &p)?, cols, what, 2).map(Some),
         }
     };
     let uwb = optional("uwb.csv", &UWB, "UWB log")?;
     let sonar = optional("sonar.csv", &SONAR, "sonar log")?;
     let mut imu = optional("imu.csv", &IMU, "IMU log")?;
     let depth = optional("depth.csv", &DEPTH, "depth log")?;
+    let mut nav = optional("nav.csv", &NAV, "navigation log")?;
+    for (log, n) in [(&uwb, "uwb.csv"), (&sonar, "sonar.csv")] {
+        if log.as_ref().is_some_and(|l| !(l.has(0) && l.has(1))) {
+            return Err(InputError::file(format!("{dir}/{n}"), "a position log needs both x_m and y_m", "write both horizontal coordinates (pool frame); z_m is optional"));
+        }
+    }
     if let Some(imu) = &mut imu {
         for c in &mut imu.cols[..6] {
             c.iter_mut().for_each(|x| *x = x.to_radians());
@@ -120,10 +133,32 @@ pub fn load(root: &Path, dir: &str, files: &[String]) -> Result<PoolRun, InputEr
             c.iter_mut().for_each(|x| *x *= G);
         }
     }
-    for log in [Some(&thrust), uwb.as_ref(), sonar.as_ref(), imu.as_ref(), depth.as_ref()].into_iter().flatten() {
+    if let Some(nav) = &mut nav {
+        for c in &mut nav.cols[3..] {
+            c.iter_mut().for_each(|x| *x = x.to_radians());
+        }
+    }
+    let mut repairs = Vec::new();
+    if let Some(r) = super::timing::repair_command_clock(&mut thrust) {
+        repairs.push(format!("{thrust_path}: {r}"));
+    }
+    // Rows still sharing a time stamp (no regular clock could be fitted): the last of each.
+    thrust.dedupe_times(&thrust_path);
+    for log in [Some(&thrust), uwb.as_ref(), sonar.as_ref(), imu.as_ref(), depth.as_ref(), nav.as_ref()].into_iter().flatten() {
         notes.extend(log.notes.iter().cloned());
     }
-    Ok(PoolRun { name, meta, thrust, uwb, sonar, imu, depth, notes })
+    let mut run = PoolRun { name, meta, thrust, uwb, sonar, imu, depth, nav, notes, repairs };
+    if let Some(r) = super::timing::trim_to_overlap(&mut run) {
+        run.repairs.push(format!("{thrust_path}: {r}"));
+    }
+    Ok(run)
+}
+
+impl PoolRun {
+    /// The sensor logs the run has, by name.
+    pub fn sensors(&self) -> Vec<(&'static str, &Log)> {
+        [("uwb", &self.uwb), ("sonar", &self.sonar), ("imu", &self.imu), ("depth", &self.depth), ("nav", &self.nav)].into_iter().filter_map(|(n, l)| Some((n, l.as_ref()?))).collect()
+    }
 }
 
 #[cfg(test)]
@@ -155,7 +190,7 @@ mod tests {
         let (d, files) = folder(&[("run.yaml", "role: validate\n"), ("thrust.csv", &t), ("imu.csv", "t,roll_deg,pitch_deg,yaw_deg,p_dps,q_dps,r_dps,ax_g,ay_g,az_g\n0,0,0,90,0,0,180,0,0,-1\n0.02,0,0,90,0,0,180,0,0,-1\n"), ("notes.txt", "x")]);
         let run = load(d.path(), "cases/pool/r1", &files).unwrap();
         assert_eq!(run.meta.role, Role::Validate);
-        assert!(run.uwb.is_none() && run.sonar.is_none() && run.depth.is_none());
+        assert!(run.uwb.is_none() && run.sonar.is_none() && run.depth.is_none() && run.nav.is_none());
         let imu = run.imu.unwrap();
         assert!((imu.cols[2][0] - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
         assert!((imu.cols[5][0] - std::f64::consts::PI).abs() < 1e-12);
