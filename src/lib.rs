@@ -18,6 +18,7 @@ pub mod model;
 pub mod openfoam;
 pub mod pipeline;
 pub mod progress;
+pub mod provenance;
 pub mod report;
 pub mod rng;
 pub mod stage;

@@ -22,8 +22,25 @@ pub struct Estimate {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub interval: Option<[f64; 2]>,
     /// False when the data cannot pin the parameter down (near-singular regressor or an
-    /// uncertainty larger than half the value): the value is then not to be trusted.
+    /// uncertainty larger than half the value, or a value the data push past its physical
+    /// sign): the value is then not to be trusted.
     pub identifiable: bool,
+    /// Why a parameter is not identifiable, when the reason is more than its uncertainty.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub note: Option<String>,
+}
+
+/// Flags every coefficient on the wrong side of its physical sign (positive added mass or
+/// drag: negative inertia, or drag that feeds energy into the motion) as not identifiable, with
+/// the reason. An estimator that constrains signs leaves nothing to flag here.
+pub fn check_signs(layout: &crate::model::ParamLayout, params: &mut [Estimate]) {
+    for (j, p) in params.iter_mut().enumerate().take(layout.len()) {
+        let Some(sign) = layout.slot(j).0.physical_sign() else { continue };
+        if p.value * sign < 0.0 && p.note.is_none() {
+            p.identifiable = false;
+            p.note = Some(format!("{} = {:.4} has the wrong sign (physics wants it {}): the data push it past zero, so it stands in for something the model lacks", p.name, p.value, if sign < 0.0 { "<= 0" } else { ">= 0" }));
+        }
+    }
 }
 
 /// What an estimator returns: the parameters and how well the model explains the data.

@@ -20,11 +20,60 @@ impl Estimator for Ols {
         }
         check_excitation(problem)?;
         let ones: BTreeMap<Dof, f64> = problem.row_dof.iter().map(|d| (*d, 1.0)).collect();
-        let first = solve(problem, &ones)?;
+        let (first, _) = solve_signed(problem, &ones)?;
         let sigma = residual_sigma(problem, &first);
-        let theta = solve(problem, &sigma)?;
-        Ok(summarise(problem, &theta, &sigma))
+        let (theta, held) = solve_signed(problem, &sigma)?;
+        let mut fit = summarise(problem, &theta, &sigma);
+        for (j, free_value) in held {
+            let p = &mut fit.parameters[j];
+            p.identifiable = false;
+            p.note = Some(format!(
+                "the data push {} past its physical sign (unconstrained {:.4}): held at 0; it stands in for something the model lacks (a constant force, a lag, a current) or the runs do not excite it",
+                p.name, free_value
+            ));
+        }
+        Ok(fit)
     }
+}
+
+/// Least squares with every added-mass and drag coefficient kept on its physical side of zero
+/// (an active set: the worst offender is held at 0 and the rest refitted, until none is left;
+/// Lawson & Hanson's NNLS without the release step, which these few parameters rarely need).
+/// Returns the solution and the held parameters with the value they had when released.
+pub(crate) fn solve_signed(problem: &Regression, sigma: &BTreeMap<Dof, f64>) -> Result<(Vec<f64>, Vec<(usize, f64)>), EstimateError> {
+    let p = problem.cols();
+    let mut free = vec![true; p];
+    let mut held = Vec::new();
+    loop {
+        let theta = solve_cols(problem, sigma, &free)?;
+        let worst = (0..p)
+            .filter(|&j| free[j])
+            .filter_map(|j| problem.layout.slot(j).0.physical_sign().map(|s| (j, theta[j] * s)))
+            .filter(|(_, signed)| *signed < 0.0)
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        match worst {
+            None => return Ok((theta, held)),
+            Some((j, _)) => {
+                free[j] = false;
+                held.push((j, theta[j]));
+            }
+        }
+    }
+}
+
+/// Least squares over the `free` columns, the others held at zero.
+fn solve_cols(problem: &Regression, sigma: &BTreeMap<Dof, f64>, free: &[bool]) -> Result<Vec<f64>, EstimateError> {
+    let cols: Vec<usize> = (0..problem.cols()).filter(|&j| free[j]).collect();
+    let n = problem.rows();
+    let w = |i: usize| 1.0 / sigma[&problem.row_dof[i]];
+    let a = Mat::<f64>::from_fn(n, cols.len(), |i, j| problem.row(i)[cols[j]] * w(i));
+    let b = Mat::<f64>::from_fn(n, 1, |i, _| problem.y[i] * w(i));
+    let x = a.qr().solve_lstsq(&b);
+    let mut theta = vec![0.0; problem.cols()];
+    for (k, &j) in cols.iter().enumerate() {
+        theta[j] = x[(k, 0)];
+    }
+    if theta.iter().all(|v| v.is_finite()) { Ok(theta) } else { Err(EstimateError::Singular) }
 }
 
 /// A DOF whose regressor columns are all zero was never moved by the cases.
@@ -106,6 +155,7 @@ pub(crate) fn summarise(problem: &Regression, theta: &[f64], sigma: &BTreeMap<Do
                 stderr,
                 interval: None,
                 identifiable: stderr.is_finite() && stderr < 0.5 * theta[j].abs() && condition_number < 1e8,
+                note: None,
             }
         })
         .collect();
@@ -146,6 +196,27 @@ mod tests {
             assert!(e.identifiable);
         }
         assert!((fit.residual_sigma["surge"] - 0.1).abs() < 0.01);
+    }
+
+    /// Data generated with a positive "drag" (energy fed in) must not come back positive and
+    /// identifiable: it is held at zero and flagged with the reason.
+    #[test]
+    fn a_coefficient_pushed_past_its_sign_is_held_and_flagged() {
+        let mut rng = crate::rng::Rng::new(5);
+        let layout = ParamLayout::new(&[Dof::Surge]);
+        let mut r = Regression { layout, phi: vec![], y: vec![], row_dof: vec![] };
+        let truth = [-2.0, 0.8, -0.5];
+        for _ in 0..2000 {
+            let row = [rng.normal(), rng.normal(), rng.normal()];
+            r.y.push(row.iter().zip(truth).map(|(a, t)| a * t).sum::<f64>() + 0.1 * rng.normal());
+            r.phi.extend(row);
+            r.row_dof.push(Dof::Surge);
+        }
+        let fit = Ols.fit(&r, &Options::default()).unwrap();
+        let x_u = &fit.parameters[1];
+        assert_eq!(x_u.value, 0.0, "{x_u:?}");
+        assert!(!x_u.identifiable && x_u.note.as_deref().is_some_and(|n| n.contains("physical sign")), "{x_u:?}");
+        assert!((fit.parameters[0].value + 2.0).abs() < 0.05 && (fit.parameters[2].value + 0.5).abs() < 0.05, "{fit:?}");
     }
 
     #[test]

@@ -34,6 +34,17 @@ impl Regression {
         self.row_dof.extend(other.row_dof);
     }
 
+    /// Divides every row by its DOF's `sigma` (a source's own residual level), so rows of
+    /// sources with different noise can be stacked.
+    pub fn scale_rows(&mut self, sigma: &std::collections::BTreeMap<Dof, f64>) {
+        let p = self.cols();
+        for i in 0..self.rows() {
+            let w = 1.0 / sigma.get(&self.row_dof[i]).copied().unwrap_or(1.0);
+            self.y[i] *= w;
+            self.phi[i * p..(i + 1) * p].iter_mut().for_each(|x| *x *= w);
+        }
+    }
+
     pub fn row(&self, i: usize) -> &[f64] {
         let p = self.cols();
         &self.phi[i * p..(i + 1) * p]
@@ -42,7 +53,7 @@ impl Regression {
     /// Builds the rows from every sample of every response (after `skip_start_s` seconds), for
     /// the DOFs each response has.
     pub fn build(vehicle: &Vehicle, responses: &[&Response], skip_start_s: f64) -> Regression {
-        let layout = ParamLayout::new(&vehicle.dofs);
+        let layout = ParamLayout::of(vehicle);
         let p = layout.len();
         // hydro_force is linear in the coefficients: column j is its value at the j-th unit vector.
         let units: Vec<_> = (0..p)

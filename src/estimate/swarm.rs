@@ -138,16 +138,21 @@ impl<'a> Problem<'a> {
             }
         }
         let mut lo = vec![0.0; p];
-        let hi = vec![0.0; p];
-        for (j, l) in lo.iter_mut().enumerate() {
+        let mut hi = vec![0.0; p];
+        for j in 0..p {
             let (g, dof) = reg.layout.slot(j);
             let d = dof.index();
             let v = vmax[d].max(1e-3);
-            *l = -match g {
+            lo[j] = -match g {
                 crate::model::params::Group::AddedMass => 5.0 * rigid_mass[d],
                 crate::model::params::Group::LinearDrag => 3.0 * lin_bound[d].min(fmax[d] / v),
                 crate::model::params::Group::QuadraticDrag => 3.0 * fmax[d] / (v * v),
+                // A constant force no larger than the largest force the rows need.
+                crate::model::params::Group::Constant => fmax[d],
             };
+            if g == crate::model::params::Group::Constant {
+                hi[j] = fmax[d];
+            }
         }
         let (mut a, mut b, mut c) = (vec![0.0; p * p], vec![0.0; p], 0.0);
         if norm == Norm::L2 {
@@ -508,6 +513,7 @@ pub fn execute(name: &str, make: &dyn Fn() -> Box<dyn Solver>, reg: &Regression,
                 // Wide disagreement between restarts, or a value pinned to a bound, means the
                 // data (or the search) did not determine it.
                 identifiable: !at_bound && (hi - lo) < 0.5 * best[j].abs(),
+                note: at_bound.then(|| "pinned to its search bound: the data (or the search) did not determine it".to_string()),
             }
         })
         .collect();

@@ -23,13 +23,14 @@ pub fn coriolis(m: &Vec6, nu: &Vec6) -> Vec6 {
     [f[0], f[1], f[2], a[0] + b[0], a[1] + b[1], a[2] + b[2]]
 }
 
-/// The hydrodynamic side of eq. 2: M_A nu_dot + C_A(nu) nu + D(nu) nu.
+/// The hydrodynamic side of eq. 2: M_A nu_dot + C_A(nu) nu + D(nu) nu, less the constant
+/// generalised force (which acts with the thrust, so it enters this side negated).
 /// Linear in the coefficients of `h`, which is what makes the equation-error fit a regression.
 pub fn hydro_force(h: &Hydro, nu: &Vec6, nu_dot: &Vec6) -> Vec6 {
     let neg_added = h.added.map(|a| -a);
     let c = coriolis(&neg_added, nu);
     std::array::from_fn(|i| {
-        -h.added[i] * nu_dot[i] + c[i] - (h.lin[i] + h.quad[i] * nu[i].abs()) * nu[i]
+        -h.added[i] * nu_dot[i] + c[i] - (h.lin[i] + h.quad[i] * nu[i].abs()) * nu[i] - h.constant[i]
     })
 }
 
@@ -61,7 +62,7 @@ impl Plant {
                 return 0.0;
             }
             let drag = (self.hydro.lin[i] + self.hydro.quad[i] * nu[i].abs()) * nu[i];
-            (tau[i] - c[i] + drag) / m[i]
+            (tau[i] + self.hydro.constant[i] - c[i] + drag) / m[i]
         })
     }
 

@@ -3,12 +3,15 @@
 use crate::dof::Dof;
 
 /// Diagonal hydrodynamic coefficients in SNAME form, indexed by `Dof::index()`:
-/// `added[i]` is X_udot.., `lin[i]` is X_u.., `quad[i]` is X_uu.. (all negative for a real vehicle).
+/// `added[i]` is X_udot.., `lin[i]` is X_u.., `quad[i]` is X_uu.. (all negative for a real vehicle),
+/// `constant[i]` is X_0..: a constant generalised force on the body (net buoyancy, a steady
+/// tether pull), N or N m, in SNAME sign (Z_0 < 0 pushes the vehicle up).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Hydro {
     pub added: [f64; 6],
     pub lin: [f64; 6],
     pub quad: [f64; 6],
+    pub constant: [f64; 6],
 }
 
 impl Hydro {
@@ -18,32 +21,59 @@ impl Hydro {
             added: [-16.04, -37.74, -83.60, 0.0, 0.0, -1.06],
             lin: [-2.41, -1.50, -21.75, 0.0, 0.0, -1.18],
             quad: [-44.17, -114.30, -121.30, 0.0, 0.0, -2.64],
+            constant: [0.0; 6],
         }
     }
 }
 
-/// The three groups of the diagonal structure, in parameter-vector order.
+/// The groups of the diagonal structure, in parameter-vector order.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Group {
     AddedMass,
     LinearDrag,
     QuadraticDrag,
+    /// A constant generalised force (only for the DOFs the vehicle lists in `constant_force`).
+    Constant,
+}
+
+impl Group {
+    /// The sign physics allows: added mass and drag coefficients are negative in SNAME form
+    /// (a positive one would be negative inertia or drag that feeds energy in); a constant
+    /// force may point either way.
+    pub fn physical_sign(self) -> Option<f64> {
+        match self {
+            Group::AddedMass | Group::LinearDrag | Group::QuadraticDrag => Some(-1.0),
+            Group::Constant => None,
+        }
+    }
 }
 
 /// Maps the flat parameter vector `theta` to named coefficients: group-major, then the
-/// vehicle's DOF order (X_udot, Y_vdot, .., X_u, .., X_uu, ..), as seed 001 Table 1 lists them.
+/// vehicle's DOF order (X_udot, Y_vdot, .., X_u, .., X_uu, ..), as seed 001 Table 1 lists them,
+/// then the constant forces (X_0, ..) of the DOFs that have one.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ParamLayout {
     pub dofs: Vec<Dof>,
+    pub constant: Vec<Dof>,
 }
 
 impl ParamLayout {
     pub fn new(dofs: &[Dof]) -> ParamLayout {
-        ParamLayout { dofs: dofs.to_vec() }
+        ParamLayout { dofs: dofs.to_vec(), constant: Vec::new() }
+    }
+
+    /// The layout of a vehicle: its DOFs and the DOFs with a constant force term.
+    pub fn of(vehicle: &crate::model::Vehicle) -> ParamLayout {
+        ParamLayout::with_constant(&vehicle.dofs, &vehicle.constant_force)
+    }
+
+    pub fn with_constant(dofs: &[Dof], constant: &[Dof]) -> ParamLayout {
+        let constant = dofs.iter().copied().filter(|d| constant.contains(d)).collect();
+        ParamLayout { dofs: dofs.to_vec(), constant }
     }
 
     pub fn len(&self) -> usize {
-        3 * self.dofs.len()
+        3 * self.dofs.len() + self.constant.len()
     }
 
     pub fn is_empty(&self) -> bool {
@@ -53,6 +83,9 @@ impl ParamLayout {
     /// Group and DOF of parameter `j`.
     pub fn slot(&self, j: usize) -> (Group, Dof) {
         let n = self.dofs.len();
+        if j >= 3 * n {
+            return (Group::Constant, self.constant[j - 3 * n]);
+        }
         let group = [Group::AddedMass, Group::LinearDrag, Group::QuadraticDrag][j / n];
         (group, self.dofs[j % n])
     }
@@ -64,6 +97,7 @@ impl ParamLayout {
             Group::AddedMass => format!("{f}_{v}dot"),
             Group::LinearDrag => format!("{f}_{v}"),
             Group::QuadraticDrag => format!("{f}_{v}{v}"),
+            Group::Constant => format!("{f}_0"),
         }
     }
 
@@ -80,6 +114,8 @@ impl ParamLayout {
             (Group::LinearDrag, true) => "N m s/rad",
             (Group::QuadraticDrag, false) => "N s^2/m^2",
             (Group::QuadraticDrag, true) => "N m s^2/rad^2",
+            (Group::Constant, false) => "N",
+            (Group::Constant, true) => "N m",
         }
     }
 
@@ -92,6 +128,7 @@ impl ParamLayout {
                 Group::AddedMass => h.added[i] = value,
                 Group::LinearDrag => h.lin[i] = value,
                 Group::QuadraticDrag => h.quad[i] = value,
+                Group::Constant => h.constant[i] = value,
             }
         }
         h
@@ -106,6 +143,7 @@ impl ParamLayout {
                     Group::AddedMass => h.added[i],
                     Group::LinearDrag => h.lin[i],
                     Group::QuadraticDrag => h.quad[i],
+                    Group::Constant => h.constant[i],
                 }
             })
             .collect()
@@ -125,5 +163,12 @@ mod tests {
         );
         let h = Hydro::reference();
         assert_eq!(l.to_hydro(&l.from_hydro(&h)), h);
+        let c = ParamLayout::with_constant(&l.dofs, &[Dof::Yaw, Dof::Heave]);
+        assert_eq!(c.len(), 14);
+        assert_eq!(&c.names()[12..], ["Z_0", "N_0"]);
+        assert_eq!(c.unit(13), "N m");
+        let mut h = Hydro::reference();
+        h.constant[2] = -8.0;
+        assert_eq!(c.to_hydro(&c.from_hydro(&h)), h);
     }
 }

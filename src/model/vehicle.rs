@@ -45,6 +45,15 @@ pub struct Vehicle {
     pub dofs: Vec<Dof>,
     #[serde(default)]
     pub structure: Structure,
+    /// DOFs whose model carries a constant generalised force X_0 .. N_0 to identify: net
+    /// buoyancy (heave), a steady tether pull, a thruster offset. Empty by default (CFD runs
+    /// of a neutrally buoyant body have none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub constant_force: Vec<Dof>,
+    /// The largest command the thrusters can deliver per DOF (N or N m), when known: logged
+    /// commands beyond it are clipped (a closed-loop controller asks for more than it gets).
+    #[serde(default, skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub command_limits: std::collections::BTreeMap<Dof, f64>,
 }
 
 impl Vehicle {
@@ -56,6 +65,16 @@ impl Vehicle {
             inertia_kg_m2: Inertia { xx: 0.0, yy: 0.0, zz: 1.38 },
             dofs: vec![Dof::Surge, Dof::Sway, Dof::Heave, Dof::Yaw],
             structure: Structure::Diagonal,
+            constant_force: Vec::new(),
+            command_limits: Default::default(),
+        }
+    }
+
+    /// A logged command as the thrusters can deliver it: clipped at `command_limits`.
+    pub fn clip_command(&self, dof: Dof, x: f64) -> f64 {
+        match self.command_limits.get(&dof) {
+            Some(&l) => x.clamp(-l, l),
+            None => x,
         }
     }
 
@@ -89,6 +108,16 @@ impl Vehicle {
             if d.is_angular() && (mrb[d.index()].is_nan() || mrb[d.index()] <= 0.0) {
                 let axis = ["xx", "yy", "zz"][d.index() - 3];
                 out.push(format!("{d} is a DOF but inertia_kg_m2.{axis} is not set: give the moment of inertia about the centre of gravity"));
+            }
+        }
+        for d in &self.constant_force {
+            if !self.dofs.contains(d) {
+                out.push(format!("constant_force lists {d}, which is not in dofs"));
+            }
+        }
+        for (d, l) in &self.command_limits {
+            if !(l.is_finite() && *l > 0.0) {
+                out.push(format!("command_limits.{d} must be a positive number (N or N m), not {l}"));
             }
         }
         let mut seen = std::collections::BTreeSet::new();

@@ -170,6 +170,12 @@ fn check_stage(p: &Parser, name: &str, rs: &RawStage, all: &BTreeMap<String, Raw
             return Err(p.error(&at, format!("stage `{name}` ({}) needs a stage that produces {} under `from`", kind.name, need.describe()), format!("add such a stage to `from: [...]` (e.g. {})", need.example())));
         }
     }
+    let produces = |f: &String| all.get(f).and_then(|s| stage::kind(&s.kind)).map(|k| k.produces);
+    if !kind.requires_one_of.is_empty() && !rs.from.iter().any(|f| produces(f).is_some_and(|a| kind.requires_one_of.contains(&a))) {
+        let what: Vec<&str> = kind.requires_one_of.iter().map(|a| a.describe()).collect();
+        let examples: Vec<&str> = kind.requires_one_of.iter().map(|a| a.example()).collect();
+        return Err(p.error(&at, format!("stage `{name}` ({}) needs a stage that produces {} under `from`", kind.name, what.join(" or ")), format!("add such a stage to `from: [...]` ({})", examples.join(" or "))));
+    }
     Ok(StageSpec { name: name.to_string(), kind, imp, inputs: rs.inputs.clone(), from: rs.from.clone() })
 }
 

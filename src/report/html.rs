@@ -33,6 +33,8 @@ pub struct Page<'a> {
     pub plots: Vec<(String, String)>,
     /// Import notes per case (unit conversions, derived columns).
     pub notes: Vec<(String, Vec<String>)>,
+    /// Upstream instances that failed and that the report was built without.
+    pub failed: Vec<String>,
     /// The pool sections (fusion, validation against recordings), already rendered.
     pub pool_html: String,
     /// Sections on CFD test bodies other than the vehicle (the OpenFOAM cylinder).
@@ -55,12 +57,21 @@ impl Page<'_> {
             dofs = self.vehicle.dofs.iter().map(|d| d.name()).collect::<Vec<_>>().join(", "),
             st = self.vehicle.structure.label(),
         );
-        self.parameter_table(&mut h);
-        h.push_str("<h2 id=\"plots\">CFD responses and the identified model</h2>\n");
-        for (dof, svg) in &self.plots {
-            let _ = writeln!(h, "<figure id=\"plot-{dof}\">{svg}<figcaption>{dof}: velocity of each CFD case (colour) and of the identified model simulated under the same applied force from the same initial state (dashed black).</figcaption></figure>");
+        if !self.failed.is_empty() {
+            h.push_str("<div class=\"warn\" id=\"failed\"><p><b>Left out of this report because they failed</b> (fix them and build again; everything else below is complete without them):</p><ul>\n");
+            for f in &self.failed {
+                let _ = writeln!(h, "<li>{}</li>", esc(f));
+            }
+            h.push_str("</ul></div>\n");
         }
-        self.validation_table(&mut h);
+        self.parameter_table(&mut h);
+        if !self.plots.is_empty() {
+            h.push_str("<h2 id=\"plots\">CFD responses and the identified model</h2>\n");
+            for (dof, svg) in &self.plots {
+                let _ = writeln!(h, "<figure id=\"plot-{dof}\">{svg}<figcaption>{dof}: velocity of each CFD case (colour) and of the identified model simulated under the same applied force from the same initial state (dashed black).</figcaption></figure>");
+            }
+            self.validation_table(&mut h);
+        }
         h.push_str(&self.pool_html);
         h.push_str(&self.body_html);
         self.provenance(&mut h);
@@ -72,10 +83,13 @@ impl Page<'_> {
         for f in self.fits {
             let _ = write!(
                 h,
-                "<h2 id=\"model-{s}\">Parameters — model <code>{s}</code></h2>\n<p>Method <code>{m}</code>, objective {o}, {n} equation rows from {c} CFD cases; regressor condition number {k}.</p>\n\
+                "<h2 id=\"model-{s}\">Parameters — model <code>{s}</code></h2>\n<p>Method <code>{m}</code>, objective {o}, {n} equation rows from {c} CFD cases and {r} pool runs; regressor condition number {k}.</p>\n\
                  <table><tr><th>parameter</th><th>value</th><th>± std. error</th><th>unit</th><th>rel. error</th><th>provenance</th></tr>\n",
-                s = esc(&f.stage), m = esc(&f.method), o = f.objective.label(), n = f.fit.samples, c = f.cases.len(), k = num(f.fit.condition_number),
+                s = esc(&f.stage), m = esc(&f.method), o = f.objective.label(), n = f.fit.samples, c = f.cases.len(), r = f.runs.len(), k = num(f.fit.condition_number),
             );
+            if !f.notes.is_empty() {
+                let _ = writeln!(h, "<ul class=\"small\">{}</ul>", f.notes.iter().map(|n| format!("<li>{}</li>", esc(n))).collect::<String>());
+            }
             if let Some(why) = &f.fit.stopped_early {
                 let _ = writeln!(h, "<p class=\"warn\">The search was cut short: {}. These values depend on the machine's speed, not only on the seed.</p>", esc(why));
             }
@@ -84,7 +98,11 @@ impl Page<'_> {
             }
             for p in self.parameters.parameters.iter().filter(|p| p.model == f.stage) {
                 let rel = 100.0 * p.stderr / p.value.abs();
-                let flag = if p.identifiable { String::new() } else { " <span class=\"warn\">not identifiable from these cases</span>".into() };
+                let flag = match (p.identifiable, &p.note) {
+                    (true, _) => String::new(),
+                    (false, Some(why)) => format!(" <span class=\"warn\">not identifiable: {}</span>", esc(why)),
+                    (false, None) => " <span class=\"warn\">not identifiable from these cases</span>".into(),
+                };
                 let _ = writeln!(
                     h,
                     "<tr><td><code>{n}</code>{flag}</td><td>{v}</td><td>{e}</td><td>{u}</td><td>{r:.2} %</td><td><a href=\"#prov-{s}-{n}\">inputs</a></td></tr>",

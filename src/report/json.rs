@@ -16,6 +16,9 @@ pub struct Parameter {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub interval: Option<[f64; 2]>,
     pub identifiable: bool,
+    /// Why it is not identifiable, when there is more to say than its uncertainty.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub note: Option<String>,
     /// The model (fit stage) this value belongs to.
     pub model: String,
     pub stage: String,
@@ -32,7 +35,7 @@ pub struct Parameters {
 pub fn parameters(fits: &[FitResult]) -> Parameters {
     let mut out = Vec::new();
     for f in fits {
-        let inputs: Vec<InputFile> = f.cases.iter().flat_map(|c| if c.inputs.is_empty() { vec![c.source.clone()] } else { c.inputs.clone() }).collect();
+        let inputs: Vec<InputFile> = f.input_files();
         let mut settings = f.settings.clone();
         // Deterministic methods have no seed; say so rather than leave the reader guessing.
         if let Some(obj) = settings.as_object_mut() {
@@ -46,6 +49,7 @@ pub fn parameters(fits: &[FitResult]) -> Parameters {
                 stderr: p.stderr,
                 interval: p.interval,
                 identifiable: p.identifiable,
+                note: p.note.clone(),
                 model: f.stage.clone(),
                 stage: f.stage.clone(),
                 method: f.method.clone(),

@@ -1,9 +1,9 @@
 //! `kind: fit` — identifies the hydrodynamic parameters from every CFD response it reads.
 
-use super::{starccm, Artifact, InputFile, Kind, RunCtx, StageImpl};
+use super::{pool, starccm, Artifact, InputFile, Kind, RunCtx, StageImpl};
 use crate::dof::Dof;
 use crate::estimate::{self, Fit, Regression};
-use crate::model::Structure;
+use crate::model::{ParamLayout, Structure};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -16,8 +16,9 @@ pub static KIND: Kind = Kind {
     reads_files: false,
     input_filter: None,
     produces: Artifact::Model,
-    consumes: &[Artifact::Responses],
-    requires: &[Artifact::Responses],
+    consumes: &[Artifact::Responses, Artifact::PoolRuns],
+    requires: &[],
+    requires_one_of: &[Artifact::Responses, Artifact::PoolRuns],
     uses_vehicle: super::VehicleUse::All,
     publishes_to: None,
     parse: parse_settings,
@@ -139,6 +140,14 @@ pub struct CaseRef {
     pub mass_kg: Option<f64>,
 }
 
+/// A pool run the fit used.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct RunRef {
+    pub id: String,
+    pub run: String,
+    pub inputs: Vec<InputFile>,
+}
+
 /// The fit stage's artifact: parameters with their provenance.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct FitResult {
@@ -148,8 +157,17 @@ pub struct FitResult {
     pub settings: serde_json::Value,
     pub structure: Structure,
     pub dofs: Vec<Dof>,
+    /// DOFs whose model has a constant force term (X_0 ..), after `dofs`' terms.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub constant_force: Vec<Dof>,
     pub fit: Fit,
     pub cases: Vec<CaseRef>,
+    /// The pool runs the fit used (`role: train`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub runs: Vec<RunRef>,
+    /// What the fit did besides the numbers (runs left out, how sources were weighted).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub notes: Vec<String>,
     pub elapsed_s: f64,
     /// The body, when it is not the pipeline's vehicle.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -162,6 +180,30 @@ pub struct FitResult {
 }
 
 pub const RESULT: &str = "fit.json";
+
+impl FitResult {
+    /// The parameter layout the values are in.
+    pub fn layout(&self) -> ParamLayout {
+        ParamLayout::with_constant(&self.dofs, &self.constant_force)
+    }
+
+    /// The identified coefficients.
+    pub fn hydro(&self) -> crate::model::Hydro {
+        let theta: Vec<f64> = self.fit.parameters.iter().map(|p| p.value).collect();
+        self.layout().to_hydro(&theta)
+    }
+
+    /// The identified model of `vehicle` (the fit's own body when it has one).
+    pub fn plant(&self, vehicle: &crate::model::Vehicle) -> crate::model::Plant {
+        crate::model::Plant::new(self.vehicle.as_ref().unwrap_or(vehicle), self.hydro())
+    }
+
+    /// Every input file the values depend on: CFD cases and pool runs.
+    pub fn input_files(&self) -> Vec<InputFile> {
+        let cfd = self.cases.iter().flat_map(|c| if c.inputs.is_empty() { vec![c.source.clone()] } else { c.inputs.clone() });
+        cfd.chain(self.runs.iter().flat_map(|r| r.inputs.clone())).collect()
+    }
+}
 
 pub fn load(dir: &Path) -> anyhow::Result<FitResult> {
     super::read_json(&dir.join(RESULT))
@@ -195,18 +237,26 @@ impl StageImpl for Settings {
             cases.push(CaseRef { id: up.id.clone(), case: meta.case, source: meta.source, inputs: meta.all_inputs, mass_kg: meta.body_mass_kg });
             responses.push(r);
         }
-        let refs: Vec<_> = responses.iter().collect();
+        let (runs, pool_responses, mut notes) = training_runs(ctx, vehicle)?;
+        notes.extend(ctx.failed_notes());
+        let refs: Vec<_> = responses.iter().chain(&pool_responses).collect();
         // Cases that state their own body mass (OpenFOAM) are regressed with it.
-        let mut problem = Regression::build(vehicle, &[], self.skip_start_s);
+        let mut cfd = Regression::build(vehicle, &[], self.skip_start_s);
         let mut masses = Vec::new();
-        for (c, r) in cases.iter().zip(&refs) {
+        for (c, r) in cases.iter().zip(&responses) {
             let mut v = vehicle.clone();
             if let Some(m) = c.mass_kg {
                 v.mass_kg = m;
             }
             masses.push(v.mass_kg);
-            problem.append(Regression::build(&v, &[*r], self.skip_start_s));
+            cfd.append(Regression::build(&v, &[r], self.skip_start_s));
         }
+        let pool_refs: Vec<_> = pool_responses.iter().collect();
+        let pool = Regression::build(vehicle, &pool_refs, self.skip_start_s);
+        if !pool_refs.is_empty() {
+            masses.push(vehicle.mass_kg);
+        }
+        let problem = combine(cfd, pool, &mut notes);
         let one_mass = masses.windows(2).all(|w| w[0] == w[1]);
         anyhow::ensure!(
             one_mass || self.objective == Objective::EquationError,
@@ -232,13 +282,14 @@ impl StageImpl for Settings {
             output_error: (self.objective == Objective::OutputError).then_some((&sim_vehicle, &refs[..])),
             max_seconds: self.max_seconds,
         };
-        let (fit, one_step) = match self.added_mass_window_s {
+        let (mut fit, one_step) = match self.added_mass_window_s {
             None => (estimator.fit(&problem, &opts)?, None),
             Some(window) => {
                 anyhow::ensure!(self.method == "ols" && self.objective == Objective::EquationError, "added_mass_window_s is a two-step least-squares fit: use method: ols, objective: equation_error");
                 anyhow::ensure!(window > 0.0, "added_mass_window_s must be positive");
+                anyhow::ensure!(pool_refs.is_empty(), "added_mass_window_s is for CFD runs from rest; remove the pool stage from this fit's `from`");
                 let mut early = Regression::build(vehicle, &[], self.skip_start_s);
-                for (c, r) in cases.iter().zip(&refs) {
+                for (c, r) in cases.iter().zip(&responses) {
                     let mut v = vehicle.clone();
                     if let Some(m) = c.mass_kg {
                         v.mass_kg = m;
@@ -249,6 +300,7 @@ impl StageImpl for Settings {
                 (two_step(&early, &problem)?, one)
             }
         };
+        estimate::check_signs(&problem.layout, &mut fit.parameters);
         let result = FitResult {
             stage: ctx.stage.to_string(),
             method: self.method.clone(),
@@ -256,14 +308,82 @@ impl StageImpl for Settings {
             settings: self.settings(),
             structure: vehicle.structure,
             dofs: vehicle.dofs.clone(),
+            constant_force: problem.layout.constant.clone(),
             fit,
             cases,
+            runs,
+            notes,
             elapsed_s: start.elapsed().as_secs_f64(),
             vehicle: self.vehicle.clone(),
             expected: self.expected.clone(),
             one_step,
         };
         super::write_json(&ctx.out.join(RESULT), &result)
+    }
+}
+
+/// The `role: train` pool runs among the upstream, as response tables (logged command, fused
+/// velocity and its derivative). Runs without every DOF of the vehicle are left out and said.
+fn training_runs(ctx: &RunCtx, vehicle: &crate::model::Vehicle) -> anyhow::Result<(Vec<RunRef>, Vec<crate::io::Response>, Vec<String>)> {
+    let (mut refs, mut responses, mut notes) = (Vec::new(), Vec::new(), Vec::new());
+    for up in ctx.upstream_of(Artifact::PoolRuns) {
+        let run = pool::load(&up.dir)?;
+        if run.meta.role != crate::io::pool::Role::Train {
+            continue;
+        }
+        match run.as_response(vehicle) {
+            Some(r) => {
+                refs.push(RunRef { id: up.id.clone(), run: run.meta.run.clone(), inputs: run.meta.sources.clone() });
+                responses.push(r);
+            }
+            None => {
+                let missing: Vec<String> = run.missing_dofs(vehicle).iter().map(|d| d.to_string()).collect();
+                notes.push(format!("pool run {} left out: its sensors gave no {} velocity", run.meta.run, missing.join(", ")));
+            }
+        }
+    }
+    if ctx.upstream_of(Artifact::PoolRuns).next().is_some() && refs.is_empty() {
+        anyhow::bail!("no pool run with `role: train` and every DOF fused to fit on\n  help: mark the runs to identify from `role: train` in their run.yaml; {}", if notes.is_empty() { "the others are held out for validation".into() } else { notes.join("; ") });
+    }
+    Ok((refs, responses, notes))
+}
+
+/// One problem from CFD rows and pool rows. When both are there each source's rows are divided
+/// by that source's own residual level per DOF (from a least-squares fit on it alone), so the
+/// noisier source cannot swamp the other: then a residual of 1 means "as good as that source's
+/// own fit" in either.
+fn combine(mut cfd: Regression, mut pool: Regression, notes: &mut Vec<String>) -> Regression {
+    if cfd.rows() == 0 {
+        return pool;
+    }
+    if pool.rows() == 0 {
+        return cfd;
+    }
+    for (name, reg) in [("CFD", &mut cfd), ("pool", &mut pool)] {
+        let sigma = source_sigma(reg);
+        let levels: Vec<String> = sigma.iter().map(|(d, s)| format!("{d} {s:.3}")).collect();
+        notes.push(format!("{name} rows weighted by their own residual level ({})", levels.join(", ")));
+        reg.scale_rows(&sigma);
+    }
+    cfd.append(pool);
+    cfd
+}
+
+/// Residual standard deviation per DOF of an unweighted least-squares fit on `reg` alone;
+/// the RMS of its targets where that fit is not possible.
+fn source_sigma(reg: &Regression) -> BTreeMap<Dof, f64> {
+    let ones: BTreeMap<Dof, f64> = reg.row_dof.iter().map(|d| (*d, 1.0)).collect();
+    match estimate::ols::solve(reg, &ones) {
+        Ok(theta) => estimate::ols::residual_sigma(reg, &theta),
+        Err(_) => {
+            let mut acc: BTreeMap<Dof, (f64, usize)> = BTreeMap::new();
+            for (y, d) in reg.y.iter().zip(&reg.row_dof) {
+                let e = acc.entry(*d).or_default();
+                e.0 += y * y;
+                e.1 += 1;
+            }
+            acc.into_iter().map(|(d, (s, n))| (d, (s / n as f64).sqrt().max(1e-9))).collect()
+        }
     }
 }
 
@@ -335,6 +455,7 @@ fn two_step(early: &Regression, all: &Regression) -> anyhow::Result<Fit> {
                 stderr: se[j],
                 interval: None,
                 identifiable: se[j].is_finite() && se[j] < 0.5 * theta[j].abs() && condition_number < 1e8,
+                note: None,
             })
             .collect(),
         residual_sigma: sigma.into_iter().map(|(d, (ss, n))| (d, (ss / n.max(1) as f64).sqrt())).collect(),

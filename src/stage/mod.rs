@@ -85,6 +85,8 @@ pub struct Kind {
     /// What it may read from (`from`), and what it must read from.
     pub consumes: &'static [Artifact],
     pub requires: &'static [Artifact],
+    /// At least one of these must be under `from` (a fit reads CFD responses, pool runs or both).
+    pub requires_one_of: &'static [Artifact],
     /// Which part of the vehicle section is part of its key.
     pub uses_vehicle: VehicleUse,
     /// Folder of the project its results are copied to (the report), if any.
@@ -99,13 +101,7 @@ pub fn kind(name: &str) -> Option<&'static Kind> {
     KINDS.iter().copied().find(|k| k.name == name)
 }
 
-/// An input file of a stage instance, with the content hash its key used.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct InputFile {
-    /// Relative to the project root, `/`-separated.
-    pub path: String,
-    pub blake3: String,
-}
+pub use crate::provenance::InputFile;
 
 /// A finished upstream instance whose artifacts a stage reads.
 #[derive(Debug, Clone)]
@@ -124,6 +120,9 @@ pub struct RunCtx<'a> {
     pub vehicle: &'a Vehicle,
     pub inputs: &'a [InputFile],
     pub upstream: Vec<Upstream>,
+    /// Upstream instances that failed and that this stage goes on without (pool runs that
+    /// could not be imported or fused), with their errors: list them, use the rest.
+    pub failed_upstream: Vec<(String, String)>,
     /// Fresh, empty folder for the artifacts; renamed into the cache only if `run` succeeds.
     pub out: &'a Path,
     pub progress: &'a indicatif::ProgressBar,
@@ -132,6 +131,11 @@ pub struct RunCtx<'a> {
 impl RunCtx<'_> {
     pub fn upstream_of(&self, a: Artifact) -> impl Iterator<Item = &Upstream> {
         self.upstream.iter().filter(move |u| u.produces == a)
+    }
+
+    /// One line per failed upstream this stage went on without: `pool[x] failed: <error>`.
+    pub fn failed_notes(&self) -> Vec<String> {
+        self.failed_upstream.iter().map(|(id, e)| format!("{id} failed and is left out: {}", e.lines().next().unwrap_or(""))).collect()
     }
 }
 
@@ -143,14 +147,4 @@ pub trait StageImpl: Send + Sync {
     fn run(&self, ctx: &RunCtx) -> anyhow::Result<()>;
 }
 
-/// Reads a JSON artifact written by a stage.
-pub fn read_json<T: for<'de> Deserialize<'de>>(path: &Path) -> anyhow::Result<T> {
-    let text = std::fs::read_to_string(path).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-    serde_json::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
-}
-
-pub fn write_json<T: Serialize>(path: &Path, value: &T) -> anyhow::Result<()> {
-    let text = serde_json::to_string_pretty(value)?;
-    crate::fsutil::write_atomic(path, text.as_bytes())?;
-    Ok(())
-}
+pub use crate::fsutil::{read_json, write_json};

@@ -17,6 +17,7 @@ pub static KIND: Kind = Kind {
     produces: Artifact::Responses,
     consumes: &[],
     requires: &[],
+    requires_one_of: &[],
     uses_vehicle: super::VehicleUse::Dofs,
     publishes_to: None,
     parse: |v| Ok(Arc::new(serde_yaml_ng::from_value::<Settings>(v)?)),

@@ -1,0 +1,150 @@
+//! A pool run after import and fusion, as the `pool` stage stores it: the logged command and
+//! the fused state on its time base (Parquet), and what was done to get there (JSON).
+
+use super::{Fused, Stats};
+use crate::io::pool::Role;
+use crate::model::effects::Pool;
+use crate::provenance::InputFile;
+use polars::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// What the import and fusion recorded besides the table.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct RunMeta {
+    pub run: String,
+    pub role: Role,
+    pub description: String,
+    pub pool: Option<Pool>,
+    pub tether_anchor_m: Option<[f64; 3]>,
+    pub sources: Vec<InputFile>,
+    /// Which of u, v, w, r the sensors gave.
+    pub known: [bool; 4],
+    pub sensors: Vec<String>,
+    pub stats: Stats,
+    /// Fusion statistics without the sonar, when the run has one.
+    pub stats_without_sonar: Option<Stats>,
+    pub notes: Vec<String>,
+    /// What was done to the logs' timing (FORMATS.md: every repair said in the report).
+    #[serde(default)]
+    pub repairs: Vec<String>,
+}
+
+/// A fused run as stored: the thrust log and the fused state on its time base.
+#[derive(Debug, Clone)]
+pub struct FusedRun {
+    pub meta: RunMeta,
+    /// X, Y, Z, N per sample (the logged command).
+    pub thrust: Vec<[f64; 4]>,
+    pub fused: Fused,
+    pub without_sonar: Option<Fused>,
+}
+
+pub const META: &str = "run.json";
+pub const TABLE: &str = "fused.parquet";
+pub const TABLE_NO_SONAR: &str = "fused_without_sonar.parquet";
+const VEL: [&str; 4] = ["u", "v", "w", "r"];
+const TAU: [&str; 4] = ["X", "Y", "Z", "N"];
+
+pub fn write_table(path: &Path, thrust: &[[f64; 4]], f: &Fused) -> anyhow::Result<()> {
+    let mut cols = vec![Column::new("t".into(), &f.t)];
+    for (j, name) in TAU.iter().enumerate() {
+        cols.push(Column::new((*name).into(), thrust.iter().map(|r| r[j]).collect::<Vec<_>>()));
+    }
+    for ((name, v), s) in VEL.iter().zip(&f.vel).zip(&f.std) {
+        if let (Some(v), Some(s)) = (v, s) {
+            cols.push(Column::new((*name).into(), v));
+            cols.push(Column::new(format!("{name}_std").into(), s));
+        }
+    }
+    for (name, v) in [("x", &f.x), ("y", &f.y), ("z", &f.z), ("psi", &f.psi)] {
+        cols.push(Column::new(name.into(), v));
+    }
+    let mut df = DataFrame::new_infer_height(cols)?;
+    let tmp = path.with_extension("tmp");
+    ParquetWriter::new(std::fs::File::create(&tmp)?).finish(&mut df)?;
+    std::fs::rename(tmp, path)?;
+    Ok(())
+}
+
+fn read_table(path: &Path, known: [bool; 4], stats: Stats) -> anyhow::Result<(Vec<[f64; 4]>, Fused)> {
+    let df = ParquetReader::new(std::fs::File::open(path)?).set_rechunk(true).finish()?;
+    let get = |name: &str| -> anyhow::Result<Vec<f64>> { Ok(df.column(name)?.f64()?.into_no_null_iter().collect()) };
+    let t = get("t")?;
+    let tau: Vec<Vec<f64>> = TAU.iter().map(|n| get(n)).collect::<Result<_, _>>()?;
+    let thrust = (0..t.len()).map(|k| [tau[0][k], tau[1][k], tau[2][k], tau[3][k]]).collect();
+    let mut vel: [Option<Vec<f64>>; 4] = Default::default();
+    let mut std: [Option<Vec<f64>>; 4] = Default::default();
+    for j in 0..4 {
+        if known[j] {
+            vel[j] = Some(get(VEL[j])?);
+            std[j] = Some(get(&format!("{}_std", VEL[j]))?);
+        }
+    }
+    let fused = Fused { t, vel, std, x: get("x")?, y: get("y")?, z: get("z")?, psi: get("psi")?, stats };
+    Ok((thrust, fused))
+}
+
+/// Loads a run written by a `pool` stage.
+pub fn load(dir: &Path) -> anyhow::Result<FusedRun> {
+    let meta: RunMeta = crate::fsutil::read_json(&dir.join(META))?;
+    let (thrust, fused) = read_table(&dir.join(TABLE), meta.known, meta.stats.clone())?;
+    let without_sonar = match &meta.stats_without_sonar {
+        Some(s) => Some(read_table(&dir.join(TABLE_NO_SONAR), meta.known, s.clone())?.1),
+        None => None,
+    };
+    Ok(FusedRun { meta, thrust, fused, without_sonar })
+}
+
+/// Loads a run for a model of `vehicle`: its command clipped at the vehicle's limits.
+pub fn load_for(dir: &Path, vehicle: &crate::model::Vehicle) -> anyhow::Result<FusedRun> {
+    Ok(load(dir)?.clip_to(vehicle))
+}
+
+
+/// The DOFs a pool run records, in the order of `Fused::vel` and the thrust columns.
+pub const POOL_DOFS: [crate::dof::Dof; 4] = [crate::dof::Dof::Surge, crate::dof::Dof::Sway, crate::dof::Dof::Heave, crate::dof::Dof::Yaw];
+
+impl FusedRun {
+    /// The logged command as the thrusters can deliver it: clipped at the vehicle's
+    /// `command_limits` (a closed-loop controller asks for more than it gets). Said in the
+    /// run's notes when any row was clipped.
+    pub fn clip_to(mut self, vehicle: &crate::model::Vehicle) -> FusedRun {
+        let mut clipped = 0usize;
+        for row in &mut self.thrust {
+            for (j, d) in POOL_DOFS.iter().enumerate() {
+                let c = vehicle.clip_command(*d, row[j]);
+                if c != row[j] {
+                    clipped += 1;
+                    row[j] = c;
+                }
+            }
+        }
+        if clipped > 0 {
+            self.meta.notes.push(format!("{clipped} logged command values beyond the vehicle's command_limits were clipped to them"));
+        }
+        self
+    }
+
+    /// The run as a response table for the equation-error fit: the logged command (clipped at
+    /// the vehicle's command limits), the fused velocity and its time derivative. The fused
+    /// velocity is the smoother's state, so its central difference is smooth where a
+    /// difference of raw samples would be noise. None when a DOF of the vehicle was not fused
+    /// (the Coriolis terms need every velocity).
+    pub fn as_response(&self, vehicle: &crate::model::Vehicle) -> Option<crate::io::Response> {
+        use crate::io::response::{differentiate, Series, Source};
+        let mut r = crate::io::Response { t: self.fused.t.clone(), dofs: Default::default() };
+        for (j, d) in POOL_DOFS.iter().enumerate().filter(|(_, d)| vehicle.dofs.contains(d)) {
+            let v = self.fused.vel[j].as_ref()?;
+            let force = self.thrust.iter().map(|c| vehicle.clip_command(*d, c[j])).collect();
+            let accel = differentiate(&r.t, v);
+            r.dofs.insert(*d, Series { force, velocity: v.clone(), accel, force_source: Source::Column, accel_source: Source::Differentiated });
+        }
+        Some(r)
+    }
+
+    /// Which of the vehicle's DOFs this run lacks a fused velocity for.
+    pub fn missing_dofs(&self, vehicle: &crate::model::Vehicle) -> Vec<crate::dof::Dof> {
+        POOL_DOFS.iter().enumerate().filter(|(j, d)| vehicle.dofs.contains(d) && self.fused.vel[*j].is_none()).map(|(_, d)| *d).collect()
+    }
+}
