@@ -14,6 +14,7 @@ use std::path::{Path, PathBuf};
 
 /// Engine-owned file inside each object folder (dot-named: never published).
 pub const FIELDS_FILE: &str = ".fields.json";
+const PARTIAL_FILE: &str = ".partial";
 const LOG: &str = "log";
 /// Rewrite the log keeping the last record per instance once it has this many lines.
 const COMPACT_AT: usize = 20_000;
@@ -42,8 +43,16 @@ impl Cache {
         self.dir.join("objects").join(key)
     }
 
+    /// A complete result, built with every upstream it asked for.
     pub fn has(&self, key: &str) -> bool {
-        self.object(key).is_dir()
+        self.object(key).is_dir() && self.partial(key).is_none()
+    }
+
+    /// For a result built while some of its upstream instances had failed (the other pool
+    /// runs went on without a broken one): which ones. Such a result is published but never
+    /// served as up to date, so the next build redoes it.
+    pub fn partial(&self, key: &str) -> Option<String> {
+        std::fs::read_to_string(self.object(key).join(PARTIAL_FILE)).ok()
     }
 
     /// A fresh folder for a running instance's artifacts.
@@ -60,10 +69,22 @@ impl Cache {
 
     /// Makes a finished folder the result for `record.key` (one rename), then logs it.
     pub fn commit(&self, tmp: &Path, record: &Record) -> std::io::Result<()> {
+        self.commit_partial(tmp, record, &[])
+    }
+
+    /// Commits a result; `missing` names the failed upstream instances it was built without.
+    pub fn commit_partial(&self, tmp: &Path, record: &Record, missing: &[String]) -> std::io::Result<()> {
         let text = serde_json::to_string_pretty(&record.fields).map_err(std::io::Error::other)?;
         crate::fsutil::write_atomic(&tmp.join(FIELDS_FILE), text.as_bytes())?;
+        if !missing.is_empty() {
+            crate::fsutil::write_atomic(&tmp.join(PARTIAL_FILE), missing.join(", ").as_bytes())?;
+        }
         let dest = self.object(&record.key);
         std::fs::create_dir_all(dest.parent().expect("objects/<key> has a parent"))?;
+        if self.partial(&record.key).is_some() {
+            // The earlier result lacked an upstream; this one replaces it.
+            std::fs::remove_dir_all(&dest)?;
+        }
         if dest.exists() {
             // Same key, same inputs: the existing result is as good as ours.
             std::fs::remove_dir_all(tmp)?;

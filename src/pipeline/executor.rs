@@ -61,7 +61,7 @@ pub fn build(plan: &Plan, opts: &Options, progress: &Progress) -> anyhow::Result
         loop {
             let stop = crate::interrupt::requested();
             let ready: Vec<usize> = (0..n)
-                .filter(|&i| !stop && state[i] == State::Waiting && plan.graph.instances[i].deps.iter().all(|&d| state[d] == State::Done))
+                .filter(|&i| !stop && state[i] == State::Waiting && plan.graph.instances[i].deps.iter().all(|&d| state[d] == State::Done || (state[d] == State::Failed && tolerable(plan, d))))
                 .take(jobs - running)
                 .collect();
             for i in ready {
@@ -71,9 +71,18 @@ pub fn build(plan: &Plan, opts: &Options, progress: &Progress) -> anyhow::Result
                 }
                 state[i] = State::Running;
                 running += 1;
+                let failed_deps: Vec<(String, String)> = plan.graph.instances[i]
+                    .deps
+                    .iter()
+                    .filter(|&&d| state[d] == State::Failed)
+                    .map(|&d| {
+                        let id = &plan.graph.instances[d].id;
+                        (id.clone(), summary.failed.iter().find(|(f, _)| f == id).map_or_else(|| "not built".to_string(), |(_, e)| e.clone()))
+                    })
+                    .collect();
                 let (tx, cache, spinner) = (tx.clone(), &cache, progress.spinner(&plan.graph.instances[i].id));
                 scope.spawn(move || {
-                    let r = run_one(plan, i, cache, &spinner).map_err(|e| format!("{e:#}"));
+                    let r = run_one(plan, i, cache, &spinner, failed_deps).map_err(|e| format!("{e:#}"));
                     spinner.finish_and_clear();
                     let _ = tx.send((i, r));
                 });
@@ -116,14 +125,22 @@ pub fn build(plan: &Plan, opts: &Options, progress: &Progress) -> anyhow::Result
 /// order, so one forward pass reaches the whole downstream closure.
 fn skip_dependents(plan: &Plan, failed: usize, state: &mut [State], summary: &mut Summary) {
     for j in failed + 1..state.len() {
-        if state[j] == State::Waiting && plan.graph.instances[j].deps.iter().any(|&d| state[d] == State::Failed) {
+        if state[j] == State::Waiting && plan.graph.instances[j].deps.iter().any(|&d| state[d] == State::Failed && !tolerable(plan, d)) {
             state[j] = State::Failed;
             summary.skipped.push(plan.graph.instances[j].id.clone());
         }
     }
 }
 
-fn run_one(plan: &Plan, i: usize, cache: &Cache, spinner: &indicatif::ProgressBar) -> anyhow::Result<()> {
+/// Whether a failed instance leaves its dependents runnable: one pool run among many (a broken
+/// run folder must not take the validation and report of the others down with it). Its
+/// dependents list it and are rebuilt by the next build.
+fn tolerable(plan: &Plan, failed: usize) -> bool {
+    let kind = plan.graph.stage_of(failed).kind;
+    kind.fan_out && kind.produces == crate::stage::Artifact::PoolRuns && !crate::interrupt::requested()
+}
+
+fn run_one(plan: &Plan, i: usize, cache: &Cache, spinner: &indicatif::ProgressBar, failed_upstream: Vec<(String, String)>) -> anyhow::Result<()> {
     let inst = &plan.graph.instances[i];
     let st = plan.graph.stage_of(i);
     let key = &plan.keys[i];
@@ -132,6 +149,7 @@ fn run_one(plan: &Plan, i: usize, cache: &Cache, spinner: &indicatif::ProgressBa
     let upstream = inst
         .deps
         .iter()
+        .filter(|&&d| !failed_upstream.iter().any(|(id, _)| *id == plan.graph.instances[d].id))
         .map(|&d| Upstream {
             id: plan.graph.instances[d].id.clone(),
             stage: plan.graph.stage_of(d).name.clone(),
@@ -139,14 +157,15 @@ fn run_one(plan: &Plan, i: usize, cache: &Cache, spinner: &indicatif::ProgressBa
             dir: cache.object(&plan.keys[d]),
         })
         .collect();
-    let ctx = RunCtx { id: &inst.id, stage: &st.name, root: &plan.root, vehicle: &plan.graph.spec.vehicle, inputs: &inputs, upstream, out: &tmp, progress: spinner };
+    let ctx = RunCtx { id: &inst.id, stage: &st.name, root: &plan.root, vehicle: &plan.graph.spec.vehicle, inputs: &inputs, upstream, failed_upstream: failed_upstream.clone(), out: &tmp, progress: spinner };
     let start = Instant::now();
     // A panic is a bug, but it must not take the other stages (or the cache) down with it.
     let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| st.imp.run(&ctx)))
         .unwrap_or_else(|p| Err(anyhow::anyhow!("internal error (please report): {}", panic_text(&p))));
     match result {
         Ok(()) => {
-            cache.commit(&tmp, &Record { id: inst.id.clone(), key: key.clone(), fields: plan.fields[i].clone() })?;
+            let missing: Vec<String> = failed_upstream.into_iter().map(|(id, _)| id).collect();
+            cache.commit_partial(&tmp, &Record { id: inst.id.clone(), key: key.clone(), fields: plan.fields[i].clone() }, &missing)?;
             log_time(spinner, &inst.id, start);
             Ok(())
         }

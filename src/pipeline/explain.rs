@@ -44,7 +44,7 @@ pub fn reasons(prev: Option<&Record>, cur: &Fields) -> Vec<String> {
         }
     }
     if out.is_empty() {
-        out.push("its result is missing from the cache (.hydrofit was cleaned or edited)".into());
+        out.push("its last result was built without an upstream that had failed, or is missing from the cache (.hydrofit was cleaned or edited)".into());
     }
     out
 }
