@@ -24,6 +24,12 @@ pub fn f64_or_nan<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Erro
     Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
 }
 
+/// Series of numbers per DOF whose `null`s (NaN written by serde_json) read back as NaN.
+pub fn series_or_nan<'de, D: serde::Deserializer<'de>>(d: D) -> Result<std::collections::BTreeMap<Dof, Vec<f64>>, D::Error> {
+    let raw = std::collections::BTreeMap::<Dof, Vec<Option<f64>>>::deserialize(d)?;
+    Ok(raw.into_iter().map(|(k, v)| (k, v.into_iter().map(|x| x.unwrap_or(f64::NAN)).collect())).collect())
+}
+
 pub fn metrics(measured: &[f64], simulated: &[f64]) -> Metrics {
     let n = measured.len().min(simulated.len()).max(1) as f64;
     let pairs = || measured.iter().zip(simulated);

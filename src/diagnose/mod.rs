@@ -27,12 +27,12 @@ use crate::dof::Dof;
 use crate::fusion::interp;
 use crate::model::effects::{Effect, Pool, State, WorldPlant};
 use crate::model::{Plant, Vec6};
-use crate::stage::pool::FusedRun;
+use crate::fusion::run::FusedRun;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
-pub use select::{params_map, select, Criteria, Search, Tested};
+pub use select::{params_map, select, untested, Criteria, Search, Tested, Untested};
 
 /// The pool DOFs, in the order of the fused tables: surge, sway, heave, yaw.
 pub const DOFS: [Dof; 4] = [Dof::Surge, Dof::Sway, Dof::Heave, Dof::Yaw];
@@ -55,6 +55,9 @@ pub struct Run {
     pub psi: Vec<f64>,
     pub pool: Option<Pool>,
     pub anchor: Option<[f64; 3]>,
+    /// Window over which simulations of this run are re-anchored to the fused velocity
+    /// (multiple shooting, where the model is locally unstable along it); `None`: whole run.
+    pub horizon_s: Option<f64>,
 }
 
 impl Run {
@@ -78,6 +81,7 @@ impl Run {
             psi: f.psi.clone(),
             pool,
             anchor,
+            horizon_s: None,
         })
     }
 
@@ -153,7 +157,7 @@ pub static HYPOTHESES: &[Hypothesis] = &[
     },
     Hypothesis {
         name: "wall_effect",
-        params: &[("coefficient", 0.0, 300.0), ("decay_m", 0.1, 3.0)],
+        params: &[("coefficient", 0.0, 1500.0), ("decay_m", 0.1, 3.0)],
         needs: Needs::Pool,
         build: |p, a| a.effects.push(Effect::WallEffect { coefficient: p[0], decay_m: p[1] }),
         main_dof: 0,
@@ -184,6 +188,18 @@ pub fn augmentation(sel: &[(&'static Hypothesis, Vec<f64>)]) -> Augmentation {
 /// velocity error move the vehicle to the wrong tether length or wall distance). With a sensor
 /// delay d, the recording at t + d is what the vehicle did at t.
 pub fn simulate(plant: &Plant, aug: &Augmentation, run: &Run) -> Vec<[f64; 4]> {
+    simulate_checked(plant, aug, run).0
+}
+
+/// The time at which the model's simulation of `run` (re-anchored as the run says) leaves the
+/// range a vehicle can reach (50 m/s or rad/s, or not finite), if it does: such a model is
+/// unsound, and no effect fitted on top of it means anything.
+pub fn divergence(plant: &Plant, run: &Run) -> Option<f64> {
+    simulate_checked(plant, &Augmentation::default(), run).1.map(|k| run.t[k])
+}
+
+/// [`simulate`], and the sample after which it diverged.
+fn simulate_checked(plant: &Plant, aug: &Augmentation, run: &Run) -> (Vec<[f64; 4]>, Option<usize>) {
     let mut w = WorldPlant::new(plant.clone());
     w.effects = aug.effects.clone();
     w.pool = run.pool;
@@ -201,7 +217,21 @@ pub fn simulate(plant: &Plant, aug: &Augmentation, run: &Run) -> Vec<[f64; 4]> {
     }
     s.thrust = w.shape_command(&cmd6(0));
     let mut out = Vec::with_capacity(n);
+    let anchors = crate::model::stability::anchors(&run.t, run.horizon_s);
+    let mut next_anchor = 1;
     for k in 0..n {
+        if anchors.get(next_anchor) == Some(&k) {
+            // Multiple shooting: the window starts again from the fused state (thruster
+            // states carry over).
+            // The anchor is the recording's centred mean over five samples: a window started
+            // from one noisy sample would carry that sample's noise through it (and a time
+            // shift that interpolates between samples would look like an improvement).
+            let (a, b) = (k.saturating_sub(2), (k + 2).min(n - 1));
+            for (j, &i) in NU.iter().enumerate() {
+                s.nu[i] = (a..=b).map(|q| at(&run.vel[j], q)).sum::<f64>() / (b - a + 1) as f64;
+            }
+            next_anchor += 1;
+        }
         out.push([s.nu[0], s.nu[1], s.nu[2], s.nu[5]]);
         if k + 1 == n {
             break;
@@ -218,16 +248,18 @@ pub fn simulate(plant: &Plant, aug: &Augmentation, run: &Run) -> Vec<[f64; 4]> {
             // Diverged: hold the last finite state so the cost is large but finite.
             let last = out[k];
             out.extend(std::iter::repeat_n([last[0] + 50.0, last[1] + 50.0, last[2] + 50.0, last[3] + 50.0], n - k - 1));
-            break;
+            return (out, Some(k));
         }
     }
-    out
+    (out, None)
 }
 
 /// Per-DOF sums of a simulation against a run's recording.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Sums {
     pub sse: [f64; 4],
+    /// Huber loss: squared error up to the DOF's threshold, linear beyond it.
+    pub huber: [f64; 4],
     pub sae: [f64; 4],
     pub sam: [f64; 4],
     pub n: [f64; 4],
@@ -237,14 +269,22 @@ impl Sums {
     fn add(&mut self, o: &Sums) {
         for j in 0..4 {
             self.sse[j] += o.sse[j];
+            self.huber[j] += o.huber[j];
             self.sae[j] += o.sae[j];
             self.sam[j] += o.sam[j];
             self.n[j] += o.n[j];
         }
     }
 
-    /// Normalised cost: sum over DOFs of MSE / mean square velocity.
+    /// Normalised robust cost: sum over DOFs of the mean Huber loss / mean square velocity.
+    /// Below the threshold it is the mean squared error; a short burst far beyond it (a sensor
+    /// glitch, a bump against the wall) counts linearly and cannot decide the ranking.
     pub fn cost(&self, scale: &[f64; 4]) -> f64 {
+        (0..4).map(|j| if self.n[j] > 0.0 { self.huber[j] / self.n[j] / scale[j] } else { 0.0 }).sum()
+    }
+
+    /// The plain mean-square cost (what the noise floor is compared with).
+    pub fn mse_cost(&self, scale: &[f64; 4]) -> f64 {
         (0..4).map(|j| if self.n[j] > 0.0 { self.sse[j] / self.n[j] / scale[j] } else { 0.0 }).sum()
     }
 
@@ -254,33 +294,41 @@ impl Sums {
     }
 }
 
-/// Residual (simulated - recorded) at each sample, per DOF; samples whose shifted time falls
-/// past the end of the recording are NaN.
+/// Residual (simulated - recorded) at each recorded sample, per DOF. With a sensor delay d the
+/// recording at t shows what the vehicle did at t - d: the simulation (smooth) is read there,
+/// never the recording between its samples (interpolating a noisy recording would lower its
+/// noise and pass for an improvement). Samples before the simulation starts are NaN.
 pub fn residual(sim: &[[f64; 4]], run: &Run, delay: f64) -> [Vec<f64>; 4] {
-    let end = *run.t.last().unwrap_or(&0.0);
+    let start = *run.t.first().unwrap_or(&0.0);
     std::array::from_fn(|j| {
+        let series: Vec<f64> = sim.iter().map(|x| x[j]).collect();
         (0..run.t.len())
             .map(|k| {
-                let tm = run.t[k] + delay;
-                if tm > end + 1e-9 {
+                let ts = run.t[k] - delay;
+                if ts < start - 1e-9 {
                     f64::NAN
+                } else if delay == 0.0 {
+                    series[k] - run.vel[j][k]
                 } else {
-                    sim[k][j] - interp(&run.t, &run.vel[j], tm)
+                    interp(&run.t, &series, ts) - run.vel[j][k]
                 }
             })
             .collect()
     })
 }
 
-pub fn sums(sim: &[[f64; 4]], run: &Run, delay: f64) -> Sums {
+/// Per-DOF sums of a simulation against a run, with the Huber thresholds `delta` (per DOF).
+pub fn sums(sim: &[[f64; 4]], run: &Run, delay: f64, delta: &[f64; 4]) -> Sums {
     let e = residual(sim, run, delay);
     let mut s = Sums::default();
     for j in 0..4 {
         for (k, x) in e[j].iter().enumerate() {
             if x.is_finite() {
                 s.sse[j] += x * x;
+                let a = x.abs();
+                s.huber[j] += if a <= delta[j] { x * x } else { delta[j] * (2.0 * a - delta[j]) };
                 s.sae[j] += x.abs();
-                s.sam[j] += (sim[k][j] - x).abs();
+                s.sam[j] += run.vel[j][k].abs();
                 s.n[j] += 1.0;
             }
         }
@@ -293,6 +341,9 @@ pub struct Data {
     pub train: Vec<Run>,
     pub validate: Vec<Run>,
     pub scale: [f64; 4],
+    /// Huber thresholds per DOF: a quarter of the RMS velocity, and at least three times the
+    /// fused velocity's mean standard deviation (noise is never down-weighted).
+    pub delta: [f64; 4],
     /// Noise floor of the normalised cost on the held-out runs (fused variances).
     pub noise_cost: f64,
 }
@@ -318,14 +369,18 @@ impl Data {
                 s / n.max(1.0) / scale[j]
             })
             .sum();
-        Ok(Data { train, validate, scale, noise_cost })
+        let delta: [f64; 4] = std::array::from_fn(|j| {
+            let (s, n) = all().fold((0.0, 0.0), |(s, n), r| (s + r.std[j].iter().sum::<f64>(), n + r.std[j].len() as f64));
+            (0.25 * scale[j].sqrt()).max(3.0 * s / n.max(1.0))
+        });
+        Ok(Data { train, validate, scale, delta, noise_cost })
     }
 
     pub fn eval(&self, plant: &Plant, aug: &Augmentation, validate: bool) -> Sums {
         let runs = if validate { &self.validate } else { &self.train };
         let mut total = Sums::default();
         for r in runs {
-            total.add(&sums(&simulate(plant, aug, r), r, aug.delay_s));
+            total.add(&sums(&simulate(plant, aug, r), r, aug.delay_s, &self.delta));
         }
         total
     }

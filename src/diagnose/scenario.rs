@@ -33,6 +33,7 @@ pub fn fused_runs(effects: &[Effect], seed: u64) -> anyhow::Result<Vec<FusedRun>
                 stats: fused.stats.clone(),
                 stats_without_sonar: None,
                 notes: vec![],
+                repairs: vec![],
             };
             Ok(FusedRun { meta, thrust, fused, without_sonar: None })
         })

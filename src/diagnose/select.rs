@@ -21,11 +21,19 @@ pub struct Criteria {
     pub within_noise: f64,
     /// Greedy rounds at most.
     pub max_effects: usize,
+    /// A DOF whose held-out residual after the named effects exceeds this multiple of its
+    /// noise and is structured (autocorrelated) is reported `unexplained`.
+    pub unexplained_noise_multiple: f64,
+    /// Simulation window (multiple shooting): `whole_run` (the default), `auto` (re-anchored
+    /// where the model is locally unstable along a run, whole run where it is stable), or
+    /// seconds. Short windows hide slow effects, so `auto` is for runs flown fast in closed
+    /// loop, where a whole-run simulation of an unstable model drifts whatever the physics.
+    pub horizon_s: crate::model::stability::Horizon,
 }
 
 impl Default for Criteria {
     fn default() -> Criteria {
-        Criteria { min_gain: 0.08, gain_per_parameter: 0.02, min_noise_multiple: 0.5, within_noise: 5.0, max_effects: 3 }
+        Criteria { min_gain: 0.08, gain_per_parameter: 0.02, min_noise_multiple: 0.5, within_noise: 5.0, max_effects: 3, unexplained_noise_multiple: 5.0, horizon_s: crate::model::stability::Horizon::WholeRun }
     }
 }
 
@@ -45,10 +53,54 @@ pub struct Tested {
     /// threefold difference, though both are "a 98 % gain").
     pub score: f64,
     pub accepted: bool,
+    /// Parameters that ended on their search bound: the data want more than the effect can
+    /// give, so it is not a finding whatever it gains.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub at_bound: Vec<String>,
+}
+
+/// The parameters of `h` at `p` that sit on a search bound (within 1 % of the range). A lower
+/// bound of zero on a secondary parameter (a tether's slack, a deadband's moment) is a value
+/// physics allows, not a limit of the search.
+pub fn at_bound(h: &Hypothesis, p: &[f64]) -> Vec<String> {
+    h.params
+        .iter()
+        .zip(p)
+        .enumerate()
+        .filter(|(j, ((_, lo, hi), v))| {
+            let tol = 0.01 * (hi - lo);
+            (hi - *v).abs() <= tol || ((*v - lo).abs() <= tol && !(*lo == 0.0 && *j > 0))
+        })
+        .map(|(_, ((n, _, _), _))| n.to_string())
+        .collect()
 }
 
 pub fn params_map(h: &Hypothesis, p: &[f64]) -> BTreeMap<String, f64> {
     h.params.iter().zip(p).map(|((n, _, _), v)| (n.to_string(), *v)).collect()
+}
+
+/// A hypothesis the runs cannot test, and what they lack for it.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Untested {
+    pub name: String,
+    pub missing: String,
+}
+
+/// Every hypothesis some run lacks the data for, with what is missing and where (FORMATS.md:
+/// listed apart, never skipped silently).
+pub fn untested(data: &Data) -> Vec<Untested> {
+    let all: Vec<&super::Run> = data.train.iter().chain(&data.validate).collect();
+    HYPOTHESES
+        .iter()
+        .filter(|h| !applicable(h, data))
+        .map(|h| {
+            let (what, lacking): (&str, Vec<&str>) = match h.needs {
+                Needs::Anchor => ("tether_anchor_m in run.yaml (where the tether enters the water)", all.iter().filter(|r| r.anchor.is_none()).map(|r| r.name.as_str()).collect()),
+                _ => ("pool: {length_m, width_m, depth_m} in run.yaml", all.iter().filter(|r| r.pool.is_none()).map(|r| r.name.as_str()).collect()),
+            };
+            Untested { name: h.name.to_string(), missing: format!("{what} is missing in {}", lacking.join(", ")) }
+        })
+        .collect()
 }
 
 fn applicable(h: &Hypothesis, data: &Data) -> bool {
@@ -115,22 +167,36 @@ pub fn select(plant: &Plant, data: &Data, criteria: &Criteria, progress: &(dyn F
             .iter()
             .map(|(h, p, tc, vc)| {
                 let gain = (current - vc) / current;
-                Tested { round, name: h.name.into(), parameters: params_map(h, p), train_cost: *tc, validation_cost: *vc, gain, score: score(criteria, current, *vc, h.params.len() as f64), accepted: false }
+                let at_bound = at_bound(h, p);
+                Tested { round, name: h.name.into(), parameters: params_map(h, p), train_cost: *tc, validation_cost: *vc, gain, score: score(criteria, current, *vc, h.params.len() as f64), accepted: false, at_bound }
             })
             .collect();
-        let best = (0..rows.len()).filter(|&i| corroborated(criteria, current_train, rows[i].train_cost)).max_by(|&a, &b| rows[a].score.total_cmp(&rows[b].score));
-        let Some(b) = best else { break };
+        let best = (0..rows.len()).filter(|&i| corroborated(criteria, current_train, rows[i].train_cost) && rows[i].at_bound.is_empty()).max_by(|&a, &b| rows[a].score.total_cmp(&rows[b].score));
+        let Some(b) = best else {
+            // Every candidate is refused (not corroborated on the training runs, or on a
+            // bound): the round's rows still go to the report.
+            tested.extend(rows);
+            break;
+        };
         let (h, p, _, val) = &fitted[b];
         if !significant(criteria, data, current, *val, h.params.len() as f64) {
             tested.extend(rows);
             break;
         }
-        rows[b].accepted = true;
+        let before_round = selected.clone();
         selected.push((*h, p.clone()));
         progress(&format!("round {round}: {} kept, refining every kept effect together", h.name));
         if selected.len() > 1 {
             selected = search::refine_all(plant, data, &selected);
+            // Refitted together, a kept effect pushed onto its bound is no longer a finding.
+            if let Some((hb, pb)) = selected.iter().find(|(hb, pb)| !at_bound(hb, pb).is_empty()) {
+                rows[b].at_bound = at_bound(hb, pb).into_iter().map(|n| format!("{}.{n} (refitted with the others)", hb.name)).collect();
+                selected = before_round;
+                tested.extend(rows);
+                break;
+            }
         }
+        rows[b].accepted = true;
         let aug = augmentation(&selected);
         (current, current_train) = (data.cost(plant, &aug, true), data.cost(plant, &aug, false));
         costs.push(current);
@@ -165,7 +231,7 @@ fn swap(plant: &Plant, data: &Data, criteria: &Criteria, selected: &mut Selectio
             rest.remove(i);
             let (p, train) = search::fit_one(plant, data, &rest, h);
             rest.push((h, p.clone()));
-            corroborated(criteria, current_train, train).then(|| (i, h, p, data.cost(plant, &augmentation(&rest), true)))
+            (corroborated(criteria, current_train, train) && at_bound(h, &p).is_empty()).then(|| (i, h, p, data.cost(plant, &augmentation(&rest), true)))
         })
         .collect();
     // Parameters beyond those of the effect replaced.
@@ -179,7 +245,7 @@ fn swap(plant: &Plant, data: &Data, criteria: &Criteria, selected: &mut Selectio
     next.push((h, p));
     let next = search::refine_all(plant, data, &next);
     let after = data.cost(plant, &augmentation(&next), true);
-    if after >= current {
+    if after >= current || next.iter().any(|(hb, pb)| !at_bound(hb, pb).is_empty()) {
         return None;
     }
     progress(&format!("round {round}: {} replaces {}", h.name, out.name));
@@ -193,6 +259,7 @@ fn swap(plant: &Plant, data: &Data, criteria: &Criteria, selected: &mut Selectio
         gain: (current - after) / current,
         score: score(criteria, current, after, h.params.len() as f64),
         accepted: true,
+        at_bound: Vec::new(),
     };
     *selected = next;
     Some((out.name.to_string(), row))

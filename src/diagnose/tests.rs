@@ -29,7 +29,9 @@ fn main_parameter(e: &Effect, d: &Diagnosis) -> (f64, f64) {
         Effect::ThrusterDeadband { force_n, .. } => (*force_n, got("force_n")),
         Effect::TetherDrag { coefficient, .. } => (*coefficient, got("coefficient")),
         Effect::WaterCurrent { velocity_m_s } => (velocity_m_s[0], got("current_x_m_s")),
-        Effect::WallEffect { coefficient, decay_m } => (coefficient * decay_m, got("coefficient") * got("decay_m")),
+        // Coefficient and decay trade off along a ridge; the runs pin down the wall's drag
+        // coefficient at the distances they spend near a wall (2 m).
+        Effect::WallEffect { coefficient, decay_m } => (coefficient * (-2.0 / decay_m).exp(), got("coefficient") * (-2.0 / got("decay_m")).exp()),
         Effect::CoupledDrag { coefficient } => (*coefficient, got("coefficient")),
         Effect::SensorDelay { delay_s } => (*delay_s, got("delay_s")),
     }
@@ -65,7 +67,7 @@ fn each_concealed_effect_is_named_first_with_its_parameter_and_the_held_out_erro
             continue;
         }
         let (want, got) = main_parameter(&e, &d);
-        // Wall drag trades its coefficient against its decay length: their product is what the runs pin down.
+        // Wall drag is pinned down only where the runs go (see main_parameter).
         let tol = if e.name() == "wall_effect" { 0.4 } else { 0.15 };
         if !((got - want).abs() <= tol * want.abs()) {
             failures.push(format!("{arg}: parameter {got} vs truth {want}"));
@@ -139,7 +141,7 @@ fn a_residual_no_effect_explains_is_unexplained_not_named() {
     }
     let d = full(&fused, &scenario::cfd_fit_plant(1).unwrap());
     let names: Vec<&str> = d.effects.iter().map(|e| e.name.as_str()).collect();
-    assert_eq!(names.last(), Some(&"unexplained"), "{names:?}\n{}", d.verdict);
+    assert_eq!(names, ["unexplained"], "effect-free runs with an out-of-vocabulary disturbance\n{}", d.verdict);
     assert!(d.effects.last().unwrap().dofs.contains(&crate::dof::Dof::Surge));
 }
 
@@ -169,7 +171,7 @@ fn experiment() {
             let (plant, aug) = (scenario::cfd_fit_plant(1).unwrap(), augmentation(&s.selected));
             for r in data.train.iter().chain(&data.validate) {
                 let sim = simulate(&plant, &aug, r);
-                let sm = sums(&sim, r, 0.0);
+                let sm = sums(&sim, r, 0.0, &[f64::INFINITY; 4]);
                 eprintln!("  run {:12} validate {} cost {:.5} nmae {:?}", r.name, data.validate.iter().any(|v| v.name == r.name), sm.cost(&data.scale), sm.nmae().map(|x| (x * 1000.0).round() / 1000.0));
                 for (j, e) in residual(&sim, r, 0.0).iter().enumerate() {
                     let (k, m) = e.iter().enumerate().fold((0, 0.0f64), |b, (k, v)| if v.abs() > b.1 { (k, v.abs()) } else { b });
@@ -179,4 +181,118 @@ fn experiment() {
             }
         }
     }
+}
+
+/// Fast straight runs of the reference vehicle flown by a pilot who holds heading and speed
+/// (closed loop on the true state), with no left-out physics at all, written by an integrator
+/// and pilot of this test's own. At 1.1-1.4 m/s the model's sway-yaw pair is unstable (Munk
+/// moment over yaw damping), so an open-loop simulation of the logged command drifts apart
+/// from the recording whatever the model. Re-anchored over windows the true model must be
+/// found sufficient: nothing named, nothing unexplained.
+fn piloted_fast_runs(seed: u64) -> Vec<crate::stage::pool::FusedRun> {
+    use crate::model::{Hydro, Plant, Vehicle};
+    let plant = Plant::new(&Vehicle::reference(), Hydro::reference());
+    let mut rng = crate::rng::Rng::new(seed);
+    let (dt, n) = (0.05, 1200);
+    let mut out = Vec::new();
+    for (i, speed) in [1.2, 1.3, 1.1, 1.4, 1.25, 1.35].into_iter().enumerate() {
+        let mut nu = [0.0f64; 6];
+        let (mut x, mut y, mut z, mut psi) = (5.0, 20.0, 1.5, 0.2 * rng.normal());
+        let mut fused = crate::fusion::Fused { t: vec![], vel: Default::default(), std: Default::default(), x: vec![], y: vec![], z: vec![], psi: vec![], stats: Default::default() };
+        let (mut vel, mut thrust) = ([vec![], vec![], vec![], vec![]], vec![]);
+        let mut gust = [0.0f64; 4];
+        for k in 0..n {
+            let t = k as f64 * dt;
+            // The pilot: speed by feed-forward and a P term, heading and depth held by PD,
+            // plus the unsteadiness of a human hand (a slowly wandering extra command).
+            let target = if t < 5.0 { speed * t / 5.0 } else { speed };
+            for (g, s) in gust.iter_mut().zip([6.0, 4.0, 4.0, 0.3]) {
+                *g = 0.98 * *g + 0.2 * s * rng.normal();
+            }
+            let tau = [
+                2.41 * target + 44.17 * target * target + 60.0 * (target - nu[0]) + gust[0],
+                -25.0 * nu[1] + gust[1],
+                40.0 * (1.5 - z) - 30.0 * nu[2] + gust[2],
+                0.0,
+                0.0,
+                -8.0 * psi - 4.0 * nu[5] + gust[3],
+            ];
+            thrust.push([tau[0], tau[1], tau[2], tau[5]]);
+            fused.t.push(t);
+            fused.x.push(x);
+            fused.y.push(y);
+            fused.z.push(z);
+            fused.psi.push(psi);
+            for (j, &q) in [0usize, 1, 2, 5].iter().enumerate() {
+                vel[j].push(nu[q] + if j == 3 { 0.004 } else { 0.008 } * rng.normal());
+            }
+            // Twenty RK4 substeps of the true plant, the pose by Euler on the same substeps.
+            for _ in 0..20 {
+                let h = dt / 20.0;
+                let f = |v: &[f64; 6]| plant.accel(v, &tau);
+                let add = |a: &[f64; 6], b: &[f64; 6], s: f64| -> [f64; 6] { std::array::from_fn(|q| a[q] + s * b[q]) };
+                let k1 = f(&nu);
+                let k2 = f(&add(&nu, &k1, h / 2.0));
+                let k3 = f(&add(&nu, &k2, h / 2.0));
+                let k4 = f(&add(&nu, &k3, h));
+                let (c, s) = (psi.cos(), psi.sin());
+                x += h * (c * nu[0] - s * nu[1]);
+                y += h * (s * nu[0] + c * nu[1]);
+                z += h * nu[2];
+                psi += h * nu[5];
+                nu = std::array::from_fn(|q| nu[q] + h / 6.0 * (k1[q] + 2.0 * k2[q] + 2.0 * k3[q] + k4[q]));
+            }
+        }
+        for j in 0..4 {
+            let sigma = if j == 3 { 0.004 } else { 0.008 };
+            fused.std[j] = Some(vec![sigma; n]);
+            fused.vel[j] = Some(std::mem::take(&mut vel[j]));
+        }
+        let meta = crate::stage::pool::RunMeta {
+            run: format!("straight_{i}"),
+            role: if i >= 4 { crate::io::pool::Role::Validate } else { crate::io::pool::Role::Train },
+            description: String::new(),
+            pool: Some(crate::model::effects::Pool { length_m: 400.0, width_m: 40.0, depth_m: 10.0 }),
+            tether_anchor_m: Some([0.0, 20.0, 0.0]),
+            sources: vec![],
+            known: [true; 4],
+            sensors: vec![],
+            stats: Default::default(),
+            stats_without_sonar: None,
+            notes: vec![],
+            repairs: vec![],
+        };
+        out.push(crate::stage::pool::FusedRun { meta, thrust, fused, without_sonar: None });
+    }
+    out
+}
+
+#[test]
+fn an_unstable_model_on_piloted_runs_is_not_read_as_missing_physics() {
+    use crate::model::{Hydro, Plant, Vehicle};
+    let fused = piloted_fast_runs(3);
+    let plant = Plant::new(&Vehicle::reference(), Hydro::reference());
+    let auto = Criteria { horizon_s: crate::model::stability::Horizon::Auto, ..Criteria::default() };
+    let d = diagnose(&Vehicle::reference(), "fit", &plant, &fused, &auto, &|_| {}).unwrap().0;
+    let names: Vec<&str> = d.effects.iter().map(|e| e.name.as_str()).collect();
+    assert!(names.is_empty(), "named {names:?} on effect-free piloted runs\n{}\nbase {} noise {} hyps {:?}", d.verdict, d.baseline.validation_cost, d.baseline.noise_cost, d.hypotheses.iter().map(|h| (&h.name, h.validation_cost, &h.parameters)).collect::<Vec<_>>());
+    for (run, s) in &d.stability {
+        assert!(s.growth_per_s > 1.0 && s.horizon_s.is_some_and(|h| h < 5.0), "{run}: {s:?}");
+    }
+    // Simulated whole, the same runs drift apart: the error is far above the noise floor.
+    let w = full(&fused, &plant);
+    assert!(w.baseline.validation_cost > 20.0 * d.baseline.validation_cost.max(1e-9), "whole-run {} vs windowed {}", w.baseline.validation_cost, d.baseline.validation_cost);
+}
+
+/// A thruster lag twice as long as the search allows: the fitted lag ends on its bound, so it
+/// is not a finding (the data want more than the effect can give), and what remains is
+/// reported unexplained rather than patched by another effect.
+#[test]
+fn an_effect_pushed_to_its_bound_is_refused() {
+    let d = scenario_diagnosis(&[Effect::ThrusterLag { time_constant_s: 3.0 }], 2);
+    let lag = d.hypotheses.iter().filter(|t| t.name == "thruster_lag").max_by(|a, b| a.gain.total_cmp(&b.gain)).unwrap();
+    assert!(lag.at_bound.iter().any(|p| p.contains("time_constant_s")), "{lag:?}");
+    assert!(!lag.accepted, "{lag:?}");
+    assert!(d.effects.iter().all(|e| e.name != "thruster_lag"), "{:?}", d.effects.iter().map(|e| &e.name).collect::<Vec<_>>());
+    assert!(d.effects.iter().any(|e| e.name == "unexplained"), "{}", d.verdict);
 }

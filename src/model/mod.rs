@@ -3,6 +3,7 @@
 pub mod dynamics;
 pub mod effects;
 pub mod params;
+pub mod stability;
 pub mod vehicle;
 
 pub use dynamics::{Plant, Vec6};

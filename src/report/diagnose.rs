@@ -26,6 +26,25 @@ pub fn section(d: &Diagnosis, figures: &[Figure]) -> String {
         d.criteria.min_noise_multiple,
         d.elapsed_s
     );
+    if !d.diverged.is_empty() {
+        let _ = writeln!(h, "<p class=\"warn\">The model diverges on: {}. Nothing was diagnosed.</p>", esc(&d.diverged.join(", ")));
+        return h;
+    }
+    if !d.untested.is_empty() {
+        h.push_str("<p>Not tested (the runs lack what these hypotheses need):</p><ul>\n");
+        for u in &d.untested {
+            let _ = writeln!(h, "<li><code>{}</code>: {}</li>", esc(&u.name), esc(&u.missing));
+        }
+        h.push_str("</ul>\n");
+    }
+    let refused: Vec<&crate::diagnose::Tested> = d.hypotheses.iter().filter(|t| !t.at_bound.is_empty() && t.gain > 0.0).collect();
+    if !refused.is_empty() {
+        h.push_str("<p>Not findings — pushed to the bound (the data want more than these effects can give):</p><ul>\n");
+        for t in refused {
+            let _ = writeln!(h, "<li><code>{}</code> (round {}): {} at its bound; held-out cost {:+.1} %</li>", esc(&t.name), t.round, esc(&t.at_bound.join(", ")), -100.0 * t.gain);
+        }
+        h.push_str("</ul>\n");
+    }
     h.push_str("<table><tr><th>model</th><th>held-out NMAE per DOF</th><th>error cost</th></tr>\n");
     let _ = writeln!(h, "<tr><td>CFD model</td><td>{}</td><td>{:.4}</td></tr>", nmae(&d.baseline.validation_nmae), d.baseline.validation_cost);
     let _ = writeln!(
@@ -98,7 +117,13 @@ pub fn section(d: &Diagnosis, figures: &[Figure]) -> String {
             t.validation_cost,
             100.0 * t.gain,
             t.score,
-            if t.accepted { "yes" } else { "" }
+            if t.accepted {
+                "yes".to_string()
+            } else if !t.at_bound.is_empty() {
+                format!("no: {} pushed to the bound (the data want more than this effect can give)", esc(&t.at_bound.join(", ")))
+            } else {
+                String::new()
+            }
         );
     }
     h.push_str("</table></details>\n");

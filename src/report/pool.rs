@@ -86,6 +86,27 @@ pub fn section(runs: &[FusedRun], scores: Option<&Scores>, sims: &[Simulated], a
         );
     }
     h.push_str("</table>\n");
+    let repaired: Vec<&FusedRun> = runs.iter().filter(|r| !r.meta.repairs.is_empty() || !r.meta.stats.nav.is_empty()).collect();
+    if !repaired.is_empty() {
+        h.push_str("<h3 id=\"repairs\">Timing repairs and navigation-log noise</h3>\n<ul>\n");
+        for r in repaired {
+            for rep in &r.meta.repairs {
+                let _ = writeln!(h, "<li><code>{}</code>: {}</li>", esc(&r.meta.run), esc(rep));
+            }
+            for (ch, n) in &r.meta.stats.nav {
+                let _ = writeln!(
+                    h,
+                    "<li><code>{}</code> nav <code>{ch}</code>: noise σ {:.4} m/s (lag-1 estimate {:.4}); errors correlated over {:.1} samples{}</li>",
+                    esc(&r.meta.run),
+                    n.sigma,
+                    n.sigma_lag1,
+                    n.correlated_samples,
+                    if n.correlated_samples > 2.0 { " — the log was filtered before it was written, so its samples count for less" } else { "" }
+                );
+            }
+        }
+        h.push_str("</ul>\n");
+    }
     if !accuracy.is_empty() {
         h.push_str("<h3 id=\"fusion-accuracy\">Fusion accuracy against the twin's truth</h3>\n<p>These runs are synthetic: their true velocities are in the truth files named below (outside <code>cases/</code>, never read by the fusion). RMSE of the fused velocity, with and without the sonar; error/σ is the RMS of the error divided by the stated standard deviation (near 1 when the uncertainty is honest).</p>\n<table><tr><th>run</th><th>DOF</th><th>RMSE</th><th>RMSE without sonar</th><th>error/σ</th><th>truth</th></tr>\n");
         for a in accuracy {
@@ -97,7 +118,7 @@ pub fn section(runs: &[FusedRun], scores: Option<&Scores>, sims: &[Simulated], a
         h.push_str("</table>\n");
     }
     let Some(scores) = scores else { return Ok(h) };
-    h.push_str("<h2 id=\"pool-validation\">Pool runs: the model against the recordings</h2>\n<p>Each model simulated (RK4, 0.01 s) under the run's logged thrust from the fused initial state. Residual whiteness (seed 000): share of autocorrelation lags up to 5 s outside the 95 % band ±1.96/√N — about 5 % for a model that explains everything but noise. σ̄ is the mean standard deviation of the fused velocity, the floor no model can beat.</p>\n");
+    h.push_str("<h2 id=\"pool-validation\">Pool runs: the model against the recordings</h2>\n<p>Each model simulated (RK4, 0.01 s) under the run's logged thrust from the fused initial state; where the model is locally unstable along a run (a perturbation grows, as an open-frame vehicle's sway and yaw do at speed), the simulation is re-anchored to the fused state over windows short enough that an error at most doubles, since a pilot or autopilot kept the real vehicle on course. Residual whiteness (seed 000): share of autocorrelation lags up to 5 s outside the 95 % band ±1.96/√N — about 5 % for a model that explains everything but noise. σ̄ is the mean standard deviation of the fused velocity, the floor no model can beat.</p>\n");
     for m in &scores.models {
         let _ = writeln!(h, "<table><tr><th>model <code>{}</code>: run</th><th>role</th><th>DOF</th><th>MAE</th><th>NMAE</th><th>RMSE % of peak</th><th>residual ACF outside band</th><th>σ̄</th></tr>", esc(&m.model));
         for r in &m.runs {
@@ -116,7 +137,12 @@ pub fn section(runs: &[FusedRun], scores: Option<&Scores>, sims: &[Simulated], a
                 );
             }
         }
-        h.push_str("</table>\n<p>Cross-validation summary, mean NMAE per DOF: ");
+        h.push_str("</table>\n");
+        let stab: String = m.runs.iter().filter_map(|r| r.stability.map(|s| format!("<li><code>{}</code>: {}</li>", esc(&r.run), esc(&crate::model::stability::describe(&s))))).collect();
+        if !stab.is_empty() {
+            let _ = writeln!(h, "<p>Local stability of model <code>{}</code> along each run (eigenvalues of the model linearised at the recorded velocity):</p><ul class=\"small\" id=\"stability-{}\">{stab}</ul>", esc(&m.model), esc(&m.model));
+        }
+        h.push_str("<p>Cross-validation summary, mean NMAE per DOF: ");
         for (role, per) in &m.mean_nmae {
             let v: Vec<String> = per.iter().map(|(d, x)| format!("{d} {x:.3}")).collect();
             let _ = write!(h, "<b>{role}</b> runs: {}; ", v.join(", "));

@@ -19,6 +19,7 @@ pub static KIND: Kind = Kind {
     produces: Artifact::Comparison,
     consumes: &[Artifact::Responses, Artifact::PoolRuns],
     requires: &[Artifact::Responses],
+    requires_one_of: &[],
     uses_vehicle: super::VehicleUse::All,
     publishes_to: None,
     parse: parse_settings,
@@ -97,7 +98,7 @@ impl StageImpl for Settings {
         for up in ctx.upstream_of(Artifact::Responses) {
             responses.push(starccm::load(&up.dir)?.1);
         }
-        let runs: Vec<pool::FusedRun> = ctx.upstream_of(Artifact::PoolRuns).map(|u| pool::load(&u.dir)).collect::<Result<_, _>>()?;
+        let runs: Vec<pool::FusedRun> = ctx.upstream_of(Artifact::PoolRuns).map(|u| pool::load_for(&u.dir, ctx.vehicle)).collect::<Result<_, _>>()?;
         let held_out: Vec<&pool::FusedRun> = if runs.iter().any(|r| r.meta.role == crate::io::pool::Role::Validate) {
             runs.iter().filter(|r| r.meta.role == crate::io::pool::Role::Validate).collect()
         } else {
@@ -147,11 +148,11 @@ impl StageImpl for Settings {
                     }
                     row.max_abs_error_pct = row.error_pct.values().map(|e| e.abs()).reduce(f64::max);
                     let theta: Vec<f64> = fit.parameters.iter().map(|p| p.value).collect();
-                    let plant = Plant::new(ctx.vehicle, ParamLayout::new(&ctx.vehicle.dofs).to_hydro(&theta));
+                    let plant = Plant::new(ctx.vehicle, ParamLayout::of(ctx.vehicle).to_hydro(&theta));
                     let nmae: Vec<f64> = held_out
                         .iter()
                         .flat_map(|r| {
-                            let s = validate::score_run(&ctx.vehicle.dofs, r, &validate::simulate_run(&plant, r), 1.0);
+                            let s = validate::score_run(&ctx.vehicle.dofs, r, &validate::simulate_run(&plant, r, Default::default()).0, 1.0);
                             s.dofs.values().map(|d| d.metrics.nmae).collect::<Vec<_>>()
                         })
                         .filter(|x| x.is_finite())

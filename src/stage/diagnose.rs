@@ -2,8 +2,8 @@
 //! missing structure, where the mismatch is, which left-out effect explains it (fitted by output
 //! error on the training runs, chosen and proven on the held-out runs). See [`crate::diagnose`].
 
-use super::{fit, pool, validate, Artifact, Kind, RunCtx, StageImpl};
-use crate::diagnose::{self as dx, Augmentation, Criteria, Data, Mismatch, RegimeShare, Run, Tested, DOFS};
+use super::{fit, pool, Artifact, Kind, RunCtx, StageImpl};
+use crate::diagnose::{self as dx, Augmentation, Criteria, Data, Mismatch, RegimeShare, Run, Tested, Untested, DOFS};
 use crate::dof::Dof;
 use crate::model::{ParamLayout, Plant};
 use serde::{Deserialize, Serialize};
@@ -21,6 +21,7 @@ pub static KIND: Kind = Kind {
     produces: Artifact::Diagnosis,
     consumes: &[Artifact::Model, Artifact::PoolRuns],
     requires: &[Artifact::Model, Artifact::PoolRuns],
+    requires_one_of: &[],
     uses_vehicle: super::VehicleUse::All,
     publishes_to: None,
     parse: |v| Ok(Arc::new(serde_yaml_ng::from_value::<Settings>(v)?)),
@@ -40,6 +41,7 @@ pub struct Settings {
 pub struct Reestimated {
     pub parameters: Vec<crate::estimate::Estimate>,
     pub validation_nmae: BTreeMap<Dof, f64>,
+    #[serde(deserialize_with = "crate::validate::f64_or_nan")]
     pub validation_cost: f64,
     pub within_noise: bool,
 }
@@ -49,6 +51,7 @@ pub struct Baseline {
     pub model: String,
     pub validation_nmae: BTreeMap<Dof, f64>,
     /// Normalised cost on the held-out runs (sum over DOFs of MSE / mean square velocity).
+    #[serde(deserialize_with = "crate::validate::f64_or_nan")]
     pub validation_cost: f64,
     /// The same cost of the measurement noise alone: what no model can beat.
     pub noise_cost: f64,
@@ -90,8 +93,18 @@ pub struct Diagnosis {
     pub hypotheses: Vec<Tested>,
     pub criteria: Criteria,
     pub runs: Runs,
+    /// Runs on which the model's simulation diverged: then nothing is diagnosed.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub diverged: Vec<String>,
+    /// Hypotheses that could not be tested, with what the runs lack (FORMATS.md).
+    #[serde(default)]
+    pub untested: Vec<Untested>,
+    /// The model's local stability along each run, and the simulation window it led to.
+    #[serde(default)]
+    pub stability: BTreeMap<String, crate::model::stability::Stability>,
     pub elapsed_s: f64,
 }
+
 
 /// An SVG figure with its caption.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -101,6 +114,37 @@ pub struct Figure {
 }
 
 pub const RESULT: &str = "diagnosis.json";
+
+impl Diagnosis {
+    /// The answer for a model whose simulation diverges: it is not diagnosed at all.
+    fn unsound(model: &str, data: &Data, diverged: Vec<String>, crit: &Criteria, skipped: Vec<String>, elapsed_s: f64) -> Diagnosis {
+        let verdict = format!(
+            "Not diagnosed: model `{model}` diverges when simulated under the logged command of {}. A model that leaves the range a vehicle can reach is unsound (a drag term with the wrong sign, a lost DOF, an unstable identification); any effect fitted on top of it would only patch the divergence. Fix the model first (see its parameters' notes), then diagnose again.",
+            diverged.join(", ")
+        );
+        Diagnosis {
+            baseline: Baseline {
+                model: model.to_string(),
+                validation_nmae: BTreeMap::new(),
+                validation_cost: f64::NAN,
+                noise_cost: data.noise_cost,
+                reestimated: Reestimated { parameters: Vec::new(), validation_nmae: BTreeMap::new(), validation_cost: f64::NAN, within_noise: false },
+                parameters_reestimated: false,
+            },
+            mismatch: Vec::new(),
+            effects: Vec::new(),
+            verdict,
+            regimes: Vec::new(),
+            hypotheses: Vec::new(),
+            criteria: crit.clone(),
+            runs: Runs { train: data.train.iter().map(|r| r.name.clone()).collect(), validate: data.validate.iter().map(|r| r.name.clone()).collect(), skipped },
+            diverged,
+            untested: Vec::new(),
+            stability: BTreeMap::new(),
+            elapsed_s,
+        }
+    }
+}
 pub const FIGURES: &str = "figures.json";
 
 pub fn load(dir: &Path) -> anyhow::Result<(Diagnosis, Vec<Figure>)> {
@@ -129,12 +173,11 @@ impl StageImpl for Settings {
         if !DOFS.iter().all(|d| f.dofs.contains(d)) {
             anyhow::bail!("the diagnosis simulates surge, sway, heave and yaw; model `{}` has {:?}", f.stage, f.dofs);
         }
-        let fused: Vec<pool::FusedRun> = ctx.upstream_of(Artifact::PoolRuns).map(|u| pool::load(&u.dir)).collect::<Result<_, _>>()?;
-        let layout = ParamLayout::new(&f.dofs);
-        let theta: Vec<f64> = f.fit.parameters.iter().map(|p| p.value).collect();
-        let plant = Plant::new(ctx.vehicle, layout.to_hydro(&theta));
+        let fused: Vec<pool::FusedRun> = ctx.upstream_of(Artifact::PoolRuns).map(|u| pool::load_for(&u.dir, ctx.vehicle)).collect::<Result<_, _>>()?;
+        let plant = f.plant(ctx.vehicle);
         let progress = |m: &str| ctx.progress.set_message(m.to_string());
-        let (diagnosis, figures) = diagnose(ctx.vehicle, &f.stage, &plant, &fused, &self.criteria, &progress)?;
+        let (mut diagnosis, figures) = diagnose(ctx.vehicle, &f.stage, &plant, &fused, &self.criteria, &progress)?;
+        diagnosis.runs.skipped.extend(ctx.failed_notes());
         super::write_json(&ctx.out.join(RESULT), &diagnosis)?;
         super::write_json(&ctx.out.join(FIGURES), &figures)
     }
@@ -154,14 +197,33 @@ pub fn diagnose(vehicle: &crate::model::Vehicle, model: &str, plant: &Plant, fus
                 run
             })
             .collect();
+        let mut runs = runs;
+        let mut stability = BTreeMap::new();
+        for r in &mut runs {
+            let vel: Vec<[f64; 4]> = (0..r.t.len()).map(|k| std::array::from_fn(|j| r.vel[j][k])).collect();
+            let s = crate::model::stability::along(plant, &r.t, &vel, crit.horizon_s);
+            r.horizon_s = s.horizon_s;
+            stability.insert(r.name.clone(), s);
+        }
         let data = Data::new(runs)?;
+        let diverged: Vec<String> = data
+            .train
+            .iter()
+            .chain(&data.validate)
+            .filter_map(|r| dx::divergence(plant, r).map(|t| format!("{} (at t = {t:.1} s)", r.name)))
+            .collect();
+        if !diverged.is_empty() {
+            let mut d = Diagnosis::unsound(model, &data, diverged, crit, skipped, start.elapsed().as_secs_f64());
+            d.stability = stability;
+            return Ok((d, Vec::new()));
+        }
         progress("baseline and re-estimated parameters");
 
         // 1. Drift: the same model structure, parameters re-estimated on the training runs.
         let base = data.eval(plant, &Augmentation::default(), true);
         let base_cost = base.cost(&data.scale);
         let reest = reestimate(vehicle, fused, &data)?;
-        let re_plant = Plant::new(vehicle, ParamLayout::new(&vehicle.dofs).to_hydro(&reest.iter().map(|p| p.value).collect::<Vec<_>>()));
+        let re_plant = Plant::new(vehicle, ParamLayout::of(vehicle).to_hydro(&reest.iter().map(|p| p.value).collect::<Vec<_>>()));
         let re_sums = data.eval(&re_plant, &Augmentation::default(), true);
         let re_cost = re_sums.cost(&data.scale);
 
@@ -217,8 +279,9 @@ pub fn diagnose(vehicle: &crate::model::Vehicle, model: &str, plant: &Plant, fus
             figures.clear();
         }
         let explained_cost = if drift { re_cost } else { final_cost };
+        let left = if drift { Vec::new() } else { structured_left(plant, &data, &dx::augmentation(&search.selected), crit) };
         let verdict;
-        if !within(explained_cost) && explained_cost > 0.5 * base_cost.max(1e-12) || (!within(explained_cost) && effects.is_empty()) {
+        if !within(explained_cost) && explained_cost > 0.5 * base_cost.max(1e-12) || (!within(explained_cost) && effects.is_empty()) || (!left.is_empty() && !within(explained_cost)) {
             let after_aug = dx::augmentation(&search.selected);
             let res_after = dx::residuals(plant, &after_aug, &data.validate);
             let loc = dx::locate(&data.validate, &res_after, &data.scale);
@@ -228,7 +291,12 @@ pub fn diagnose(vehicle: &crate::model::Vehicle, model: &str, plant: &Plant, fus
             let noise_dof: Vec<f64> = (0..4)
                 .map(|j| data.validate.iter().map(|r| r.std[j].iter().map(|x| x * x).sum::<f64>()).sum::<f64>() / data.validate.iter().map(|r| r.std[j].len() as f64).sum::<f64>() / data.scale[j])
                 .collect();
-            let dofs: Vec<Dof> = (0..4).filter(|&j| per_dof[j] > crit.within_noise * noise_dof[j]).map(|j| DOFS[j]).collect();
+            let mut dofs: Vec<Dof> = (0..4).filter(|&j| per_dof[j] > crit.within_noise * noise_dof[j]).map(|j| DOFS[j]).collect();
+            for d in &left {
+                if !dofs.contains(d) {
+                    dofs.push(*d);
+                }
+            }
             let top = regs.iter().filter(|r| r.share_of_time > 0.05).max_by(|a, b| (a.share_of_error / a.share_of_time).total_cmp(&(b.share_of_error / b.share_of_time)));
             let mut ev = format!("After the effects above the held-out error cost is {explained_cost:.4}, {:.1} times the noise floor, and no effect of the table lowers it significantly", explained_cost / data.noise_cost);
             if let Some(m) = loc.first() {
@@ -279,15 +347,44 @@ pub fn diagnose(vehicle: &crate::model::Vehicle, model: &str, plant: &Plant, fus
             hypotheses: search.tested,
             criteria: crit.clone(),
             runs: Runs { train: data.train.iter().map(|r| r.name.clone()).collect(), validate: data.validate.iter().map(|r| r.name.clone()).collect(), skipped },
+            diverged: Vec::new(),
+            untested: dx::untested(&data),
+            stability,
             elapsed_s: start.elapsed().as_secs_f64(),
         };
         Ok((diagnosis, figures))
 }
 
+/// The DOFs whose held-out residual, after the effects in `aug`, is both well above its noise
+/// (`unexplained_noise_multiple` times the fused variance) and structured (its autocorrelation
+/// outside the 95 % band at more than a fifth of the lags up to 5 s, seed 000): what is left
+/// there is physics the model lacks, however much the named effects already explained.
+fn structured_left(plant: &Plant, data: &Data, aug: &Augmentation, crit: &Criteria) -> Vec<Dof> {
+    let res = dx::residuals(plant, aug, &data.validate);
+    (0..4)
+        .filter(|&j| {
+            let (mut sse, mut var, mut outside, mut runs) = (0.0, 0.0, 0.0, 0.0);
+            for (r, e) in data.validate.iter().zip(&res) {
+                let e: Vec<f64> = e[j].iter().copied().filter(|x| x.is_finite()).collect();
+                if e.len() < 20 {
+                    continue;
+                }
+                let dt = (r.t[r.t.len() - 1] - r.t[0]) / (r.t.len() - 1) as f64;
+                sse += e.iter().map(|x| x * x).sum::<f64>();
+                var += r.std[j].iter().map(|x| x * x).sum::<f64>();
+                outside += crate::validate::whiteness(&e, dt, (5.0 / dt).round() as usize).outside;
+                runs += 1.0;
+            }
+            runs > 0.0 && sse > crit.unexplained_noise_multiple * var && outside / runs > 0.2
+        })
+        .map(|j| DOFS[j])
+        .collect()
+}
+
 /// The model's parameters re-estimated on the training runs: equation error, least squares.
 fn reestimate(vehicle: &crate::model::Vehicle, fused: &[pool::FusedRun], data: &Data) -> anyhow::Result<Vec<crate::estimate::Estimate>> {
     use crate::estimate::Estimator as _;
-    let train: Vec<crate::io::Response> = fused.iter().filter(|r| data.train.iter().any(|t| t.name == r.meta.run)).filter_map(validate::as_response).collect();
+    let train: Vec<crate::io::Response> = fused.iter().filter(|r| data.train.iter().any(|t| t.name == r.meta.run)).filter_map(|r| r.as_response(vehicle)).collect();
     let refs: Vec<&crate::io::Response> = train.iter().collect();
     let problem = crate::estimate::Regression::build(vehicle, &refs, 1.0);
     Ok(crate::estimate::ols::Ols.fit(&problem, &Default::default())?.parameters)

@@ -3,7 +3,7 @@
 use super::{fit, starccm, Artifact, Kind, RunCtx, StageImpl};
 use crate::io::Response;
 use crate::dof::Dof;
-use crate::model::{ParamLayout, Plant, Vec6};
+use crate::model::{Plant, Vec6};
 use std::collections::BTreeMap;
 use crate::report::json::{self, DofMetrics, ModelScore, RunScore, Validation};
 use crate::report::{html, plots};
@@ -20,6 +20,7 @@ pub static KIND: Kind = Kind {
     produces: Artifact::Report,
     consumes: &[Artifact::Model, Artifact::Responses, Artifact::PoolRuns, Artifact::Validation, Artifact::Comparison, Artifact::Diagnosis],
     requires: &[Artifact::Model],
+    requires_one_of: &[],
     uses_vehicle: super::VehicleUse::All,
     publishes_to: Some("reports"),
     parse: |v| Ok(Arc::new(serde_yaml_ng::from_value::<Settings>(v)?)),
@@ -61,8 +62,7 @@ impl StageImpl for Settings {
         let mut first_sims: Vec<Option<Vec<Vec6>>> = vec![None; cases.len()];
         let mut body_html = String::new();
         for f in &fits {
-            let layout = ParamLayout::new(&f.dofs);
-            let theta: Vec<f64> = f.fit.parameters.iter().map(|p| p.value).collect();
+            let hydro = f.hydro();
             let vehicle = f.vehicle.as_ref().unwrap_or(ctx.vehicle);
             let mut runs = Vec::new();
             let mut own_cases = Vec::new();
@@ -77,7 +77,7 @@ impl StageImpl for Settings {
                 if let Some(m) = c.mass {
                     v.mass_kg = m;
                 }
-                let plant = Plant::new(&v, layout.to_hydro(&theta));
+                let plant = Plant::new(&v, hydro);
                 let sim = validate::simulate_response(&plant, &c.response);
                 let role = if trained { "train" } else { "validate" };
                 let scores = validate::score(&c.response, &sim);
@@ -136,6 +136,7 @@ impl StageImpl for Settings {
             notes: cases.iter().map(|c| (c.name.clone(), c.notes.clone())).chain(pool_runs.iter().map(|r| (r.meta.run.clone(), r.meta.notes.clone()))).collect(),
             pool_html,
             body_html,
+            failed: ctx.failed_notes(),
         };
         crate::fsutil::write_atomic(&ctx.out.join("index.html"), page.render().as_bytes())?;
         super::write_json(&ctx.out.join("parameters.json"), &parameters)?;

@@ -4,7 +4,8 @@
 
 use super::{fit, pool, Artifact, Kind, RunCtx, StageImpl};
 use crate::dof::Dof;
-use crate::model::{ParamLayout, Plant, Vec6};
+use crate::model::stability::{Horizon, Stability};
+use crate::model::{Plant, Vec6};
 use crate::validate::{self, Metrics, Whiteness};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -20,6 +21,7 @@ pub static KIND: Kind = Kind {
     produces: Artifact::Validation,
     consumes: &[Artifact::Model, Artifact::PoolRuns],
     requires: &[Artifact::Model, Artifact::PoolRuns],
+    requires_one_of: &[],
     uses_vehicle: super::VehicleUse::All,
     publishes_to: None,
     parse: |v| Ok(Arc::new(serde_yaml_ng::from_value::<Settings>(v)?)),
@@ -33,11 +35,15 @@ pub struct Settings {
     /// Also re-estimate the model on each training run alone (equation error, least squares on
     /// the fused velocities) and score it on every other run: cross-validation across trials.
     pub cross_validate: bool,
+    /// Simulation window (multiple shooting): `whole_run` (the default); `auto` re-anchors the
+    /// simulation to the fused state where the model is locally unstable along a run and
+    /// simulates stable runs whole; or a window in seconds.
+    pub horizon_s: Horizon,
 }
 
 impl Default for Settings {
     fn default() -> Settings {
-        Settings { max_lag_s: 5.0, cross_validate: true }
+        Settings { max_lag_s: 5.0, cross_validate: true, horizon_s: Horizon::WholeRun }
     }
 }
 
@@ -65,6 +71,9 @@ pub struct RunScore {
     pub dofs: BTreeMap<Dof, DofScore>,
     /// The model left the range a vehicle can reach (diverged): its scores are not meaningful.
     pub diverged: bool,
+    /// The model's local stability along the run and the simulation window it led to.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stability: Option<Stability>,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -90,6 +99,8 @@ pub struct Simulated {
     pub model: String,
     pub run: String,
     pub t: Vec<f64>,
+    /// NaN where the simulation diverged (JSON `null`).
+    #[serde(deserialize_with = "crate::validate::series_or_nan")]
     pub nu: BTreeMap<Dof, Vec<f64>>,
 }
 
@@ -110,18 +121,40 @@ fn sim_file(model: &str, run: &str) -> String {
     format!("sim__{model}__{run}.json").replace(['/', '[', ']'], "_")
 }
 
-pub const POOL_DOFS: [Dof; 4] = [Dof::Surge, Dof::Sway, Dof::Heave, Dof::Yaw];
+pub use crate::fusion::run::POOL_DOFS;
 
-/// The model's response to a fused run's logged thrust, from the run's first fused state.
-pub fn simulate_run(plant: &Plant, run: &pool::FusedRun) -> Vec<Vec6> {
+/// The model's response to a fused run's logged thrust, from the run's first fused state,
+/// re-anchored to the fused state every window where `horizon` asks for it (multiple
+/// shooting, see [`crate::model::stability`]), and the stability that chose the window.
+pub fn simulate_run(plant: &Plant, run: &pool::FusedRun, horizon: Horizon) -> (Vec<Vec6>, Stability) {
+    let t = &run.fused.t;
     let tau: Vec<Vec6> = run.thrust.iter().map(|c| [c[0], c[1], c[2], 0.0, 0.0, c[3]]).collect();
-    let mut nu0 = [0.0; 6];
-    for (j, d) in POOL_DOFS.iter().enumerate() {
-        if let Some(v) = &run.fused.vel[j] {
-            nu0[d.index()] = v[0];
+    // A window after the first starts from the recording's centred mean over five samples, so
+    // that one sample's noise is not carried through it.
+    let fused_at = |k: usize| -> Vec6 {
+        let mut nu = [0.0; 6];
+        let (a, b) = if k == 0 { (0, 0) } else { (k.saturating_sub(2), (k + 2).min(t.len() - 1)) };
+        for (j, d) in POOL_DOFS.iter().enumerate() {
+            if let Some(v) = &run.fused.vel[j] {
+                nu[d.index()] = v[a..=b].iter().sum::<f64>() / (b - a + 1) as f64;
+            }
         }
+        nu
+    };
+    let vel: Vec<[f64; 4]> = (0..t.len()).map(|k| std::array::from_fn(|j| run.fused.vel[j].as_ref().map_or(0.0, |v| v[k]))).collect();
+    let stability = crate::model::stability::along(plant, t, &vel, horizon);
+    let mut anchors = crate::model::stability::anchors(t, stability.horizon_s);
+    anchors.push(t.len());
+    let mut out = Vec::with_capacity(t.len());
+    for w in anchors.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        // Each window runs to the next anchor's time; its last sample is the next window's first.
+        let end = (b + 1).min(t.len());
+        let mut sim = plant.simulate(&t[a..end], &tau[a..end], fused_at(a), 0.01);
+        sim.truncate(b - a);
+        out.extend(sim);
     }
-    plant.simulate(&run.fused.t, &tau, nu0, 0.01)
+    (out, stability)
 }
 
 /// Scores of one simulation against one fused run, for the DOFs both have.
@@ -145,7 +178,7 @@ pub fn score_run(vehicle_dofs: &[Dof], run: &pool::FusedRun, sim: &[Vec6], max_l
             },
         );
     }
-    RunScore { run: run.meta.run.clone(), role: run.meta.role.as_str().into(), dofs, diverged }
+    RunScore { run: run.meta.run.clone(), role: run.meta.role.as_str().into(), dofs, diverged, stability: None }
 }
 
 impl StageImpl for Settings {
@@ -155,16 +188,16 @@ impl StageImpl for Settings {
 
     fn run(&self, ctx: &RunCtx) -> anyhow::Result<()> {
         let fits: Vec<fit::FitResult> = ctx.upstream_of(Artifact::Model).map(|u| fit::load(&u.dir)).collect::<Result<_, _>>()?;
-        let runs: Vec<pool::FusedRun> = ctx.upstream_of(Artifact::PoolRuns).map(|u| pool::load(&u.dir)).collect::<Result<_, _>>()?;
+        let runs: Vec<pool::FusedRun> = ctx.upstream_of(Artifact::PoolRuns).map(|u| pool::load_for(&u.dir, ctx.vehicle)).collect::<Result<_, _>>()?;
         let mut models = Vec::new();
         for f in &fits {
-            let layout = ParamLayout::new(&f.dofs);
-            let theta: Vec<f64> = f.fit.parameters.iter().map(|p| p.value).collect();
-            let plant = Plant::new(ctx.vehicle, layout.to_hydro(&theta));
+            let plant = f.plant(ctx.vehicle);
             let mut scored = Vec::new();
             for run in &runs {
-                let sim = simulate_run(&plant, run);
-                scored.push(score_run(&ctx.vehicle.dofs, run, &sim, self.max_lag_s));
+                let (sim, stability) = simulate_run(&plant, run, self.horizon_s);
+                let mut score = score_run(&ctx.vehicle.dofs, run, &sim, self.max_lag_s);
+                score.stability = Some(stability);
+                scored.push(score);
                 let nu = POOL_DOFS.iter().filter(|d| ctx.vehicle.dofs.contains(d)).map(|d| (*d, sim.iter().map(|x| x[d.index()]).collect())).collect();
                 let s = Simulated { model: f.stage.clone(), run: run.meta.run.clone(), t: run.fused.t.clone(), nu };
                 super::write_json(&ctx.out.join(sim_file(&f.stage, &run.meta.run)), &s)?;
@@ -181,22 +214,10 @@ impl StageImpl for Settings {
             }
             models.push(ModelScore { model: f.stage.clone(), runs: scored, mean_nmae });
         }
-        let (cross, notes) = if self.cross_validate { cross_validate(ctx.vehicle, &runs, self.max_lag_s) } else { (vec![], vec![]) };
+        let (cross, mut notes) = if self.cross_validate { cross_validate(ctx.vehicle, &runs, self.max_lag_s) } else { (vec![], vec![]) };
+        notes.extend(ctx.failed_notes());
         super::write_json(&ctx.out.join(SCORES), &Scores { models, cross, notes })
     }
-}
-
-/// A fused run as a response table: logged thrust, fused velocity, its time derivative.
-pub fn as_response(run: &pool::FusedRun) -> Option<crate::io::Response> {
-    use crate::io::response::{differentiate, Series, Source};
-    let mut r = crate::io::Response { t: run.fused.t.clone(), dofs: BTreeMap::new() };
-    for (j, d) in POOL_DOFS.iter().enumerate() {
-        let v = run.fused.vel[j].as_ref()?;
-        let force = run.thrust.iter().map(|c| c[j]).collect();
-        let accel = differentiate(&r.t, v);
-        r.dofs.insert(*d, Series { force, velocity: v.clone(), accel, force_source: Source::Column, accel_source: Source::Differentiated });
-    }
-    Some(r)
 }
 
 fn cross_validate(vehicle: &crate::model::Vehicle, runs: &[pool::FusedRun], max_lag_s: f64) -> (Vec<CrossFit>, Vec<String>) {
@@ -204,7 +225,7 @@ fn cross_validate(vehicle: &crate::model::Vehicle, runs: &[pool::FusedRun], max_
     let mut out = Vec::new();
     let mut notes = Vec::new();
     for train in runs.iter().filter(|r| r.meta.role == crate::io::pool::Role::Train) {
-        let Some(resp) = as_response(train) else {
+        let Some(resp) = train.as_response(vehicle) else {
             notes.push(format!("{}: not every DOF was fused, so no model was re-estimated on it", train.meta.run));
             continue;
         };
@@ -218,7 +239,7 @@ fn cross_validate(vehicle: &crate::model::Vehicle, runs: &[pool::FusedRun], max_
         };
         let theta: Vec<f64> = fit.parameters.iter().map(|p| p.value).collect();
         let plant = Plant::new(vehicle, problem.layout.to_hydro(&theta));
-        let scored = runs.iter().filter(|r| r.meta.run != train.meta.run).map(|r| score_run(&vehicle.dofs, r, &simulate_run(&plant, r), max_lag_s)).collect();
+        let scored = runs.iter().filter(|r| r.meta.run != train.meta.run).map(|r| score_run(&vehicle.dofs, r, &simulate_run(&plant, r, Horizon::WholeRun).0, max_lag_s)).collect();
         out.push(CrossFit { trained_on: train.meta.run.clone(), parameters: fit.parameters, runs: scored });
     }
     (out, notes)
