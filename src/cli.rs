@@ -124,6 +124,20 @@ pub enum TwinCommand {
         #[arg(long = "effect")]
         effects: Vec<String>,
     },
+    /// Field logs of a tethered 30 kg ROV under closed-loop control (commanded wrench by
+    /// receive time, a DVL navigation log, depth, horizontal UWB; no IMU, no CFD), with hidden
+    /// buoyancy, tether drag, thruster saturation and navigation latency.
+    Field {
+        /// Folder that receives one folder per run.
+        #[arg(long, default_value = "cases/pool")]
+        out: PathBuf,
+        /// Folder for the truth (true motion, what is hidden); keep it outside cases/.
+        #[arg(long, default_value = "truth/pool")]
+        truth: PathBuf,
+        /// Seed of the flights and sensor noise.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+    },
     /// Proves the diagnosis on generated scenarios (each effect alone at two magnitudes, pairs,
     /// none) and prints the confusion table of concealed vs named effects.
     CheckDiagnosis {
@@ -152,6 +166,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             Ok(ExitCode::SUCCESS)
         }
         Command::Twin { what: TwinCommand::Pool { out, truth, seed, effects } } => cmd::twin::pool(&root, &out, &truth, seed, &effects),
+        Command::Twin { what: TwinCommand::Field { out, truth, seed } } => cmd::twin::field(&root, &out, &truth, seed),
         Command::Twin { what: TwinCommand::CheckDiagnosis { seeds } } => cmd::twin::check_diagnosis(&seeds),
     }
 }

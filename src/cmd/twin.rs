@@ -34,6 +34,14 @@ pub fn pool(root: &Path, out: &Path, truth: &Path, seed: u64, effects: &[String]
     Ok(ExitCode::SUCCESS)
 }
 
+pub fn field(root: &Path, out: &Path, truth: &Path, seed: u64) -> anyhow::Result<ExitCode> {
+    let abs = |p: &Path| if p.is_absolute() { p.to_path_buf() } else { root.join(p) };
+    let hidden = twin::field::Hidden::default();
+    let written = twin::field::write_runs(&abs(out), &abs(truth), &twin::field::default_runs(), &hidden, seed)?;
+    eprintln!("hydrofit: wrote {} field runs to {} and their truth to {} (seed {seed})", written.len(), abs(out).display(), abs(truth).display());
+    Ok(ExitCode::SUCCESS)
+}
+
 /// `hydrofit twin check-diagnosis`: the diagnosis on generated scenarios, each effect concealed
 /// alone at two magnitudes, pairs of effects, and nothing, for each seed; prints every verdict
 /// and the confusion table (concealed vs named).

@@ -2,4 +2,26 @@
 //! exactly the formats real users have, so every stage can be checked against a known truth.
 
 pub mod cfd;
+pub mod field;
 pub mod pool;
+
+/// Writes one twin run: its `files` into `cases_dir/<name>/`, its true motion and what it
+/// hides into `truth_dir/<name>.csv` and `<name>.json` (outside `cases/`).
+pub fn write_run(
+    cases_dir: &std::path::Path,
+    truth_dir: &std::path::Path,
+    name: &str,
+    files: &[(&str, String)],
+    truth_csv: &str,
+    record: &impl serde::Serialize,
+) -> anyhow::Result<std::path::PathBuf> {
+    let dir = cases_dir.join(name);
+    std::fs::create_dir_all(&dir)?;
+    std::fs::create_dir_all(truth_dir)?;
+    for (file, text) in files {
+        crate::fsutil::write_atomic(&dir.join(file), text.as_bytes())?;
+    }
+    crate::fsutil::write_atomic(&truth_dir.join(format!("{name}.csv")), truth_csv.as_bytes())?;
+    crate::fsutil::write_atomic(&truth_dir.join(format!("{name}.json")), serde_json::to_string_pretty(record)?.as_bytes())?;
+    Ok(dir)
+}

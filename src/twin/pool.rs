@@ -369,17 +369,14 @@ pub fn write_runs(cases_dir: &Path, truth_dir: &Path, runs: &[RunSpec], effects:
     for spec in runs {
         let truth = simulate(&w, spec, seed);
         let sensors = Sensors::draw(&mut Rng::derive(seed, &format!("pool/{}/errors", spec.name)));
-        let dir = cases_dir.join(&spec.name);
-        std::fs::create_dir_all(&dir)?;
-        for (name, text) in render(spec, &truth, &sensors, delay, seed) {
-            crate::fsutil::write_atomic(&dir.join(name), text.as_bytes())?;
-        }
+        let mut files = render(spec, &truth, &sensors, delay, seed);
+        files.retain(|(name, _)| spec.sonar || *name != "sonar.csv");
+        let record = TruthRecord { run: spec.name.clone(), seed, effects: effects.to_vec(), spec: spec.clone(), sensors };
+        let dir = super::write_run(cases_dir, truth_dir, &spec.name, &files, &truth_csv(&truth), &record)?;
+        // A run without sonar: no sonar log left from an earlier write either.
         if !spec.sonar {
             let _ = std::fs::remove_file(dir.join("sonar.csv"));
         }
-        crate::fsutil::write_atomic(&truth_dir.join(format!("{}.csv", spec.name)), truth_csv(&truth).as_bytes())?;
-        let record = TruthRecord { run: spec.name.clone(), seed, effects: effects.to_vec(), spec: spec.clone(), sensors };
-        crate::fsutil::write_atomic(&truth_dir.join(format!("{}.json", spec.name)), serde_json::to_string_pretty(&record)?.as_bytes())?;
         written.push(dir);
     }
     Ok(written)
