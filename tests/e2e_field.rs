@@ -78,6 +78,12 @@ fn field_logs_without_cfd_give_a_sound_model_and_a_diagnosis_that_names_only_wha
         let u = &nav.iter().find(|c| c[0] == "u").unwrap()[1];
         assert!(u["correlated_samples"].as_f64().unwrap() > 1.5, "{}: {u}", r["run"]);
         assert!(u["sigma"].as_f64().unwrap() > 1.2 * u["sigma_lag1"].as_f64().unwrap(), "{}: {u}", r["run"]);
+        // No gyro: the yaw rate rests on the heading alone, whose noise and acceleration
+        // density are chosen from the data; its stated sigma must match its error.
+        let z = r["accuracy_against_truth"]["error_over_std"]["yaw"].as_f64().unwrap();
+        assert!((0.5..2.0).contains(&z), "{}: yaw error/std {z}", r["run"]);
+        let yaw_deg = r["stats"]["noise"]["yaw_rad"].as_f64().unwrap().to_degrees();
+        assert!((yaw_deg - 0.4).abs() < 0.25, "{}: yaw noise {yaw_deg} deg, the twin's is 0.4", r["run"]);
     }
 }
 

@@ -213,13 +213,14 @@ impl<'a> HeadingInput<'a> {
     }
 }
 
-fn heading(src: &HeadingInput, n: &Noise) -> Heading {
+/// The heading filter with yaw noise `sy` and yaw-acceleration density `q_r`, and the log
+/// likelihood of its yaw innovations.
+fn heading_with(src: &HeadingInput, sy: f64, sg: f64, q_r: f64) -> (Heading, f64) {
     let len = src.t.len();
     let nan = vec![f64::NAN; len];
     let (yaw, gyro) = (src.yaw.unwrap_or(&nan), src.gyro.unwrap_or(&nan));
-    let (sy, sg) = (n.yaw_rad, n.gyro_rad_s);
-    // Yaw acceleration of a thruster-driven ROV: a few rad/s^2 at most; bias wanders slowly.
-    let (q_r, q_b) = (2.0, 1e-8);
+    let q_b = 1e-8;
+    let mut loglik = 0.0;
     let finite_or = |x: f64, d: f64| if x.is_finite() { x } else { d };
     let x0 = Vector::<3>::new(finite_or(yaw[0], 0.0), finite_or(gyro[0], 0.0), 0.0);
     let psi_var0 = if yaw[0].is_finite() { sy * sy } else { 10.0 };
@@ -238,6 +239,12 @@ fn heading(src: &HeadingInput, n: &Noise) -> Heading {
         }
         if yaw[k].is_finite() {
             let h = SMatrix::<f64, 1, 3>::new(1.0, 0.0, 0.0);
+            if k > 0 {
+                let (x, p) = f.state();
+                let s = p[(0, 0)] + sy * sy;
+                let nu = wrap_pi(yaw[k] - x[0]);
+                loglik -= 0.5 * (s.ln() + nu * nu / s);
+            }
             f.update(SVector::<f64, 1>::new(yaw[k]), h, SMatrix::<f64, 1, 1>::new(sy * sy), f64::INFINITY, wrap);
         }
         if gyro[k].is_finite() {
@@ -253,14 +260,47 @@ fn heading(src: &HeadingInput, n: &Noise) -> Heading {
             t.push(tk);
         }
     }
-    Heading {
+    let hd = Heading {
         t,
         psi: sm.iter().map(|(x, _)| x[0]).collect(),
         psi_var: sm.iter().map(|(_, p)| p[(0, 0)]).collect(),
         r: sm.iter().map(|(x, _)| x[1]).collect(),
         r_var: sm.iter().map(|(_, p)| p[(1, 1)]).collect(),
         bias: sm.last().map_or(0.0, |(x, _)| x[2]),
+    };
+    (hd, loglik)
+}
+
+/// Yaw acceleration density of a thruster-driven ROV when a gyro measures the rate: a few
+/// rad/s^2 at most (the gyro, not this, sets the rate's uncertainty).
+const YAW_ACCEL_Q: f64 = 2.0;
+
+/// The heading: with a gyro, the filter as configured. Without one (a navigation log's or an
+/// AHRS's yaw alone) the rate's uncertainty rests on the yaw-acceleration density and on the
+/// yaw noise, so both are chosen from the data: the pair whose yaw innovations are most
+/// likely (maximum likelihood over a log grid), and the choice is said in the notes.
+fn heading(src: &HeadingInput, n: &mut Noise, notes: &mut Vec<String>, yaw_set: bool) -> Heading {
+    if src.gyro.is_some() || src.yaw.is_none() {
+        return heading_with(src, n.yaw_rad, n.gyro_rad_s, YAW_ACCEL_Q).0;
     }
+    let sigmas: Vec<f64> = if yaw_set { vec![n.yaw_rad] } else { [0.05f64, 0.1, 0.2, 0.4, 0.8, 1.6].iter().map(|d| d.to_radians()).collect() };
+    let qs = [1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3, 1.0, 3.0];
+    let mut best = (f64::NEG_INFINITY, n.yaw_rad, YAW_ACCEL_Q);
+    for &sy in &sigmas {
+        for &q in &qs {
+            let (_, ll) = heading_with(src, sy, n.gyro_rad_s, q);
+            if ll > best.0 {
+                best = (ll, sy, q);
+            }
+        }
+    }
+    n.yaw_rad = best.1;
+    notes.push(format!(
+        "heading without a gyro: yaw noise {:.2} deg and yaw-acceleration density {} rad^2/s^3 chosen by the likelihood of the yaw innovations",
+        best.1.to_degrees(),
+        best.2
+    ));
+    heading_with(src, best.1, n.gyro_rad_s, best.2).0
 }
 
 /// Marks UWB fixes that stray from the median of their neighbours (multipath).
@@ -296,9 +336,9 @@ pub fn fuse(run: &PoolRun, s: &Settings) -> Fused {
     let depth = run.depth.as_ref().filter(|_| use_("depth"));
     let out_t = run.thrust.t.clone();
     let mut stats = Stats::default();
-    let noise = s.noise(run);
+    let mut noise = s.noise(run);
     let nav = run.nav.as_ref().filter(|_| use_("nav"));
-    let hd = HeadingInput::of(imu, nav).map(|src| heading(&src, &noise));
+    let hd = HeadingInput::of(imu, nav).map(|src| heading(&src, &mut noise, &mut stats.notes, s.yaw_sigma_deg.is_some()));
     stats.gyro_bias_dps = hd.as_ref().map(|h| h.bias.to_degrees());
     stats.noise = noise.clone();
 
