@@ -450,10 +450,6 @@ pub fn fuse(run: &PoolRun, s: &Settings) -> Fused {
     fused
 }
 
-/// Typical jerk of a thruster-driven vehicle's velocity, ((m/s^3)^2 s): a thrust step brings
-/// ~1 m/s^2 within a few tenths of a second.
-const NAV_JERK: f64 = 20.0;
-
 /// The navigation log's body velocities replace what the position filter derived (a DVL
 /// measures them directly; differentiating positions only adds noise), channel by channel.
 /// Its yaw rate is used when no IMU gave one.
@@ -462,7 +458,8 @@ fn use_nav(fused: &mut Fused, nav: &Log, hd: Option<&Heading>) {
     for (j, name) in ["u", "v", "w"].iter().enumerate() {
         let Some(z) = nav.col(j) else { continue };
         let noise = nav::noise_level(&nav.t, z, floors[j]);
-        let s = nav::smooth(&nav.t, z, &fused.t, noise, NAV_JERK);
+        let (s, jerk) = nav::smooth_ml(&nav.t, z, &fused.t, noise);
+        fused.stats.notes.push(format!("navigation log {name}: jerk density {jerk} (m/s^3)^2 s chosen by the likelihood of its innovations"));
         fused.vel[j] = Some(s.v);
         fused.std[j] = Some(s.std);
         fused.stats.nav.push((name.to_string(), noise));
@@ -470,7 +467,7 @@ fn use_nav(fused: &mut Fused, nav: &Log, hd: Option<&Heading>) {
     if fused.vel[3].is_none() && hd.is_none() {
         if let Some(r) = nav.col(8) {
             let noise = nav::noise_level(&nav.t, r, 0.05f64.to_radians());
-            let s = nav::smooth(&nav.t, r, &fused.t, noise, NAV_JERK);
+            let (s, _) = nav::smooth_ml(&nav.t, r, &fused.t, noise);
             fused.vel[3] = Some(s.v);
             fused.std[3] = Some(s.std);
         }
