@@ -2,6 +2,7 @@
 
 mod kernels;
 pub mod ols;
+pub mod refine;
 pub mod regression;
 pub mod rls;
 pub mod swarm;
@@ -17,6 +18,8 @@ pub struct Estimate {
     pub name: String,
     pub value: f64,
     pub unit: String,
+    /// NaN (JSON `null`) when there is nothing to estimate it from.
+    #[serde(deserialize_with = "crate::validate::f64_or_nan")]
     pub stderr: f64,
     /// For the swarm and genetic methods: the range of the answers of seeded restarts.
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -72,6 +72,25 @@ impl<'a> OutputError<'a> {
         OutputError { vehicle, responses, weight }
     }
 
+    /// The weighted velocity errors of the model `theta`, case by case, DOF by DOF, sample by
+    /// sample (a diverged simulation counts as a large error).
+    pub fn residuals(&self, layout: &crate::model::ParamLayout, theta: &[f64]) -> Vec<f64> {
+        let plant = crate::model::Plant::new(self.vehicle, layout.to_hydro(theta));
+        let mut out = Vec::new();
+        for (r, w) in self.responses.iter().zip(&self.weight) {
+            let sim = crate::validate::simulate_response(&plant, r);
+            for (d, series) in &r.dofs {
+                let i = d.index();
+                let sw = w[i].sqrt();
+                out.extend(series.velocity.iter().enumerate().map(|(k, v)| {
+                    let e = sim[k][i] - v;
+                    if e.is_finite() { sw * e } else { 1e3 }
+                }));
+            }
+        }
+        out
+    }
+
     /// Mean weighted squared velocity error of the model `theta` over every case.
     fn cost(&self, layout: &crate::model::ParamLayout, theta: &[f64]) -> f64 {
         let plant = crate::model::Plant::new(self.vehicle, layout.to_hydro(theta));
@@ -495,8 +514,16 @@ pub fn execute(name: &str, make: &dyn Fn() -> Box<dyn Solver>, reg: &Regression,
         }
     }
     answers.sort_by(|a, b| a.1.total_cmp(&b.1));
-    let best = answers[0].0.clone();
+    let mut best = answers[0].0.clone();
     let p = best.len();
+    // Output error: a local least-squares refinement from the best answer gives the final
+    // values and, from its Jacobian, their standard errors.
+    let refined = opts.output_error.map(|(vehicle, responses)| {
+        let oe = OutputError::new(vehicle, responses);
+        let r = super::refine::output_error_lm(&oe, &reg.layout, &best, 30);
+        best = r.theta.clone();
+        r
+    });
     let parameters = (0..p)
         .map(|j| {
             let vals: Vec<f64> = answers.iter().map(|a| a.0[j]).collect();
@@ -504,16 +531,32 @@ pub fn execute(name: &str, make: &dyn Fn() -> Box<dyn Solver>, reg: &Regression,
             let mean = vals.iter().sum::<f64>() / vals.len() as f64;
             let sd = (vals.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (vals.len().max(2) - 1) as f64).sqrt();
             let at_bound = (best[j] - problem.lo[j]).abs() < 1e-6 * problem.lo[j].abs().max(1.0) || best[j].abs() < 1e-9;
+            // One search run has no spread to judge a value by.
+            let single = vals.len() < 2;
+            let stderr = match &refined {
+                Some(r) => r.stderr[j],
+                None if single => f64::NAN,
+                None => sd,
+            };
+            let spread_ok = refined.is_some() || (!single && (hi - lo) < 0.5 * best[j].abs());
+            let note = if at_bound {
+                Some("pinned to its search bound: the data (or the search) did not determine it".to_string())
+            } else if single && refined.is_none() {
+                Some("one search run only (time limit): no spread across restarts to judge it by".to_string())
+            } else {
+                None
+            };
             Estimate {
                 name: reg.layout.name(j),
                 value: best[j],
                 unit: reg.layout.unit(j).to_string(),
-                stderr: sd,
+                stderr,
                 interval: Some([lo, hi]),
-                // Wide disagreement between restarts, or a value pinned to a bound, means the
-                // data (or the search) did not determine it.
-                identifiable: !at_bound && (hi - lo) < 0.5 * best[j].abs(),
-                note: at_bound.then(|| "pinned to its search bound: the data (or the search) did not determine it".to_string()),
+                // Wide disagreement between restarts, a standard error over half the value,
+                // or a value pinned to a bound means the data (or the search) did not
+                // determine it.
+                identifiable: !at_bound && spread_ok && stderr.is_finite() && stderr < 0.5 * best[j].abs(),
+                note,
             }
         })
         .collect();
@@ -526,7 +569,7 @@ pub fn execute(name: &str, make: &dyn Fn() -> Box<dyn Solver>, reg: &Regression,
         samples: reg.rows(),
         condition_number,
         evaluations: Some(problem.evaluations()),
-        objective_value: Some(answers[0].1),
+        objective_value: Some(refined.as_ref().map_or(answers[0].1, |r| r.cost_after)),
         stopped_early,
         trace: None,
     })

@@ -69,10 +69,14 @@ impl<'de> Deserialize<'de> for Horizon {
         }
         match Raw::deserialize(d)? {
             Raw::Seconds(x) if x.is_finite() && x > 0.0 => Ok(Horizon::Seconds(x)),
-            Raw::Seconds(x) => Err(serde::de::Error::custom(format!("horizon_s must be a positive number of seconds, `auto` or `whole_run`, not {x}"))),
+            Raw::Seconds(x) => Err(serde::de::Error::custom(format!(
+                "horizon_s must be a positive number of seconds, `auto` or `whole_run`, not {x}"
+            ))),
             Raw::Word(w) if w == "auto" => Ok(Horizon::Auto),
             Raw::Word(w) if w == "whole_run" => Ok(Horizon::WholeRun),
-            Raw::Word(w) => Err(serde::de::Error::custom(format!("horizon_s must be `auto`, `whole_run` or a number of seconds, not `{w}`"))),
+            Raw::Word(w) => Err(serde::de::Error::custom(format!(
+                "horizon_s must be `auto`, `whole_run` or a number of seconds, not `{w}`"
+            ))),
         }
     }
 }
@@ -87,7 +91,10 @@ pub fn jacobian(plant: &Plant, nu: &[f64; 4]) -> nalgebra::Matrix4<f64> {
         let (mut plus, mut minus) = (base, base);
         plus[i] += h;
         minus[i] -= h;
-        let (ap, am) = (plant.accel(&plus, &[0.0; 6]), plant.accel(&minus, &[0.0; 6]));
+        let (ap, am) = (
+            plant.accel(&plus, &[0.0; 6]),
+            plant.accel(&minus, &[0.0; 6]),
+        );
         for (r, &k) in NU.iter().enumerate() {
             jac[(r, c)] = (ap[k] - am[k]) / (2.0 * h);
         }
@@ -101,7 +108,10 @@ pub fn growth_rate(plant: &Plant, nu: &[f64; 4]) -> f64 {
     if jac.iter().any(|x| !x.is_finite()) {
         return f64::INFINITY;
     }
-    jac.complex_eigenvalues().iter().map(|e| e.re).fold(f64::NEG_INFINITY, f64::max)
+    jac.complex_eigenvalues()
+        .iter()
+        .map(|e| e.re)
+        .fold(f64::NEG_INFINITY, f64::max)
 }
 
 /// The model's stability along a run: recorded velocities `vel` (u, v, w, r per sample at
@@ -112,11 +122,17 @@ pub fn along(plant: &Plant, t: &[f64], vel: &[[f64; 4]], setting: Horizon) -> St
     // Every sample is not needed: the velocity changes little between neighbours.
     let stride = (n / 600).max(1);
     let idx: Vec<usize> = (0..n).step_by(stride).collect();
-    let rates: Vec<f64> = idx.iter().map(|&k| growth_rate(plant, &vel[k].map(|x| if x.is_finite() { x } else { 0.0 }))).collect();
+    let rates: Vec<f64> = idx
+        .iter()
+        .map(|&k| growth_rate(plant, &vel[k].map(|x| if x.is_finite() { x } else { 0.0 })))
+        .collect();
     let mut sorted = rates.clone();
     sorted.sort_by(f64::total_cmp);
     let m = sorted.len().max(1);
-    let growth = sorted.get((0.9 * (m - 1) as f64).round() as usize).copied().unwrap_or(0.0);
+    let growth = sorted
+        .get((0.9 * (m - 1) as f64).round() as usize)
+        .copied()
+        .unwrap_or(0.0);
     let peak = sorted.last().copied().unwrap_or(0.0);
     let share_unstable = rates.iter().filter(|r| **r > NEUTRAL_PER_S).count() as f64 / m as f64;
     let times: Vec<f64> = idx.iter().map(|&k| t[k]).collect();
@@ -125,7 +141,12 @@ pub fn along(plant: &Plant, t: &[f64], vel: &[[f64; 4]], setting: Horizon) -> St
         Horizon::Seconds(x) => (x < duration_s).then_some(x),
         Horizon::Auto => auto_horizon(&times, &rates),
     };
-    Stability { growth_per_s: growth, peak_growth_per_s: peak, share_unstable, horizon_s }
+    Stability {
+        growth_per_s: growth,
+        peak_growth_per_s: peak,
+        share_unstable,
+        horizon_s,
+    }
 }
 
 /// The longest window over which an error, growing at the local rate `rates` (1/s, at
@@ -161,7 +182,11 @@ pub fn auto_horizon(times: &[f64], rates: &[f64]) -> Option<f64> {
     let (mut lo, mut hi) = (0.0, times[n - 1] - times[0]);
     for _ in 0..40 {
         let mid = 0.5 * (lo + hi);
-        if worst(mid) <= budget { lo = mid } else { hi = mid }
+        if worst(mid) <= budget {
+            lo = mid
+        } else {
+            hi = mid
+        }
     }
     Some(lo.max(MIN_HORIZON_S))
 }
@@ -191,10 +216,15 @@ pub fn describe(s: &Stability) -> String {
             s.peak_growth_per_s
         )
     } else {
-        format!("stable along the run (largest eigenvalue real part {:+.2} /s at worst)", s.peak_growth_per_s)
+        format!(
+            "stable along the run (largest eigenvalue real part {:+.2} /s at worst)",
+            s.peak_growth_per_s
+        )
     };
     match s.horizon_s {
-        Some(h) => format!("the model is {state}: simulated in {h:.1} s windows re-anchored to the fused state"),
+        Some(h) => format!(
+            "the model is {state}: simulated in {h:.1} s windows re-anchored to the fused state"
+        ),
         None => format!("the model is {state}: simulated over the whole run"),
     }
 }
@@ -233,22 +263,42 @@ mod tests {
             (h.added[1] - h.added[0]) * u / (iz - h.added[5]),
             h.lin[5] / (iz - h.added[5]),
         );
-        let expect = a.complex_eigenvalues().iter().map(|e| e.re).fold(f64::NEG_INFINITY, f64::max);
+        let expect = a
+            .complex_eigenvalues()
+            .iter()
+            .map(|e| e.re)
+            .fold(f64::NEG_INFINITY, f64::max);
         assert!(expect > 1.0, "hand linearisation {expect}");
         assert!((fast - expect).abs() < 0.05 * expect, "{fast} vs {expect}");
 
         // A run that holds 1.3 m/s for 20 s in the middle of a 60 s run at rest: windows
         // short enough for a 4-fold growth at that rate; a run at rest is simulated whole.
         let t: Vec<f64> = (0..=600).map(|k| k as f64 * 0.1).collect();
-        let vel: Vec<[f64; 4]> = t.iter().map(|&tk| [if (20.0..40.0).contains(&tk) { u } else { 0.0 }, 0.0, 0.0, 0.0]).collect();
+        let vel: Vec<[f64; 4]> = t
+            .iter()
+            .map(|&tk| {
+                [
+                    if (20.0..40.0).contains(&tk) { u } else { 0.0 },
+                    0.0,
+                    0.0,
+                    0.0,
+                ]
+            })
+            .collect();
         let s = along(&plant, &t, &vel, Horizon::Auto);
         let expect_h = (GROWTH_PER_WINDOW.ln() / fast).max(MIN_HORIZON_S);
-        assert!((s.horizon_s.unwrap() - expect_h).abs() < 0.15, "{s:?} vs {expect_h}");
+        assert!(
+            (s.horizon_s.unwrap() - expect_h).abs() < 0.15,
+            "{s:?} vs {expect_h}"
+        );
         assert!((s.share_unstable - 1.0 / 3.0).abs() < 0.02, "{s:?}");
         let rest = along(&plant, &t, &vec![[0.0; 4]; t.len()], Horizon::Auto);
         assert_eq!(rest.horizon_s, None);
         assert_eq!(along(&plant, &t, &vel, Horizon::WholeRun).horizon_s, None);
-        assert_eq!(along(&plant, &t, &vel, Horizon::Seconds(5.0)).horizon_s, Some(5.0));
+        assert_eq!(
+            along(&plant, &t, &vel, Horizon::Seconds(5.0)).horizon_s,
+            Some(5.0)
+        );
     }
 
     #[test]
