@@ -15,7 +15,7 @@ pub fn section(d: &Diagnosis, figures: &[Figure]) -> String {
     let mut h = String::new();
     let _ = writeln!(
         h,
-        "<h2 id=\"diagnosis\">Why the pool runs and the CFD model differ</h2>\n<p><b>{}</b></p>\n<p>Model diagnosed: <code>{}</code>. Effects are fitted on the training runs ({}) by output error and judged on the held-out runs ({}) only. Error cost: sum over DOFs of mean squared velocity error / mean squared velocity; noise floor {:.4} (the fused velocities' own variance). An effect is kept when it lowers the held-out cost by at least {:.0} % plus {:.0} % per parameter and by more than {:.1}× the noise floor. Took {:.1} s.</p>",
+        "<h2 id=\"diagnosis\">Why the pool runs and the model differ</h2>\n<p><b>{}</b></p>\n<p>Model diagnosed: <code>{}</code>. Effects are fitted on the training runs ({}) by output error and judged on the held-out runs ({}) only. Error cost: sum over DOFs of mean squared velocity error / mean squared velocity; noise floor {:.4} (the fused velocities' own variance). An effect is kept when it lowers the held-out cost by at least {:.0} % plus {:.0} % per parameter and by more than {:.1}× the noise floor. Took {:.1} s.</p>",
         esc(&d.verdict),
         esc(&d.baseline.model),
         esc(&d.runs.train.join(", ")),
@@ -46,7 +46,7 @@ pub fn section(d: &Diagnosis, figures: &[Figure]) -> String {
         h.push_str("</ul>\n");
     }
     h.push_str("<table><tr><th>model</th><th>held-out NMAE per DOF</th><th>error cost</th></tr>\n");
-    let _ = writeln!(h, "<tr><td>CFD model</td><td>{}</td><td>{:.4}</td></tr>", nmae(&d.baseline.validation_nmae), d.baseline.validation_cost);
+    let _ = writeln!(h, "<tr><td>model as fitted</td><td>{}</td><td>{:.4}</td></tr>", nmae(&d.baseline.validation_nmae), d.baseline.validation_cost);
     let _ = writeln!(
         h,
         "<tr><td>its parameters re-estimated on the training runs (drift)</td><td>{}</td><td>{:.4}{}</td></tr>",
@@ -85,7 +85,7 @@ pub fn section(d: &Diagnosis, figures: &[Figure]) -> String {
         }
         h.push_str("</tr></table>\n");
     }
-    h.push_str("<h3>Where the CFD model misses (held-out runs)</h3>\n<table><tr><th>run</th><th>DOF</th><th>share of the error</th><th>worst windows (s)</th></tr>\n");
+    h.push_str("<h3>Where the model misses (held-out runs)</h3>\n<table><tr><th>run</th><th>DOF</th><th>share of the error</th><th>worst windows (s)</th></tr>\n");
     for m in &d.mismatch {
         let w = m.windows_s.iter().map(|w| format!("{:.1}–{:.1}", w[0], w[1])).collect::<Vec<_>>().join(", ");
         let _ = writeln!(h, "<tr><td>{}</td><td>{}</td><td>{:.0} %</td><td>{}</td></tr>", esc(&m.run), m.dof, 100.0 * m.share_of_error, w);

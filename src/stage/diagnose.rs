@@ -309,7 +309,7 @@ pub fn diagnose(vehicle: &crate::model::Vehicle, model: &str, plant: &Plant, fus
             let nm = dx::nmae_map(&s);
             effects.push(Found { name: "unexplained".into(), dofs, parameters: BTreeMap::new(), evidence: ev, validation_nmae_before: nm.clone(), validation_nmae_after: nm, validation_cost_before: explained_cost, validation_cost_after: explained_cost });
             verdict = if effects.len() == 1 {
-                "The CFD model does not explain the held-out runs, re-estimating its parameters does not either, and no effect of the table does: the residual is structured and is reported as unexplained, with where it is.".to_string()
+                "The model does not explain the held-out runs, re-estimating its parameters does not either, and no effect of the table does: the residual is structured and is reported as unexplained, with where it is.".to_string()
             } else {
                 format!("{} explain part of the mismatch; a structured residual remains and is reported as unexplained.", effects.iter().filter(|e| e.name != "unexplained").map(|e| e.name.as_str()).collect::<Vec<_>>().join(" and "))
             };
@@ -319,10 +319,10 @@ pub fn diagnose(vehicle: &crate::model::Vehicle, model: &str, plant: &Plant, fus
                 data.noise_cost
             );
         } else if effects.is_empty() {
-            verdict = format!("No missing physics: the CFD model explains the held-out runs to within their noise (error cost {base_cost:.4} vs noise floor {:.4}) and no effect improves it significantly.", data.noise_cost);
+            verdict = format!("No missing physics: the model explains the held-out runs to within their noise (error cost {base_cost:.4} vs noise floor {:.4}) and no effect improves it significantly.", data.noise_cost);
         } else {
             verdict = format!(
-                "The CFD model leaves out {}: adding {} lowers the held-out error cost from {base_cost:.4} to {final_cost:.4} (noise floor {:.4}); re-estimating the CFD parameters instead reaches {re_cost:.4}.",
+                "The model leaves out {}: adding {} lowers the held-out error cost from {base_cost:.4} to {final_cost:.4} (noise floor {:.4}); re-estimating its parameters instead reaches {re_cost:.4}.",
                 effects.iter().map(|e| e.name.as_str()).collect::<Vec<_>>().join(" and "),
                 if effects.len() > 1 { "them" } else { "it" },
                 data.noise_cost
@@ -399,8 +399,8 @@ fn residual_overview(data: &Data, res: &[[Vec<f64>; 4]], mismatch: &[Mismatch]) 
     let traces: Vec<crate::report::plots::Trace> = (0..4)
         .map(|j| crate::report::plots::Trace { label: DOFS[j].name(), t: &run.t, measured: &res[i][j], simulated: &zero })
         .collect();
-    let svg = crate::report::plots::curves(&format!("{}: residual of the CFD model (simulated - fused)", run.name), "time (s)", "residual (m/s, rad/s)", &traces, "zero")?;
-    Ok(Some(Figure { caption: format!("Where the CFD model misses on held-out run {}: the residual per DOF; the mismatch table lists its windows.", run.name), svg }))
+    let svg = crate::report::plots::curves(&format!("{}: residual of the model (simulated - fused)", run.name), "time (s)", "residual (m/s, rad/s)", &traces, "zero")?;
+    Ok(Some(Figure { caption: format!("Where the model misses on held-out run {}: the residual per DOF; the mismatch table lists its windows.", run.name), svg }))
 }
 
 /// For an effect: the residual before and after it in its DOF on the worst held-out run, and
