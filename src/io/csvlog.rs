@@ -83,7 +83,21 @@ pub fn parse_subset(path: &str, text: &str, columns: &[&str], what: &str, min_ro
     Ok(log)
 }
 
+/// As [`parse_subset`], and a value may be missing in a row (empty, or `nan` as loggers
+/// write it: a DVL that lost bottom lock): it is NaN in the log, left out of its channel, and
+/// counted in the notes. Time must still be a number in every row.
+pub fn parse_subset_with_gaps(path: &str, text: &str, columns: &[&str], what: &str, min_rows: usize) -> Result<Log, InputError> {
+    let mut log = parse_columns_gaps(path, text, columns, 1, what, min_rows, true)?;
+    log.dedupe_times(path);
+    Ok(log)
+}
+
 fn parse_columns(path: &str, text: &str, columns: &[&str], required: usize, what: &str, min_rows: usize) -> Result<Log, InputError> {
+    parse_columns_gaps(path, text, columns, required, what, min_rows, false)
+}
+
+fn parse_columns_gaps(path: &str, text: &str, columns: &[&str], required: usize, what: &str, min_rows: usize, gaps: bool) -> Result<Log, InputError> {
+    let mut missing_values = 0usize;
     let err = |line: usize, col: Option<usize>, msg: String, fix: String| InputError::file(path, msg, fix).at(line, col).with_source(text);
     let mut lines = text.lines().enumerate().map(|(i, l)| (i + 1, l.trim_end_matches('\r'))).filter(|(_, l)| !l.trim().is_empty());
     let Some((hline, header)) = lines.next() else {
@@ -151,7 +165,12 @@ fn parse_columns(path: &str, text: &str, columns: &[&str], required: usize, what
                 row.push(f64::NAN);
                 continue;
             }
-            let raw = unquote(fields[i]);
+            let raw = unquote(fields[i]).trim();
+            if gaps && i != index[0] && (raw.is_empty() || raw.eq_ignore_ascii_case("nan")) {
+                missing_values += 1;
+                row.push(f64::NAN);
+                continue;
+            }
             let v: f64 = raw.parse().map_err(|_| {
                 let fix = if raw.contains(';') || raw.matches('.').count() == 0 && raw.contains(',') {
                     "use a point as the decimal separator and commas between columns".to_string()
@@ -180,6 +199,9 @@ fn parse_columns(path: &str, text: &str, columns: &[&str], required: usize, what
         for (c, v) in log.cols.iter_mut().zip(&row[1..]) {
             c.push(*v);
         }
+    }
+    if missing_values > 0 {
+        log.notes.push(format!("{path}: {missing_values} values missing (empty or nan), left out of their channel"));
     }
     if log.len() < min_rows {
         return Err(InputError::file(

@@ -119,7 +119,13 @@ pub fn load(root: &Path, dir: &str, files: &[String]) -> Result<PoolRun, InputEr
     let sonar = optional("sonar.csv", &SONAR, "sonar log")?;
     let mut imu = optional("imu.csv", &IMU, "IMU log")?;
     let depth = optional("depth.csv", &DEPTH, "depth log")?;
-    let mut nav = optional("nav.csv", &NAV, "navigation log")?;
+    let mut nav = match file("nav.csv") {
+        None => {
+            notes.push(format!("{dir}: no nav.csv"));
+            None
+        }
+        Some(p) => Some(csvlog::parse_subset_with_gaps(&p, &read(root, &p)?, &NAV, "navigation log", 2)?),
+    };
     for (log, n) in [(&uwb, "uwb.csv"), (&sonar, "sonar.csv")] {
         if log.as_ref().is_some_and(|l| !(l.has(0) && l.has(1))) {
             return Err(InputError::file(format!("{dir}/{n}"), "a position log needs both x_m and y_m", "write both horizontal coordinates (pool frame); z_m is optional"));
@@ -210,5 +216,29 @@ mod tests {
         let (d, files) = folder(&[("thrust.csv", &t)]);
         let e = load(d.path(), "cases/pool/r1", &files).unwrap_err().to_string();
         assert!(e.contains("no run.yaml"), "{e}");
+    }
+
+    /// A navigation log as a DVL writes it when it loses bottom lock: empty or `nan` values in
+    /// some rows, no rate columns. The gaps are NaN in their own channel only, the rest of the
+    /// row is kept, and both the gaps and the missing columns are said.
+    #[test]
+    fn a_navigation_log_with_gaps_and_no_rates_is_read() {
+        let t = thrust();
+        let nav = "t,u_m_s,v_m_s,w_m_s,yaw_deg\n0.0,0.10,0.00,0.01,90\n0.2,,nan,0.02,91\n0.4,0.12,NaN,0.02,92\n0.6,0.13,0.01,0.03,93\n";
+        let (d, files) = folder(&[("run.yaml", "role: train\n"), ("thrust.csv", &t), ("nav.csv", nav)]);
+        let run = load(d.path(), "cases/pool/r1", &files).unwrap();
+        let nav = run.nav.unwrap();
+        assert_eq!(nav.len(), 4);
+        assert!(nav.cols[0][1].is_nan() && nav.cols[1][1].is_nan() && nav.cols[1][2].is_nan());
+        assert_eq!(nav.cols[2][1], 0.02);
+        assert!((nav.cols[5][3] - 93f64.to_radians()).abs() < 1e-12);
+        assert!(!nav.has(6) && !nav.has(8), "no rates in this log");
+        let notes = run.notes.join("\n");
+        assert!(notes.contains("3 values missing"), "{notes}");
+        assert!(notes.contains("no roll_deg, pitch_deg, p_dps, q_dps, r_dps columns"), "{notes}");
+        // Time itself may not be missing.
+        let bad = "t,u_m_s\n0.0,0.1\n,0.2\n";
+        let (d, files) = folder(&[("run.yaml", "role: train\n"), ("thrust.csv", &t), ("nav.csv", bad)]);
+        assert!(load(d.path(), "cases/pool/r1", &files).is_err());
     }
 }
