@@ -24,7 +24,6 @@ mod select;
 mod tests;
 
 use crate::dof::Dof;
-use crate::fusion::interp;
 use crate::model::effects::{Effect, Pool, State, WorldPlant};
 use crate::model::{Plant, Vec6};
 use crate::fusion::run::FusedRun;
@@ -204,13 +203,18 @@ fn simulate_checked(plant: &Plant, aug: &Augmentation, run: &Run) -> (Vec<[f64; 
     w.effects = aug.effects.clone();
     w.pool = run.pool;
     w.tether_anchor = run.anchor;
+    // The pose is set from the recording at every sample; integrating it only matters to
+    // effects that read it within a step.
+    w.track_pose = w.effects_need_pose();
     let d = aug.delay_s;
     let n = run.t.len();
     let cmd6 = |k: usize| -> Vec6 {
         let c = run.cmd[k];
         [c[0], c[1], c[2], 0.0, 0.0, c[3]]
     };
-    let at = |series: &[f64], k: usize| interp(&run.t, series, run.t[k] + d);
+    // Where each sample's shifted time falls, located once for every series.
+    let loc: Vec<(usize, Option<f64>)> = run.t.iter().map(|&tk| crate::fusion::locate(&run.t, tk + d)).collect();
+    let at = |series: &[f64], k: usize| crate::fusion::interp_at(series, loc[k]);
     let mut s = State::default();
     for (j, &i) in NU.iter().enumerate() {
         s.nu[i] = at(&run.vel[j], 0);
@@ -300,6 +304,7 @@ impl Sums {
 /// noise and pass for an improvement). Samples before the simulation starts are NaN.
 pub fn residual(sim: &[[f64; 4]], run: &Run, delay: f64) -> [Vec<f64>; 4] {
     let start = *run.t.first().unwrap_or(&0.0);
+    let loc: Vec<(usize, Option<f64>)> = if delay == 0.0 { Vec::new() } else { run.t.iter().map(|&tk| crate::fusion::locate(&run.t, tk - delay)).collect() };
     std::array::from_fn(|j| {
         let series: Vec<f64> = sim.iter().map(|x| x[j]).collect();
         (0..run.t.len())
@@ -310,7 +315,7 @@ pub fn residual(sim: &[[f64; 4]], run: &Run, delay: f64) -> [Vec<f64>; 4] {
                 } else if delay == 0.0 {
                     series[k] - run.vel[j][k]
                 } else {
-                    interp(&run.t, &series, ts) - run.vel[j][k]
+                    crate::fusion::interp_at(&series, loc[k]) - run.vel[j][k]
                 }
             })
             .collect()

@@ -108,6 +108,10 @@ pub struct WorldPlant {
     pub effects: Vec<Effect>,
     pub pool: Option<Pool>,
     pub tether_anchor: Option<[f64; 3]>,
+    /// Whether position and heading are integrated. A caller that sets them from a recording
+    /// at every sample, with no effect that depends on them, turns this off and saves the
+    /// trigonometry; the velocities are the same to the bit.
+    pub track_pose: bool,
 }
 
 fn drag(p: &Plant, i: usize, x: f64) -> f64 {
@@ -116,7 +120,12 @@ fn drag(p: &Plant, i: usize, x: f64) -> f64 {
 
 impl WorldPlant {
     pub fn new(plant: Plant) -> WorldPlant {
-        WorldPlant { plant, effects: Vec::new(), pool: None, tether_anchor: None }
+        WorldPlant { plant, effects: Vec::new(), pool: None, tether_anchor: None, track_pose: true }
+    }
+
+    /// Whether any effect depends on the vehicle's position or heading.
+    pub fn effects_need_pose(&self) -> bool {
+        self.effects.iter().any(|e| matches!(e, Effect::TetherDrag { .. } | Effect::WaterCurrent { .. } | Effect::WallEffect { .. }))
     }
 
     pub fn lag(&self) -> Option<f64> {
@@ -154,17 +163,28 @@ impl WorldPlant {
 
     /// Forces of the environmental effects on the vehicle, body frame.
     pub fn extra_force(&self, s: &State) -> Vec6 {
+        self.extra_force_at(s, s.psi.cos(), s.psi.sin())
+    }
+
+    /// [`Self::extra_force`] with the heading's cosine and sine already computed.
+    fn extra_force_at(&self, s: &State, c: f64, sn: f64) -> Vec6 {
         let mut f = [0.0; 6];
-        let (c, sn) = (s.psi.cos(), s.psi.sin());
+        if self.effects.is_empty() {
+            return f;
+        }
         let to_body = |fx: f64, fy: f64| (c * fx + sn * fy, -sn * fx + c * fy);
-        let vw = [c * s.nu[0] - sn * s.nu[1], sn * s.nu[0] + c * s.nu[1]];
-        let speed = (vw[0] * vw[0] + vw[1] * vw[1]).sqrt();
+        // Pool-frame velocity and speed, for the effects that act on motion over ground.
+        let ground = || {
+            let vw = [c * s.nu[0] - sn * s.nu[1], sn * s.nu[0] + c * s.nu[1]];
+            (vw, (vw[0] * vw[0] + vw[1] * vw[1]).sqrt())
+        };
         for e in &self.effects {
             match e {
                 Effect::NetBuoyancy { force_n } => f[2] += force_n,
                 Effect::TetherDrag { coefficient, slack_m } => {
                     let a = self.tether_anchor.unwrap_or([0.0, 0.0, 0.0]);
                     let l = ((s.pos[0] - a[0]).powi(2) + (s.pos[1] - a[1]).powi(2) + (s.pos[2] - a[2]).powi(2)).sqrt() + slack_m;
+                    let (vw, speed) = ground();
                     let (bx, by) = to_body(-coefficient * l * speed * vw[0], -coefficient * l * speed * vw[1]);
                     f[0] += bx;
                     f[1] += by;
@@ -181,6 +201,7 @@ impl WorldPlant {
                             .into_iter()
                             .fold(f64::INFINITY, f64::min)
                             .max(0.0);
+                        let (vw, speed) = ground();
                         let k = coefficient * (-d / decay_m).exp() * speed;
                         let (bx, by) = to_body(-k * vw[0], -k * vw[1]);
                         f[0] += bx;
@@ -203,10 +224,16 @@ impl WorldPlant {
             Some(tc) => (s.thrust, std::array::from_fn(|i| (target[i] - s.thrust[i]) / tc)),
             None => (target, [0.0; 6]),
         };
-        let extra = self.extra_force(s);
+        if !self.track_pose {
+            // No effect reads the pose (the caller checked): heading unused, pose held.
+            let extra = self.extra_force_at(s, 0.0, 0.0);
+            let tau: Vec6 = std::array::from_fn(|i| thrust[i] + extra[i]);
+            return State { nu: self.plant.accel(&s.nu, &tau), pos: [0.0; 3], psi: 0.0, thrust: thrust_dot };
+        }
+        let (c, sn) = (s.psi.cos(), s.psi.sin());
+        let extra = self.extra_force_at(s, c, sn);
         let tau: Vec6 = std::array::from_fn(|i| thrust[i] + extra[i]);
         let nu_dot = self.plant.accel(&s.nu, &tau);
-        let (c, sn) = (s.psi.cos(), s.psi.sin());
         State {
             nu: nu_dot,
             pos: [c * s.nu[0] - sn * s.nu[1], sn * s.nu[0] + c * s.nu[1], s.nu[2]],
