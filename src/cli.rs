@@ -1,7 +1,7 @@
 //! Command-line arguments and their dispatch.
 
 use crate::cmd;
-use clap::{Parser, Subcommand};
+use clap::{Args, Parser, Subcommand};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -97,6 +97,20 @@ pub enum OpenfoamCommand {
     },
 }
 
+/// Where twin runs are written, and their seed.
+#[derive(Debug, Args)]
+pub struct TwinRuns {
+    /// Folder that receives one folder per run.
+    #[arg(long, default_value = "cases/pool")]
+    out: PathBuf,
+    /// Folder for the truth (true motion, what the runs hide); keep it outside cases/.
+    #[arg(long, default_value = "truth/pool")]
+    truth: PathBuf,
+    /// Seed of the manoeuvres and the sensor noise.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+}
+
 #[derive(Debug, Subcommand)]
 pub enum TwinCommand {
     /// STAR-CCM+ DFBI exports of the reference vehicle (seed 001's force levels).
@@ -110,15 +124,8 @@ pub enum TwinCommand {
     },
     /// Free-running pool test folders (thrust log, UWB, sonar, IMU, depth) with concealed effects.
     Pool {
-        /// Folder that receives one folder per run.
-        #[arg(long, default_value = "cases/pool")]
-        out: PathBuf,
-        /// Folder for the truth (true motion, concealed effects); keep it outside cases/.
-        #[arg(long, default_value = "truth/pool")]
-        truth: PathBuf,
-        /// Seed of the manoeuvres and sensor noise.
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
+        #[command(flatten)]
+        to: TwinRuns,
         /// Concealed effect as name=magnitude (repeatable); replaces the default set
         /// (thruster_lag=0.35, tether_drag=1.2). `--effect none` conceals nothing.
         #[arg(long = "effect")]
@@ -128,15 +135,8 @@ pub enum TwinCommand {
     /// receive time, a DVL navigation log, depth, horizontal UWB; no IMU, no CFD), with hidden
     /// buoyancy, tether drag, thruster saturation and navigation latency.
     Field {
-        /// Folder that receives one folder per run.
-        #[arg(long, default_value = "cases/pool")]
-        out: PathBuf,
-        /// Folder for the truth (true motion, what is hidden); keep it outside cases/.
-        #[arg(long, default_value = "truth/pool")]
-        truth: PathBuf,
-        /// Seed of the flights and sensor noise.
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
+        #[command(flatten)]
+        to: TwinRuns,
     },
     /// Proves the diagnosis on generated scenarios (each effect alone at two magnitudes, pairs,
     /// none) and prints the confusion table of concealed vs named effects.
@@ -165,8 +165,8 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             println!("wrote {} (force {force} N/m, mass {:.3} kg/m, end time {} s)", dir.display(), c.mass_kg, c.end_time());
             Ok(ExitCode::SUCCESS)
         }
-        Command::Twin { what: TwinCommand::Pool { out, truth, seed, effects } } => cmd::twin::pool(&root, &out, &truth, seed, &effects),
-        Command::Twin { what: TwinCommand::Field { out, truth, seed } } => cmd::twin::field(&root, &out, &truth, seed),
+        Command::Twin { what: TwinCommand::Pool { to, effects } } => cmd::twin::pool(&root, &to.out, &to.truth, to.seed, &effects),
+        Command::Twin { what: TwinCommand::Field { to } } => cmd::twin::field(&root, &to.out, &to.truth, to.seed),
         Command::Twin { what: TwinCommand::CheckDiagnosis { seeds } } => cmd::twin::check_diagnosis(&seeds),
     }
 }
