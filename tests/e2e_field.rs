@@ -145,6 +145,11 @@ fn field_logs_without_cfd_give_a_sound_model_and_a_diagnosis_that_names_only_wha
         html.contains("only their overlap"),
         "no overlap trim in the report"
     );
+    // The controller asks for more than the declared command_limits give: clipped, and said.
+    assert!(
+        html.contains("logged command values beyond the vehicle's command_limits were clipped"),
+        "no clipping note in the report"
+    );
     // The navigation log was low-passed before it was written: its noise is measured beyond
     // the lag-1 differences (which would understate it) and its samples are counted as
     // correlated (the smoother's stated sigma stays honest; src/fusion/nav.rs tests that).

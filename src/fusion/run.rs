@@ -148,3 +148,35 @@ impl FusedRun {
         POOL_DOFS.iter().enumerate().filter(|(j, d)| vehicle.dofs.contains(d) && self.fused.vel[*j].is_none()).map(|(_, d)| *d).collect()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Commands beyond the vehicle's limits are clipped to them, DOF by DOF, and counted; a
+    /// DOF without a limit is left as logged.
+    #[test]
+    fn commands_are_clipped_at_the_vehicles_limits() {
+        let meta = RunMeta {
+            run: "r".into(),
+            role: Role::Train,
+            description: String::new(),
+            pool: None,
+            tether_anchor_m: None,
+            sources: vec![],
+            known: [true; 4],
+            sensors: vec![],
+            stats: Stats::default(),
+            stats_without_sonar: None,
+            notes: vec![],
+            repairs: vec![],
+        };
+        let fused = Fused { t: vec![0.0, 1.0], vel: Default::default(), std: Default::default(), x: vec![], y: vec![], z: vec![], psi: vec![], stats: Stats::default() };
+        let run = FusedRun { meta, thrust: vec![[80.0, -10.0, -70.0, 20.0], [10.0, 10.0, 10.0, -12.0]], fused, without_sonar: None };
+        let mut v = crate::model::Vehicle::reference();
+        v.command_limits = [(crate::dof::Dof::Surge, 60.0), (crate::dof::Dof::Heave, 45.0), (crate::dof::Dof::Yaw, 9.0)].into_iter().collect();
+        let run = run.clip_to(&v);
+        assert_eq!(run.thrust, vec![[60.0, -10.0, -45.0, 9.0], [10.0, 10.0, 10.0, -9.0]]);
+        assert!(run.meta.notes.iter().any(|n| n.starts_with("4 logged command values")), "{:?}", run.meta.notes);
+    }
+}

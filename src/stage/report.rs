@@ -56,7 +56,7 @@ impl StageImpl for Settings {
             let track = crate::stage::openfoam::load_track(&u.dir);
             cases.push(Case { id: u.id.clone(), name: meta.case, response, notes: meta.notes, mass: meta.body_mass_kg, openfoam: meta.openfoam, track });
         }
-        let pool_runs: Vec<crate::stage::pool::FusedRun> = ctx.upstream_of(Artifact::PoolRuns).map(|u| crate::stage::pool::load(&u.dir)).collect::<Result<_, _>>()?;
+        let pool_runs: Vec<crate::stage::pool::FusedRun> = ctx.upstream_of(Artifact::PoolRuns).map(|u| crate::stage::pool::load_for(&u.dir, ctx.vehicle)).collect::<Result<_, _>>()?;
         let pool_scores = ctx.upstream_of(Artifact::Validation).next().map(|u| crate::stage::validate::load(&u.dir)).transpose()?;
         let mut models = Vec::new();
         let mut first_sims: Vec<Option<Vec<Vec6>>> = vec![None; cases.len()];
