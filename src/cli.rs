@@ -61,8 +61,9 @@ pub enum Command {
         /// l2 (quadratic form) or l1 (seed 001 eq. 14, every row per evaluation).
         #[arg(long, default_value = "l2")]
         norm: String,
-        /// equation (seed 001 eq. 14) or output (eq. 9: every candidate simulated on the
-        /// 33 twin CFD cases).
+        /// equation (seed 001 eq. 14), output (eq. 9: every candidate simulated on the
+        /// 33 twin CFD cases) or diagnosis (the whole diagnosis over 16 one-minute field-twin
+        /// runs, against its 10 s target).
         #[arg(long, default_value = "equation")]
         objective: String,
         #[arg(long, default_value_t = 40)]

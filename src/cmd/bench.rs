@@ -49,7 +49,8 @@ pub fn run(norm: &str, objective: &str, population: usize, iterations: usize, ex
     match objective {
         "equation" => {}
         "output" => return output_error(population, iterations, export),
-        other => anyhow::bail!("--objective {other}: use equation or output"),
+        "diagnosis" => return diagnosis(),
+        other => anyhow::bail!("--objective {other}: use equation, output or diagnosis"),
     }
     let reg = seed_001_problem(SEED_001_ROWS);
     let (k, p) = (reg.rows(), reg.cols());
@@ -230,4 +231,55 @@ fn best_of_five(f: impl Fn()) -> f64 {
             start.elapsed().as_secs_f64()
         })
         .fold(f64::INFINITY, f64::min)
+}
+
+/// Runs of the field twin for the diagnosis benchmark: `n` one-minute flights, every fourth
+/// held out.
+fn field_specs(n: usize) -> Vec<crate::twin::field::RunSpec> {
+    let flights = crate::twin::field::default_runs();
+    (0..n)
+        .map(|i| {
+            let mut r = flights[i % flights.len()].clone();
+            r.name = format!("{}_{i:02}", r.name);
+            r.role = if i % 4 == 3 { "validate".into() } else { "train".into() };
+            r.duration_s = 60.0;
+            r
+        })
+        .collect()
+}
+
+/// The diagnosis over 16 one-minute field runs, as `examples/field_rov` runs it (a pool-only
+/// least-squares fit, `horizon_s: auto`), timed against the 10 s target on the machine.
+fn diagnosis() -> anyhow::Result<ExitCode> {
+    use crate::estimate::Estimator as _;
+    let tmp = tempfile::tempdir()?;
+    let specs = field_specs(16);
+    let hidden = crate::twin::field::Hidden::default();
+    crate::twin::field::write_runs(&tmp.path().join("cases/pool"), &tmp.path().join("truth"), &specs, &hidden, 1)?;
+    let mut vehicle = crate::twin::field::vehicle();
+    vehicle.command_limits = [
+        (crate::dof::Dof::Surge, hidden.limits[0]),
+        (crate::dof::Dof::Sway, hidden.limits[1]),
+        (crate::dof::Dof::Heave, hidden.limits[2]),
+        (crate::dof::Dof::Yaw, hidden.limits[3]),
+    ]
+    .into_iter()
+    .collect();
+    let fused: Vec<crate::stage::pool::FusedRun> = specs
+        .par_iter()
+        .map(|spec| crate::diagnose::scenario::fuse_folder(tmp.path(), &spec.name).map(|r| r.clip_to(&vehicle)))
+        .collect::<anyhow::Result<_>>()?;
+    let train: Vec<crate::io::Response> = fused.iter().filter(|r| r.meta.role == crate::io::pool::Role::Train).filter_map(|r| r.as_response(&vehicle)).collect();
+    let refs: Vec<&crate::io::Response> = train.iter().collect();
+    let fit = crate::estimate::ols::Ols.fit(&Regression::build(&vehicle, &refs, 0.0), &Default::default())?;
+    let theta: Vec<f64> = fit.parameters.iter().map(|p| p.value).collect();
+    let plant = crate::model::Plant::new(&vehicle, crate::model::ParamLayout::of(&vehicle).to_hydro(&theta));
+    let crit = crate::diagnose::Criteria { horizon_s: crate::model::stability::Horizon::Auto, ..Default::default() };
+    let start = std::time::Instant::now();
+    let (d, _) = crate::stage::diagnose::diagnose(&vehicle, "fit", &plant, &fused, &crit, &|_| {})?;
+    let secs = start.elapsed().as_secs_f64();
+    let names: Vec<&str> = d.effects.iter().map(|e| e.name.as_str()).collect();
+    println!("diagnosis: 16 one-minute field-twin runs (12 train, 4 held out), {} threads", rayon::current_num_threads());
+    println!("  {secs:.2} s (target: under 10 s on 2 cores); named {names:?}");
+    Ok(ExitCode::SUCCESS)
 }

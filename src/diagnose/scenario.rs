@@ -13,31 +13,31 @@ pub fn fused_runs(effects: &[Effect], seed: u64) -> anyhow::Result<Vec<FusedRun>
     let root = tmp.path();
     let specs = twin::default_runs();
     twin::write_runs(&root.join("cases/pool"), &root.join("truth/pool"), &specs, effects, seed)?;
-    specs
-        .par_iter()
-        .map(|spec| {
-            let dir = format!("cases/pool/{}", spec.name);
-            let files: Vec<String> = std::fs::read_dir(root.join(&dir))?.map(|e| e.map(|e| format!("{dir}/{}", e.file_name().to_string_lossy()))).collect::<Result<_, _>>()?;
-            let run = crate::io::pool::load(root, &dir, &files)?;
-            let fused = crate::fusion::fuse(&run, &Default::default());
-            let thrust: Vec<[f64; 4]> = (0..run.thrust.len()).map(|k| std::array::from_fn(|q| run.thrust.cols[q][k])).collect();
-            let meta = RunMeta {
-                run: spec.name.clone(),
-                role: run.meta.role,
-                description: run.meta.description.clone(),
-                pool: run.meta.pool,
-                tether_anchor_m: run.meta.tether_anchor_m,
-                sources: vec![],
-                known: std::array::from_fn(|j| fused.vel[j].is_some()),
-                sensors: vec![],
-                stats: fused.stats.clone(),
-                stats_without_sonar: None,
-                notes: vec![],
-                repairs: vec![],
-            };
-            Ok(FusedRun { meta, thrust, fused, without_sonar: None })
-        })
-        .collect()
+    specs.par_iter().map(|spec| fuse_folder(root, &spec.name)).collect::<anyhow::Result<_>>()
+}
+
+/// Imports and fuses the run folder `cases/pool/<name>` under `root` as the `pool` stage does.
+pub fn fuse_folder(root: &std::path::Path, name: &str) -> anyhow::Result<FusedRun> {
+    let dir = format!("cases/pool/{name}");
+    let files: Vec<String> = std::fs::read_dir(root.join(&dir))?.map(|e| e.map(|e| format!("{dir}/{}", e.file_name().to_string_lossy()))).collect::<Result<_, _>>()?;
+    let run = crate::io::pool::load(root, &dir, &files)?;
+    let fused = crate::fusion::fuse(&run, &Default::default());
+    let thrust: Vec<[f64; 4]> = (0..run.thrust.len()).map(|k| std::array::from_fn(|q| run.thrust.cols[q][k])).collect();
+    let meta = RunMeta {
+        run: name.to_string(),
+        role: run.meta.role,
+        description: run.meta.description.clone(),
+        pool: run.meta.pool,
+        tether_anchor_m: run.meta.tether_anchor_m,
+        sources: vec![],
+        known: std::array::from_fn(|j| fused.vel[j].is_some()),
+        sensors: vec![],
+        stats: fused.stats.clone(),
+        stats_without_sonar: None,
+        notes: run.notes.clone(),
+        repairs: run.repairs.clone(),
+    };
+    Ok(FusedRun { meta, thrust, fused, without_sonar: None })
 }
 
 /// The diagnosis' view of [`fused_runs`].
