@@ -122,7 +122,7 @@ fn output_error(population: usize, iterations: usize, export: Option<&Path>) -> 
         .collect::<Result<_, _>>()?;
     let refs: Vec<_> = responses.iter().collect();
     let reg = Regression::build(&vehicle, &refs, 0.0);
-    let o = crate::estimate::swarm::OutputError::new(&vehicle, &refs);
+    let o = crate::estimate::output_error::OutputError::new(&vehicle, &refs);
     let problem = Problem::new(&reg, &vehicle.rigid_mass(), Norm::L2);
     if let Some(path) = export {
         // n_cases, then per case: n, t[n], tau[n x 4], nu[n x 4], weight[4]; then rigid mass

@@ -212,9 +212,10 @@ fn simulate_checked(plant: &Plant, aug: &Augmentation, run: &Run) -> (Vec<[f64; 
         let c = run.cmd[k];
         [c[0], c[1], c[2], 0.0, 0.0, c[3]]
     };
-    // Where each sample's shifted time falls, located once for every series.
-    let loc: Vec<(usize, Option<f64>)> = run.t.iter().map(|&tk| crate::fusion::locate(&run.t, tk + d)).collect();
-    let at = |series: &[f64], k: usize| crate::fusion::interp_at(series, loc[k]);
+    // Where each sample's shifted time falls, located once for every series (without a delay,
+    // the sample itself).
+    let loc: Vec<(usize, Option<f64>)> = if d == 0.0 { Vec::new() } else { run.t.iter().map(|&tk| crate::fusion::locate(&run.t, tk + d)).collect() };
+    let at = |series: &[f64], k: usize| if d == 0.0 { series[k] } else { crate::fusion::interp_at(series, loc[k]) };
     let mut s = State::default();
     for (j, &i) in NU.iter().enumerate() {
         s.nu[i] = at(&run.vel[j], 0);

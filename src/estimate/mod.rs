@@ -2,6 +2,7 @@
 
 mod kernels;
 pub mod ols;
+pub mod output_error;
 pub mod refine;
 pub mod regression;
 pub mod rls;

@@ -8,7 +8,7 @@
 //! `s^2 (J^T J)^-1` with `s^2` the residual variance: conditional on the model being right,
 //! as for the equation error.
 
-use super::swarm::OutputError;
+use super::output_error::OutputError;
 use crate::model::ParamLayout;
 use nalgebra::{DMatrix, DVector};
 
@@ -95,7 +95,7 @@ pub fn output_error_lm(
         }
     };
     let s2 = cost / (n.saturating_sub(p)).max(1) as f64 * (1.0 + rho) / (1.0 - rho);
-    let stderr = match a.clone().try_inverse() {
+    let stderr = match a.try_inverse() {
         Some(inv) => (0..p).map(|j| (s2 * inv[(j, j)]).max(0.0).sqrt()).collect(),
         None => vec![f64::NAN; p],
     };

@@ -126,8 +126,9 @@ impl FusedRun {
         self
     }
 
-    /// The run as a response table for the equation-error fit: the logged command (clipped at
-    /// the vehicle's command limits), the fused velocity and its time derivative. The fused
+    /// The run as a response table for the equation-error fit: the command as loaded (see
+    /// [`load_for`], which clips it at the vehicle's limits), the fused velocity and its time
+    /// derivative. The fused
     /// velocity is the smoother's state, so its central difference is smooth where a
     /// difference of raw samples would be noise. None when a DOF of the vehicle was not fused
     /// (the Coriolis terms need every velocity).
@@ -136,7 +137,7 @@ impl FusedRun {
         let mut r = crate::io::Response { t: self.fused.t.clone(), dofs: Default::default() };
         for (j, d) in POOL_DOFS.iter().enumerate().filter(|(_, d)| vehicle.dofs.contains(d)) {
             let v = self.fused.vel[j].as_ref()?;
-            let force = self.thrust.iter().map(|c| vehicle.clip_command(*d, c[j])).collect();
+            let force = self.thrust.iter().map(|c| c[j]).collect();
             let accel = differentiate(&r.t, v);
             r.dofs.insert(*d, Series { force, velocity: v.clone(), accel, force_source: Source::Column, accel_source: Source::Differentiated });
         }

@@ -106,26 +106,22 @@ pub fn load(root: &Path, dir: &str, files: &[String]) -> Result<PoolRun, InputEr
         InputError::file(format!("{dir}/thrust.csv"), "the run has no thrust log", "add thrust.csv (t,X_N,Y_N,Z_N,N_Nm): without the commanded force the model cannot be simulated")
     })?;
     let mut thrust = csvlog::parse_keeping_repeats(&thrust_path, &read(root, &thrust_path)?, &THRUST, "thrust log", 10)?;
-    let mut optional = |n: &str, cols: &[&str], what: &str| -> Result<Option<Log>, InputError> {
+    type Parser = fn(&str, &str, &[&str], &str, usize) -> Result<Log, InputError>;
+    let mut optional = |n: &str, cols: &[&str], what: &str, parse: Parser| -> Result<Option<Log>, InputError> {
         match file(n) {
             None => {
                 notes.push(format!("{dir}: no {n}"));
                 Ok(None)
             }
-            Some(p) => csvlog::parse_subset(&p, &read(root, &p)?, cols, what, 2).map(Some),
+            Some(p) => parse(&p, &read(root, &p)?, cols, what, 2).map(Some),
         }
     };
-    let uwb = optional("uwb.csv", &UWB, "UWB log")?;
-    let sonar = optional("sonar.csv", &SONAR, "sonar log")?;
-    let mut imu = optional("imu.csv", &IMU, "IMU log")?;
-    let depth = optional("depth.csv", &DEPTH, "depth log")?;
-    let mut nav = match file("nav.csv") {
-        None => {
-            notes.push(format!("{dir}: no nav.csv"));
-            None
-        }
-        Some(p) => Some(csvlog::parse_subset_with_gaps(&p, &read(root, &p)?, &NAV, "navigation log", 2)?),
-    };
+    let uwb = optional("uwb.csv", &UWB, "UWB log", csvlog::parse_subset)?;
+    let sonar = optional("sonar.csv", &SONAR, "sonar log", csvlog::parse_subset)?;
+    let mut imu = optional("imu.csv", &IMU, "IMU log", csvlog::parse_subset)?;
+    let depth = optional("depth.csv", &DEPTH, "depth log", csvlog::parse_subset)?;
+    // A navigation log may have gaps (a DVL without bottom lock writes empty or nan values).
+    let mut nav = optional("nav.csv", &NAV, "navigation log", csvlog::parse_subset_with_gaps)?;
     for (log, n) in [(&uwb, "uwb.csv"), (&sonar, "sonar.csv")] {
         if log.as_ref().is_some_and(|l| !(l.has(0) && l.has(1))) {
             return Err(InputError::file(format!("{dir}/{n}"), "a position log needs both x_m and y_m", "write both horizontal coordinates (pool frame); z_m is optional"));

@@ -327,7 +327,7 @@ impl StageImpl for Settings {
 fn training_runs(ctx: &RunCtx, vehicle: &crate::model::Vehicle) -> anyhow::Result<(Vec<RunRef>, Vec<crate::io::Response>, Vec<String>)> {
     let (mut refs, mut responses, mut notes) = (Vec::new(), Vec::new(), Vec::new());
     for up in ctx.upstream_of(Artifact::PoolRuns) {
-        let run = pool::load(&up.dir)?;
+        let run = pool::load_for(&up.dir, vehicle)?;
         if run.meta.role != crate::io::pool::Role::Train {
             continue;
         }

@@ -298,7 +298,7 @@ pub fn render(h: &Hidden, spec: &RunSpec, truth: &Truth, seed: u64) -> Vec<(&'st
     // written at an irregular 5-7 Hz, `nav_latency_s` late; AHRS heading with 0.4 deg noise.
     let mut nav = String::from("t,u_m_s,v_m_s,w_m_s,roll_deg,pitch_deg,yaw_deg\n");
     let mut filt = [0.0f64; 3];
-    let (mut t_dvl, mut t_out, mut last) = (0.6, 0.6 + 0.2 * rng.uniform(), 0.6);
+    let (mut t_dvl, mut t_out) = (0.6, 0.6 + 0.2 * rng.uniform());
     while t_out < end - 0.6 {
         while t_dvl <= t_out - h.nav_latency_s {
             let (nu, _, _) = at(truth, t_dvl);
@@ -311,10 +311,8 @@ pub fn render(h: &Hidden, spec: &RunSpec, truth: &Truth, seed: u64) -> Vec<(&'st
         let (_, _, psi) = at(truth, t_out - h.nav_latency_s);
         let yaw = wrap(psi + 0.4f64.to_radians() * rng.normal()).to_degrees();
         let _ = writeln!(nav, "{:.4},{:.4},{:.4},{:.4},{:.2},{:.2},{:.2}", t_out, filt[0], filt[1], filt[2], 0.3 * rng.normal(), 0.3 * rng.normal(), yaw);
-        last = t_out;
         t_out += 1.0 / (5.0 + 2.0 * rng.uniform());
     }
-    let _ = last;
     files.push(("nav.csv", nav));
 
     let mut depth = String::from("t,depth_m\n");
