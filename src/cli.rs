@@ -6,7 +6,11 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 #[derive(Debug, Parser)]
-#[command(name = "hydrofit", version, about = "Identify an underwater vehicle's hydrodynamic model from CFD runs and pool tests, as a reproducible build")]
+#[command(
+    name = "hydrofit",
+    version,
+    about = "Identify an underwater vehicle's hydrodynamic model from CFD runs and pool tests, as a reproducible build"
+)]
 pub struct Cli {
     /// Project folder (holding pipeline.yaml and cases/).
     #[arg(long, global = true, default_value = ".")]
@@ -151,23 +155,60 @@ pub enum TwinCommand {
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     let root = cli.project;
     match cli.command {
-        Command::Build { stages, jobs, explain } => cmd::build::run(&root, stages, jobs, explain),
+        Command::Build {
+            stages,
+            jobs,
+            explain,
+        } => cmd::build::run(&root, stages, jobs, explain),
         Command::Status { explain } => cmd::status::run(&root, explain),
         Command::Clean => cmd::clean::run(&root),
         Command::Provenance { parameter } => cmd::provenance::run(&root, &parameter),
         Command::Graph { dot } => cmd::graph::run(&root, dot),
-        Command::Twin { what: TwinCommand::Starccm { out, seed } } => cmd::twin::starccm(&root, &out, seed),
-        Command::Bench { norm, objective, population, iterations, export } => cmd::bench::run(&norm, &objective, population, iterations, export.as_deref()),
-        Command::Openfoam { what: OpenfoamCommand::New { dir, force, mass, radius, end_time } } => {
-            let mut c = crate::openfoam::case::CylinderCase { force_n: force, mass_kg: 0.0, radius_m: radius, end_time_s: end_time };
+        Command::Twin {
+            what: TwinCommand::Starccm { out, seed },
+        } => cmd::twin::starccm(&root, &out, seed),
+        Command::Bench {
+            norm,
+            objective,
+            population,
+            iterations,
+            export,
+        } => cmd::bench::run(&norm, &objective, population, iterations, export.as_deref()),
+        Command::Openfoam {
+            what:
+                OpenfoamCommand::New {
+                    dir,
+                    force,
+                    mass,
+                    radius,
+                    end_time,
+                },
+        } => {
+            let mut c = crate::openfoam::case::CylinderCase {
+                force_n: force,
+                mass_kg: 0.0,
+                radius_m: radius,
+                end_time_s: end_time,
+            };
             c.mass_kg = mass.unwrap_or(2.0 * c.displaced_mass());
             let dir = root.join(dir);
             c.write(&dir)?;
-            println!("wrote {} (force {force} N/m, mass {:.3} kg/m, end time {} s)", dir.display(), c.mass_kg, c.end_time());
+            println!(
+                "wrote {} (force {force} N/m, mass {:.3} kg/m, end time {} s)",
+                dir.display(),
+                c.mass_kg,
+                c.end_time()
+            );
             Ok(ExitCode::SUCCESS)
         }
-        Command::Twin { what: TwinCommand::Pool { to, effects } } => cmd::twin::pool(&root, &to.out, &to.truth, to.seed, &effects),
-        Command::Twin { what: TwinCommand::Field { to } } => cmd::twin::field(&root, &to.out, &to.truth, to.seed),
-        Command::Twin { what: TwinCommand::CheckDiagnosis { seeds } } => cmd::twin::check_diagnosis(&seeds),
+        Command::Twin {
+            what: TwinCommand::Pool { to, effects },
+        } => cmd::twin::pool(&root, &to.out, &to.truth, to.seed, &effects),
+        Command::Twin {
+            what: TwinCommand::Field { to },
+        } => cmd::twin::field(&root, &to.out, &to.truth, to.seed),
+        Command::Twin {
+            what: TwinCommand::CheckDiagnosis { seeds },
+        } => cmd::twin::check_diagnosis(&seeds),
     }
 }

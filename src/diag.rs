@@ -16,8 +16,19 @@ pub struct InputError {
 }
 
 impl InputError {
-    pub fn file(path: impl Into<String>, what: impl Into<String>, fix: impl Into<String>) -> InputError {
-        InputError { path: path.into(), line: None, col: None, what: what.into(), fix: fix.into(), snippet: None }
+    pub fn file(
+        path: impl Into<String>,
+        what: impl Into<String>,
+        fix: impl Into<String>,
+    ) -> InputError {
+        InputError {
+            path: path.into(),
+            line: None,
+            col: None,
+            what: what.into(),
+            fix: fix.into(),
+            snippet: None,
+        }
     }
 
     pub fn at(mut self, line: usize, col: Option<usize>) -> InputError {
@@ -29,7 +40,10 @@ impl InputError {
     /// Attach the source line `line` (1-based) of `text` as the snippet.
     pub fn with_source(mut self, text: &str) -> InputError {
         if let Some(l) = self.line {
-            self.snippet = text.lines().nth(l.saturating_sub(1)).map(|s| s.trim_end_matches('\r').to_string());
+            self.snippet = text
+                .lines()
+                .nth(l.saturating_sub(1))
+                .map(|s| s.trim_end_matches('\r').to_string());
         }
         self
     }
@@ -75,7 +89,9 @@ pub fn edit_distance(a: &str, b: &str) -> usize {
     for i in 1..=a.len() {
         for j in 1..=b.len() {
             let cost = usize::from(a[i - 1] != b[j - 1]);
-            d[i][j] = (d[i - 1][j] + 1).min(d[i][j - 1] + 1).min(d[i - 1][j - 1] + cost);
+            d[i][j] = (d[i - 1][j] + 1)
+                .min(d[i][j - 1] + 1)
+                .min(d[i - 1][j - 1] + cost);
             if i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1] {
                 d[i][j] = d[i][j].min(d[i - 2][j - 2] + 1);
             }
@@ -100,8 +116,13 @@ mod tests {
 
     #[test]
     fn shows_line_and_caret() {
-        let e = InputError::file("a.csv", "bad number", "fix it").at(2, Some(3)).with_source("x\nab?c\n");
-        assert_eq!(e.to_string(), "a.csv:2:3: bad number\n    | ab?c\n    |   ^\n  help: fix it");
+        let e = InputError::file("a.csv", "bad number", "fix it")
+            .at(2, Some(3))
+            .with_source("x\nab?c\n");
+        assert_eq!(
+            e.to_string(),
+            "a.csv:2:3: bad number\n    | ab?c\n    |   ^\n  help: fix it"
+        );
     }
 
     #[test]

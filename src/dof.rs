@@ -16,7 +16,14 @@ pub enum Dof {
 }
 
 impl Dof {
-    pub const ALL: [Dof; 6] = [Dof::Surge, Dof::Sway, Dof::Heave, Dof::Roll, Dof::Pitch, Dof::Yaw];
+    pub const ALL: [Dof; 6] = [
+        Dof::Surge,
+        Dof::Sway,
+        Dof::Heave,
+        Dof::Roll,
+        Dof::Pitch,
+        Dof::Yaw,
+    ];
 
     /// Position in the 6-vectors `nu = [u v w p q r]` and `tau = [X Y Z K M N]`.
     pub fn index(self) -> usize {

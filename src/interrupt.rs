@@ -14,7 +14,9 @@ pub fn install() {
             eprintln!("\nhydrofit: interrupted again; stopping now");
             std::process::exit(130);
         }
-        eprintln!("\nhydrofit: interrupted; stopping the running stages (Ctrl-C again to stop at once)");
+        eprintln!(
+            "\nhydrofit: interrupted; stopping the running stages (Ctrl-C again to stop at once)"
+        );
     });
 }
 

@@ -10,16 +10,23 @@ pub struct Progress {
 impl Progress {
     pub fn new() -> Progress {
         // indicatif hides a stderr target that is not a terminal.
-        Progress { multi: MultiProgress::with_draw_target(ProgressDrawTarget::stderr()) }
+        Progress {
+            multi: MultiProgress::with_draw_target(ProgressDrawTarget::stderr()),
+        }
     }
 
     pub fn hidden() -> Progress {
-        Progress { multi: MultiProgress::with_draw_target(ProgressDrawTarget::hidden()) }
+        Progress {
+            multi: MultiProgress::with_draw_target(ProgressDrawTarget::hidden()),
+        }
     }
 
     pub fn bar(&self, len: u64, what: &str) -> ProgressBar {
         let b = self.multi.add(ProgressBar::new(len));
-        b.set_style(ProgressStyle::with_template("{prefix} [{elapsed}] {wide_bar} {pos}/{len}").expect("valid template"));
+        b.set_style(
+            ProgressStyle::with_template("{prefix} [{elapsed}] {wide_bar} {pos}/{len}")
+                .expect("valid template"),
+        );
         b.set_prefix(what.to_string());
         b
     }
@@ -27,7 +34,9 @@ impl Progress {
     /// A spinner for one running stage instance; stages may set a message or a length on it.
     pub fn spinner(&self, id: &str) -> ProgressBar {
         let s = self.multi.add(ProgressBar::new_spinner());
-        s.set_style(ProgressStyle::with_template("  {spinner} {prefix} {msg}").expect("valid template"));
+        s.set_style(
+            ProgressStyle::with_template("  {spinner} {prefix} {msg}").expect("valid template"),
+        );
         s.set_prefix(id.to_string());
         s.enable_steady_tick(Duration::from_millis(120));
         s

@@ -25,9 +25,14 @@ pub fn f64_or_nan<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Erro
 }
 
 /// Series of numbers per DOF whose `null`s (NaN written by serde_json) read back as NaN.
-pub fn series_or_nan<'de, D: serde::Deserializer<'de>>(d: D) -> Result<std::collections::BTreeMap<Dof, Vec<f64>>, D::Error> {
+pub fn series_or_nan<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> Result<std::collections::BTreeMap<Dof, Vec<f64>>, D::Error> {
     let raw = std::collections::BTreeMap::<Dof, Vec<Option<f64>>>::deserialize(d)?;
-    Ok(raw.into_iter().map(|(k, v)| (k, v.into_iter().map(|x| x.unwrap_or(f64::NAN)).collect())).collect())
+    Ok(raw
+        .into_iter()
+        .map(|(k, v)| (k, v.into_iter().map(|x| x.unwrap_or(f64::NAN)).collect()))
+        .collect())
 }
 
 pub fn metrics(measured: &[f64], simulated: &[f64]) -> Metrics {
@@ -39,8 +44,16 @@ pub fn metrics(measured: &[f64], simulated: &[f64]) -> Metrics {
     let peak = measured.iter().fold(0.0f64, |a, m| a.max(m.abs()));
     Metrics {
         mae,
-        nmae: if mean_abs > 0.0 { mae / mean_abs } else { f64::NAN },
-        rmse_pct: if peak > 0.0 { 100.0 * rmse / peak } else { f64::NAN },
+        nmae: if mean_abs > 0.0 {
+            mae / mean_abs
+        } else {
+            f64::NAN
+        },
+        rmse_pct: if peak > 0.0 {
+            100.0 * rmse / peak
+        } else {
+            f64::NAN
+        },
     }
 }
 
@@ -81,7 +94,16 @@ pub fn autocorrelation(e: &[f64], max_lag: usize) -> Vec<f64> {
     let mean = e.iter().sum::<f64>() / n as f64;
     let c0: f64 = e.iter().map(|x| (x - mean).powi(2)).sum();
     (0..=max_lag.min(n - 1))
-        .map(|k| if c0 > 0.0 { (0..n - k).map(|i| (e[i] - mean) * (e[i + k] - mean)).sum::<f64>() / c0 } else { 0.0 })
+        .map(|k| {
+            if c0 > 0.0 {
+                (0..n - k)
+                    .map(|i| (e[i] - mean) * (e[i + k] - mean))
+                    .sum::<f64>()
+                    / c0
+            } else {
+                0.0
+            }
+        })
         .collect()
 }
 
@@ -90,7 +112,12 @@ pub fn whiteness(e: &[f64], dt: f64, max_lag: usize) -> Whiteness {
     let band = 1.96 / (e.len().max(1) as f64).sqrt();
     let lags = acf.len().saturating_sub(1).max(1) as f64;
     let outside = acf.iter().skip(1).filter(|r| r.abs() > band).count() as f64 / lags;
-    Whiteness { lag_step_s: dt, acf, band, outside }
+    Whiteness {
+        lag_step_s: dt,
+        acf,
+        band,
+        outside,
+    }
 }
 
 #[cfg(test)]
@@ -107,8 +134,17 @@ mod tests {
         let w = whiteness(&white, 0.05, 40);
         assert!(w.outside < 0.15, "white noise: {}", w.outside);
         let mut x = 0.0;
-        let red: Vec<f64> = white.iter().map(|e| { x = 0.95 * x + e; x }).collect();
-        assert!(whiteness(&red, 0.05, 40).outside > 0.8, "a structured residual is flagged");
+        let red: Vec<f64> = white
+            .iter()
+            .map(|e| {
+                x = 0.95 * x + e;
+                x
+            })
+            .collect();
+        assert!(
+            whiteness(&red, 0.05, 40).outside > 0.8,
+            "a structured residual is flagged"
+        );
     }
 
     #[test]

@@ -8,9 +8,16 @@ fn cold_build_then_nothing_to_do() {
     let p = project();
     let dir = p.path();
     let out = ok(dir, &["build"]);
-    let n = count(dir, "cases/cfd/starccm") + count(dir, "cases/cfd/openfoam") + count(dir, "cases/pool");
+    let n = count(dir, "cases/cfd/starccm")
+        + count(dir, "cases/cfd/openfoam")
+        + count(dir, "cases/pool");
     assert_eq!(ran(&out), n + SINGLE_STAGES, "{out}");
-    for f in ["index.html", "parameters.json", "validation.json", "fusion.json"] {
+    for f in [
+        "index.html",
+        "parameters.json",
+        "validation.json",
+        "fusion.json",
+    ] {
         assert!(dir.join("reports").join(f).is_file(), "reports/{f} missing");
     }
     let out = ok(dir, &["build"]);
@@ -25,16 +32,33 @@ fn parameters_json_has_the_contract_shape_and_recovers_the_truth() {
     let dir = p.path();
     ok(dir, &["build"]);
     let truth = [
-        ("X_udot", -16.04), ("Y_vdot", -37.74), ("Z_wdot", -83.60), ("N_rdot", -1.06),
-        ("X_u", -2.41), ("Y_v", -1.50), ("Z_w", -21.75), ("N_r", -1.18),
-        ("X_uu", -44.17), ("Y_vv", -114.30), ("Z_ww", -121.30), ("N_rr", -2.64),
+        ("X_udot", -16.04),
+        ("Y_vdot", -37.74),
+        ("Z_wdot", -83.60),
+        ("N_rdot", -1.06),
+        ("X_u", -2.41),
+        ("Y_v", -1.50),
+        ("Z_w", -21.75),
+        ("N_r", -1.18),
+        ("X_uu", -44.17),
+        ("Y_vv", -114.30),
+        ("Z_ww", -121.30),
+        ("N_rr", -2.64),
     ];
     let params = json(dir, "reports/parameters.json");
     // The vehicle's model; the OpenFOAM cylinder's parameters follow under model `cylinder`.
-    let list: Vec<&serde_json::Value> = params["parameters"].as_array().unwrap().iter().filter(|p| p["model"] == "fit").collect();
+    let list: Vec<&serde_json::Value> = params["parameters"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|p| p["model"] == "fit")
+        .collect();
     assert_eq!(list.len(), truth.len());
     for (name, t) in truth {
-        let p = list.iter().find(|p| p["name"] == name).unwrap_or_else(|| panic!("{name} missing"));
+        let p = list
+            .iter()
+            .find(|p| p["name"] == name)
+            .unwrap_or_else(|| panic!("{name} missing"));
         let v = p["value"].as_f64().unwrap();
         assert!(((v - t) / t).abs() < 0.02, "{name} = {v}, truth {t}");
         assert!(p["stderr"].as_f64().unwrap() > 0.0);
@@ -46,12 +70,19 @@ fn parameters_json_has_the_contract_shape_and_recovers_the_truth() {
         let first = &inputs[0];
         let path = first["path"].as_str().unwrap();
         assert!(path.starts_with("cases/cfd/starccm/"), "{path}");
-        assert_eq!(first["blake3"].as_str().unwrap(), hydrofit::fsutil::hash_file(&dir.join(path)).unwrap());
+        assert_eq!(
+            first["blake3"].as_str().unwrap(),
+            hydrofit::fsutil::hash_file(&dir.join(path)).unwrap()
+        );
     }
     let v = json(dir, "reports/validation.json");
     let runs = v["models"][0]["runs"].as_array().unwrap();
     assert!(runs.len() > 30);
-    for r in runs.iter().filter(|r| dir.join("cases/cfd/starccm").join(format!("{}.csv", r["run"].as_str().unwrap())).is_file()) {
+    for r in runs.iter().filter(|r| {
+        dir.join("cases/cfd/starccm")
+            .join(format!("{}.csv", r["run"].as_str().unwrap()))
+            .is_file()
+    }) {
         assert_eq!(r["role"], "train");
         for (dof, m) in r["dofs"].as_object().unwrap() {
             // The twin's model is the fitted structure: each run is reproduced within ~2 % of its peak.
@@ -73,8 +104,16 @@ fn a_new_case_reruns_only_its_import_and_what_depends_on_it() {
     let status = stdout(&run(dir, &["status"]));
     let lines: Vec<&str> = status.lines().collect();
     assert_eq!(lines.len(), 6, "{status}");
-    assert_eq!(lines[0], "cfd[surge_40N_rerun]: new input cases/cfd/starccm/surge_40N_rerun.csv (never built)");
-    for want in ["fit: new upstream cfd[surge_40N_rerun]", "compare: new upstream cfd[surge_40N_rerun]", "validate: upstream fit changed", "diagnose: upstream fit changed"] {
+    assert_eq!(
+        lines[0],
+        "cfd[surge_40N_rerun]: new input cases/cfd/starccm/surge_40N_rerun.csv (never built)"
+    );
+    for want in [
+        "fit: new upstream cfd[surge_40N_rerun]",
+        "compare: new upstream cfd[surge_40N_rerun]",
+        "validate: upstream fit changed",
+        "diagnose: upstream fit changed",
+    ] {
         assert!(lines.contains(&want), "{want}: {status}");
     }
     assert!(lines[5].starts_with("report: "), "{status}");
@@ -87,10 +126,16 @@ fn a_changed_setting_reruns_the_fit_but_not_the_imports() {
     let p = project();
     let dir = p.path();
     ok(dir, &["build"]);
-    let spec = read(dir, "pipeline.yaml").replace("objective: equation_error", "objective: equation_error\n      skip_start_s: 0.1");
+    let spec = read(dir, "pipeline.yaml").replace(
+        "objective: equation_error",
+        "objective: equation_error\n      skip_start_s: 0.1",
+    );
     std::fs::write(dir.join("pipeline.yaml"), spec).unwrap();
     let status = stdout(&run(dir, &["status"]));
-    assert!(status.starts_with("fit: setting.skip_start_s changed: 0.0 -> 0.1\n"), "{status}");
+    assert!(
+        status.starts_with("fit: setting.skip_start_s changed: 0.0 -> 0.1\n"),
+        "{status}"
+    );
     assert_eq!(status.lines().count(), 4, "{status}");
     assert_eq!(ran(&ok(dir, &["build"])), 4);
     // A new vehicle mass reruns the fits (fit, compare, cylinder, and what reads them: a fit's key holds the
@@ -110,7 +155,10 @@ fn an_edited_case_names_the_file_that_changed() {
     let text = std::fs::read_to_string(&f).unwrap();
     std::fs::write(&f, text.replacen("\n", "\n\n", 1)).unwrap();
     let status = stdout(&run(dir, &["status"]));
-    assert!(status.starts_with("cfd[sway_10N]: input cases/cfd/starccm/sway_10N.csv changed (blake3 "), "{status}");
+    assert!(
+        status.starts_with("cfd[sway_10N]: input cases/cfd/starccm/sway_10N.csv changed (blake3 "),
+        "{status}"
+    );
 }
 
 #[test]
@@ -119,18 +167,33 @@ fn provenance_traces_a_parameter_to_its_files() {
     let dir = p.path();
     let before = run(dir, &["provenance", "X_uu"]);
     assert!(!before.status.success());
-    assert!(stderr(&before).contains("run `hydrofit build` first"), "{}", stderr(&before));
+    assert!(
+        stderr(&before).contains("run `hydrofit build` first"),
+        "{}",
+        stderr(&before)
+    );
     ok(dir, &["build"]);
     let out = stdout(&run(dir, &["provenance", "X_uu"]));
     // The vehicle's X_uu (and the OpenFOAM cylinder's, under stage cylinder).
     assert!(out.lines().any(|l| l.starts_with("X_uu = -4")), "{out}");
-    assert!(out.contains("<- stage cylinder (kind fit") && out.contains("cylinder_2N/constant/dynamicMeshDict blake3 "), "{out}");
+    assert!(
+        out.contains("<- stage cylinder (kind fit")
+            && out.contains("cylinder_2N/constant/dynamicMeshDict blake3 "),
+        "{out}"
+    );
     assert!(out.contains("<- stage fit (kind fit, key "), "{out}");
     let h = hydrofit::fsutil::hash_file(&dir.join("cases/cfd/starccm/surge_100N.csv")).unwrap();
     assert!(out.contains(&"cfd[surge_100N] (key ".to_string()), "{out}");
-    assert!(out.contains(&format!("<- cases/cfd/starccm/surge_100N.csv blake3 {h}")), "{out}");
+    assert!(
+        out.contains(&format!("<- cases/cfd/starccm/surge_100N.csv blake3 {h}")),
+        "{out}"
+    );
     let typo = run(dir, &["provenance", "X_uuu"]);
-    assert!(stderr(&typo).contains("did you mean X_uu?"), "{}", stderr(&typo));
+    assert!(
+        stderr(&typo).contains("did you mean X_uu?"),
+        "{}",
+        stderr(&typo)
+    );
 }
 
 #[test]
@@ -139,9 +202,15 @@ fn graph_and_clean() {
     let dir = p.path();
     let text = stdout(&run(dir, &["graph"]));
     assert!(text.contains("fit (fit) <- cfd["), "{text}");
-    assert!(text.contains("cfd[surge_2N] (starccm) <- cases/cfd/starccm/surge_2N.csv"), "{text}");
+    assert!(
+        text.contains("cfd[surge_2N] (starccm) <- cases/cfd/starccm/surge_2N.csv"),
+        "{text}"
+    );
     let dot = stdout(&run(dir, &["graph", "--dot"]));
-    assert!(dot.starts_with("digraph hydrofit {") && dot.contains("\"fit\" -> \"report\";"), "{dot}");
+    assert!(
+        dot.starts_with("digraph hydrofit {") && dot.contains("\"fit\" -> \"report\";"),
+        "{dot}"
+    );
     ok(dir, &["build"]);
     ok(dir, &["clean"]);
     assert!(!dir.join(".hydrofit").exists());
@@ -156,5 +225,9 @@ fn only_the_named_stage_and_its_upstream_are_built() {
     let out = ok(dir, &["build", "cfd[surge_10N]"]);
     assert_eq!(ran(&out), 1, "{out}");
     let bad = run(dir, &["build", "fti"]);
-    assert!(stderr(&bad).contains("did you mean `fit`?"), "{}", stderr(&bad));
+    assert!(
+        stderr(&bad).contains("did you mean `fit`?"),
+        "{}",
+        stderr(&bad)
+    );
 }

@@ -2,8 +2,8 @@
 //! per second and the work per evaluation, so the figure can be set against the machine's
 //! compute bound and against the same algorithm in Python (bench/qpso_compare.py).
 
-use crate::estimate::swarm::{Norm, Problem, Qpso, Solver};
 use crate::estimate::Regression;
+use crate::estimate::swarm::{Norm, Problem, Qpso, Solver};
 use crate::model::{Hydro, Vehicle};
 use crate::rng::Rng;
 use rayon::prelude::*;
@@ -24,8 +24,14 @@ pub fn seed_001_problem(rows: usize) -> Regression {
     while n < rows {
         for c in &cases {
             let text = crate::twin::cfd::export(&vehicle, Hydro::reference(), c, seed);
-            let opts = crate::io::starccm::ImportOptions { columns: &Default::default(), dofs: &vehicle.dofs, configured_force: Default::default() };
-            let r = crate::io::starccm::parse("twin.csv", &text, &opts).expect("the twin writes valid exports").response;
+            let opts = crate::io::starccm::ImportOptions {
+                columns: &Default::default(),
+                dofs: &vehicle.dofs,
+                configured_force: Default::default(),
+            };
+            let r = crate::io::starccm::parse("twin.csv", &text, &opts)
+                .expect("the twin writes valid exports")
+                .response;
             n += r.len() * r.dofs.len();
             responses.push(r);
         }
@@ -40,7 +46,13 @@ pub fn seed_001_problem(rows: usize) -> Regression {
     reg
 }
 
-pub fn run(norm: &str, objective: &str, population: usize, iterations: usize, export: Option<&Path>) -> anyhow::Result<ExitCode> {
+pub fn run(
+    norm: &str,
+    objective: &str,
+    population: usize,
+    iterations: usize,
+    export: Option<&Path>,
+) -> anyhow::Result<ExitCode> {
     let norm = match norm {
         "l1" => Norm::L1,
         "l2" => Norm::L2,
@@ -57,7 +69,14 @@ pub fn run(norm: &str, objective: &str, population: usize, iterations: usize, ex
     let problem = Problem::new(&reg, &Vehicle::reference().rigid_mass(), norm);
     if let Some(path) = export {
         let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
-        for v in [k as f64, p as f64].iter().chain(&reg.phi).chain(&reg.y).chain(problem.weights()).chain(&problem.lo).chain(&problem.hi) {
+        for v in [k as f64, p as f64]
+            .iter()
+            .chain(&reg.phi)
+            .chain(&reg.y)
+            .chain(problem.weights())
+            .chain(&problem.lo)
+            .chain(&problem.hi)
+        {
             f.write_all(&v.to_le_bytes())?;
         }
         f.flush()?;
@@ -68,7 +87,12 @@ pub fn run(norm: &str, objective: &str, population: usize, iterations: usize, ex
     let start = std::time::Instant::now();
     let mut swarm = solver.init(&problem, &mut rng, population);
     for it in 0..iterations {
-        solver.step(&problem, &mut swarm, &mut rng, it as f64 / iterations as f64);
+        solver.step(
+            &problem,
+            &mut swarm,
+            &mut rng,
+            it as f64 / iterations as f64,
+        );
     }
     let secs = start.elapsed().as_secs_f64();
     let evals = problem.evaluations();
@@ -86,7 +110,11 @@ pub fn run(norm: &str, objective: &str, population: usize, iterations: usize, ex
         rayon::current_num_threads()
     );
     println!("  {evals} evaluations in {secs:.3} s = {rate:.0} evaluations/s");
-    println!("  per evaluation: {flops} flops, {bytes} bytes read -> {:.2} GFLOP/s, {:.2} GB/s", rate * flops as f64 / 1e9, rate * bytes as f64 / 1e9);
+    println!(
+        "  per evaluation: {flops} flops, {bytes} bytes read -> {:.2} GFLOP/s, {:.2} GB/s",
+        rate * flops as f64 / 1e9,
+        rate * bytes as f64 / 1e9
+    );
     // The objective alone: the final swarm evaluated repeatedly (no solver bookkeeping), the
     // best of five batches, as the bound below is.
     let reps = match norm {
@@ -113,12 +141,27 @@ pub fn run(norm: &str, objective: &str, population: usize, iterations: usize, ex
 }
 
 /// QPSO with the simulator in the loop on the 33 twin CFD cases (seed 1, as shipped).
-fn output_error(population: usize, iterations: usize, export: Option<&Path>) -> anyhow::Result<ExitCode> {
+fn output_error(
+    population: usize,
+    iterations: usize,
+    export: Option<&Path>,
+) -> anyhow::Result<ExitCode> {
     let vehicle = Vehicle::reference();
-    let opts = crate::io::starccm::ImportOptions { columns: &Default::default(), dofs: &vehicle.dofs, configured_force: Default::default() };
+    let opts = crate::io::starccm::ImportOptions {
+        columns: &Default::default(),
+        dofs: &vehicle.dofs,
+        configured_force: Default::default(),
+    };
     let responses: Vec<_> = crate::twin::cfd::default_cases()
         .iter()
-        .map(|c| crate::io::starccm::parse("twin.csv", &crate::twin::cfd::export(&vehicle, Hydro::reference(), c, 1), &opts).map(|i| i.response))
+        .map(|c| {
+            crate::io::starccm::parse(
+                "twin.csv",
+                &crate::twin::cfd::export(&vehicle, Hydro::reference(), c, 1),
+                &opts,
+            )
+            .map(|i| i.response)
+        })
         .collect::<Result<_, _>>()?;
     let refs: Vec<_> = responses.iter().collect();
     let reg = Regression::build(&vehicle, &refs, 0.0);
@@ -159,12 +202,25 @@ fn output_error(population: usize, iterations: usize, export: Option<&Path>) -> 
     let start = std::time::Instant::now();
     let mut swarm = solver.init(&problem, &mut rng, population);
     for it in 0..iterations {
-        solver.step(&problem, &mut swarm, &mut rng, it as f64 / iterations as f64);
+        solver.step(
+            &problem,
+            &mut swarm,
+            &mut rng,
+            it as f64 / iterations as f64,
+        );
     }
     let secs = start.elapsed().as_secs_f64();
     let evals = problem.evaluations();
-    println!("qpso output error: {} cases, {samples} samples (RK4, h <= 0.01 s), population {population}, {iterations} iterations, {} threads", refs.len(), rayon::current_num_threads());
-    println!("  {evals} evaluations in {secs:.3} s = {:.1} evaluations/s ({:.2} ms each)", evals as f64 / secs, 1e3 * secs / evals as f64);
+    println!(
+        "qpso output error: {} cases, {samples} samples (RK4, h <= 0.01 s), population {population}, {iterations} iterations, {} threads",
+        refs.len(),
+        rayon::current_num_threads()
+    );
+    println!(
+        "  {evals} evaluations in {secs:.3} s = {:.1} evaluations/s ({:.2} ms each)",
+        evals as f64 / secs,
+        1e3 * secs / evals as f64
+    );
     println!("  best cost {:.6e}", swarm.best_cost[swarm.g]);
     Ok(ExitCode::SUCCESS)
 }
@@ -201,11 +257,15 @@ pub fn fma_peak() -> f64 {
     let pick = || -> (usize, fn(usize) -> f64) {
         #[cfg(target_arch = "x86_64")]
         {
-            if std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("fma") {
+            if std::arch::is_x86_feature_detected!("avx512f")
+                && std::arch::is_x86_feature_detected!("fma")
+            {
                 // SAFETY: features checked just above.
                 return (8, |n| unsafe { chains512(n) });
             }
-            if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+            if std::arch::is_x86_feature_detected!("avx2")
+                && std::arch::is_x86_feature_detected!("fma")
+            {
                 // SAFETY: features checked just above.
                 return (4, |n| unsafe { chains256(n) });
             }
@@ -241,7 +301,11 @@ fn field_specs(n: usize) -> Vec<crate::twin::field::RunSpec> {
         .map(|i| {
             let mut r = flights[i % flights.len()].clone();
             r.name = format!("{}_{i:02}", r.name);
-            r.role = if i % 4 == 3 { "validate".into() } else { "train".into() };
+            r.role = if i % 4 == 3 {
+                "validate".into()
+            } else {
+                "train".into()
+            };
             r.duration_s = 60.0;
             r
         })
@@ -255,7 +319,13 @@ fn diagnosis() -> anyhow::Result<ExitCode> {
     let tmp = tempfile::tempdir()?;
     let specs = field_specs(16);
     let hidden = crate::twin::field::Hidden::default();
-    crate::twin::field::write_runs(&tmp.path().join("cases/pool"), &tmp.path().join("truth"), &specs, &hidden, 1)?;
+    crate::twin::field::write_runs(
+        &tmp.path().join("cases/pool"),
+        &tmp.path().join("truth"),
+        &specs,
+        &hidden,
+        1,
+    )?;
     let mut vehicle = crate::twin::field::vehicle();
     vehicle.command_limits = [
         (crate::dof::Dof::Surge, hidden.limits[0]),
@@ -267,19 +337,38 @@ fn diagnosis() -> anyhow::Result<ExitCode> {
     .collect();
     let fused: Vec<crate::stage::pool::FusedRun> = specs
         .par_iter()
-        .map(|spec| crate::diagnose::scenario::fuse_folder(tmp.path(), &spec.name).map(|r| r.clip_to(&vehicle)))
+        .map(|spec| {
+            crate::diagnose::scenario::fuse_folder(tmp.path(), &spec.name)
+                .map(|r| r.clip_to(&vehicle))
+        })
         .collect::<anyhow::Result<_>>()?;
-    let train: Vec<crate::io::Response> = fused.iter().filter(|r| r.meta.role == crate::io::pool::Role::Train).filter_map(|r| r.as_response(&vehicle)).collect();
+    let train: Vec<crate::io::Response> = fused
+        .iter()
+        .filter(|r| r.meta.role == crate::io::pool::Role::Train)
+        .filter_map(|r| r.as_response(&vehicle))
+        .collect();
     let refs: Vec<&crate::io::Response> = train.iter().collect();
-    let fit = crate::estimate::ols::Ols.fit(&Regression::build(&vehicle, &refs, 0.0), &Default::default())?;
+    let fit = crate::estimate::ols::Ols.fit(
+        &Regression::build(&vehicle, &refs, 0.0),
+        &Default::default(),
+    )?;
     let theta: Vec<f64> = fit.parameters.iter().map(|p| p.value).collect();
-    let plant = crate::model::Plant::new(&vehicle, crate::model::ParamLayout::of(&vehicle).to_hydro(&theta));
-    let crit = crate::diagnose::Criteria { horizon_s: crate::model::stability::Horizon::Auto, ..Default::default() };
+    let plant = crate::model::Plant::new(
+        &vehicle,
+        crate::model::ParamLayout::of(&vehicle).to_hydro(&theta),
+    );
+    let crit = crate::diagnose::Criteria {
+        horizon_s: crate::model::stability::Horizon::Auto,
+        ..Default::default()
+    };
     let start = std::time::Instant::now();
     let (d, _) = crate::stage::diagnose::diagnose(&vehicle, "fit", &plant, &fused, &crit, &|_| {})?;
     let secs = start.elapsed().as_secs_f64();
     let names: Vec<&str> = d.effects.iter().map(|e| e.name.as_str()).collect();
-    println!("diagnosis: 16 one-minute field-twin runs (12 train, 4 held out), {} threads", rayon::current_num_threads());
+    println!(
+        "diagnosis: 16 one-minute field-twin runs (12 train, 4 held out), {} threads",
+        rayon::current_num_threads()
+    );
     println!("  {secs:.2} s (target: under 10 s on 2 cores); named {names:?}");
     Ok(ExitCode::SUCCESS)
 }

@@ -1,13 +1,18 @@
 //! `hydrofit build`: take the lock, recover from any killed build, run what is stale.
 
 use crate::pipeline::executor::{self, Options};
-use crate::pipeline::{lock, Plan, STATE_DIR};
+use crate::pipeline::{Plan, STATE_DIR, lock};
 use crate::progress::Progress;
 use std::path::Path;
 use std::process::ExitCode;
 use std::time::Instant;
 
-pub fn run(root: &Path, targets: Vec<String>, jobs: Option<usize>, explain: bool) -> anyhow::Result<ExitCode> {
+pub fn run(
+    root: &Path,
+    targets: Vec<String>,
+    jobs: Option<usize>,
+    explain: bool,
+) -> anyhow::Result<ExitCode> {
     let start = Instant::now();
     let _lock = lock::acquire(&root.join(STATE_DIR), |holder| {
         eprintln!("hydrofit: waiting for another build of this project to finish ({holder})");
@@ -18,28 +23,53 @@ pub fn run(root: &Path, targets: Vec<String>, jobs: Option<usize>, explain: bool
     let jobs = jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     let progress = Progress::new();
     crate::interrupt::install();
-    let s = executor::build(&plan, &Options { targets, jobs, explain }, &progress)?;
+    let s = executor::build(
+        &plan,
+        &Options {
+            targets,
+            jobs,
+            explain,
+        },
+        &progress,
+    )?;
     let secs = start.elapsed().as_secs_f64();
     for p in &s.published {
         progress.println(format!("wrote {p}"));
     }
     if s.interrupted {
-        eprintln!("hydrofit: interrupted: {} ran and are cached, the rest will run next time ({secs:.2} s)", s.ran.len());
+        eprintln!(
+            "hydrofit: interrupted: {} ran and are cached, the rest will run next time ({secs:.2} s)",
+            s.ran.len()
+        );
         return Ok(ExitCode::from(130));
     }
     if !s.failed.is_empty() {
         let names: Vec<&str> = s.failed.iter().map(|(id, _)| id.as_str()).collect();
         let mut line = format!("hydrofit: {} failed: {}", names.len(), names.join(", "));
         if !s.skipped.is_empty() {
-            line += &format!("; not run because they depend on it: {}", s.skipped.join(", "));
+            line += &format!(
+                "; not run because they depend on it: {}",
+                s.skipped.join(", ")
+            );
         }
-        eprintln!("{line} ({} ran, {} up to date, {secs:.2} s)", s.ran.len(), s.up_to_date);
+        eprintln!(
+            "{line} ({} ran, {} up to date, {secs:.2} s)",
+            s.ran.len(),
+            s.up_to_date
+        );
         return Ok(ExitCode::from(1));
     }
     if s.ran.is_empty() {
-        eprintln!("hydrofit: up to date ({} stage instances, {secs:.3} s)", s.up_to_date);
+        eprintln!(
+            "hydrofit: up to date ({} stage instances, {secs:.3} s)",
+            s.up_to_date
+        );
     } else {
-        eprintln!("hydrofit: ran {}, {} up to date ({secs:.2} s)", s.ran.len(), s.up_to_date);
+        eprintln!(
+            "hydrofit: ran {}, {} up to date ({secs:.2} s)",
+            s.ran.len(),
+            s.up_to_date
+        );
     }
     Ok(ExitCode::SUCCESS)
 }

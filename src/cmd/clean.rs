@@ -1,16 +1,25 @@
 //! `hydrofit clean`: remove the cache and the report files a build published.
 
-use crate::pipeline::{lock, Plan, STATE_DIR};
+use crate::pipeline::{Plan, STATE_DIR, lock};
 use std::path::Path;
 use std::process::ExitCode;
 
 pub fn run(root: &Path) -> anyhow::Result<ExitCode> {
     let state = root.join(STATE_DIR);
     {
-        let _lock = lock::acquire(&state, |holder| eprintln!("hydrofit: waiting for a build to finish ({holder})"))?;
+        let _lock = lock::acquire(&state, |holder| {
+            eprintln!("hydrofit: waiting for a build to finish ({holder})")
+        })?;
         // Published files are those of report stages; other files in reports/ are the user's.
         let published: Vec<String> = match Plan::load(root) {
-            Ok(plan) => plan.graph.spec.stages.iter().filter_map(|s| s.kind.publishes_to).map(String::from).collect(),
+            Ok(plan) => plan
+                .graph
+                .spec
+                .stages
+                .iter()
+                .filter_map(|s| s.kind.publishes_to)
+                .map(String::from)
+                .collect(),
             Err(_) => vec!["reports".into()],
         };
         for dir in published {
@@ -25,7 +34,11 @@ pub fn run(root: &Path) -> anyhow::Result<ExitCode> {
         for entry in std::fs::read_dir(&state)? {
             let p = entry?.path();
             if p.file_name().is_some_and(|n| n != "lock") {
-                if p.is_dir() { std::fs::remove_dir_all(&p)? } else { std::fs::remove_file(&p)? }
+                if p.is_dir() {
+                    std::fs::remove_dir_all(&p)?
+                } else {
+                    std::fs::remove_file(&p)?
+                }
             }
         }
     }

@@ -8,9 +8,16 @@ pub fn run(root: &Path, dot: bool) -> anyhow::Result<ExitCode> {
     let plan = Plan::load(root)?;
     let g = &plan.graph;
     if dot {
-        crate::outln!("digraph hydrofit {{\n  rankdir=LR;\n  node [shape=box, fontname=\"sans-serif\"];");
+        crate::outln!(
+            "digraph hydrofit {{\n  rankdir=LR;\n  node [shape=box, fontname=\"sans-serif\"];"
+        );
         for (i, inst) in g.instances.iter().enumerate() {
-            crate::outln!("  \"{}\" [label=\"{}\\n({})\"];", inst.id, inst.id, g.stage_of(i).kind.name);
+            crate::outln!(
+                "  \"{}\" [label=\"{}\\n({})\"];",
+                inst.id,
+                inst.id,
+                g.stage_of(i).kind.name
+            );
             for f in &inst.inputs {
                 crate::outln!("  \"{f}\" [shape=note];\n  \"{f}\" -> \"{}\";", inst.id);
             }
@@ -22,8 +29,22 @@ pub fn run(root: &Path, dot: bool) -> anyhow::Result<ExitCode> {
         return Ok(ExitCode::SUCCESS);
     }
     for (i, inst) in g.instances.iter().enumerate() {
-        let from: Vec<String> = inst.inputs.iter().cloned().chain(inst.deps.iter().map(|&d| g.instances[d].id.clone())).collect();
-        crate::outln!("{} ({}) <- {}", inst.id, g.stage_of(i).kind.name, if from.is_empty() { "-".into() } else { from.join(", ") });
+        let from: Vec<String> = inst
+            .inputs
+            .iter()
+            .cloned()
+            .chain(inst.deps.iter().map(|&d| g.instances[d].id.clone()))
+            .collect();
+        crate::outln!(
+            "{} ({}) <- {}",
+            inst.id,
+            g.stage_of(i).kind.name,
+            if from.is_empty() {
+                "-".into()
+            } else {
+                from.join(", ")
+            }
+        );
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -1,7 +1,7 @@
 //! `hydrofit provenance NAME`: value <- fit stage, method, settings <- imported cases <- files.
 
-use crate::pipeline::{explain, Plan};
-use crate::stage::{fit, Artifact};
+use crate::pipeline::{Plan, explain};
+use crate::stage::{Artifact, fit};
 use std::path::Path;
 use std::process::ExitCode;
 
@@ -13,26 +13,61 @@ pub fn run(root: &Path, name: &str) -> anyhow::Result<ExitCode> {
     let plan = Plan::load(root)?;
     let cache = plan.cache();
     let g = &plan.graph;
-    let models: Vec<usize> = (0..g.instances.len()).filter(|&i| g.stage_of(i).kind.produces == Artifact::Model).collect();
+    let models: Vec<usize> = (0..g.instances.len())
+        .filter(|&i| g.stage_of(i).kind.produces == Artifact::Model)
+        .collect();
     let mut known = Vec::new();
     let mut found = false;
     for &i in &models {
         let inst = &g.instances[i];
         if !cache.has(&plan.keys[i]) {
             let why = explain::reasons(cache.records().get(&inst.id), &plan.fields[i]);
-            anyhow::bail!("stage {} is out of date ({}); run `hydrofit build` first", inst.id, why.join("; "));
+            anyhow::bail!(
+                "stage {} is out of date ({}); run `hydrofit build` first",
+                inst.id,
+                why.join("; ")
+            );
         }
         let r = fit::load(&cache.object(&plan.keys[i]))?;
         known.extend(r.fit.parameters.iter().map(|p| p.name.clone()));
-        let Some(p) = r.fit.parameters.iter().find(|p| p.name == name) else { continue };
+        let Some(p) = r.fit.parameters.iter().find(|p| p.name == name) else {
+            continue;
+        };
         found = true;
-        crate::outln!("{} = {} ± {} {}{}", p.name, p.value, p.stderr, p.unit, if p.identifiable { "" } else { "  (not identifiable from these cases)" });
-        crate::outln!("  <- stage {} (kind {}, key {}), method {}, settings {}", inst.id, g.stage_of(i).kind.name, short(&plan.keys[i]), r.method, r.settings);
+        crate::outln!(
+            "{} = {} ± {} {}{}",
+            p.name,
+            p.value,
+            p.stderr,
+            p.unit,
+            if p.identifiable {
+                ""
+            } else {
+                "  (not identifiable from these cases)"
+            }
+        );
+        crate::outln!(
+            "  <- stage {} (kind {}, key {}), method {}, settings {}",
+            inst.id,
+            g.stage_of(i).kind.name,
+            short(&plan.keys[i]),
+            r.method,
+            r.settings
+        );
         crate::outln!("  <- {} imported cases:", r.cases.len());
         for c in &r.cases {
-            let key = g.instances.iter().position(|x| x.id == c.id).map_or("?", |j| short(&plan.keys[j]));
+            let key = g
+                .instances
+                .iter()
+                .position(|x| x.id == c.id)
+                .map_or("?", |j| short(&plan.keys[j]));
             if c.inputs.is_empty() {
-                crate::outln!("       {} (key {key}) <- {} blake3 {}", c.id, c.source.path, c.source.blake3);
+                crate::outln!(
+                    "       {} (key {key}) <- {} blake3 {}",
+                    c.id,
+                    c.source.path,
+                    c.source.blake3
+                );
             } else {
                 crate::outln!("       {} (key {key}) <- {} files:", c.id, c.inputs.len());
                 for f in &c.inputs {
@@ -42,8 +77,12 @@ pub fn run(root: &Path, name: &str) -> anyhow::Result<ExitCode> {
         }
     }
     if !found {
-        let hint = crate::diag::nearest(name, known.iter().map(|s| s.as_str())).map_or(String::new(), |s| format!(" (did you mean {s}?)"));
-        anyhow::bail!("no identified parameter named {name}{hint}; parameters: {}", known.join(", "));
+        let hint = crate::diag::nearest(name, known.iter().map(|s| s.as_str()))
+            .map_or(String::new(), |s| format!(" (did you mean {s}?)"));
+        anyhow::bail!(
+            "no identified parameter named {name}{hint}; parameters: {}",
+            known.join(", ")
+        );
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -1,6 +1,6 @@
 //! `hydrofit status`: what a build would run, and why; `up to date` when nothing.
 
-use crate::pipeline::{explain, Plan};
+use crate::pipeline::{Plan, explain};
 use std::path::Path;
 use std::process::ExitCode;
 

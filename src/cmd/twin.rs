@@ -5,21 +5,45 @@ use std::path::Path;
 use std::process::ExitCode;
 
 pub fn starccm(root: &Path, out: &Path, seed: u64) -> anyhow::Result<ExitCode> {
-    let dir = if out.is_absolute() { out.to_path_buf() } else { root.join(out) };
+    let dir = if out.is_absolute() {
+        out.to_path_buf()
+    } else {
+        root.join(out)
+    };
     let cases = twin::cfd::default_cases();
     let written = twin::cfd::write_cases(&dir, &cases, seed)?;
-    eprintln!("hydrofit: wrote {} STAR-CCM+ exports of the reference vehicle to {} (seed {seed})", written.len(), dir.display());
+    eprintln!(
+        "hydrofit: wrote {} STAR-CCM+ exports of the reference vehicle to {} (seed {seed})",
+        written.len(),
+        dir.display()
+    );
     Ok(ExitCode::SUCCESS)
 }
 
-pub fn pool(root: &Path, out: &Path, truth: &Path, seed: u64, effects: &[String]) -> anyhow::Result<ExitCode> {
-    let abs = |p: &Path| if p.is_absolute() { p.to_path_buf() } else { root.join(p) };
+pub fn pool(
+    root: &Path,
+    out: &Path,
+    truth: &Path,
+    seed: u64,
+    effects: &[String],
+) -> anyhow::Result<ExitCode> {
+    let abs = |p: &Path| {
+        if p.is_absolute() {
+            p.to_path_buf()
+        } else {
+            root.join(p)
+        }
+    };
     let effects = if effects.is_empty() {
         twin::pool::default_effects()
     } else if effects.iter().any(|e| e == "none") {
         Vec::new()
     } else {
-        effects.iter().map(|e| crate::model::effects::Effect::from_arg(e)).collect::<Result<Vec<_>, _>>().map_err(anyhow::Error::msg)?
+        effects
+            .iter()
+            .map(|e| crate::model::effects::Effect::from_arg(e))
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(anyhow::Error::msg)?
     };
     let runs = twin::pool::default_runs();
     let written = twin::pool::write_runs(&abs(out), &abs(truth), &runs, &effects, seed)?;
@@ -29,16 +53,37 @@ pub fn pool(root: &Path, out: &Path, truth: &Path, seed: u64, effects: &[String]
         written.len(),
         abs(out).display(),
         abs(truth).display(),
-        if names.is_empty() { "nothing".into() } else { names.join(", ") }
+        if names.is_empty() {
+            "nothing".into()
+        } else {
+            names.join(", ")
+        }
     );
     Ok(ExitCode::SUCCESS)
 }
 
 pub fn field(root: &Path, out: &Path, truth: &Path, seed: u64) -> anyhow::Result<ExitCode> {
-    let abs = |p: &Path| if p.is_absolute() { p.to_path_buf() } else { root.join(p) };
+    let abs = |p: &Path| {
+        if p.is_absolute() {
+            p.to_path_buf()
+        } else {
+            root.join(p)
+        }
+    };
     let hidden = twin::field::Hidden::default();
-    let written = twin::field::write_runs(&abs(out), &abs(truth), &twin::field::default_runs(), &hidden, seed)?;
-    eprintln!("hydrofit: wrote {} field runs to {} and their truth to {} (seed {seed})", written.len(), abs(out).display(), abs(truth).display());
+    let written = twin::field::write_runs(
+        &abs(out),
+        &abs(truth),
+        &twin::field::default_runs(),
+        &hidden,
+        seed,
+    )?;
+    eprintln!(
+        "hydrofit: wrote {} field runs to {} and their truth to {} (seed {seed})",
+        written.len(),
+        abs(out).display(),
+        abs(truth).display()
+    );
     Ok(ExitCode::SUCCESS)
 }
 
@@ -62,11 +107,23 @@ pub fn check_diagnosis(seeds: &[u64]) -> anyhow::Result<ExitCode> {
     let mut scenarios: Vec<Vec<Effect>> = vec![vec![]];
     for (name, mags) in singles {
         for m in mags {
-            scenarios.push(vec![Effect::from_arg(&format!("{name}={m}")).map_err(anyhow::Error::msg)?]);
+            scenarios.push(vec![
+                Effect::from_arg(&format!("{name}={m}")).map_err(anyhow::Error::msg)?,
+            ]);
         }
     }
-    for pair in [["thruster_lag=0.35", "tether_drag=1.2"], ["net_buoyancy=10", "sensor_delay=0.2"], ["water_current=0.12", "coupled_drag=60"], ["reverse_thrust_loss=0.3", "wall_effect=200"]] {
-        scenarios.push(pair.iter().map(|a| Effect::from_arg(a)).collect::<Result<_, _>>().map_err(anyhow::Error::msg)?);
+    for pair in [
+        ["thruster_lag=0.35", "tether_drag=1.2"],
+        ["net_buoyancy=10", "sensor_delay=0.2"],
+        ["water_current=0.12", "coupled_drag=60"],
+        ["reverse_thrust_loss=0.3", "wall_effect=200"],
+    ] {
+        scenarios.push(
+            pair.iter()
+                .map(|a| Effect::from_arg(a))
+                .collect::<Result<_, _>>()
+                .map_err(anyhow::Error::msg)?,
+        );
     }
     let vehicle = crate::model::Vehicle::reference();
     let plant = scenario::cfd_fit_plant(1)?;
@@ -79,7 +136,14 @@ pub fn check_diagnosis(seeds: &[u64]) -> anyhow::Result<ExitCode> {
         for effects in &scenarios {
             let fused = scenario::fused_runs(effects, seed)?;
             let t = std::time::Instant::now();
-            let (d, _) = crate::stage::diagnose::diagnose(&vehicle, "fit", &plant, &fused, &Default::default(), &|_| {})?;
+            let (d, _) = crate::stage::diagnose::diagnose(
+                &vehicle,
+                "fit",
+                &plant,
+                &fused,
+                &Default::default(),
+                &|_| {},
+            )?;
             worst_s = worst_s.max(t.elapsed().as_secs_f64());
             let named: Vec<&str> = d.effects.iter().map(|e| e.name.as_str()).collect();
             let truth: Vec<&str> = effects.iter().map(|e| e.name()).collect();
@@ -89,7 +153,11 @@ pub fn check_diagnosis(seeds: &[u64]) -> anyhow::Result<ExitCode> {
             }
             for (i, tn) in truth.iter().enumerate() {
                 // Each concealed effect counts once: named anywhere, else what took its place.
-                let col = if named.contains(tn) { row(tn) } else { named.get(i).map_or(0, |n| row(n)) };
+                let col = if named.contains(tn) {
+                    row(tn)
+                } else {
+                    named.get(i).map_or(0, |n| row(n))
+                };
                 table[row(tn)][col] += 1;
             }
             let ok = {
@@ -101,20 +169,41 @@ pub fn check_diagnosis(seeds: &[u64]) -> anyhow::Result<ExitCode> {
             };
             right += usize::from(ok);
             total += 1;
-            let params: Vec<String> = d.effects.iter().map(|e| format!("{} {:?}", e.name, e.parameters.values().map(|v| (v * 1000.0).round() / 1000.0).collect::<Vec<_>>())).collect();
+            let params: Vec<String> = d
+                .effects
+                .iter()
+                .map(|e| {
+                    format!(
+                        "{} {:?}",
+                        e.name,
+                        e.parameters
+                            .values()
+                            .map(|v| (v * 1000.0).round() / 1000.0)
+                            .collect::<Vec<_>>()
+                    )
+                })
+                .collect();
             println!(
                 "seed {seed} concealed [{}] named [{}] {} held-out cost {:.4} -> {:.4} (noise {:.4}) {:.1} s",
-                effects.iter().map(|e| format!("{e:?}")).collect::<Vec<_>>().join(", "),
+                effects
+                    .iter()
+                    .map(|e| format!("{e:?}"))
+                    .collect::<Vec<_>>()
+                    .join(", "),
                 params.join("; "),
                 if ok { "ok" } else { "WRONG" },
                 d.baseline.validation_cost,
-                d.effects.last().map_or(d.baseline.validation_cost, |e| e.validation_cost_after),
+                d.effects
+                    .last()
+                    .map_or(d.baseline.validation_cost, |e| e.validation_cost_after),
                 d.baseline.noise_cost,
                 t.elapsed().as_secs_f64()
             );
         }
     }
-    println!("\nconfusion (rows: concealed, columns: named; pairs count each concealed effect once)");
+    println!(
+        "\nconfusion (rows: concealed, columns: named; pairs count each concealed effect once)"
+    );
     let short = |s: &str| s.chars().take(8).collect::<String>();
     print!("{:>20}", "");
     for l in &labels {
@@ -132,5 +221,9 @@ pub fn check_diagnosis(seeds: &[u64]) -> anyhow::Result<ExitCode> {
         println!();
     }
     println!("\n{right} of {total} scenarios exactly right; slowest diagnosis {worst_s:.1} s");
-    Ok(if right == total { ExitCode::SUCCESS } else { ExitCode::FAILURE })
+    Ok(if right == total {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
 }

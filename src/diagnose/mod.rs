@@ -24,14 +24,14 @@ mod select;
 mod tests;
 
 use crate::dof::Dof;
+use crate::fusion::run::FusedRun;
 use crate::model::effects::{Effect, Pool, State, WorldPlant};
 use crate::model::{Plant, Vec6};
-use crate::fusion::run::FusedRun;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
-pub use select::{params_map, select, untested, Criteria, Search, Tested, Untested};
+pub use select::{Criteria, Search, Tested, Untested, params_map, select, untested};
 
 /// The pool DOFs, in the order of the fused tables: surge, sway, heave, yaw.
 pub const DOFS: [Dof; 4] = [Dof::Surge, Dof::Sway, Dof::Heave, Dof::Yaw];
@@ -63,12 +63,36 @@ impl Run {
     /// None when a DOF was not fused (the run lacks a sensor it needs).
     pub fn from_fused(r: &FusedRun) -> Option<Run> {
         let validate = r.meta.role == crate::io::pool::Role::Validate;
-        Run::from_parts(&r.meta.run, validate, &r.thrust, &r.fused, r.meta.pool, r.meta.tether_anchor_m)
+        Run::from_parts(
+            &r.meta.run,
+            validate,
+            &r.thrust,
+            &r.fused,
+            r.meta.pool,
+            r.meta.tether_anchor_m,
+        )
     }
 
-    pub fn from_parts(name: &str, validate: bool, thrust: &[[f64; 4]], f: &crate::fusion::Fused, pool: Option<Pool>, anchor: Option<[f64; 3]>) -> Option<Run> {
-        let vel: [Vec<f64>; 4] = [f.vel[0].clone()?, f.vel[1].clone()?, f.vel[2].clone()?, f.vel[3].clone()?];
-        let std: [Vec<f64>; 4] = [f.std[0].clone()?, f.std[1].clone()?, f.std[2].clone()?, f.std[3].clone()?];
+    pub fn from_parts(
+        name: &str,
+        validate: bool,
+        thrust: &[[f64; 4]],
+        f: &crate::fusion::Fused,
+        pool: Option<Pool>,
+        anchor: Option<[f64; 3]>,
+    ) -> Option<Run> {
+        let vel: [Vec<f64>; 4] = [
+            f.vel[0].clone()?,
+            f.vel[1].clone()?,
+            f.vel[2].clone()?,
+            f.vel[3].clone()?,
+        ];
+        let std: [Vec<f64>; 4] = [
+            f.std[0].clone()?,
+            f.std[1].clone()?,
+            f.std[2].clone()?,
+            f.std[3].clone()?,
+        ];
         Some(Run {
             name: name.into(),
             validate,
@@ -86,13 +110,22 @@ impl Run {
 
     fn tether_length(&self, k: usize) -> Option<f64> {
         let a = self.anchor?;
-        Some(((self.pos[0][k] - a[0]).powi(2) + (self.pos[1][k] - a[1]).powi(2) + (self.pos[2][k] - a[2]).powi(2)).sqrt())
+        Some(
+            ((self.pos[0][k] - a[0]).powi(2)
+                + (self.pos[1][k] - a[1]).powi(2)
+                + (self.pos[2][k] - a[2]).powi(2))
+            .sqrt(),
+        )
     }
 
     fn wall_distance(&self, k: usize) -> Option<f64> {
         let p = self.pool?;
         let (x, y) = (self.pos[0][k], self.pos[1][k]);
-        Some([x, p.length_m - x, y, p.width_m - y].into_iter().fold(f64::INFINITY, f64::min))
+        Some(
+            [x, p.length_m - x, y, p.width_m - y]
+                .into_iter()
+                .fold(f64::INFINITY, f64::min),
+        )
     }
 }
 
@@ -127,14 +160,44 @@ pub struct Hypothesis {
 /// Every effect of FORMATS.md's table. Bounds are what a pool test can physically show: a few
 /// tens of newtons of net buoyancy, thruster time constants up to 1.5 s, currents below 0.5 m/s.
 pub static HYPOTHESES: &[Hypothesis] = &[
-    Hypothesis { name: "net_buoyancy", params: &[("force_n", -60.0, 60.0)], needs: Needs::Nothing, build: |p, a| a.effects.push(Effect::NetBuoyancy { force_n: p[0] }), main_dof: 2, regime: "heave" },
-    Hypothesis { name: "thruster_lag", params: &[("time_constant_s", 0.0, 1.5)], needs: Needs::Nothing, build: |p, a| a.effects.push(Effect::ThrusterLag { time_constant_s: p[0] }), main_dof: 0, regime: "after_command_step" },
-    Hypothesis { name: "reverse_thrust_loss", params: &[("loss", -0.5, 0.9)], needs: Needs::Nothing, build: |p, a| a.effects.push(Effect::ReverseThrustLoss { loss: p[0] }), main_dof: 0, regime: "reverse_command" },
+    Hypothesis {
+        name: "net_buoyancy",
+        params: &[("force_n", -60.0, 60.0)],
+        needs: Needs::Nothing,
+        build: |p, a| a.effects.push(Effect::NetBuoyancy { force_n: p[0] }),
+        main_dof: 2,
+        regime: "heave",
+    },
+    Hypothesis {
+        name: "thruster_lag",
+        params: &[("time_constant_s", 0.0, 1.5)],
+        needs: Needs::Nothing,
+        build: |p, a| {
+            a.effects.push(Effect::ThrusterLag {
+                time_constant_s: p[0],
+            })
+        },
+        main_dof: 0,
+        regime: "after_command_step",
+    },
+    Hypothesis {
+        name: "reverse_thrust_loss",
+        params: &[("loss", -0.5, 0.9)],
+        needs: Needs::Nothing,
+        build: |p, a| a.effects.push(Effect::ReverseThrustLoss { loss: p[0] }),
+        main_dof: 0,
+        regime: "reverse_command",
+    },
     Hypothesis {
         name: "thruster_deadband",
         params: &[("force_n", 0.0, 30.0), ("moment_nm", 0.0, 3.0)],
         needs: Needs::Nothing,
-        build: |p, a| a.effects.push(Effect::ThrusterDeadband { force_n: p[0], moment_nm: p[1] }),
+        build: |p, a| {
+            a.effects.push(Effect::ThrusterDeadband {
+                force_n: p[0],
+                moment_nm: p[1],
+            })
+        },
         main_dof: 0,
         regime: "small_command",
     },
@@ -142,7 +205,12 @@ pub static HYPOTHESES: &[Hypothesis] = &[
         name: "tether_drag",
         params: &[("coefficient", 0.0, 6.0), ("slack_m", 0.0, 10.0)],
         needs: Needs::Anchor,
-        build: |p, a| a.effects.push(Effect::TetherDrag { coefficient: p[0], slack_m: p[1] }),
+        build: |p, a| {
+            a.effects.push(Effect::TetherDrag {
+                coefficient: p[0],
+                slack_m: p[1],
+            })
+        },
         main_dof: 0,
         regime: "far_from_anchor",
     },
@@ -150,7 +218,11 @@ pub static HYPOTHESES: &[Hypothesis] = &[
         name: "water_current",
         params: &[("current_x_m_s", -0.5, 0.5), ("current_y_m_s", -0.5, 0.5)],
         needs: Needs::Nothing,
-        build: |p, a| a.effects.push(Effect::WaterCurrent { velocity_m_s: [p[0], p[1]] }),
+        build: |p, a| {
+            a.effects.push(Effect::WaterCurrent {
+                velocity_m_s: [p[0], p[1]],
+            })
+        },
         main_dof: 0,
         regime: "heading_pool_x",
     },
@@ -158,12 +230,31 @@ pub static HYPOTHESES: &[Hypothesis] = &[
         name: "wall_effect",
         params: &[("coefficient", 0.0, 1500.0), ("decay_m", 0.1, 3.0)],
         needs: Needs::Pool,
-        build: |p, a| a.effects.push(Effect::WallEffect { coefficient: p[0], decay_m: p[1] }),
+        build: |p, a| {
+            a.effects.push(Effect::WallEffect {
+                coefficient: p[0],
+                decay_m: p[1],
+            })
+        },
         main_dof: 0,
         regime: "near_wall",
     },
-    Hypothesis { name: "coupled_drag", params: &[("coefficient", -100.0, 300.0)], needs: Needs::Nothing, build: |p, a| a.effects.push(Effect::CoupledDrag { coefficient: p[0] }), main_dof: 1, regime: "cross_flow" },
-    Hypothesis { name: "sensor_delay", params: &[("delay_s", 0.0, 1.0)], needs: Needs::Nothing, build: |p, a| a.delay_s += p[0], main_dof: 0, regime: "after_command_step" },
+    Hypothesis {
+        name: "coupled_drag",
+        params: &[("coefficient", -100.0, 300.0)],
+        needs: Needs::Nothing,
+        build: |p, a| a.effects.push(Effect::CoupledDrag { coefficient: p[0] }),
+        main_dof: 1,
+        regime: "cross_flow",
+    },
+    Hypothesis {
+        name: "sensor_delay",
+        params: &[("delay_s", 0.0, 1.0)],
+        needs: Needs::Nothing,
+        build: |p, a| a.delay_s += p[0],
+        main_dof: 0,
+        regime: "after_command_step",
+    },
 ];
 
 pub fn hypothesis(name: &str) -> Option<&'static Hypothesis> {
@@ -194,11 +285,17 @@ pub fn simulate(plant: &Plant, aug: &Augmentation, run: &Run) -> Vec<[f64; 4]> {
 /// range a vehicle can reach (50 m/s or rad/s, or not finite), if it does: such a model is
 /// unsound, and no effect fitted on top of it means anything.
 pub fn divergence(plant: &Plant, run: &Run) -> Option<f64> {
-    simulate_checked(plant, &Augmentation::default(), run).1.map(|k| run.t[k])
+    simulate_checked(plant, &Augmentation::default(), run)
+        .1
+        .map(|k| run.t[k])
 }
 
 /// [`simulate`], and the sample after which it diverged.
-fn simulate_checked(plant: &Plant, aug: &Augmentation, run: &Run) -> (Vec<[f64; 4]>, Option<usize>) {
+fn simulate_checked(
+    plant: &Plant,
+    aug: &Augmentation,
+    run: &Run,
+) -> (Vec<[f64; 4]>, Option<usize>) {
     let mut w = WorldPlant::new(plant.clone());
     w.effects = aug.effects.clone();
     w.pool = run.pool;
@@ -214,8 +311,21 @@ fn simulate_checked(plant: &Plant, aug: &Augmentation, run: &Run) -> (Vec<[f64; 
     };
     // Where each sample's shifted time falls, located once for every series (without a delay,
     // the sample itself).
-    let loc: Vec<(usize, Option<f64>)> = if d == 0.0 { Vec::new() } else { run.t.iter().map(|&tk| crate::fusion::locate(&run.t, tk + d)).collect() };
-    let at = |series: &[f64], k: usize| if d == 0.0 { series[k] } else { crate::fusion::interp_at(series, loc[k]) };
+    let loc: Vec<(usize, Option<f64>)> = if d == 0.0 {
+        Vec::new()
+    } else {
+        run.t
+            .iter()
+            .map(|&tk| crate::fusion::locate(&run.t, tk + d))
+            .collect()
+    };
+    let at = |series: &[f64], k: usize| {
+        if d == 0.0 {
+            series[k]
+        } else {
+            crate::fusion::interp_at(series, loc[k])
+        }
+    };
     let mut s = State::default();
     for (j, &i) in NU.iter().enumerate() {
         s.nu[i] = at(&run.vel[j], 0);
@@ -252,7 +362,15 @@ fn simulate_checked(plant: &Plant, aug: &Augmentation, run: &Run) -> (Vec<[f64; 
         if s.nu.iter().any(|x| !x.is_finite() || x.abs() > 50.0) {
             // Diverged: hold the last finite state so the cost is large but finite.
             let last = out[k];
-            out.extend(std::iter::repeat_n([last[0] + 50.0, last[1] + 50.0, last[2] + 50.0, last[3] + 50.0], n - k - 1));
+            out.extend(std::iter::repeat_n(
+                [
+                    last[0] + 50.0,
+                    last[1] + 50.0,
+                    last[2] + 50.0,
+                    last[3] + 50.0,
+                ],
+                n - k - 1,
+            ));
             return (out, Some(k));
         }
     }
@@ -285,17 +403,39 @@ impl Sums {
     /// Below the threshold it is the mean squared error; a short burst far beyond it (a sensor
     /// glitch, a bump against the wall) counts linearly and cannot decide the ranking.
     pub fn cost(&self, scale: &[f64; 4]) -> f64 {
-        (0..4).map(|j| if self.n[j] > 0.0 { self.huber[j] / self.n[j] / scale[j] } else { 0.0 }).sum()
+        (0..4)
+            .map(|j| {
+                if self.n[j] > 0.0 {
+                    self.huber[j] / self.n[j] / scale[j]
+                } else {
+                    0.0
+                }
+            })
+            .sum()
     }
 
     /// The plain mean-square cost (what the noise floor is compared with).
     pub fn mse_cost(&self, scale: &[f64; 4]) -> f64 {
-        (0..4).map(|j| if self.n[j] > 0.0 { self.sse[j] / self.n[j] / scale[j] } else { 0.0 }).sum()
+        (0..4)
+            .map(|j| {
+                if self.n[j] > 0.0 {
+                    self.sse[j] / self.n[j] / scale[j]
+                } else {
+                    0.0
+                }
+            })
+            .sum()
     }
 
     /// Normalised MAE per DOF (seed 003): mean |error| / mean |measured|.
     pub fn nmae(&self) -> [f64; 4] {
-        std::array::from_fn(|j| if self.sam[j] > 0.0 { self.sae[j] / self.sam[j] } else { f64::NAN })
+        std::array::from_fn(|j| {
+            if self.sam[j] > 0.0 {
+                self.sae[j] / self.sam[j]
+            } else {
+                f64::NAN
+            }
+        })
     }
 }
 
@@ -305,7 +445,14 @@ impl Sums {
 /// noise and pass for an improvement). Samples before the simulation starts are NaN.
 pub fn residual(sim: &[[f64; 4]], run: &Run, delay: f64) -> [Vec<f64>; 4] {
     let start = *run.t.first().unwrap_or(&0.0);
-    let loc: Vec<(usize, Option<f64>)> = if delay == 0.0 { Vec::new() } else { run.t.iter().map(|&tk| crate::fusion::locate(&run.t, tk - delay)).collect() };
+    let loc: Vec<(usize, Option<f64>)> = if delay == 0.0 {
+        Vec::new()
+    } else {
+        run.t
+            .iter()
+            .map(|&tk| crate::fusion::locate(&run.t, tk - delay))
+            .collect()
+    };
     std::array::from_fn(|j| {
         let series: Vec<f64> = sim.iter().map(|x| x[j]).collect();
         (0..run.t.len())
@@ -332,7 +479,11 @@ pub fn sums(sim: &[[f64; 4]], run: &Run, delay: f64, delta: &[f64; 4]) -> Sums {
             if x.is_finite() {
                 s.sse[j] += x * x;
                 let a = x.abs();
-                s.huber[j] += if a <= delta[j] { x * x } else { delta[j] * (2.0 * a - delta[j]) };
+                s.huber[j] += if a <= delta[j] {
+                    x * x
+                } else {
+                    delta[j] * (2.0 * a - delta[j])
+                };
                 s.sae[j] += x.abs();
                 s.sam[j] += run.vel[j][k].abs();
                 s.n[j] += 1.0;
@@ -366,24 +517,46 @@ impl Data {
         }
         let all = || train.iter().chain(&validate);
         let scale: [f64; 4] = std::array::from_fn(|j| {
-            let (s, n) = all().fold((0.0, 0.0), |(s, n), r| (s + r.vel[j].iter().map(|v| v * v).sum::<f64>(), n + r.vel[j].len() as f64));
+            let (s, n) = all().fold((0.0, 0.0), |(s, n), r| {
+                (
+                    s + r.vel[j].iter().map(|v| v * v).sum::<f64>(),
+                    n + r.vel[j].len() as f64,
+                )
+            });
             (s / n.max(1.0)).max(1e-12)
         });
         let noise_cost = (0..4)
             .map(|j| {
-                let (s, n) = validate.iter().fold((0.0, 0.0), |(s, n), r| (s + r.std[j].iter().map(|v| v * v).sum::<f64>(), n + r.std[j].len() as f64));
+                let (s, n) = validate.iter().fold((0.0, 0.0), |(s, n), r| {
+                    (
+                        s + r.std[j].iter().map(|v| v * v).sum::<f64>(),
+                        n + r.std[j].len() as f64,
+                    )
+                });
                 s / n.max(1.0) / scale[j]
             })
             .sum();
         let delta: [f64; 4] = std::array::from_fn(|j| {
-            let (s, n) = all().fold((0.0, 0.0), |(s, n), r| (s + r.std[j].iter().sum::<f64>(), n + r.std[j].len() as f64));
+            let (s, n) = all().fold((0.0, 0.0), |(s, n), r| {
+                (s + r.std[j].iter().sum::<f64>(), n + r.std[j].len() as f64)
+            });
             (0.25 * scale[j].sqrt()).max(3.0 * s / n.max(1.0))
         });
-        Ok(Data { train, validate, scale, delta, noise_cost })
+        Ok(Data {
+            train,
+            validate,
+            scale,
+            delta,
+            noise_cost,
+        })
     }
 
     pub fn eval(&self, plant: &Plant, aug: &Augmentation, validate: bool) -> Sums {
-        let runs = if validate { &self.validate } else { &self.train };
+        let runs = if validate {
+            &self.validate
+        } else {
+            &self.train
+        };
         let mut total = Sums::default();
         for r in runs {
             total.add(&sums(&simulate(plant, aug, r), r, aug.delay_s, &self.delta));
@@ -403,15 +576,42 @@ pub struct Regime {
 }
 
 pub static REGIMES: &[Regime] = &[
-    Regime { name: "after_command_step", label: "within 1.5 s after a command step" },
-    Regime { name: "reverse_command", label: "reverse command in the DOF" },
-    Regime { name: "small_command", label: "small command in the DOF (< 15 % of its largest)" },
-    Regime { name: "far_from_anchor", label: "far from the tether anchor (beyond the median length)" },
-    Regime { name: "near_wall", label: "within 2 m of a wall" },
-    Regime { name: "deep", label: "deeper than the run's median depth" },
-    Regime { name: "heading_pool_x", label: "heading within 90 degrees of pool +x" },
-    Regime { name: "cross_flow", label: "moving in surge and sway at once (|u||v| above its median)" },
-    Regime { name: "heave", label: "heave DOF" },
+    Regime {
+        name: "after_command_step",
+        label: "within 1.5 s after a command step",
+    },
+    Regime {
+        name: "reverse_command",
+        label: "reverse command in the DOF",
+    },
+    Regime {
+        name: "small_command",
+        label: "small command in the DOF (< 15 % of its largest)",
+    },
+    Regime {
+        name: "far_from_anchor",
+        label: "far from the tether anchor (beyond the median length)",
+    },
+    Regime {
+        name: "near_wall",
+        label: "within 2 m of a wall",
+    },
+    Regime {
+        name: "deep",
+        label: "deeper than the run's median depth",
+    },
+    Regime {
+        name: "heading_pool_x",
+        label: "heading within 90 degrees of pool +x",
+    },
+    Regime {
+        name: "cross_flow",
+        label: "moving in surge and sway at once (|u||v| above its median)",
+    },
+    Regime {
+        name: "heave",
+        label: "heave DOF",
+    },
 ];
 
 /// Whether sample k of a run, DOF j, is in the regime; None when the run cannot tell.
@@ -463,9 +663,15 @@ fn medians(run: &Run) -> RunMedians {
     let n = run.t.len();
     RunMedians {
         cmd_max: std::array::from_fn(|q| run.cmd.iter().fold(1e-9f64, |a, c| a.max(c[q].abs()))),
-        tether: run.anchor.map(|_| median((0..n).filter_map(|k| run.tether_length(k)).collect())),
+        tether: run
+            .anchor
+            .map(|_| median((0..n).filter_map(|k| run.tether_length(k)).collect())),
         depth: median(run.pos[2].clone()),
-        cross: median((0..n).map(|k| (run.vel[0][k] * run.vel[1][k]).abs()).collect()),
+        cross: median(
+            (0..n)
+                .map(|k| (run.vel[0][k] * run.vel[1][k]).abs())
+                .collect(),
+        ),
     }
 }
 
@@ -478,7 +684,11 @@ pub struct RegimeShare {
 }
 
 /// Share of the normalised squared residual, and of the samples, in each regime (over DOFs).
-pub fn regime_shares(runs: &[Run], residuals: &[[Vec<f64>; 4]], scale: &[f64; 4]) -> Vec<RegimeShare> {
+pub fn regime_shares(
+    runs: &[Run],
+    residuals: &[[Vec<f64>; 4]],
+    scale: &[f64; 4],
+) -> Vec<RegimeShare> {
     REGIMES
         .iter()
         .filter_map(|g| {
@@ -501,7 +711,12 @@ pub fn regime_shares(runs: &[Run], residuals: &[[Vec<f64>; 4]], scale: &[f64; 4]
                     }
                 }
             }
-            (n_all > 0.0 && err_all > 0.0).then(|| RegimeShare { regime: g.name.into(), label: g.label.into(), share_of_error: err_in / err_all, share_of_time: n_in / n_all })
+            (n_all > 0.0 && err_all > 0.0).then(|| RegimeShare {
+                regime: g.name.into(),
+                label: g.label.into(),
+                share_of_error: err_in / err_all,
+                share_of_time: n_in / n_all,
+            })
         })
         .collect()
 }
@@ -522,11 +737,18 @@ pub fn locate(runs: &[Run], residuals: &[[Vec<f64>; 4]], scale: &[f64; 4]) -> Ve
     let mut parts = Vec::new();
     for (run, e) in runs.iter().zip(residuals) {
         for j in 0..4 {
-            let sq: Vec<f64> = e[j].iter().map(|x| if x.is_finite() { x * x } else { 0.0 }).collect();
+            let sq: Vec<f64> = e[j]
+                .iter()
+                .map(|x| if x.is_finite() { x * x } else { 0.0 })
+                .collect();
             let energy: f64 = sq.iter().sum::<f64>() / scale[j];
             total += energy;
             let n = sq.len();
-            let dt = if n > 1 { (run.t[n - 1] - run.t[0]) / (n - 1) as f64 } else { 0.05 };
+            let dt = if n > 1 {
+                (run.t[n - 1] - run.t[0]) / (n - 1) as f64
+            } else {
+                0.05
+            };
             let half = ((0.5 / dt).round() as usize).max(1);
             let mut pre = vec![0.0; n + 1];
             for k in 0..n {
@@ -564,10 +786,23 @@ pub fn locate(runs: &[Run], residuals: &[[Vec<f64>; 4]], scale: &[f64; 4]) -> Ve
             windows.sort_by(|a, b| b.2.total_cmp(&a.2));
             windows.truncate(5);
             windows.sort_by(|a, b| a.0.total_cmp(&b.0));
-            parts.push((run.name.clone(), DOFS[j], windows.iter().map(|w| [round2(w.0), round2(w.1)]).collect(), energy));
+            parts.push((
+                run.name.clone(),
+                DOFS[j],
+                windows.iter().map(|w| [round2(w.0), round2(w.1)]).collect(),
+                energy,
+            ));
         }
     }
-    let mut out: Vec<Mismatch> = parts.into_iter().map(|(run, dof, windows_s, e)| Mismatch { run, dof, windows_s, share_of_error: if total > 0.0 { e / total } else { 0.0 } }).collect();
+    let mut out: Vec<Mismatch> = parts
+        .into_iter()
+        .map(|(run, dof, windows_s, e)| Mismatch {
+            run,
+            dof,
+            windows_s,
+            share_of_error: if total > 0.0 { e / total } else { 0.0 },
+        })
+        .collect();
     out.sort_by(|a, b| b.share_of_error.total_cmp(&a.share_of_error));
     out
 }
@@ -579,12 +814,18 @@ fn round2(x: f64) -> f64 {
 /// Per-DOF held-out normalised MAE as FORMATS.md writes it.
 pub fn nmae_map(s: &Sums) -> BTreeMap<Dof, f64> {
     let v = s.nmae();
-    DOFS.iter().enumerate().filter(|(j, _)| v[*j].is_finite()).map(|(j, d)| (*d, v[j])).collect()
+    DOFS.iter()
+        .enumerate()
+        .filter(|(j, _)| v[*j].is_finite())
+        .map(|(j, d)| (*d, v[j]))
+        .collect()
 }
 
 /// Runs the residual of a model over a set of runs.
 pub fn residuals(plant: &Plant, aug: &Augmentation, runs: &[Run]) -> Vec<[Vec<f64>; 4]> {
-    runs.par_iter().map(|r| residual(&simulate(plant, aug, r), r, aug.delay_s)).collect()
+    runs.par_iter()
+        .map(|r| residual(&simulate(plant, aug, r), r, aug.delay_s))
+        .collect()
 }
 
 /// The effect's hypothesis and its main DOF index, for the evidence.

@@ -2,27 +2,40 @@
 //! written to a scratch folder, read back and fused exactly as the `pool` stage does.
 
 use super::Run;
-use crate::stage::pool::{FusedRun, RunMeta};
-use rayon::prelude::*;
 use crate::model::effects::Effect;
+use crate::stage::pool::{FusedRun, RunMeta};
 use crate::twin::pool as twin;
+use rayon::prelude::*;
 
 /// The fused runs of one generated scenario, as the `pool` stage would store them.
 pub fn fused_runs(effects: &[Effect], seed: u64) -> anyhow::Result<Vec<FusedRun>> {
     let tmp = tempfile::tempdir()?;
     let root = tmp.path();
     let specs = twin::default_runs();
-    twin::write_runs(&root.join("cases/pool"), &root.join("truth/pool"), &specs, effects, seed)?;
-    specs.par_iter().map(|spec| fuse_folder(root, &spec.name)).collect::<anyhow::Result<_>>()
+    twin::write_runs(
+        &root.join("cases/pool"),
+        &root.join("truth/pool"),
+        &specs,
+        effects,
+        seed,
+    )?;
+    specs
+        .par_iter()
+        .map(|spec| fuse_folder(root, &spec.name))
+        .collect::<anyhow::Result<_>>()
 }
 
 /// Imports and fuses the run folder `cases/pool/<name>` under `root` as the `pool` stage does.
 pub fn fuse_folder(root: &std::path::Path, name: &str) -> anyhow::Result<FusedRun> {
     let dir = format!("cases/pool/{name}");
-    let files: Vec<String> = std::fs::read_dir(root.join(&dir))?.map(|e| e.map(|e| format!("{dir}/{}", e.file_name().to_string_lossy()))).collect::<Result<_, _>>()?;
+    let files: Vec<String> = std::fs::read_dir(root.join(&dir))?
+        .map(|e| e.map(|e| format!("{dir}/{}", e.file_name().to_string_lossy())))
+        .collect::<Result<_, _>>()?;
     let run = crate::io::pool::load(root, &dir, &files)?;
     let fused = crate::fusion::fuse(&run, &Default::default());
-    let thrust: Vec<[f64; 4]> = (0..run.thrust.len()).map(|k| std::array::from_fn(|q| run.thrust.cols[q][k])).collect();
+    let thrust: Vec<[f64; 4]> = (0..run.thrust.len())
+        .map(|k| std::array::from_fn(|q| run.thrust.cols[q][k]))
+        .collect();
     let meta = RunMeta {
         run: name.to_string(),
         role: run.meta.role,
@@ -37,12 +50,22 @@ pub fn fuse_folder(root: &std::path::Path, name: &str) -> anyhow::Result<FusedRu
         notes: run.notes.clone(),
         repairs: run.repairs.clone(),
     };
-    Ok(FusedRun { meta, thrust, fused, without_sonar: None })
+    Ok(FusedRun {
+        meta,
+        thrust,
+        fused,
+        without_sonar: None,
+    })
 }
 
 /// The diagnosis' view of [`fused_runs`].
 pub fn runs(effects: &[Effect], seed: u64) -> anyhow::Result<Vec<Run>> {
-    fused_runs(effects, seed)?.iter().map(|r| Run::from_fused(r).ok_or_else(|| anyhow::anyhow!("{}: not every DOF fused", r.meta.run))).collect()
+    fused_runs(effects, seed)?
+        .iter()
+        .map(|r| {
+            Run::from_fused(r).ok_or_else(|| anyhow::anyhow!("{}: not every DOF fused", r.meta.run))
+        })
+        .collect()
 }
 
 /// The reference vehicle identified from the twin's STAR-CCM+ cases by least squares, as the
@@ -54,8 +77,16 @@ pub fn cfd_fit_plant(seed: u64) -> anyhow::Result<crate::model::Plant> {
     let mut responses = Vec::new();
     for c in &crate::twin::cfd::default_cases() {
         let text = crate::twin::cfd::export(&vehicle, Hydro::reference(), c, seed);
-        let opts = crate::io::starccm::ImportOptions { columns: &Default::default(), dofs: &vehicle.dofs, configured_force: Default::default() };
-        responses.push(crate::io::starccm::parse("twin.csv", &text, &opts).map_err(|e| anyhow::anyhow!("{e}"))?.response);
+        let opts = crate::io::starccm::ImportOptions {
+            columns: &Default::default(),
+            dofs: &vehicle.dofs,
+            configured_force: Default::default(),
+        };
+        responses.push(
+            crate::io::starccm::parse("twin.csv", &text, &opts)
+                .map_err(|e| anyhow::anyhow!("{e}"))?
+                .response,
+        );
     }
     let refs: Vec<_> = responses.iter().collect();
     let reg = crate::estimate::Regression::build(&vehicle, &refs, 0.0);

@@ -2,7 +2,7 @@
 //! bounds (the cost of a delay or a deadband is not convex), then Nelder-Mead from the best
 //! grid point, in coordinates scaled to the bounds and clamped to them.
 
-use super::{augmentation, Data, Hypothesis, Selection};
+use super::{Data, Hypothesis, Selection, augmentation};
 use crate::model::Plant;
 
 /// Grid points per parameter: 17 for one, 7 x 7 for two.
@@ -15,27 +15,49 @@ fn grid(k: usize) -> usize {
 }
 
 /// Minimises `f` over the unit box [0, 1]^k from `x0` (Nelder-Mead, clamped), `iters` steps.
-pub fn nelder_mead(f: &dyn Fn(&[f64]) -> f64, x0: &[f64], step: f64, iters: usize) -> (Vec<f64>, f64) {
+pub fn nelder_mead(
+    f: &dyn Fn(&[f64]) -> f64,
+    x0: &[f64],
+    step: f64,
+    iters: usize,
+) -> (Vec<f64>, f64) {
     let k = x0.len();
     let clamp = |x: Vec<f64>| -> Vec<f64> { x.into_iter().map(|v| v.clamp(0.0, 1.0)).collect() };
     let mut simplex: Vec<(Vec<f64>, f64)> = Vec::with_capacity(k + 1);
     simplex.push((x0.to_vec(), f(x0)));
     for i in 0..k {
         let mut x = x0.to_vec();
-        x[i] = if x[i] + step <= 1.0 { x[i] + step } else { x[i] - step };
+        x[i] = if x[i] + step <= 1.0 {
+            x[i] + step
+        } else {
+            x[i] - step
+        };
         let x = clamp(x);
         let fx = f(&x);
         simplex.push((x, fx));
     }
     for _ in 0..iters {
         simplex.sort_by(|a, b| a.1.total_cmp(&b.1));
-        let spread = simplex.iter().flat_map(|(x, _)| x.iter().zip(&simplex[0].0).map(|(a, b)| (a - b).abs())).fold(0.0f64, f64::max);
+        let spread = simplex
+            .iter()
+            .flat_map(|(x, _)| x.iter().zip(&simplex[0].0).map(|(a, b)| (a - b).abs()))
+            .fold(0.0f64, f64::max);
         if spread < 1e-4 {
             break;
         }
-        let centroid: Vec<f64> = (0..k).map(|i| simplex[..k].iter().map(|(x, _)| x[i]).sum::<f64>() / k as f64).collect();
+        let centroid: Vec<f64> = (0..k)
+            .map(|i| simplex[..k].iter().map(|(x, _)| x[i]).sum::<f64>() / k as f64)
+            .collect();
         let worst = simplex[k].clone();
-        let along = |t: f64| clamp(centroid.iter().zip(&worst.0).map(|(c, w)| c + t * (c - w)).collect());
+        let along = |t: f64| {
+            clamp(
+                centroid
+                    .iter()
+                    .zip(&worst.0)
+                    .map(|(c, w)| c + t * (c - w))
+                    .collect(),
+            )
+        };
         let xr = along(1.0);
         let fr = f(&xr);
         if fr < simplex[0].1 {
@@ -52,7 +74,11 @@ pub fn nelder_mead(f: &dyn Fn(&[f64]) -> f64, x0: &[f64], step: f64, iters: usiz
             } else {
                 let best = simplex[0].0.clone();
                 for s in simplex.iter_mut().skip(1) {
-                    let x: Vec<f64> = best.iter().zip(&s.0).map(|(b, v)| b + 0.5 * (v - b)).collect();
+                    let x: Vec<f64> = best
+                        .iter()
+                        .zip(&s.0)
+                        .map(|(b, v)| b + 0.5 * (v - b))
+                        .collect();
                     let fx = f(&x);
                     *s = (x, fx);
                 }
@@ -64,16 +90,29 @@ pub fn nelder_mead(f: &dyn Fn(&[f64]) -> f64, x0: &[f64], step: f64, iters: usiz
 }
 
 fn to_params(h: &Hypothesis, u: &[f64]) -> Vec<f64> {
-    h.params.iter().zip(u).map(|((_, lo, hi), x)| lo + x * (hi - lo)).collect()
+    h.params
+        .iter()
+        .zip(u)
+        .map(|((_, lo, hi), x)| lo + x * (hi - lo))
+        .collect()
 }
 
 fn to_unit(h: &Hypothesis, p: &[f64]) -> Vec<f64> {
-    h.params.iter().zip(p).map(|((_, lo, hi), x)| ((x - lo) / (hi - lo)).clamp(0.0, 1.0)).collect()
+    h.params
+        .iter()
+        .zip(p)
+        .map(|((_, lo, hi), x)| ((x - lo) / (hi - lo)).clamp(0.0, 1.0))
+        .collect()
 }
 
 /// Fits `h` on the training runs with the effects already `selected` held at their values.
 /// Returns the parameters and the training cost.
-pub fn fit_one(plant: &Plant, data: &Data, selected: &Selection, h: &'static Hypothesis) -> (Vec<f64>, f64) {
+pub fn fit_one(
+    plant: &Plant,
+    data: &Data,
+    selected: &Selection,
+    h: &'static Hypothesis,
+) -> (Vec<f64>, f64) {
     let k = h.params.len();
     let cost = |u: &[f64]| {
         let mut sel = selected.clone();
@@ -84,7 +123,9 @@ pub fn fit_one(plant: &Plant, data: &Data, selected: &Selection, h: &'static Hyp
     let mut best = (vec![0.0; k], f64::INFINITY);
     let total = g.pow(k as u32);
     for idx in 0..total {
-        let u: Vec<f64> = (0..k).map(|i| ((idx / g.pow(i as u32)) % g) as f64 / (g - 1) as f64).collect();
+        let u: Vec<f64> = (0..k)
+            .map(|i| ((idx / g.pow(i as u32)) % g) as f64 / (g - 1) as f64)
+            .collect();
         let c = cost(&u);
         if c < best.1 {
             best = (u, c);

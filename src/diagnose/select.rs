@@ -1,7 +1,7 @@
 //! Choosing the effects: greedy forward selection on held-out runs (module docs, step 3),
 //! with a swap step for effects that only make sense together.
 
-use super::{augmentation, search, Augmentation, Data, Hypothesis, Needs, Selection, HYPOTHESES};
+use super::{Augmentation, Data, HYPOTHESES, Hypothesis, Needs, Selection, augmentation, search};
 use crate::model::Plant;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -33,7 +33,15 @@ pub struct Criteria {
 
 impl Default for Criteria {
     fn default() -> Criteria {
-        Criteria { min_gain: 0.08, gain_per_parameter: 0.02, min_noise_multiple: 0.5, within_noise: 5.0, max_effects: 3, unexplained_noise_multiple: 5.0, horizon_s: crate::model::stability::Horizon::WholeRun }
+        Criteria {
+            min_gain: 0.08,
+            gain_per_parameter: 0.02,
+            min_noise_multiple: 0.5,
+            within_noise: 5.0,
+            max_effects: 3,
+            unexplained_noise_multiple: 5.0,
+            horizon_s: crate::model::stability::Horizon::WholeRun,
+        }
     }
 }
 
@@ -76,7 +84,11 @@ pub fn at_bound(h: &Hypothesis, p: &[f64]) -> Vec<String> {
 }
 
 pub fn params_map(h: &Hypothesis, p: &[f64]) -> BTreeMap<String, f64> {
-    h.params.iter().zip(p).map(|((n, _, _), v)| (n.to_string(), *v)).collect()
+    h.params
+        .iter()
+        .zip(p)
+        .map(|((n, _, _), v)| (n.to_string(), *v))
+        .collect()
 }
 
 /// A hypothesis the runs cannot test, and what they lack for it.
@@ -95,10 +107,25 @@ pub fn untested(data: &Data) -> Vec<Untested> {
         .filter(|h| !applicable(h, data))
         .map(|h| {
             let (what, lacking): (&str, Vec<&str>) = match h.needs {
-                Needs::Anchor => ("tether_anchor_m in run.yaml (where the tether enters the water)", all.iter().filter(|r| r.anchor.is_none()).map(|r| r.name.as_str()).collect()),
-                _ => ("pool: {length_m, width_m, depth_m} in run.yaml", all.iter().filter(|r| r.pool.is_none()).map(|r| r.name.as_str()).collect()),
+                Needs::Anchor => (
+                    "tether_anchor_m in run.yaml (where the tether enters the water)",
+                    all.iter()
+                        .filter(|r| r.anchor.is_none())
+                        .map(|r| r.name.as_str())
+                        .collect(),
+                ),
+                _ => (
+                    "pool: {length_m, width_m, depth_m} in run.yaml",
+                    all.iter()
+                        .filter(|r| r.pool.is_none())
+                        .map(|r| r.name.as_str())
+                        .collect(),
+                ),
             };
-            Untested { name: h.name.to_string(), missing: format!("{what} is missing in {}", lacking.join(", ")) }
+            Untested {
+                name: h.name.to_string(),
+                missing: format!("{what} is missing in {}", lacking.join(", ")),
+            }
         })
         .collect()
 }
@@ -135,16 +162,27 @@ fn corroborated(criteria: &Criteria, train_before: f64, train_after: f64) -> boo
 /// Whether lowering the held-out cost from `before` to `after` with `params` more parameters
 /// is worth naming: by `min_gain` plus the per-parameter penalty, and by more than noise.
 fn significant(criteria: &Criteria, data: &Data, before: f64, after: f64, params: f64) -> bool {
-    (before - after) / before - criteria.gain_per_parameter * params >= criteria.min_gain && before - after >= criteria.min_noise_multiple * data.noise_cost
+    (before - after) / before - criteria.gain_per_parameter * params >= criteria.min_gain
+        && before - after >= criteria.min_noise_multiple * data.noise_cost
 }
 
 /// The effects that can be tested on these runs and are not in `selected` yet.
-fn untried<'a>(data: &'a Data, selected: &'a Selection) -> impl Iterator<Item = &'static Hypothesis> + 'a {
-    HYPOTHESES.iter().filter(move |h| applicable(h, data) && !selected.iter().any(|(s, _)| s.name == h.name))
+fn untried<'a>(
+    data: &'a Data,
+    selected: &'a Selection,
+) -> impl Iterator<Item = &'static Hypothesis> + 'a {
+    HYPOTHESES
+        .iter()
+        .filter(move |h| applicable(h, data) && !selected.iter().any(|(s, _)| s.name == h.name))
 }
 
 /// Greedy forward selection of effects on top of `plant` (module docs, step 3).
-pub fn select(plant: &Plant, data: &Data, criteria: &Criteria, progress: &(dyn Fn(&str) + Sync)) -> Search {
+pub fn select(
+    plant: &Plant,
+    data: &Data,
+    criteria: &Criteria,
+    progress: &(dyn Fn(&str) + Sync),
+) -> Search {
     let mut selected: Selection = Vec::new();
     let mut tested = Vec::new();
     let mut current = data.cost(plant, &Augmentation::default(), true);
@@ -152,7 +190,10 @@ pub fn select(plant: &Plant, data: &Data, criteria: &Criteria, progress: &(dyn F
     let mut costs = vec![current];
     for round in 1..=criteria.max_effects {
         let candidates: Vec<&'static Hypothesis> = untried(data, &selected).collect();
-        progress(&format!("round {round}: testing {} effects", candidates.len()));
+        progress(&format!(
+            "round {round}: testing {} effects",
+            candidates.len()
+        ));
         let fitted: Vec<(&'static Hypothesis, Vec<f64>, f64, f64)> = candidates
             .par_iter()
             .map(|h| {
@@ -168,10 +209,25 @@ pub fn select(plant: &Plant, data: &Data, criteria: &Criteria, progress: &(dyn F
             .map(|(h, p, tc, vc)| {
                 let gain = (current - vc) / current;
                 let at_bound = at_bound(h, p);
-                Tested { round, name: h.name.into(), parameters: params_map(h, p), train_cost: *tc, validation_cost: *vc, gain, score: score(criteria, current, *vc, h.params.len() as f64), accepted: false, at_bound }
+                Tested {
+                    round,
+                    name: h.name.into(),
+                    parameters: params_map(h, p),
+                    train_cost: *tc,
+                    validation_cost: *vc,
+                    gain,
+                    score: score(criteria, current, *vc, h.params.len() as f64),
+                    accepted: false,
+                    at_bound,
+                }
             })
             .collect();
-        let best = (0..rows.len()).filter(|&i| corroborated(criteria, current_train, rows[i].train_cost) && rows[i].at_bound.is_empty()).max_by(|&a, &b| rows[a].score.total_cmp(&rows[b].score));
+        let best = (0..rows.len())
+            .filter(|&i| {
+                corroborated(criteria, current_train, rows[i].train_cost)
+                    && rows[i].at_bound.is_empty()
+            })
+            .max_by(|&a, &b| rows[a].score.total_cmp(&rows[b].score));
         let Some(b) = best else {
             // Every candidate is refused (not corroborated on the training runs, or on a
             // bound): the round's rows still go to the report.
@@ -185,12 +241,21 @@ pub fn select(plant: &Plant, data: &Data, criteria: &Criteria, progress: &(dyn F
         }
         let before_round = selected.clone();
         selected.push((*h, p.clone()));
-        progress(&format!("round {round}: {} kept, refining every kept effect together", h.name));
+        progress(&format!(
+            "round {round}: {} kept, refining every kept effect together",
+            h.name
+        ));
         if selected.len() > 1 {
             selected = search::refine_all(plant, data, &selected);
             // Refitted together, a kept effect pushed onto its bound is no longer a finding.
-            if let Some((hb, pb)) = selected.iter().find(|(hb, pb)| !at_bound(hb, pb).is_empty()) {
-                rows[b].at_bound = at_bound(hb, pb).into_iter().map(|n| format!("{}.{n} (refitted with the others)", hb.name)).collect();
+            if let Some((hb, pb)) = selected
+                .iter()
+                .find(|(hb, pb)| !at_bound(hb, pb).is_empty())
+            {
+                rows[b].at_bound = at_bound(hb, pb)
+                    .into_iter()
+                    .map(|n| format!("{}.{n} (refitted with the others)", hb.name))
+                    .collect();
                 selected = before_round;
                 tested.extend(rows);
                 break;
@@ -202,7 +267,15 @@ pub fn select(plant: &Plant, data: &Data, criteria: &Criteria, progress: &(dyn F
         costs.push(current);
         tested.extend(rows);
         if selected.len() > 1
-            && let Some((out, row)) = swap(plant, data, criteria, &mut selected, (current, current_train), round, progress)
+            && let Some((out, row)) = swap(
+                plant,
+                data,
+                criteria,
+                &mut selected,
+                (current, current_train),
+                round,
+                progress,
+            )
         {
             // The effect swapped out no longer counts as kept; the cost after this round is the swapped set's.
             if let Some(t) = tested.iter_mut().find(|t| t.accepted && t.name == out) {
@@ -213,7 +286,11 @@ pub fn select(plant: &Plant, data: &Data, criteria: &Criteria, progress: &(dyn F
             tested.push(row);
         }
     }
-    Search { selected, tested, costs }
+    Search {
+        selected,
+        tested,
+        costs,
+    }
 }
 
 /// A greedy pick can be wrong when two missing effects only make sense together (a current
@@ -221,9 +298,22 @@ pub fn select(plant: &Plant, data: &Data, criteria: &Criteria, progress: &(dyn F
 /// each round, every earlier kept effect is tried replaced by every untried one, refitted with
 /// the rest; the best replacement is made when it lowers the held-out cost by the same margin
 /// a new effect must reach. Returns the name swapped out and the row of the one swapped in.
-fn swap(plant: &Plant, data: &Data, criteria: &Criteria, selected: &mut Selection, (current, current_train): (f64, f64), round: usize, progress: &(dyn Fn(&str) + Sync)) -> Option<(String, Tested)> {
-    let options: Vec<(usize, &'static Hypothesis)> = (0..selected.len() - 1).flat_map(|i| untried(data, selected).map(move |h| (i, h))).collect();
-    progress(&format!("round {round}: trying {} replacements of earlier effects", options.len()));
+fn swap(
+    plant: &Plant,
+    data: &Data,
+    criteria: &Criteria,
+    selected: &mut Selection,
+    (current, current_train): (f64, f64),
+    round: usize,
+    progress: &(dyn Fn(&str) + Sync),
+) -> Option<(String, Tested)> {
+    let options: Vec<(usize, &'static Hypothesis)> = (0..selected.len() - 1)
+        .flat_map(|i| untried(data, selected).map(move |h| (i, h)))
+        .collect();
+    progress(&format!(
+        "round {round}: trying {} replacements of earlier effects",
+        options.len()
+    ));
     let fitted: Vec<(usize, &'static Hypothesis, Vec<f64>, f64)> = options
         .par_iter()
         .filter_map(|&(i, h)| {
@@ -231,12 +321,22 @@ fn swap(plant: &Plant, data: &Data, criteria: &Criteria, selected: &mut Selectio
             rest.remove(i);
             let (p, train) = search::fit_one(plant, data, &rest, h);
             rest.push((h, p.clone()));
-            (corroborated(criteria, current_train, train) && at_bound(h, &p).is_empty()).then(|| (i, h, p, data.cost(plant, &augmentation(&rest), true)))
+            (corroborated(criteria, current_train, train) && at_bound(h, &p).is_empty())
+                .then(|| (i, h, p, data.cost(plant, &augmentation(&rest), true)))
         })
         .collect();
     // Parameters beyond those of the effect replaced.
-    let extra = |i: usize, h: &Hypothesis| (h.params.len() as f64 - selected[i].0.params.len() as f64).max(0.0);
-    let (i, h, p, val) = fitted.into_iter().max_by(|a, b| score(criteria, current, a.3, extra(a.0, a.1)).total_cmp(&score(criteria, current, b.3, extra(b.0, b.1))))?;
+    let extra = |i: usize, h: &Hypothesis| {
+        (h.params.len() as f64 - selected[i].0.params.len() as f64).max(0.0)
+    };
+    let (i, h, p, val) = fitted.into_iter().max_by(|a, b| {
+        score(criteria, current, a.3, extra(a.0, a.1)).total_cmp(&score(
+            criteria,
+            current,
+            b.3,
+            extra(b.0, b.1),
+        ))
+    })?;
     if !significant(criteria, data, current, val, extra(i, h)) {
         return None;
     }

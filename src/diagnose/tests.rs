@@ -1,6 +1,6 @@
 use super::*;
 use crate::model::effects::Effect;
-use crate::stage::diagnose::{diagnose, Diagnosis};
+use crate::stage::diagnose::{Diagnosis, diagnose};
 
 fn run_scenario(effects: &[Effect], seed: u64) -> (Search, Data) {
     let runs = scenario::runs(effects, seed).unwrap();
@@ -12,11 +12,23 @@ fn run_scenario(effects: &[Effect], seed: u64) -> (Search, Data) {
 
 /// The full diagnosis of a generated scenario, against the CFD fit of the twin's STAR-CCM+ cases.
 fn full(fused: &[crate::stage::pool::FusedRun], plant: &crate::model::Plant) -> Diagnosis {
-    diagnose(&crate::model::Vehicle::reference(), "fit", plant, fused, &Criteria::default(), &|_| {}).unwrap().0
+    diagnose(
+        &crate::model::Vehicle::reference(),
+        "fit",
+        plant,
+        fused,
+        &Criteria::default(),
+        &|_| {},
+    )
+    .unwrap()
+    .0
 }
 
 fn scenario_diagnosis(effects: &[Effect], seed: u64) -> Diagnosis {
-    full(&scenario::fused_runs(effects, seed).unwrap(), &scenario::cfd_fit_plant(1).unwrap())
+    full(
+        &scenario::fused_runs(effects, seed).unwrap(),
+        &scenario::cfd_fit_plant(1).unwrap(),
+    )
 }
 
 /// The effect's defining parameter and the diagnosis' value of it.
@@ -31,7 +43,13 @@ fn main_parameter(e: &Effect, d: &Diagnosis) -> (f64, f64) {
         Effect::WaterCurrent { velocity_m_s } => (velocity_m_s[0], got("current_x_m_s")),
         // Coefficient and decay trade off along a ridge; the runs pin down the wall's drag
         // coefficient at the distances they spend near a wall (2 m).
-        Effect::WallEffect { coefficient, decay_m } => (coefficient * (-2.0 / decay_m).exp(), got("coefficient") * (-2.0 / got("decay_m")).exp()),
+        Effect::WallEffect {
+            coefficient,
+            decay_m,
+        } => (
+            coefficient * (-2.0 / decay_m).exp(),
+            got("coefficient") * (-2.0 / got("decay_m")).exp(),
+        ),
         Effect::CoupledDrag { coefficient } => (*coefficient, got("coefficient")),
         Effect::SensorDelay { delay_s } => (*delay_s, got("delay_s")),
     }
@@ -73,7 +91,10 @@ fn each_concealed_effect_is_named_first_with_its_parameter_and_the_held_out_erro
             failures.push(format!("{arg}: parameter {got} vs truth {want}"));
         }
         if !(first.validation_cost_after < 0.5 * first.validation_cost_before) {
-            failures.push(format!("{arg}: held-out cost {} -> {}", first.validation_cost_before, first.validation_cost_after));
+            failures.push(format!(
+                "{arg}: held-out cost {} -> {}",
+                first.validation_cost_before, first.validation_cost_after
+            ));
         }
         for dof in &first.dofs {
             if !(first.validation_nmae_after[dof] < first.validation_nmae_before[dof]) {
@@ -90,14 +111,27 @@ fn nothing_is_claimed_on_effect_free_data() {
     // tiny parameters there must not be claimed (the training runs do not corroborate them).
     for seed in [2, 3, 4] {
         let d = scenario_diagnosis(&[], seed);
-        assert!(d.effects.is_empty(), "seed {seed}: {:?}\n{}", d.effects.iter().map(|e| &e.name).collect::<Vec<_>>(), d.verdict);
-        assert!(d.verdict.starts_with("No missing physics") && !d.baseline.parameters_reestimated, "{}", d.verdict);
+        assert!(
+            d.effects.is_empty(),
+            "seed {seed}: {:?}\n{}",
+            d.effects.iter().map(|e| &e.name).collect::<Vec<_>>(),
+            d.verdict
+        );
+        assert!(
+            d.verdict.starts_with("No missing physics") && !d.baseline.parameters_reestimated,
+            "{}",
+            d.verdict
+        );
     }
 }
 
 #[test]
 fn two_concealed_effects_are_both_named() {
-    for (args, seed) in [(["thruster_lag=0.25", "water_current=0.1"], 3), (["net_buoyancy=8", "coupled_drag=70"], 4), (["water_current=0.12", "coupled_drag=60"], 2)] {
+    for (args, seed) in [
+        (["thruster_lag=0.25", "water_current=0.1"], 3),
+        (["net_buoyancy=8", "coupled_drag=70"], 4),
+        (["water_current=0.12", "coupled_drag=60"], 2),
+    ] {
         // The last pair needs the swap step: neither effect alone fits, and tether drag stands in
         // for coupled drag in the first round.
         let effects: Vec<Effect> = args.iter().map(|a| Effect::from_arg(a).unwrap()).collect();
@@ -108,7 +142,11 @@ fn two_concealed_effects_are_both_named() {
         want.sort();
         assert_eq!(named, want, "{}", d.verdict);
         let last = d.effects.last().unwrap();
-        assert!(last.validation_cost_after < 3.0 * d.baseline.noise_cost, "{}", d.verdict);
+        assert!(
+            last.validation_cost_after < 3.0 * d.baseline.noise_cost,
+            "{}",
+            d.verdict
+        );
     }
 }
 
@@ -120,9 +158,25 @@ fn drifted_drag_is_reported_as_drift_not_as_an_effect() {
         *q *= 0.65;
     }
     let d = full(&scenario::fused_runs(&[], 5).unwrap(), &plant);
-    assert!(d.baseline.validation_cost > 3.0 * d.baseline.noise_cost, "the drift must show: {}", d.verdict);
-    assert!(d.baseline.parameters_reestimated && d.effects.is_empty(), "{}\n{:?}", d.verdict, d.effects.iter().map(|e| &e.name).collect::<Vec<_>>());
-    let xuu = d.baseline.reestimated.parameters.iter().find(|p| p.name == "X_uu").unwrap().value;
+    assert!(
+        d.baseline.validation_cost > 3.0 * d.baseline.noise_cost,
+        "the drift must show: {}",
+        d.verdict
+    );
+    assert!(
+        d.baseline.parameters_reestimated && d.effects.is_empty(),
+        "{}\n{:?}",
+        d.verdict,
+        d.effects.iter().map(|e| &e.name).collect::<Vec<_>>()
+    );
+    let xuu = d
+        .baseline
+        .reestimated
+        .parameters
+        .iter()
+        .find(|p| p.name == "X_uu")
+        .unwrap()
+        .value;
     assert!((xuu + 44.17).abs() < 0.1 * 44.17, "X_uu re-estimated {xuu}");
 }
 
@@ -141,8 +195,19 @@ fn a_residual_no_effect_explains_is_unexplained_not_named() {
     }
     let d = full(&fused, &scenario::cfd_fit_plant(1).unwrap());
     let names: Vec<&str> = d.effects.iter().map(|e| e.name.as_str()).collect();
-    assert_eq!(names, ["unexplained"], "effect-free runs with an out-of-vocabulary disturbance\n{}", d.verdict);
-    assert!(d.effects.last().unwrap().dofs.contains(&crate::dof::Dof::Surge));
+    assert_eq!(
+        names,
+        ["unexplained"],
+        "effect-free runs with an out-of-vocabulary disturbance\n{}",
+        d.verdict
+    );
+    assert!(
+        d.effects
+            .last()
+            .unwrap()
+            .dofs
+            .contains(&crate::dof::Dof::Surge)
+    );
 }
 
 /// Prints every hypothesis of every round for one scenario, for working on the search:
@@ -156,27 +221,61 @@ fn experiment() {
         Ok(v) => vec![v.split(',').map(|a| Effect::from_arg(a).unwrap()).collect()],
         Err(_) => vec![vec![]],
     };
-    let seed: u64 = std::env::var("SEED").ok().and_then(|s| s.parse().ok()).unwrap_or(1);
+    let seed: u64 = std::env::var("SEED")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1);
     for effects in list {
         let t = std::time::Instant::now();
         let (s, data) = run_scenario(&effects, seed);
-        eprintln!("truth {:?} seed {seed}: noise {:.5} costs {:?} ({:.1} s)", effects, data.noise_cost, s.costs, t.elapsed().as_secs_f64());
+        eprintln!(
+            "truth {:?} seed {seed}: noise {:.5} costs {:?} ({:.1} s)",
+            effects,
+            data.noise_cost,
+            s.costs,
+            t.elapsed().as_secs_f64()
+        );
         for r in &s.tested {
-            eprintln!("  r{} {:20} gain {:+.3} score {:+.3} val {:.5} train {:.5} {:?}{}", r.round, r.name, r.gain, r.score, r.validation_cost, r.train_cost, r.parameters, if r.accepted { "  <== kept" } else { "" });
+            eprintln!(
+                "  r{} {:20} gain {:+.3} score {:+.3} val {:.5} train {:.5} {:?}{}",
+                r.round,
+                r.name,
+                r.gain,
+                r.score,
+                r.validation_cost,
+                r.train_cost,
+                r.parameters,
+                if r.accepted { "  <== kept" } else { "" }
+            );
         }
         for (h, p) in &s.selected {
             eprintln!("  selected {} {:?}", h.name, p);
         }
         if std::env::var("PER_RUN").is_ok() {
-            let (plant, aug) = (scenario::cfd_fit_plant(1).unwrap(), augmentation(&s.selected));
+            let (plant, aug) = (
+                scenario::cfd_fit_plant(1).unwrap(),
+                augmentation(&s.selected),
+            );
             for r in data.train.iter().chain(&data.validate) {
                 let sim = simulate(&plant, &aug, r);
                 let sm = sums(&sim, r, 0.0, &[f64::INFINITY; 4]);
-                eprintln!("  run {:12} validate {} cost {:.5} nmae {:?}", r.name, data.validate.iter().any(|v| v.name == r.name), sm.cost(&data.scale), sm.nmae().map(|x| (x * 1000.0).round() / 1000.0));
+                eprintln!(
+                    "  run {:12} validate {} cost {:.5} nmae {:?}",
+                    r.name,
+                    data.validate.iter().any(|v| v.name == r.name),
+                    sm.cost(&data.scale),
+                    sm.nmae().map(|x| (x * 1000.0).round() / 1000.0)
+                );
                 for (j, e) in residual(&sim, r, 0.0).iter().enumerate() {
-                    let (k, m) = e.iter().enumerate().fold((0, 0.0f64), |b, (k, v)| if v.abs() > b.1 { (k, v.abs()) } else { b });
+                    let (k, m) = e.iter().enumerate().fold((0, 0.0f64), |b, (k, v)| {
+                        if v.abs() > b.1 { (k, v.abs()) } else { b }
+                    });
                     let rms = (e.iter().map(|v| v * v).sum::<f64>() / e.len() as f64).sqrt();
-                    eprintln!("     dof {j}: max |res| {m:.4} at sample {k} of {}, rms {rms:.4}, std there {:.4}", e.len(), r.std[j].get(k).copied().unwrap_or(f64::NAN));
+                    eprintln!(
+                        "     dof {j}: max |res| {m:.4} at sample {k} of {}, rms {rms:.4}, std there {:.4}",
+                        e.len(),
+                        r.std[j].get(k).copied().unwrap_or(f64::NAN)
+                    );
                 }
             }
         }
@@ -198,7 +297,16 @@ fn piloted_fast_runs(seed: u64) -> Vec<crate::stage::pool::FusedRun> {
     for (i, speed) in [1.2, 1.3, 1.1, 1.4, 1.25, 1.35].into_iter().enumerate() {
         let mut nu = [0.0f64; 6];
         let (mut x, mut y, mut z, mut psi) = (5.0, 20.0, 1.5, 0.2 * rng.normal());
-        let mut fused = crate::fusion::Fused { t: vec![], vel: Default::default(), std: Default::default(), x: vec![], y: vec![], z: vec![], psi: vec![], stats: Default::default() };
+        let mut fused = crate::fusion::Fused {
+            t: vec![],
+            vel: Default::default(),
+            std: Default::default(),
+            x: vec![],
+            y: vec![],
+            z: vec![],
+            psi: vec![],
+            stats: Default::default(),
+        };
         let (mut vel, mut thrust) = ([vec![], vec![], vec![], vec![]], vec![]);
         let mut gust = [0.0f64; 4];
         for k in 0..n {
@@ -230,7 +338,9 @@ fn piloted_fast_runs(seed: u64) -> Vec<crate::stage::pool::FusedRun> {
             for _ in 0..20 {
                 let h = dt / 20.0;
                 let f = |v: &[f64; 6]| plant.accel(v, &tau);
-                let add = |a: &[f64; 6], b: &[f64; 6], s: f64| -> [f64; 6] { std::array::from_fn(|q| a[q] + s * b[q]) };
+                let add = |a: &[f64; 6], b: &[f64; 6], s: f64| -> [f64; 6] {
+                    std::array::from_fn(|q| a[q] + s * b[q])
+                };
                 let k1 = f(&nu);
                 let k2 = f(&add(&nu, &k1, h / 2.0));
                 let k3 = f(&add(&nu, &k2, h / 2.0));
@@ -240,19 +350,29 @@ fn piloted_fast_runs(seed: u64) -> Vec<crate::stage::pool::FusedRun> {
                 y += h * (s * nu[0] + c * nu[1]);
                 z += h * nu[2];
                 psi += h * nu[5];
-                nu = std::array::from_fn(|q| nu[q] + h / 6.0 * (k1[q] + 2.0 * k2[q] + 2.0 * k3[q] + k4[q]));
+                nu = std::array::from_fn(|q| {
+                    nu[q] + h / 6.0 * (k1[q] + 2.0 * k2[q] + 2.0 * k3[q] + k4[q])
+                });
             }
         }
-        for j in 0..4 {
+        for (j, v) in vel.iter_mut().enumerate() {
             let sigma = if j == 3 { 0.004 } else { 0.008 };
             fused.std[j] = Some(vec![sigma; n]);
-            fused.vel[j] = Some(std::mem::take(&mut vel[j]));
+            fused.vel[j] = Some(std::mem::take(v));
         }
         let meta = crate::stage::pool::RunMeta {
             run: format!("straight_{i}"),
-            role: if i >= 4 { crate::io::pool::Role::Validate } else { crate::io::pool::Role::Train },
+            role: if i >= 4 {
+                crate::io::pool::Role::Validate
+            } else {
+                crate::io::pool::Role::Train
+            },
             description: String::new(),
-            pool: Some(crate::model::effects::Pool { length_m: 400.0, width_m: 40.0, depth_m: 10.0 }),
+            pool: Some(crate::model::effects::Pool {
+                length_m: 400.0,
+                width_m: 40.0,
+                depth_m: 10.0,
+            }),
             tether_anchor_m: Some([0.0, 20.0, 0.0]),
             sources: vec![],
             known: [true; 4],
@@ -262,7 +382,12 @@ fn piloted_fast_runs(seed: u64) -> Vec<crate::stage::pool::FusedRun> {
             notes: vec![],
             repairs: vec![],
         };
-        out.push(crate::stage::pool::FusedRun { meta, thrust, fused, without_sonar: None });
+        out.push(crate::stage::pool::FusedRun {
+            meta,
+            thrust,
+            fused,
+            without_sonar: None,
+        });
     }
     out
 }
@@ -272,16 +397,39 @@ fn an_unstable_model_on_piloted_runs_is_not_read_as_missing_physics() {
     use crate::model::{Hydro, Plant, Vehicle};
     let fused = piloted_fast_runs(3);
     let plant = Plant::new(&Vehicle::reference(), Hydro::reference());
-    let auto = Criteria { horizon_s: crate::model::stability::Horizon::Auto, ..Criteria::default() };
-    let d = diagnose(&Vehicle::reference(), "fit", &plant, &fused, &auto, &|_| {}).unwrap().0;
+    let auto = Criteria {
+        horizon_s: crate::model::stability::Horizon::Auto,
+        ..Criteria::default()
+    };
+    let d = diagnose(&Vehicle::reference(), "fit", &plant, &fused, &auto, &|_| {})
+        .unwrap()
+        .0;
     let names: Vec<&str> = d.effects.iter().map(|e| e.name.as_str()).collect();
-    assert!(names.is_empty(), "named {names:?} on effect-free piloted runs\n{}\nbase {} noise {} hyps {:?}", d.verdict, d.baseline.validation_cost, d.baseline.noise_cost, d.hypotheses.iter().map(|h| (&h.name, h.validation_cost, &h.parameters)).collect::<Vec<_>>());
+    assert!(
+        names.is_empty(),
+        "named {names:?} on effect-free piloted runs\n{}\nbase {} noise {} hyps {:?}",
+        d.verdict,
+        d.baseline.validation_cost,
+        d.baseline.noise_cost,
+        d.hypotheses
+            .iter()
+            .map(|h| (&h.name, h.validation_cost, &h.parameters))
+            .collect::<Vec<_>>()
+    );
     for (run, s) in &d.stability {
-        assert!(s.growth_per_s > 1.0 && s.horizon_s.is_some_and(|h| h < 5.0), "{run}: {s:?}");
+        assert!(
+            s.growth_per_s > 1.0 && s.horizon_s.is_some_and(|h| h < 5.0),
+            "{run}: {s:?}"
+        );
     }
     // Simulated whole, the same runs drift apart: the error is far above the noise floor.
     let w = full(&fused, &plant);
-    assert!(w.baseline.validation_cost > 20.0 * d.baseline.validation_cost.max(1e-9), "whole-run {} vs windowed {}", w.baseline.validation_cost, d.baseline.validation_cost);
+    assert!(
+        w.baseline.validation_cost > 20.0 * d.baseline.validation_cost.max(1e-9),
+        "whole-run {} vs windowed {}",
+        w.baseline.validation_cost,
+        d.baseline.validation_cost
+    );
 }
 
 /// A thruster lag twice as long as the search allows: the fitted lag ends on its bound, so it
@@ -289,10 +437,31 @@ fn an_unstable_model_on_piloted_runs_is_not_read_as_missing_physics() {
 /// reported unexplained rather than patched by another effect.
 #[test]
 fn an_effect_pushed_to_its_bound_is_refused() {
-    let d = scenario_diagnosis(&[Effect::ThrusterLag { time_constant_s: 3.0 }], 2);
-    let lag = d.hypotheses.iter().filter(|t| t.name == "thruster_lag").max_by(|a, b| a.gain.total_cmp(&b.gain)).unwrap();
-    assert!(lag.at_bound.iter().any(|p| p.contains("time_constant_s")), "{lag:?}");
+    let d = scenario_diagnosis(
+        &[Effect::ThrusterLag {
+            time_constant_s: 3.0,
+        }],
+        2,
+    );
+    let lag = d
+        .hypotheses
+        .iter()
+        .filter(|t| t.name == "thruster_lag")
+        .max_by(|a, b| a.gain.total_cmp(&b.gain))
+        .unwrap();
+    assert!(
+        lag.at_bound.iter().any(|p| p.contains("time_constant_s")),
+        "{lag:?}"
+    );
     assert!(!lag.accepted, "{lag:?}");
-    assert!(d.effects.iter().all(|e| e.name != "thruster_lag"), "{:?}", d.effects.iter().map(|e| &e.name).collect::<Vec<_>>());
-    assert!(d.effects.iter().any(|e| e.name == "unexplained"), "{}", d.verdict);
+    assert!(
+        d.effects.iter().all(|e| e.name != "thruster_lag"),
+        "{:?}",
+        d.effects.iter().map(|e| &e.name).collect::<Vec<_>>()
+    );
+    assert!(
+        d.effects.iter().any(|e| e.name == "unexplained"),
+        "{}",
+        d.verdict
+    );
 }

@@ -8,7 +8,8 @@
 /// q[i] += x_i' A x_i - 2 b.x_i for every particle i (x stored transposed, p x m).
 pub fn quad_all(a: &[f64], b: &[f64], xt: &[f64], p: usize, q: &mut [f64]) {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("fma") {
+    if std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("fma")
+    {
         // SAFETY: the CPU has just been checked for the features the function is compiled with.
         unsafe { quad_all_avx512(a, b, xt, p, q) };
         return;
@@ -51,10 +52,18 @@ fn quad_all_generic<const FMA: bool>(a: &[f64], b: &[f64], xt: &[f64], p: usize,
 }
 
 #[inline(always)]
-fn quad_group<const FMA: bool, const G: usize>(a: &[f64], b: &[f64], xt: &[f64], p: usize, q: &mut [f64], g: usize) {
+fn quad_group<const FMA: bool, const G: usize>(
+    a: &[f64],
+    b: &[f64],
+    xt: &[f64],
+    p: usize,
+    q: &mut [f64],
+    g: usize,
+) {
     let m = q.len();
     let fma = |x: f64, y: f64, z: f64| if FMA { x.mul_add(y, z) } else { x * y + z };
-    let col = |j: usize| -> &[f64; G] { xt[j * m + g..j * m + g + G].try_into().expect("G columns") };
+    let col =
+        |j: usize| -> &[f64; G] { xt[j * m + g..j * m + g + G].try_into().expect("G columns") };
     let mut out = [0.0f64; G];
     let mut r = 0;
     while r + 4 <= p {
@@ -102,7 +111,8 @@ fn quad_group<const FMA: bool, const G: usize>(a: &[f64], b: &[f64], xt: &[f64],
 /// and targets already multiplied by their weights.
 pub fn l1_block(phi: &[f64], y: &[f64], xt: &[f64], p: usize, acc: &mut [f64]) {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("fma") {
+    if std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("fma")
+    {
         // SAFETY: the CPU has just been checked for the features the function is compiled with.
         unsafe { l1_block_avx512(phi, y, xt, p, acc) };
         return;
@@ -138,7 +148,13 @@ fn l1_block_avx2(phi: &[f64], y: &[f64], xt: &[f64], p: usize, acc: &mut [f64]) 
 /// multiply-adds and each broadcast row entry G. The fit starts at -y, so the residual costs
 /// nothing beyond the p multiply-adds but its absolute value and the sum.
 #[inline(always)]
-fn l1_block_generic<const FMA: bool, const R: usize, const G: usize, const G2: usize>(phi: &[f64], y: &[f64], xt: &[f64], p: usize, acc: &mut [f64]) {
+fn l1_block_generic<const FMA: bool, const R: usize, const G: usize, const G2: usize>(
+    phi: &[f64],
+    y: &[f64],
+    xt: &[f64],
+    p: usize,
+    acc: &mut [f64],
+) {
     let rows = y.len();
     let mut i = 0;
     while i + R <= rows {
@@ -152,7 +168,14 @@ fn l1_block_generic<const FMA: bool, const R: usize, const G: usize, const G2: u
 }
 
 #[inline(always)]
-fn l1_tile<const FMA: bool, const R: usize, const G: usize, const G2: usize>(phi: &[f64], y: &[f64], xt: &[f64], p: usize, acc: &mut [f64], i: usize) {
+fn l1_tile<const FMA: bool, const R: usize, const G: usize, const G2: usize>(
+    phi: &[f64],
+    y: &[f64],
+    xt: &[f64],
+    p: usize,
+    acc: &mut [f64],
+    i: usize,
+) {
     let m = acc.len();
     let mut g = 0;
     while g + G <= m {
@@ -171,7 +194,15 @@ fn l1_tile<const FMA: bool, const R: usize, const G: usize, const G2: usize>(phi
 
 /// |row . x - y| for rows i..i+R and particles g..g+G, added to acc.
 #[inline(always)]
-fn l1_kernel<const FMA: bool, const R: usize, const G: usize>(phi: &[f64], y: &[f64], xt: &[f64], p: usize, acc: &mut [f64], i: usize, g: usize) {
+fn l1_kernel<const FMA: bool, const R: usize, const G: usize>(
+    phi: &[f64],
+    y: &[f64],
+    xt: &[f64],
+    p: usize,
+    acc: &mut [f64],
+    i: usize,
+    g: usize,
+) {
     let m = acc.len();
     let mut f = [[0.0f64; G]; R];
     for r in 0..R {
@@ -182,7 +213,11 @@ fn l1_kernel<const FMA: bool, const R: usize, const G: usize>(phi: &[f64], y: &[
         for r in 0..R {
             let a = phi[(i + r) * p + j];
             for l in 0..G {
-                f[r][l] = if FMA { a.mul_add(x[l], f[r][l]) } else { f[r][l] + a * x[l] };
+                f[r][l] = if FMA {
+                    a.mul_add(x[l], f[r][l])
+                } else {
+                    f[r][l] + a * x[l]
+                };
             }
         }
     }

@@ -39,10 +39,17 @@ pub struct Estimate {
 /// the reason. An estimator that constrains signs leaves nothing to flag here.
 pub fn check_signs(layout: &crate::model::ParamLayout, params: &mut [Estimate]) {
     for (j, p) in params.iter_mut().enumerate().take(layout.len()) {
-        let Some(sign) = layout.slot(j).0.physical_sign() else { continue };
+        let Some(sign) = layout.slot(j).0.physical_sign() else {
+            continue;
+        };
         if p.value * sign < 0.0 && p.note.is_none() {
             p.identifiable = false;
-            p.note = Some(format!("{} = {:.4} has the wrong sign (physics wants it {}): the data push it past zero, so it stands in for something the model lacks", p.name, p.value, if sign < 0.0 { "<= 0" } else { ">= 0" }));
+            p.note = Some(format!(
+                "{} = {:.4} has the wrong sign (physics wants it {}): the data push it past zero, so it stands in for something the model lacks",
+                p.name,
+                p.value,
+                if sign < 0.0 { "<= 0" } else { ">= 0" }
+            ));
         }
     }
 }
@@ -90,13 +97,27 @@ pub struct Options<'a> {
 impl<'a> Options<'a> {
     /// A copy (the progress callback is shared).
     pub fn clone_opts(&self) -> Options<'a> {
-        Options { progress: self.progress, ..*self }
+        Options {
+            progress: self.progress,
+            ..*self
+        }
     }
 }
 
 impl Default for Options<'_> {
     fn default() -> Self {
-        Options { rigid_mass: [0.0; 6], seed: 1, population: 40, iterations: 2000, restarts: 5, norm: swarm::Norm::L2, forgetting: 1.0, progress: None, output_error: None, max_seconds: None }
+        Options {
+            rigid_mass: [0.0; 6],
+            seed: 1,
+            population: 40,
+            iterations: 2000,
+            restarts: 5,
+            norm: swarm::Norm::L2,
+            forgetting: 1.0,
+            progress: None,
+            output_error: None,
+            max_seconds: None,
+        }
     }
 }
 
@@ -143,7 +164,9 @@ pub fn names() -> Vec<&'static str> {
 
 #[derive(Debug, thiserror::Error)]
 pub enum EstimateError {
-    #[error("the cases never excite {dof}: {params} cannot be identified. Add CFD cases that move the vehicle in {dof}, or remove {dof} from vehicle.dofs")]
+    #[error(
+        "the cases never excite {dof}: {params} cannot be identified. Add CFD cases that move the vehicle in {dof}, or remove {dof} from vehicle.dofs"
+    )]
     Unexcited { dof: String, params: String },
     #[error("no samples to fit: the stage received no CFD responses")]
     NoData,
@@ -151,6 +174,8 @@ pub enum EstimateError {
     Singular,
     #[error("interrupted (Ctrl-C): nothing was kept")]
     Interrupted,
-    #[error("{0} minimises the equation error only; for objective: output_error use qpso, pso or ga")]
+    #[error(
+        "{0} minimises the equation error only; for objective: output_error use qpso, pso or ga"
+    )]
     NoOutputError(&'static str),
 }

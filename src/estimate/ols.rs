@@ -36,11 +36,17 @@ impl Estimator for Ols {
     }
 }
 
+/// Parameters held at zero by [`solve_signed`]: (index, unconstrained value when held).
+pub(crate) type Held = Vec<(usize, f64)>;
+
 /// Least squares with every added-mass and drag coefficient kept on its physical side of zero
 /// (an active set: the worst offender is held at 0 and the rest refitted, until none is left;
 /// Lawson & Hanson's NNLS without the release step, which these few parameters rarely need).
 /// Returns the solution and the held parameters with the value they had when released.
-pub(crate) fn solve_signed(problem: &Regression, sigma: &BTreeMap<Dof, f64>) -> Result<(Vec<f64>, Vec<(usize, f64)>), EstimateError> {
+pub(crate) fn solve_signed(
+    problem: &Regression,
+    sigma: &BTreeMap<Dof, f64>,
+) -> Result<(Vec<f64>, Held), EstimateError> {
     let p = problem.cols();
     let mut free = vec![true; p];
     let mut held = Vec::new();
@@ -48,7 +54,14 @@ pub(crate) fn solve_signed(problem: &Regression, sigma: &BTreeMap<Dof, f64>) -> 
         let theta = solve_cols(problem, sigma, &free)?;
         let worst = (0..p)
             .filter(|&j| free[j])
-            .filter_map(|j| problem.layout.slot(j).0.physical_sign().map(|s| (j, theta[j] * s)))
+            .filter_map(|j| {
+                problem
+                    .layout
+                    .slot(j)
+                    .0
+                    .physical_sign()
+                    .map(|s| (j, theta[j] * s))
+            })
             .filter(|(_, signed)| *signed < 0.0)
             .min_by(|a, b| a.1.total_cmp(&b.1));
         match worst {
@@ -62,7 +75,11 @@ pub(crate) fn solve_signed(problem: &Regression, sigma: &BTreeMap<Dof, f64>) -> 
 }
 
 /// Least squares over the `free` columns, the others held at zero.
-fn solve_cols(problem: &Regression, sigma: &BTreeMap<Dof, f64>, free: &[bool]) -> Result<Vec<f64>, EstimateError> {
+fn solve_cols(
+    problem: &Regression,
+    sigma: &BTreeMap<Dof, f64>,
+    free: &[bool],
+) -> Result<Vec<f64>, EstimateError> {
     let cols: Vec<usize> = (0..problem.cols()).filter(|&j| free[j]).collect();
     let n = problem.rows();
     let w = |i: usize| 1.0 / sigma[&problem.row_dof[i]];
@@ -73,7 +90,11 @@ fn solve_cols(problem: &Regression, sigma: &BTreeMap<Dof, f64>, free: &[bool]) -
     for (k, &j) in cols.iter().enumerate() {
         theta[j] = x[(k, 0)];
     }
-    if theta.iter().all(|v| v.is_finite()) { Ok(theta) } else { Err(EstimateError::Singular) }
+    if theta.iter().all(|v| v.is_finite()) {
+        Ok(theta)
+    } else {
+        Err(EstimateError::Singular)
+    }
 }
 
 /// A DOF whose regressor columns are all zero was never moved by the cases.
@@ -83,30 +104,55 @@ pub(crate) fn check_excitation(problem: &Regression) -> Result<(), EstimateError
     }
     let layout = &problem.layout;
     for d in &layout.dofs {
-        let cols: Vec<usize> = (0..layout.len()).filter(|j| layout.slot(*j).1 == *d).collect();
-        let moved = (0..problem.rows()).any(|i| cols.iter().any(|j| problem.row(i)[*j].abs() > 1e-9));
+        let cols: Vec<usize> = (0..layout.len())
+            .filter(|j| layout.slot(*j).1 == *d)
+            .collect();
+        let moved =
+            (0..problem.rows()).any(|i| cols.iter().any(|j| problem.row(i)[*j].abs() > 1e-9));
         if !moved {
-            let params = cols.iter().map(|j| layout.name(*j)).collect::<Vec<_>>().join(", ");
-            return Err(EstimateError::Unexcited { dof: d.to_string(), params });
+            let params = cols
+                .iter()
+                .map(|j| layout.name(*j))
+                .collect::<Vec<_>>()
+                .join(", ");
+            return Err(EstimateError::Unexcited {
+                dof: d.to_string(),
+                params,
+            });
         }
     }
     Ok(())
 }
 
 /// Least squares with each row divided by its DOF's residual standard deviation (faer QR).
-pub(crate) fn solve(problem: &Regression, sigma: &BTreeMap<Dof, f64>) -> Result<Vec<f64>, EstimateError> {
+pub(crate) fn solve(
+    problem: &Regression,
+    sigma: &BTreeMap<Dof, f64>,
+) -> Result<Vec<f64>, EstimateError> {
     let (n, p) = (problem.rows(), problem.cols());
     let w = |i: usize| 1.0 / sigma[&problem.row_dof[i]];
     let a = Mat::<f64>::from_fn(n, p, |i, j| problem.row(i)[j] * w(i));
     let b = Mat::<f64>::from_fn(n, 1, |i, _| problem.y[i] * w(i));
     let x = a.qr().solve_lstsq(&b);
     let theta: Vec<f64> = (0..p).map(|j| x[(j, 0)]).collect();
-    if theta.iter().all(|v| v.is_finite()) { Ok(theta) } else { Err(EstimateError::Singular) }
+    if theta.iter().all(|v| v.is_finite()) {
+        Ok(theta)
+    } else {
+        Err(EstimateError::Singular)
+    }
 }
 
 fn residuals(problem: &Regression, theta: &[f64]) -> Vec<f64> {
     (0..problem.rows())
-        .map(|i| problem.y[i] - problem.row(i).iter().zip(theta).map(|(a, t)| a * t).sum::<f64>())
+        .map(|i| {
+            problem.y[i]
+                - problem
+                    .row(i)
+                    .iter()
+                    .zip(theta)
+                    .map(|(a, t)| a * t)
+                    .sum::<f64>()
+        })
         .collect()
 }
 
@@ -119,7 +165,9 @@ pub(crate) fn residual_sigma(problem: &Regression, theta: &[f64]) -> BTreeMap<Do
         e.1 += 1;
     }
     // A floor keeps a noise-free DOF from taking infinite weight.
-    acc.into_iter().map(|(d, (s, n))| (d, (s / n as f64).sqrt().max(1e-9))).collect()
+    acc.into_iter()
+        .map(|(d, (s, n))| (d, (s / n as f64).sqrt().max(1e-9)))
+        .collect()
 }
 
 /// Standard errors from the weighted normal matrix: cov = s^2 (A^T W A)^-1, with s^2 the
@@ -144,7 +192,9 @@ pub(crate) fn summarise(problem: &Regression, theta: &[f64], sigma: &BTreeMap<Do
     let (smax, smin) = (svd.singular_values.max(), svd.singular_values.min());
     // The normal matrix squares the regressor's condition number.
     let condition_number = (smax / smin.max(f64::MIN_POSITIVE)).sqrt();
-    let cov = normal.try_inverse().unwrap_or_else(|| DMatrix::from_element(p, p, f64::INFINITY));
+    let cov = normal
+        .try_inverse()
+        .unwrap_or_else(|| DMatrix::from_element(p, p, f64::INFINITY));
     let parameters = (0..p)
         .map(|j| {
             let stderr = (s2 * cov[(j, j)]).sqrt();
@@ -154,14 +204,19 @@ pub(crate) fn summarise(problem: &Regression, theta: &[f64], sigma: &BTreeMap<Do
                 unit: problem.layout.unit(j).to_string(),
                 stderr,
                 interval: None,
-                identifiable: stderr.is_finite() && stderr < 0.5 * theta[j].abs() && condition_number < 1e8,
+                identifiable: stderr.is_finite()
+                    && stderr < 0.5 * theta[j].abs()
+                    && condition_number < 1e8,
                 note: None,
             }
         })
         .collect();
     Fit {
         parameters,
-        residual_sigma: sigma.iter().map(|(d, s)| (d.name().to_string(), *s)).collect(),
+        residual_sigma: sigma
+            .iter()
+            .map(|(d, s)| (d.name().to_string(), *s))
+            .collect(),
         samples: n,
         condition_number,
         evaluations: None,
@@ -181,7 +236,12 @@ mod tests {
     fn recovers_a_linear_model_with_honest_errors() {
         let mut rng = crate::rng::Rng::new(3);
         let layout = ParamLayout::new(&[Dof::Surge]);
-        let mut r = Regression { layout, phi: vec![], y: vec![], row_dof: vec![] };
+        let mut r = Regression {
+            layout,
+            phi: vec![],
+            y: vec![],
+            row_dof: vec![],
+        };
         let truth = [-2.0, -3.0, -0.5];
         for _ in 0..2000 {
             let row = [rng.normal(), rng.normal(), rng.normal()];
@@ -204,7 +264,12 @@ mod tests {
     fn a_coefficient_pushed_past_its_sign_is_held_and_flagged() {
         let mut rng = crate::rng::Rng::new(5);
         let layout = ParamLayout::new(&[Dof::Surge]);
-        let mut r = Regression { layout, phi: vec![], y: vec![], row_dof: vec![] };
+        let mut r = Regression {
+            layout,
+            phi: vec![],
+            y: vec![],
+            row_dof: vec![],
+        };
         let truth = [-2.0, 0.8, -0.5];
         for _ in 0..2000 {
             let row = [rng.normal(), rng.normal(), rng.normal()];
@@ -215,14 +280,30 @@ mod tests {
         let fit = Ols.fit(&r, &Options::default()).unwrap();
         let x_u = &fit.parameters[1];
         assert_eq!(x_u.value, 0.0, "{x_u:?}");
-        assert!(!x_u.identifiable && x_u.note.as_deref().is_some_and(|n| n.contains("physical sign")), "{x_u:?}");
-        assert!((fit.parameters[0].value + 2.0).abs() < 0.05 && (fit.parameters[2].value + 0.5).abs() < 0.05, "{fit:?}");
+        assert!(
+            !x_u.identifiable
+                && x_u
+                    .note
+                    .as_deref()
+                    .is_some_and(|n| n.contains("physical sign")),
+            "{x_u:?}"
+        );
+        assert!(
+            (fit.parameters[0].value + 2.0).abs() < 0.05
+                && (fit.parameters[2].value + 0.5).abs() < 0.05,
+            "{fit:?}"
+        );
     }
 
     #[test]
     fn an_unexcited_dof_is_named() {
         let layout = ParamLayout::new(&[Dof::Surge, Dof::Heave]);
-        let r = Regression { layout, phi: vec![1.0, 0.0, 2.0, 0.0, 3.0, 0.0], y: vec![1.0], row_dof: vec![Dof::Surge] };
+        let r = Regression {
+            layout,
+            phi: vec![1.0, 0.0, 2.0, 0.0, 3.0, 0.0],
+            y: vec![1.0],
+            row_dof: vec![Dof::Surge],
+        };
         let e = Ols.fit(&r, &Options::default()).unwrap_err().to_string();
         assert!(e.contains("never excite heave: Z_wdot, Z_w, Z_ww"), "{e}");
     }

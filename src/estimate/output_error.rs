@@ -12,19 +12,27 @@ pub struct OutputError<'a> {
 }
 
 impl<'a> OutputError<'a> {
-    pub fn new(vehicle: &'a crate::model::Vehicle, responses: &'a [&'a crate::io::Response]) -> OutputError<'a> {
+    pub fn new(
+        vehicle: &'a crate::model::Vehicle,
+        responses: &'a [&'a crate::io::Response],
+    ) -> OutputError<'a> {
         let weight = responses
             .iter()
             .map(|r| {
                 let mut w = [0.0; 6];
                 for (d, s) in &r.dofs {
-                    let ms = s.velocity.iter().map(|v| v * v).sum::<f64>() / s.velocity.len().max(1) as f64;
+                    let ms = s.velocity.iter().map(|v| v * v).sum::<f64>()
+                        / s.velocity.len().max(1) as f64;
                     w[d.index()] = if ms > 1e-12 { 1.0 / ms } else { 0.0 };
                 }
                 w
             })
             .collect();
-        OutputError { vehicle, responses, weight }
+        OutputError {
+            vehicle,
+            responses,
+            weight,
+        }
     }
 
     /// The weighted velocity errors of the model `theta`, case by case, DOF by DOF, sample by

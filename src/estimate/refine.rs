@@ -33,10 +33,10 @@ pub fn output_error_lm(
     let signs: Vec<Option<f64>> = (0..p).map(|j| layout.slot(j).0.physical_sign()).collect();
     let keep_sign = |theta: &mut [f64]| {
         for (x, s) in theta.iter_mut().zip(&signs) {
-            if let Some(s) = s {
-                if *x * s < 0.0 {
-                    *x = 0.0;
-                }
+            if let Some(s) = s
+                && *x * s < 0.0
+            {
+                *x = 0.0;
             }
         }
     };

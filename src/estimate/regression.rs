@@ -41,7 +41,9 @@ impl Regression {
         for i in 0..self.rows() {
             let w = 1.0 / sigma.get(&self.row_dof[i]).copied().unwrap_or(1.0);
             self.y[i] *= w;
-            self.phi[i * p..(i + 1) * p].iter_mut().for_each(|x| *x *= w);
+            self.phi[i * p..(i + 1) * p]
+                .iter_mut()
+                .for_each(|x| *x *= w);
         }
     }
 
@@ -57,16 +59,33 @@ impl Regression {
         let p = layout.len();
         // hydro_force is linear in the coefficients: column j is its value at the j-th unit vector.
         let units: Vec<_> = (0..p)
-            .map(|j| layout.to_hydro(&(0..p).map(|i| f64::from(u8::from(i == j))).collect::<Vec<_>>()))
+            .map(|j| {
+                layout.to_hydro(
+                    &(0..p)
+                        .map(|i| f64::from(u8::from(i == j)))
+                        .collect::<Vec<_>>(),
+                )
+            })
             .collect();
         let rigid = Plant::new(vehicle, Default::default());
-        let mut r = Regression { layout: layout.clone(), phi: Vec::new(), y: Vec::new(), row_dof: Vec::new() };
+        let mut r = Regression {
+            layout: layout.clone(),
+            phi: Vec::new(),
+            y: Vec::new(),
+            row_dof: Vec::new(),
+        };
         for resp in responses {
-            let dofs: Vec<Dof> = resp.dofs.keys().copied().filter(|d| vehicle.dofs.contains(d)).collect();
+            let dofs: Vec<Dof> = resp
+                .dofs
+                .keys()
+                .copied()
+                .filter(|d| vehicle.dofs.contains(d))
+                .collect();
             for k in (0..resp.len()).filter(|&k| resp.t[k] >= skip_start_s) {
                 let (nu, nu_dot, tau) = (resp.nu(k), resp.nu_dot(k), resp.tau(k));
                 let known = rigid.rigid_force(&nu, &nu_dot);
-                let cols: Vec<[f64; 6]> = units.iter().map(|h| hydro_force(h, &nu, &nu_dot)).collect();
+                let cols: Vec<[f64; 6]> =
+                    units.iter().map(|h| hydro_force(h, &nu, &nu_dot)).collect();
                 for d in &dofs {
                     let i = d.index();
                     r.y.push(tau[i] - known[i]);

@@ -72,11 +72,21 @@ impl<'a> Problem<'a> {
                 }
             }
         }
-        let w: Vec<f64> = reg.row_dof.iter().map(|d| 1.0 / (scale[d.index()] / count[d.index()].max(1) as f64).sqrt().max(1e-9)).collect();
+        let w: Vec<f64> = reg
+            .row_dof
+            .iter()
+            .map(|d| {
+                1.0 / (scale[d.index()] / count[d.index()].max(1) as f64)
+                    .sqrt()
+                    .max(1e-9)
+            })
+            .collect();
         // Linear drag can be no larger than force / speed at any moving sample near steady
         // state; the smallest such ratio (the slowest steady case) bounds it far tighter than
         // max force / max speed.
-        let col = |g: crate::model::params::Group, d: usize| (0..p).find(|&j| reg.layout.slot(j) == (g, crate::dof::Dof::ALL[d]));
+        let col = |g: crate::model::params::Group, d: usize| {
+            (0..p).find(|&j| reg.layout.slot(j) == (g, crate::dof::Dof::ALL[d]))
+        };
         let mut amax = [0.0f64; 6];
         for i in 0..reg.rows() {
             let d = reg.row_dof[i].index();
@@ -87,7 +97,12 @@ impl<'a> Problem<'a> {
         let mut lin_bound = [f64::INFINITY; 6];
         for i in 0..reg.rows() {
             let d = reg.row_dof[i].index();
-            let (Some(jl), Some(ja)) = (col(crate::model::params::Group::LinearDrag, d), col(crate::model::params::Group::AddedMass, d)) else { continue };
+            let (Some(jl), Some(ja)) = (
+                col(crate::model::params::Group::LinearDrag, d),
+                col(crate::model::params::Group::AddedMass, d),
+            ) else {
+                continue;
+            };
             let (v, a) = (reg.row(i)[jl].abs(), reg.row(i)[ja].abs());
             // Steady samples only (acceleration under 2 % of its peak): there force = drag.
             if v >= 0.05 * vmax[d] && v > 0.0 && a <= 0.02 * amax[d] {
@@ -126,12 +141,30 @@ impl<'a> Problem<'a> {
         }
         let (wphi, wy) = if norm == Norm::L1 {
             // The weights are positive, so |w (y - row . x)| = |(w row) . x - w y|.
-            let wphi = reg.phi.chunks(p.max(1)).zip(&w).flat_map(|(row, wi)| row.iter().map(move |v| wi * v)).collect();
+            let wphi = reg
+                .phi
+                .chunks(p.max(1))
+                .zip(&w)
+                .flat_map(|(row, wi)| row.iter().map(move |v| wi * v))
+                .collect();
             (wphi, reg.y.iter().zip(&w).map(|(y, wi)| wi * y).collect())
         } else {
             (Vec::new(), Vec::new())
         };
-        Problem { reg, w, norm, lo, hi, a, b, c, wphi, wy, evals: AtomicUsize::new(0), output: None }
+        Problem {
+            reg,
+            w,
+            norm,
+            lo,
+            hi,
+            a,
+            b,
+            c,
+            wphi,
+            wy,
+            evals: AtomicUsize::new(0),
+            output: None,
+        }
     }
 
     /// The same bounds, with the output-error objective instead of the equation error.
@@ -234,12 +267,20 @@ impl<'a> Problem<'a> {
             .map(|b| {
                 let mut acc = vec![0.0; m];
                 let rows = b * BLOCK..((b + 1) * BLOCK).min(k);
-                l1_block(&self.wphi[rows.start * p..rows.end * p], &self.wy[rows], &xt, p, &mut acc);
+                l1_block(
+                    &self.wphi[rows.start * p..rows.end * p],
+                    &self.wy[rows],
+                    &xt,
+                    p,
+                    &mut acc,
+                );
                 acc
             })
             .collect();
         let scale = (k.max(1) as f64).sqrt();
-        (0..m).map(|i| partial.iter().map(|a| a[i]).sum::<f64>() / scale).collect()
+        (0..m)
+            .map(|i| partial.iter().map(|a| a[i]).sum::<f64>() / scale)
+            .collect()
     }
 
     fn clamp(&self, x: &mut [f64]) {
@@ -249,7 +290,9 @@ impl<'a> Problem<'a> {
     }
 
     fn random_point(&self, rng: &mut Rng) -> Vec<f64> {
-        (0..self.dim()).map(|j| self.lo[j] + (self.hi[j] - self.lo[j]) * rng.uniform()).collect()
+        (0..self.dim())
+            .map(|j| self.lo[j] + (self.hi[j] - self.lo[j]) * rng.uniform())
+            .collect()
     }
 }
 
@@ -266,7 +309,12 @@ impl Swarm {
         let x: Vec<Vec<f64>> = (0..n).map(|_| problem.random_point(rng)).collect();
         let cost = problem.cost_all(&x);
         let g = argmin(&cost);
-        Swarm { best: x.clone(), x, best_cost: cost, g }
+        Swarm {
+            best: x.clone(),
+            x,
+            best_cost: cost,
+            g,
+        }
     }
 
     fn absorb(&mut self, cost: &[f64]) {
@@ -281,7 +329,10 @@ impl Swarm {
 }
 
 fn argmin(v: &[f64]) -> usize {
-    v.iter().enumerate().min_by(|a, b| a.1.total_cmp(b.1)).map_or(0, |(i, _)| i)
+    v.iter()
+        .enumerate()
+        .min_by(|a, b| a.1.total_cmp(b.1))
+        .map_or(0, |(i, _)| i)
 }
 
 /// One iteration of a population method.
@@ -302,7 +353,9 @@ impl Solver for Qpso {
         let beta = 1.0 - 0.5 * progress;
         let n = s.x.len();
         let dim = problem.dim();
-        let mbest: Vec<f64> = (0..dim).map(|j| s.best.iter().map(|p| p[j]).sum::<f64>() / n as f64).collect();
+        let mbest: Vec<f64> = (0..dim)
+            .map(|j| s.best.iter().map(|p| p[j]).sum::<f64>() / n as f64)
+            .collect();
         let pg = s.best[s.g].clone();
         for i in 0..n {
             for j in 0..dim {
@@ -310,7 +363,11 @@ impl Solver for Qpso {
                 let pd = phi * s.best[i][j] + (1.0 - phi) * pg[j];
                 let u = rng.uniform_open();
                 let step = beta * (mbest[j] - s.x[i][j]).abs() * (1.0 / u).ln();
-                s.x[i][j] = if rng.uniform() < 0.5 { pd + step } else { pd - step };
+                s.x[i][j] = if rng.uniform() < 0.5 {
+                    pd + step
+                } else {
+                    pd - step
+                };
             }
             let mut xi = std::mem::take(&mut s.x[i]);
             problem.clamp(&mut xi);
@@ -343,7 +400,13 @@ impl Default for Pso {
 impl Solver for Pso {
     fn init(&mut self, problem: &Problem, rng: &mut Rng, population: usize) -> Swarm {
         let s = Swarm::new(problem, population, rng);
-        self.v = (0..population).map(|_| (0..problem.dim()).map(|j| 0.1 * (problem.hi[j] - problem.lo[j]) * (2.0 * rng.uniform() - 1.0)).collect()).collect();
+        self.v = (0..population)
+            .map(|_| {
+                (0..problem.dim())
+                    .map(|j| 0.1 * (problem.hi[j] - problem.lo[j]) * (2.0 * rng.uniform() - 1.0))
+                    .collect()
+            })
+            .collect();
         s
     }
 
@@ -354,7 +417,9 @@ impl Solver for Pso {
         for i in 0..s.x.len() {
             for j in 0..problem.dim() {
                 let vmax = 0.2 * (problem.hi[j] - problem.lo[j]);
-                let v = w * self.v[i][j] + C * rng.uniform() * (s.best[i][j] - s.x[i][j]) + C * rng.uniform() * (pg[j] - s.x[i][j]);
+                let v = w * self.v[i][j]
+                    + C * rng.uniform() * (s.best[i][j] - s.x[i][j])
+                    + C * rng.uniform() * (pg[j] - s.x[i][j]);
                 self.v[i][j] = v.clamp(-vmax, vmax);
                 s.x[i][j] += self.v[i][j];
                 if s.x[i][j] < problem.lo[j] || s.x[i][j] > problem.hi[j] {
@@ -385,7 +450,12 @@ impl Solver for Ga {
         // The current generation is `best` (a GA keeps no memory beyond its population).
         let mut order: Vec<usize> = (0..n).collect();
         order.sort_by(|a, b| s.best_cost[*a].total_cmp(&s.best_cost[*b]));
-        let pick = |rng: &mut Rng| (0..3).map(|_| rng.below(n)).min_by(|a, b| s.best_cost[*a].total_cmp(&s.best_cost[*b])).unwrap_or(0);
+        let pick = |rng: &mut Rng| {
+            (0..3)
+                .map(|_| rng.below(n))
+                .min_by(|a, b| s.best_cost[*a].total_cmp(&s.best_cost[*b]))
+                .unwrap_or(0)
+        };
         let sigma = 0.1 * 1e-3f64.powf(progress);
         let mut next: Vec<Vec<f64>> = order.iter().take(2).map(|&i| s.best[i].clone()).collect();
         while next.len() < n {
@@ -420,7 +490,13 @@ impl Solver for Ga {
 
 /// Runs a solver: `restarts` independent seeded runs (the spread of their answers is the
 /// reported interval), each `iterations` long.
-pub fn execute(name: &str, make: &dyn Fn() -> Box<dyn Solver>, reg: &Regression, rigid_mass: &[f64; 6], opts: &Options) -> Result<Fit, EstimateError> {
+pub fn execute(
+    name: &str,
+    make: &dyn Fn() -> Box<dyn Solver>,
+    reg: &Regression,
+    rigid_mass: &[f64; 6],
+    opts: &Options,
+) -> Result<Fit, EstimateError> {
     super::ols::check_excitation(reg)?;
     let mut problem = Problem::new(reg, rigid_mass, opts.norm);
     if let Some((vehicle, responses)) = opts.output_error {
@@ -437,13 +513,27 @@ pub fn execute(name: &str, make: &dyn Fn() -> Box<dyn Solver>, reg: &Regression,
             if crate::interrupt::requested() {
                 return Err(EstimateError::Interrupted);
             }
-            if let Some(limit) = opts.max_seconds.filter(|l| started.elapsed().as_secs_f64() > *l) {
-                stopped_early = Some(format!("time limit of {limit} s reached in restart {} of {} after {it} of {} iterations", r + 1, opts.restarts.max(1), opts.iterations));
+            if let Some(limit) = opts
+                .max_seconds
+                .filter(|l| started.elapsed().as_secs_f64() > *l)
+            {
+                stopped_early = Some(format!(
+                    "time limit of {limit} s reached in restart {} of {} after {it} of {} iterations",
+                    r + 1,
+                    opts.restarts.max(1),
+                    opts.iterations
+                ));
                 break;
             }
-            solver.step(&problem, &mut swarm, &mut rng, it as f64 / opts.iterations.max(1) as f64);
+            solver.step(
+                &problem,
+                &mut swarm,
+                &mut rng,
+                it as f64 / opts.iterations.max(1) as f64,
+            );
             if let Some(p) = opts.progress {
-                p((r * opts.iterations + it + 1) as f64 / (opts.restarts.max(1) * opts.iterations) as f64);
+                p((r * opts.iterations + it + 1) as f64
+                    / (opts.restarts.max(1) * opts.iterations) as f64);
             }
         }
         answers.push((swarm.best[swarm.g].clone(), swarm.best_cost[swarm.g]));
@@ -465,10 +555,17 @@ pub fn execute(name: &str, make: &dyn Fn() -> Box<dyn Solver>, reg: &Regression,
     let parameters = (0..p)
         .map(|j| {
             let vals: Vec<f64> = answers.iter().map(|a| a.0[j]).collect();
-            let (lo, hi) = vals.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| (l.min(*v), h.max(*v)));
+            let (lo, hi) = vals
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| {
+                    (l.min(*v), h.max(*v))
+                });
             let mean = vals.iter().sum::<f64>() / vals.len() as f64;
-            let sd = (vals.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (vals.len().max(2) - 1) as f64).sqrt();
-            let at_bound = (best[j] - problem.lo[j]).abs() < 1e-6 * problem.lo[j].abs().max(1.0) || best[j].abs() < 1e-9;
+            let sd = (vals.iter().map(|v| (v - mean).powi(2)).sum::<f64>()
+                / (vals.len().max(2) - 1) as f64)
+                .sqrt();
+            let at_bound = (best[j] - problem.lo[j]).abs() < 1e-6 * problem.lo[j].abs().max(1.0)
+                || best[j].abs() < 1e-9;
             // One search run has no spread to judge a value by.
             let single = vals.len() < 2;
             let stderr = match &refined {
@@ -478,9 +575,15 @@ pub fn execute(name: &str, make: &dyn Fn() -> Box<dyn Solver>, reg: &Regression,
             };
             let spread_ok = refined.is_some() || (!single && (hi - lo) < 0.5 * best[j].abs());
             let note = if at_bound {
-                Some("pinned to its search bound: the data (or the search) did not determine it".to_string())
+                Some(
+                    "pinned to its search bound: the data (or the search) did not determine it"
+                        .to_string(),
+                )
             } else if single && refined.is_none() {
-                Some("one search run only (time limit): no spread across restarts to judge it by".to_string())
+                Some(
+                    "one search run only (time limit): no spread across restarts to judge it by"
+                        .to_string(),
+                )
             } else {
                 None
             };
@@ -493,7 +596,10 @@ pub fn execute(name: &str, make: &dyn Fn() -> Box<dyn Solver>, reg: &Regression,
                 // Wide disagreement between restarts, a standard error over half the value,
                 // or a value pinned to a bound means the data (or the search) did not
                 // determine it.
-                identifiable: !at_bound && spread_ok && stderr.is_finite() && stderr < 0.5 * best[j].abs(),
+                identifiable: !at_bound
+                    && spread_ok
+                    && stderr.is_finite()
+                    && stderr < 0.5 * best[j].abs(),
                 note,
             }
         })
@@ -503,7 +609,10 @@ pub fn execute(name: &str, make: &dyn Fn() -> Box<dyn Solver>, reg: &Regression,
     let condition_number = super::ols::summarise(reg, &best, &residual).condition_number;
     Ok(Fit {
         parameters,
-        residual_sigma: residual.iter().map(|(d, s)| (d.name().to_string(), *s)).collect(),
+        residual_sigma: residual
+            .iter()
+            .map(|(d, s)| (d.name().to_string(), *s))
+            .collect(),
         samples: reg.rows(),
         condition_number,
         evaluations: Some(problem.evaluations()),
@@ -543,11 +652,26 @@ mod tests {
                 let one = match norm {
                     Norm::L2 => problem.cost(x),
                     Norm::L1 => {
-                        let s: f64 = (0..n).map(|i| (problem.w[i] * (reg.y[i] - reg.row(i).iter().zip(x).map(|(a, t)| a * t).sum::<f64>())).abs()).sum();
+                        let s: f64 = (0..n)
+                            .map(|i| {
+                                (problem.w[i]
+                                    * (reg.y[i]
+                                        - reg
+                                            .row(i)
+                                            .iter()
+                                            .zip(x)
+                                            .map(|(a, t)| a * t)
+                                            .sum::<f64>()))
+                                .abs()
+                            })
+                            .sum();
                         s / (n as f64).sqrt()
                     }
                 };
-                assert!((c - one).abs() <= 1e-9 * one.abs().max(1.0), "{norm:?}: {c} vs {one}");
+                assert!(
+                    (c - one).abs() <= 1e-9 * one.abs().max(1.0),
+                    "{norm:?}: {c} vs {one}"
+                );
             }
         }
     }

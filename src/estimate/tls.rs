@@ -29,13 +29,23 @@ impl Estimator for Tls {
         let sigma = super::ols::residual_sigma(problem, &first);
         let (n, p) = (problem.rows(), problem.cols());
         let w: Vec<f64> = problem.row_dof.iter().map(|d| 1.0 / sigma[d]).collect();
-        let mut m = DMatrix::<f64>::from_fn(n, p + 1, |i, j| w[i] * if j < p { problem.row(i)[j] } else { problem.y[i] });
-        let scale: Vec<f64> = (0..=p).map(|j| (m.column(j).norm_squared() / n as f64).sqrt().max(1e-300)).collect();
+        let mut m = DMatrix::<f64>::from_fn(n, p + 1, |i, j| {
+            w[i] * if j < p {
+                problem.row(i)[j]
+            } else {
+                problem.y[i]
+            }
+        });
+        let scale: Vec<f64> = (0..=p)
+            .map(|j| (m.column(j).norm_squared() / n as f64).sqrt().max(1e-300))
+            .collect();
         for (j, s) in scale.iter().enumerate() {
             m.column_mut(j).scale_mut(1.0 / s);
         }
         let theta_scaled = tls_solve(&(m.transpose() * &m))?;
-        let theta: Vec<f64> = (0..p).map(|j| theta_scaled[j] * scale[p] / scale[j]).collect();
+        let theta: Vec<f64> = (0..p)
+            .map(|j| theta_scaled[j] * scale[p] / scale[j])
+            .collect();
         let mut fit = super::ols::summarise(problem, &theta, &sigma);
         for e in &mut fit.parameters {
             e.interval = None;
@@ -53,18 +63,34 @@ pub fn tls_solve(gram: &DMatrix<f64>) -> Result<Vec<f64>, EstimateError> {
     let mut order: Vec<usize> = (0..q).collect();
     order.sort_by(|a, b| eig.eigenvalues[*a].total_cmp(&eig.eigenvalues[*b]));
     // Singular values are square roots of the Gram matrix's eigenvalues.
-    let sv: Vec<f64> = order.iter().map(|&i| eig.eigenvalues[i].max(0.0).sqrt()).collect();
+    let sv: Vec<f64> = order
+        .iter()
+        .map(|&i| eig.eigenvalues[i].max(0.0).sqrt())
+        .collect();
     let smax = sv[q - 1].max(f64::MIN_POSITIVE);
-    let k = sv.iter().take_while(|s| (**s - sv[0]) / smax <= REPEAT_TOL).count().max(1);
+    let k = sv
+        .iter()
+        .take_while(|s| (**s - sv[0]) / smax <= REPEAT_TOL)
+        .count()
+        .max(1);
     // V2: the right singular vectors of the k smallest singular values; theta = -V12 V22' / (V22 V22').
-    let v2: Vec<_> = order[..k].iter().map(|&i| eig.eigenvectors.column(i).into_owned()).collect();
+    let v2: Vec<_> = order[..k]
+        .iter()
+        .map(|&i| eig.eigenvectors.column(i).into_owned())
+        .collect();
     let v22: Vec<f64> = v2.iter().map(|v| v[p]).collect();
     let denom: f64 = v22.iter().map(|x| x * x).sum();
     if denom < 1e-24 {
         return Err(EstimateError::Singular);
     }
-    let theta: Vec<f64> = (0..p).map(|j| -v2.iter().zip(&v22).map(|(v, c)| v[j] * c).sum::<f64>() / denom).collect();
-    if theta.iter().all(|x| x.is_finite()) { Ok(theta) } else { Err(EstimateError::Singular) }
+    let theta: Vec<f64> = (0..p)
+        .map(|j| -v2.iter().zip(&v22).map(|(v, c)| v[j] * c).sum::<f64>() / denom)
+        .collect();
+    if theta.iter().all(|x| x.is_finite()) {
+        Ok(theta)
+    } else {
+        Err(EstimateError::Singular)
+    }
 }
 
 #[cfg(test)]
@@ -75,9 +101,18 @@ mod tests {
     fn exact_data_is_solved_and_a_repeated_singular_value_gives_the_minimum_norm_solution() {
         // b = 2 a1 - 3 a2 exactly: the smallest singular value is 0 and theta is exact.
         let rows = [[1.0, 0.0], [0.0, 1.0], [1.0, 1.0], [2.0, -1.0]];
-        let m = DMatrix::from_fn(4, 3, |i, j| if j < 2 { rows[i][j] } else { 2.0 * rows[i][0] - 3.0 * rows[i][1] });
+        let m = DMatrix::from_fn(4, 3, |i, j| {
+            if j < 2 {
+                rows[i][j]
+            } else {
+                2.0 * rows[i][0] - 3.0 * rows[i][1]
+            }
+        });
         let th = tls_solve(&(m.transpose() * &m)).unwrap();
-        assert!((th[0] - 2.0).abs() < 1e-9 && (th[1] + 3.0).abs() < 1e-9, "{th:?}");
+        assert!(
+            (th[0] - 2.0).abs() < 1e-9 && (th[1] + 3.0).abs() < 1e-9,
+            "{th:?}"
+        );
         // [A b] = [I | 0] padded: a Gram matrix diag(1, 1, 1) has one triple singular value; the
         // minimum-norm TLS over the whole space of V is theta = 0.
         let g = DMatrix::<f64>::identity(3, 3);

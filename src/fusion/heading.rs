@@ -1,8 +1,8 @@
 //! The heading filter: yaw, yaw rate and gyro bias smoothed from an IMU's or a navigation
 //! log's yaw and rate (either may be missing).
 
-use super::kalman::{white_accel, Filter, Mat, Vector};
-use super::{wrap_pi, Noise};
+use super::kalman::{Filter, Mat, Vector, white_accel};
+use super::{Noise, wrap_pi};
 use crate::io::csvlog::Log;
 use nalgebra::{SMatrix, SVector};
 
@@ -26,8 +26,15 @@ pub(super) struct HeadingInput<'a> {
 impl<'a> HeadingInput<'a> {
     /// From the IMU when it has yaw or a z gyro, else from the navigation log's.
     pub(super) fn of(imu: Option<&'a Log>, nav: Option<&'a Log>) -> Option<HeadingInput<'a>> {
-        let from = |l: &'a Log, yaw: usize, rate: usize| (l.has(yaw) || l.has(rate)).then(|| HeadingInput { t: &l.t, yaw: l.col(yaw), gyro: l.col(rate) });
-        imu.and_then(|l| from(l, 2, 5)).or_else(|| nav.and_then(|l| from(l, 5, 8)))
+        let from = |l: &'a Log, yaw: usize, rate: usize| {
+            (l.has(yaw) || l.has(rate)).then(|| HeadingInput {
+                t: &l.t,
+                yaw: l.col(yaw),
+                gyro: l.col(rate),
+            })
+        };
+        imu.and_then(|l| from(l, 2, 5))
+            .or_else(|| nav.and_then(|l| from(l, 5, 8)))
     }
 }
 
@@ -42,7 +49,10 @@ fn heading_with(src: &HeadingInput, sy: f64, sg: f64, q_r: f64) -> (Heading, f64
     let finite_or = |x: f64, d: f64| if x.is_finite() { x } else { d };
     let x0 = Vector::<3>::new(finite_or(yaw[0], 0.0), finite_or(gyro[0], 0.0), 0.0);
     let psi_var0 = if yaw[0].is_finite() { sy * sy } else { 10.0 };
-    let mut f = Filter::<3>::new(x0, Mat::<3>::from_diagonal(&Vector::<3>::new(psi_var0, 0.1, 0.03f64.powi(2))));
+    let mut f = Filter::<3>::new(
+        x0,
+        Mat::<3>::from_diagonal(&Vector::<3>::new(psi_var0, 0.1, 0.03f64.powi(2))),
+    );
     let wrap = |v: &mut SVector<f64, 1>| v[0] = wrap_pi(v[0]);
     for k in 0..len {
         if k > 0 {
@@ -52,7 +62,17 @@ fn heading_with(src: &HeadingInput, sy: f64, sg: f64, q_r: f64) -> (Heading, f64
             }
             let a = white_accel(q_r, dt);
             let fm = Mat::<3>::new(1.0, dt, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0);
-            let q = Mat::<3>::new(a[0][0], a[0][1], 0.0, a[1][0], a[1][1], 0.0, 0.0, 0.0, q_b * dt);
+            let q = Mat::<3>::new(
+                a[0][0],
+                a[0][1],
+                0.0,
+                a[1][0],
+                a[1][1],
+                0.0,
+                0.0,
+                0.0,
+                q_b * dt,
+            );
             f.predict(fm, Vector::<3>::zeros(), q);
         }
         if yaw[k].is_finite() {
@@ -63,11 +83,23 @@ fn heading_with(src: &HeadingInput, sy: f64, sg: f64, q_r: f64) -> (Heading, f64
                 let nu = wrap_pi(yaw[k] - x[0]);
                 loglik -= 0.5 * (s.ln() + nu * nu / s);
             }
-            f.update(SVector::<f64, 1>::new(yaw[k]), h, SMatrix::<f64, 1, 1>::new(sy * sy), f64::INFINITY, wrap);
+            f.update(
+                SVector::<f64, 1>::new(yaw[k]),
+                h,
+                SMatrix::<f64, 1, 1>::new(sy * sy),
+                f64::INFINITY,
+                wrap,
+            );
         }
         if gyro[k].is_finite() {
             let h = SMatrix::<f64, 1, 3>::new(0.0, 1.0, 1.0);
-            f.update(SVector::<f64, 1>::new(gyro[k]), h, SMatrix::<f64, 1, 1>::new(sg * sg), f64::INFINITY, |_| {});
+            f.update(
+                SVector::<f64, 1>::new(gyro[k]),
+                h,
+                SMatrix::<f64, 1, 1>::new(sg * sg),
+                f64::INFINITY,
+                |_| {},
+            );
         }
     }
     let sm = f.smooth();
@@ -97,11 +129,23 @@ const YAW_ACCEL_Q: f64 = 2.0;
 /// AHRS's yaw alone) the rate's uncertainty rests on the yaw-acceleration density and on the
 /// yaw noise, so both are chosen from the data: the pair whose yaw innovations are most
 /// likely (maximum likelihood over a log grid), and the choice is said in the notes.
-pub(super) fn heading(src: &HeadingInput, n: &mut Noise, notes: &mut Vec<String>, yaw_set: bool) -> Heading {
+pub(super) fn heading(
+    src: &HeadingInput,
+    n: &mut Noise,
+    notes: &mut Vec<String>,
+    yaw_set: bool,
+) -> Heading {
     if src.gyro.is_some() || src.yaw.is_none() {
         return heading_with(src, n.yaw_rad, n.gyro_rad_s, YAW_ACCEL_Q).0;
     }
-    let sigmas: Vec<f64> = if yaw_set { vec![n.yaw_rad] } else { [0.05f64, 0.1, 0.2, 0.4, 0.8, 1.6].iter().map(|d| d.to_radians()).collect() };
+    let sigmas: Vec<f64> = if yaw_set {
+        vec![n.yaw_rad]
+    } else {
+        [0.05f64, 0.1, 0.2, 0.4, 0.8, 1.6]
+            .iter()
+            .map(|d| d.to_radians())
+            .collect()
+    };
     let qs = [1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3, 1.0, 3.0];
     let mut best = (f64::NEG_INFINITY, n.yaw_rad, YAW_ACCEL_Q);
     for &sy in &sigmas {

@@ -32,8 +32,18 @@ pub enum Update {
 
 impl<const N: usize> Filter<N> {
     pub fn new(x0: Vector<N>, p0: Mat<N>) -> Filter<N> {
-        let mut f = Filter { x: x0, p: p0, steps: Vec::new() };
-        f.steps.push(Step { f: Mat::identity(), x_prior: x0, p_prior: p0, x: x0, p: p0 });
+        let mut f = Filter {
+            x: x0,
+            p: p0,
+            steps: Vec::new(),
+        };
+        f.steps.push(Step {
+            f: Mat::identity(),
+            x_prior: x0,
+            p_prior: p0,
+            x: x0,
+            p: p0,
+        });
         f
     }
 
@@ -42,7 +52,13 @@ impl<const N: usize> Filter<N> {
         self.x = f * self.x + u;
         self.p = f * self.p * f.transpose() + q;
         self.p = (self.p + self.p.transpose()) * 0.5;
-        self.steps.push(Step { f, x_prior: self.x, p_prior: self.p, x: self.x, p: self.p });
+        self.steps.push(Step {
+            f,
+            x_prior: self.x,
+            p_prior: self.p,
+            x: self.x,
+            p: self.p,
+        });
     }
 
     /// Measurement z = H x + noise(R), with the innovation optionally wrapped (angles) and
@@ -58,7 +74,9 @@ impl<const N: usize> Filter<N> {
         let mut nu = z - h * self.x;
         wrap(&mut nu);
         let s = h * self.p * h.transpose() + r;
-        let Some(s_inv) = s.try_inverse() else { return Update::Gated(f64::INFINITY) };
+        let Some(s_inv) = s.try_inverse() else {
+            return Update::Gated(f64::INFINITY);
+        };
         let d2 = (nu.transpose() * s_inv * nu)[(0, 0)];
         if d2 > gate {
             return Update::Gated(d2);
@@ -94,7 +112,11 @@ impl<const N: usize> Filter<N> {
         for k in (0..n - 1).rev() {
             let (cur, next) = (&self.steps[k], &self.steps[k + 1]);
             // A singular prior means a state no noise reaches: regularise it slightly.
-            let inv = next.p_prior.try_inverse().or_else(|| (next.p_prior + Mat::<N>::identity() * 1e-12).try_inverse()).unwrap_or_else(Mat::<N>::zeros);
+            let inv = next
+                .p_prior
+                .try_inverse()
+                .or_else(|| (next.p_prior + Mat::<N>::identity() * 1e-12).try_inverse())
+                .unwrap_or_else(Mat::<N>::zeros);
             let c = cur.p * next.f.transpose() * inv;
             let (xs, ps) = &out[k + 1];
             let x = cur.x + c * (xs - next.x_prior);
@@ -107,7 +129,10 @@ impl<const N: usize> Filter<N> {
 
 /// Process noise of a position-velocity pair driven by white acceleration of spectral density `q`.
 pub fn white_accel(q: f64, dt: f64) -> [[f64; 2]; 2] {
-    [[q * dt.powi(3) / 3.0, q * dt.powi(2) / 2.0], [q * dt.powi(2) / 2.0, q * dt]]
+    [
+        [q * dt.powi(3) / 3.0, q * dt.powi(2) / 2.0],
+        [q * dt.powi(2) / 2.0, q * dt],
+    ]
 }
 
 #[cfg(test)]
@@ -119,15 +144,25 @@ mod tests {
         // x = 0.5 t observed with sigma 0.1 every 0.1 s: the smoothed velocity at the start
         // knows about the whole track, the filtered one only about the first sample.
         let mut rng = crate::rng::Rng::new(3);
-        let mut f = Filter::<2>::new(Vector::<2>::zeros(), Mat::<2>::from_diagonal(&Vector::<2>::new(1.0, 1.0)));
+        let mut f = Filter::<2>::new(
+            Vector::<2>::zeros(),
+            Mat::<2>::from_diagonal(&Vector::<2>::new(1.0, 1.0)),
+        );
         let dt = 0.1;
         let mut filtered_v0 = None;
         for k in 1..=200 {
             let q = white_accel(1e-6, dt);
-            f.predict(Mat::<2>::new(1.0, dt, 0.0, 1.0), Vector::<2>::zeros(), Mat::<2>::new(q[0][0], q[0][1], q[1][0], q[1][1]));
+            f.predict(
+                Mat::<2>::new(1.0, dt, 0.0, 1.0),
+                Vector::<2>::zeros(),
+                Mat::<2>::new(q[0][0], q[0][1], q[1][0], q[1][1]),
+            );
             let z = SVector::<f64, 1>::new(0.5 * k as f64 * dt + 0.1 * rng.normal());
             let h = SMatrix::<f64, 1, 2>::new(1.0, 0.0);
-            assert_eq!(f.update(z, h, SMatrix::<f64, 1, 1>::new(0.01), 1e9, |_| {}), Update::Accepted);
+            assert_eq!(
+                f.update(z, h, SMatrix::<f64, 1, 1>::new(0.01), 1e9, |_| {}),
+                Update::Accepted
+            );
             if k == 1 {
                 filtered_v0 = Some(f.state().0[1]);
             }
@@ -139,6 +174,15 @@ mod tests {
         assert!(sd > 0.001 && sd < 0.02, "{sd}");
         // A gross outlier is gated.
         let z = SVector::<f64, 1>::new(0.5 * 20.0 + 3.0);
-        assert!(matches!(f.update(z, SMatrix::<f64, 1, 2>::new(1.0, 0.0), SMatrix::<f64, 1, 1>::new(0.01), 16.0, |_| {}), Update::Gated(_)));
+        assert!(matches!(
+            f.update(
+                z,
+                SMatrix::<f64, 1, 2>::new(1.0, 0.0),
+                SMatrix::<f64, 1, 1>::new(0.01),
+                16.0,
+                |_| {}
+            ),
+            Update::Gated(_)
+        ));
     }
 }

@@ -20,10 +20,10 @@ pub mod kalman;
 pub mod nav;
 pub mod run;
 
-use crate::io::pool::{PoolRun, G};
 use crate::io::csvlog::Log;
-use heading::{heading, Heading, HeadingInput};
-use kalman::{white_accel, Filter, Mat, Update, Vector};
+use crate::io::pool::{G, PoolRun};
+use heading::{Heading, HeadingInput, heading};
+use kalman::{Filter, Mat, Update, Vector, white_accel};
 use nalgebra::{SMatrix, SVector};
 use serde::{Deserialize, Serialize};
 
@@ -102,16 +102,36 @@ fn unwrap_angles(a: &[f64]) -> Vec<f64> {
 
 impl Settings {
     fn noise(&self, run: &PoolRun) -> Noise {
-        let est = |l: Option<&Log>, c: usize, floor: f64| l.and_then(|l| l.col(c)).map_or(floor, |x| noise_sigma(x, floor));
+        let est = |l: Option<&Log>, c: usize, floor: f64| {
+            l.and_then(|l| l.col(c))
+                .map_or(floor, |x| noise_sigma(x, floor))
+        };
         let uwb = run.uwb.as_ref();
         let imu = run.imu.as_ref();
         Noise {
-            uwb_m: self.uwb_sigma_m.unwrap_or_else(|| std::array::from_fn(|c| est(uwb, c, 0.005))),
-            sonar_m: self.sonar_sigma_m.unwrap_or_else(|| est(run.sonar.as_ref(), 0, 0.005).max(est(run.sonar.as_ref(), 1, 0.005))),
-            depth_m: self.depth_sigma_m.unwrap_or_else(|| est(run.depth.as_ref(), 0, 0.002)),
-            yaw_rad: self.yaw_sigma_deg.map(f64::to_radians).unwrap_or_else(|| imu.and_then(|l| l.col(2)).map_or(0.01, |y| noise_sigma(&unwrap_angles(y), 0.1f64.to_radians()))),
-            gyro_rad_s: self.gyro_sigma_dps.map(f64::to_radians).unwrap_or_else(|| est(imu, 5, 0.05f64.to_radians())),
-            accel_m_s2: self.accel_sigma_g.map(|g| g * G).unwrap_or_else(|| (0..2).map(|c| est(imu, 6 + c, 0.002 * G)).fold(0.0, f64::max)),
+            uwb_m: self
+                .uwb_sigma_m
+                .unwrap_or_else(|| std::array::from_fn(|c| est(uwb, c, 0.005))),
+            sonar_m: self.sonar_sigma_m.unwrap_or_else(|| {
+                est(run.sonar.as_ref(), 0, 0.005).max(est(run.sonar.as_ref(), 1, 0.005))
+            }),
+            depth_m: self
+                .depth_sigma_m
+                .unwrap_or_else(|| est(run.depth.as_ref(), 0, 0.002)),
+            yaw_rad: self.yaw_sigma_deg.map(f64::to_radians).unwrap_or_else(|| {
+                imu.and_then(|l| l.col(2)).map_or(0.01, |y| {
+                    noise_sigma(&unwrap_angles(y), 0.1f64.to_radians())
+                })
+            }),
+            gyro_rad_s: self
+                .gyro_sigma_dps
+                .map(f64::to_radians)
+                .unwrap_or_else(|| est(imu, 5, 0.05f64.to_radians())),
+            accel_m_s2: self.accel_sigma_g.map(|g| g * G).unwrap_or_else(|| {
+                (0..2)
+                    .map(|c| est(imu, 6 + c, 0.002 * G))
+                    .fold(0.0, f64::max)
+            }),
         }
     }
 }
@@ -158,11 +178,39 @@ fn chi2_quantile(p: f64, dof: usize) -> f64 {
 
 fn normal_quantile(p: f64) -> f64 {
     // Acklam's rational approximation (|error| < 1.2e-9).
-    let a = [-39.696_830_286_653_76, 220.946_098_424_520_5, -275.928_510_446_969, 138.357_751_867_269, -30.664_798_066_147_16, 2.506_628_277_459_239];
-    let b = [-54.476_098_798_224_06, 161.585_836_858_040_9, -155.698_979_859_886_6, 66.801_311_887_719_72, -13.280_681_552_885_72];
-    let c = [-0.007_784_894_002_430_293, -0.322_396_458_041_136_4, -2.400_758_277_161_838, -2.549_732_539_343_734, 4.374_664_141_464_968, 2.938_163_982_698_783];
-    let d = [0.007_784_695_709_041_462, 0.322_467_129_070_039_8, 2.445_134_137_142_996, 3.754_408_661_907_416];
-    let tail = |q: f64| (((((c[0] * q + c[1]) * q + c[2]) * q + c[3]) * q + c[4]) * q + c[5]) / ((((d[0] * q + d[1]) * q + d[2]) * q + d[3]) * q + 1.0);
+    let a = [
+        -39.696_830_286_653_76,
+        220.946_098_424_520_5,
+        -275.928_510_446_969,
+        138.357_751_867_269,
+        -30.664_798_066_147_16,
+        2.506_628_277_459_239,
+    ];
+    let b = [
+        -54.476_098_798_224_06,
+        161.585_836_858_040_9,
+        -155.698_979_859_886_6,
+        66.801_311_887_719_72,
+        -13.280_681_552_885_72,
+    ];
+    let c = [
+        -0.007_784_894_002_430_293,
+        -0.322_396_458_041_136_4,
+        -2.400_758_277_161_838,
+        -2.549_732_539_343_734,
+        4.374_664_141_464_968,
+        2.938_163_982_698_783,
+    ];
+    let d = [
+        0.007_784_695_709_041_462,
+        0.322_467_129_070_039_8,
+        2.445_134_137_142_996,
+        3.754_408_661_907_416,
+    ];
+    let tail = |q: f64| {
+        (((((c[0] * q + c[1]) * q + c[2]) * q + c[3]) * q + c[4]) * q + c[5])
+            / ((((d[0] * q + d[1]) * q + d[2]) * q + d[3]) * q + 1.0)
+    };
     if p < 0.02425 {
         tail((-2.0 * p.ln()).sqrt())
     } else if p > 1.0 - 0.02425 {
@@ -170,7 +218,8 @@ fn normal_quantile(p: f64) -> f64 {
     } else {
         let q = p - 0.5;
         let r = q * q;
-        (((((a[0] * r + a[1]) * r + a[2]) * r + a[3]) * r + a[4]) * r + a[5]) * q / (((((b[0] * r + b[1]) * r + b[2]) * r + b[3]) * r + b[4]) * r + 1.0)
+        (((((a[0] * r + a[1]) * r + a[2]) * r + a[3]) * r + a[4]) * r + a[5]) * q
+            / (((((b[0] * r + b[1]) * r + b[2]) * r + b[3]) * r + b[4]) * r + 1.0)
     }
 }
 
@@ -236,7 +285,14 @@ pub fn fuse(run: &PoolRun, s: &Settings) -> Fused {
     let mut stats = Stats::default();
     let mut noise = s.noise(run);
     let nav = run.nav.as_ref().filter(|_| use_("nav"));
-    let hd = HeadingInput::of(imu, nav).map(|src| heading(&src, &mut noise, &mut stats.notes, s.yaw_sigma_deg.is_some()));
+    let hd = HeadingInput::of(imu, nav).map(|src| {
+        heading(
+            &src,
+            &mut noise,
+            &mut stats.notes,
+            s.yaw_sigma_deg.is_some(),
+        )
+    });
     stats.gyro_bias_dps = hd.as_ref().map(|h| h.bias.to_degrees());
     stats.noise = noise.clone();
 
@@ -250,12 +306,25 @@ pub fn fuse(run: &PoolRun, s: &Settings) -> Fused {
         events.extend(l.t.iter().enumerate().map(|(k, &t)| (t, 1, Event::Uwb(k))));
     }
     if let Some(l) = sonar {
-        events.extend(l.t.iter().enumerate().map(|(k, &t)| (t, 1, Event::Sonar(k))));
+        events.extend(
+            l.t.iter()
+                .enumerate()
+                .map(|(k, &t)| (t, 1, Event::Sonar(k))),
+        );
     }
     if let Some(l) = depth {
-        events.extend(l.t.iter().enumerate().map(|(k, &t)| (t, 1, Event::Depth(k))));
+        events.extend(
+            l.t.iter()
+                .enumerate()
+                .map(|(k, &t)| (t, 1, Event::Depth(k))),
+        );
     }
-    events.extend(out_t.iter().enumerate().map(|(k, &t)| (t, 2, Event::Out(k))));
+    events.extend(
+        out_t
+            .iter()
+            .enumerate()
+            .map(|(k, &t)| (t, 2, Event::Out(k))),
+    );
     events.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
 
     // Initial position: the first fixes there are.
@@ -272,10 +341,26 @@ pub fn fuse(run: &PoolRun, s: &Settings) -> Fused {
         0.0,
     ]);
     let ab = 0.02 * G;
-    let p0 = Mat::<9>::from_diagonal(&Vector::<9>::from_column_slice(&[1.0, 1.0, 1.0, 0.25, 0.25, 0.25, ab * ab, ab * ab, ab * ab]));
+    let p0 = Mat::<9>::from_diagonal(&Vector::<9>::from_column_slice(&[
+        1.0,
+        1.0,
+        1.0,
+        0.25,
+        0.25,
+        0.25,
+        ab * ab,
+        ab * ab,
+        ab * ab,
+    ]));
     let mut kf = Filter::<9>::new(x0, p0);
-    let good_uwb = uwb.map_or(vec![], |l| median_screen(l, MEDIAN_HALF_WINDOW, s.uwb_outlier_m.unwrap_or(0.4)));
-    let (gate3, gate2, gate1) = (chi2_quantile(GATE_PROBABILITY, 3), chi2_quantile(GATE_PROBABILITY, 2), chi2_quantile(GATE_PROBABILITY, 1));
+    let good_uwb = uwb.map_or(vec![], |l| {
+        median_screen(l, MEDIAN_HALF_WINDOW, s.uwb_outlier_m.unwrap_or(0.4))
+    });
+    let (gate3, gate2, gate1) = (
+        chi2_quantile(GATE_PROBABILITY, 3),
+        chi2_quantile(GATE_PROBABILITY, 2),
+        chi2_quantile(GATE_PROBABILITY, 1),
+    );
     let mut out_step = vec![0usize; out_t.len()];
     let mut last_t = events.first().map_or(0.0, |e| e.0);
     let mut last_imu: Option<usize> = None;
@@ -283,7 +368,11 @@ pub fn fuse(run: &PoolRun, s: &Settings) -> Fused {
     for (t, _, ev) in &events {
         let dt = t - last_t;
         if dt > 0.0 {
-            let (fm, u, q) = transition(dt, last_imu.and_then(|k| Some((imu_accel?, hd.as_ref()?, k))), &noise);
+            let (fm, u, q) = transition(
+                dt,
+                last_imu.and_then(|k| Some((imu_accel?, hd.as_ref()?, k))),
+                &noise,
+            );
             kf.predict(fm, u, q);
             last_t = *t;
         }
@@ -297,17 +386,27 @@ pub fn fuse(run: &PoolRun, s: &Settings) -> Fused {
                     continue;
                 }
                 // A UWB log without heights gives the horizontal position only.
-                let z = SVector::<f64, 3>::new(l.cols[0][k], l.cols[1][k], if l.has(2) { l.cols[2][k] } else { 0.0 });
+                let z = SVector::<f64, 3>::new(
+                    l.cols[0][k],
+                    l.cols[1][k],
+                    if l.has(2) { l.cols[2][k] } else { 0.0 },
+                );
                 let mut h = SMatrix::<f64, 3, 9>::zeros();
                 h[(0, 0)] = 1.0;
                 h[(1, 1)] = 1.0;
                 h[(2, 2)] = 1.0;
-                let r = SMatrix::<f64, 3, 3>::from_diagonal(&SVector::<f64, 3>::from_iterator(noise.uwb_m.iter().map(|x| x * x)));
+                let r = SMatrix::<f64, 3, 3>::from_diagonal(&SVector::<f64, 3>::from_iterator(
+                    noise.uwb_m.iter().map(|x| x * x),
+                ));
                 if !l.has(2) {
                     h[(2, 2)] = 0.0;
                 }
                 // After a second of rejections the filter, not the fixes, is wrong: re-acquire.
-                let gate = if rejected_in_row >= 10 { f64::INFINITY } else { gate3 };
+                let gate = if rejected_in_row >= 10 {
+                    f64::INFINITY
+                } else {
+                    gate3
+                };
                 match kf.update(z, h, r, gate, |_| {}) {
                     Update::Accepted => rejected_in_row = 0,
                     Update::Gated(_) => {
@@ -332,7 +431,14 @@ pub fn fuse(run: &PoolRun, s: &Settings) -> Fused {
                 let l = depth.unwrap();
                 let mut h = SMatrix::<f64, 1, 9>::zeros();
                 h[(0, 2)] = 1.0;
-                if kf.update(SVector::<f64, 1>::new(l.cols[0][k]), h, SMatrix::<f64, 1, 1>::new(noise.depth_m.powi(2)), gate1 * 4.0, |_| {}) == Update::Accepted {
+                if kf.update(
+                    SVector::<f64, 1>::new(l.cols[0][k]),
+                    h,
+                    SMatrix::<f64, 1, 1>::new(noise.depth_m.powi(2)),
+                    gate1 * 4.0,
+                    |_| {},
+                ) == Update::Accepted
+                {
                     stats.depth_fixes += 1;
                 }
             }
@@ -341,7 +447,16 @@ pub fn fuse(run: &PoolRun, s: &Settings) -> Fused {
     }
     let sm = kf.smooth();
     let vertical = depth.is_some() || uwb.is_some_and(|l| l.has(2));
-    let mut fused = assemble(run, out_t, &out_step, &sm, hd.as_ref(), uwb.is_some() || sonar.is_some(), vertical, stats);
+    let mut fused = assemble(
+        run,
+        out_t,
+        &out_step,
+        &sm,
+        hd.as_ref(),
+        uwb.is_some() || sonar.is_some(),
+        vertical,
+        stats,
+    );
     if let Some(nav) = nav {
         use_nav(&mut fused, nav, hd.as_ref());
     }
@@ -362,28 +477,43 @@ fn use_nav(fused: &mut Fused, nav: &Log, hd: Option<&Heading>) {
         fused.std[j] = Some(s.std);
         fused.stats.nav.push((name.to_string(), noise));
     }
-    if fused.vel[3].is_none() && hd.is_none() {
-        if let Some(r) = nav.col(8) {
-            let noise = nav::noise_level(&nav.t, r, 0.05f64.to_radians());
-            let (s, _) = nav::smooth_ml(&nav.t, r, &fused.t, noise);
-            fused.vel[3] = Some(s.v);
-            fused.std[3] = Some(s.std);
-        }
+    if fused.vel[3].is_none()
+        && hd.is_none()
+        && let Some(r) = nav.col(8)
+    {
+        let noise = nav::noise_level(&nav.t, r, 0.05f64.to_radians());
+        let (s, _) = nav::smooth_ml(&nav.t, r, &fused.t, noise);
+        fused.vel[3] = Some(s.v);
+        fused.std[3] = Some(s.std);
     }
     // The position filter's reasons for unknown velocities no longer hold where the log gave them.
     let known = |j: usize| fused.vel[j].is_some();
     let (horizontal, vertical, yaw) = (known(0) && known(1), known(2), known(3));
-    fused.stats.notes.retain(|n| !((horizontal && n.contains("so surge and sway are unknown")) || (vertical && n.contains("so heave is unknown")) || (horizontal && yaw && n.contains("so surge, sway and yaw rate are unknown"))));
+    fused.stats.notes.retain(|n| {
+        !((horizontal && n.contains("so surge and sway are unknown"))
+            || (vertical && n.contains("so heave is unknown"))
+            || (horizontal && yaw && n.contains("so surge, sway and yaw rate are unknown")))
+    });
     if fused.vel[3].is_none() {
-        fused.stats.notes.push("no yaw rate: neither an IMU nor the navigation log gives heading or r".into());
+        fused
+            .stats
+            .notes
+            .push("no yaw rate: neither an IMU nor the navigation log gives heading or r".into());
     }
     if fused.x.iter().all(|x| x.is_nan()) {
-        fused.stats.notes.push("no pool-frame position (no UWB or sonar): tether length and wall distance are unknown".into());
+        fused.stats.notes.push(
+            "no pool-frame position (no UWB or sonar): tether length and wall distance are unknown"
+                .into(),
+        );
     }
 }
 
 /// Transition of the position filter over `dt`, driven by the IMU sample `k` when there is one.
-fn transition(dt: f64, imu: Option<(&Log, &Heading, usize)>, n: &Noise) -> (Mat<9>, Vector<9>, Mat<9>) {
+fn transition(
+    dt: f64,
+    imu: Option<(&Log, &Heading, usize)>,
+    n: &Noise,
+) -> (Mat<9>, Vector<9>, Mat<9>) {
     let mut f = Mat::<9>::identity();
     let mut u = Vector::<9>::zeros();
     let mut q = Mat::<9>::zeros();
@@ -408,7 +538,11 @@ fn transition(dt: f64, imu: Option<(&Log, &Heading, usize)>, n: &Noise) -> (Mat<
                 }
             }
             // White accelerometer noise of sigma per sample at the IMU's rate.
-            let imu_dt = if l.len() > 1 { (l.t[l.len() - 1] - l.t[0]) / (l.len() - 1) as f64 } else { 0.02 };
+            let imu_dt = if l.len() > 1 {
+                (l.t[l.len() - 1] - l.t[0]) / (l.len() - 1) as f64
+            } else {
+                0.02
+            };
             let qa = n.accel_m_s2.powi(2) * imu_dt + 1e-4;
             let w = white_accel(qa, dt);
             for i in 0..3 {
@@ -446,21 +580,32 @@ fn assemble(
 ) -> Fused {
     let n = t.len();
     let pick = |k: usize| &sm[out_step[k]];
-    let x: Vec<f64> = (0..n).map(|k| if horizontal { pick(k).0[0] } else { f64::NAN }).collect();
-    let y: Vec<f64> = (0..n).map(|k| if horizontal { pick(k).0[1] } else { f64::NAN }).collect();
-    let z: Vec<f64> = (0..n).map(|k| if vertical { pick(k).0[2] } else { f64::NAN }).collect();
-    let psi: Vec<f64> = t.iter().map(|&tk| hd.map_or(f64::NAN, |h| interp(&h.t, &h.psi, tk))).collect();
+    let x: Vec<f64> = (0..n)
+        .map(|k| if horizontal { pick(k).0[0] } else { f64::NAN })
+        .collect();
+    let y: Vec<f64> = (0..n)
+        .map(|k| if horizontal { pick(k).0[1] } else { f64::NAN })
+        .collect();
+    let z: Vec<f64> = (0..n)
+        .map(|k| if vertical { pick(k).0[2] } else { f64::NAN })
+        .collect();
+    let psi: Vec<f64> = t
+        .iter()
+        .map(|&tk| hd.map_or(f64::NAN, |h| interp(&h.t, &h.psi, tk)))
+        .collect();
     let mut vel: [Option<Vec<f64>>; 4] = [None, None, None, None];
     let mut std: [Option<Vec<f64>>; 4] = [None, None, None, None];
     if let (Some(h), true) = (hd, horizontal) {
-        let (mut u, mut v, mut su, mut sv) = (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        let (mut u, mut v, mut su, mut sv) =
+            (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
         for k in 0..n {
             let (m, p) = pick(k);
             let (c, s) = (psi[k].cos(), psi[k].sin());
             let var_psi = interp(&h.t, &h.psi_var, t[k]);
             u[k] = c * m[3] + s * m[4];
             v[k] = -s * m[3] + c * m[4];
-            let quad = |a: f64, b: f64| a * a * p[(3, 3)] + b * b * p[(4, 4)] + 2.0 * a * b * p[(3, 4)];
+            let quad =
+                |a: f64, b: f64| a * a * p[(3, 3)] + b * b * p[(4, 4)] + 2.0 * a * b * p[(3, 4)];
             su[k] = (quad(c, s) + v[k] * v[k] * var_psi).sqrt();
             sv[k] = (quad(-s, c) + u[k] * u[k] * var_psi).sqrt();
         }
@@ -471,19 +616,38 @@ fn assemble(
     } else if hd.is_none() {
         stats.notes.push(format!("{}: no IMU heading, so surge, sway and yaw rate are unknown (the pool-frame track is kept)", run.name));
     } else {
-        stats.notes.push(format!("{}: no UWB or sonar positions, so surge and sway are unknown", run.name));
+        stats.notes.push(format!(
+            "{}: no UWB or sonar positions, so surge and sway are unknown",
+            run.name
+        ));
     }
     if vertical {
         vel[2] = Some((0..n).map(|k| pick(k).0[5]).collect());
         std[2] = Some((0..n).map(|k| pick(k).1[(5, 5)].max(0.0).sqrt()).collect());
     } else {
-        stats.notes.push(format!("{}: no depth or UWB, so heave is unknown", run.name));
+        stats.notes.push(format!(
+            "{}: no depth or UWB, so heave is unknown",
+            run.name
+        ));
     }
     if let Some(h) = hd {
         vel[3] = Some(t.iter().map(|&tk| interp(&h.t, &h.r, tk)).collect());
-        std[3] = Some(t.iter().map(|&tk| interp(&h.t, &h.r_var, tk).max(0.0).sqrt()).collect());
+        std[3] = Some(
+            t.iter()
+                .map(|&tk| interp(&h.t, &h.r_var, tk).max(0.0).sqrt())
+                .collect(),
+        );
     }
-    Fused { t, vel, std, x, y, z, psi, stats }
+    Fused {
+        t,
+        vel,
+        std,
+        x,
+        y,
+        z,
+        psi,
+        stats,
+    }
 }
 
 #[cfg(test)]

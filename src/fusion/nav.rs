@@ -13,7 +13,7 @@
 //!   first-order Gauss-Markov state of the filter (coloured measurement noise), which keeps
 //!   the smoother from averaging correlated errors as if they were independent.
 
-use super::kalman::{white_accel, Filter, Mat, Vector};
+use super::kalman::{Filter, Mat, Vector, white_accel};
 use nalgebra::{SMatrix, SVector};
 use serde::{Deserialize, Serialize};
 
@@ -51,19 +51,38 @@ fn robust_std(mut d: Vec<f64>) -> f64 {
 /// white noise; a smooth motion adds little to a robust spread); the largest over L is the
 /// noise, and the ratio of its variance to the lag-1 variance is the correlation length.
 pub fn noise_level(t: &[f64], z: &[f64], floor: f64) -> Noise {
-    let (t, z): (Vec<f64>, Vec<f64>) = t.iter().zip(z).filter(|(_, v)| v.is_finite()).map(|(a, b)| (*a, *b)).unzip();
+    let (t, z): (Vec<f64>, Vec<f64>) = t
+        .iter()
+        .zip(z)
+        .filter(|(_, v)| v.is_finite())
+        .map(|(a, b)| (*a, *b))
+        .unzip();
     let n = z.len();
     if n < 10 {
-        return Noise { sigma: floor, correlated_samples: 1.0, sigma_lag1: floor };
+        return Noise {
+            sigma: floor,
+            correlated_samples: 1.0,
+            sigma_lag1: floor,
+        };
     }
     let dt = (t[n - 1] - t[0]) / (n - 1) as f64;
     let max_lag = ((MAX_LAG_S / dt.max(1e-6)).round() as usize).clamp(1, n / 4);
-    let at_lag = |l: usize| robust_std((l..n - l).map(|k| z[k + l] - 2.0 * z[k] + z[k - l]).collect()) / 6f64.sqrt();
+    let at_lag = |l: usize| {
+        robust_std(
+            (l..n - l)
+                .map(|k| z[k + l] - 2.0 * z[k] + z[k - l])
+                .collect(),
+        ) / 6f64.sqrt()
+    };
     let s1 = at_lag(1);
     let smax = (1..=max_lag).map(at_lag).fold(s1, f64::max);
     let sigma = smax.max(floor);
     let ratio = (sigma / s1.max(floor * 1e-3)).powi(2);
-    Noise { sigma, correlated_samples: ratio.clamp(1.0, 1e3), sigma_lag1: s1.max(floor) }
+    Noise {
+        sigma,
+        correlated_samples: ratio.clamp(1.0, 1e3),
+        sigma_lag1: s1.max(floor),
+    }
 }
 
 /// One velocity channel smoothed onto `out_t`: value and standard deviation per output time,
@@ -94,7 +113,11 @@ const JERKS: [f64; 9] = [0.01, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0, 30.0, 100.0];
 /// innovations are most likely. A heave channel moves gently, a surge channel in steps; one
 /// density for all would overstate the first's uncertainty or understate the second's.
 pub fn smooth_ml(t: &[f64], z: &[f64], out_t: &[f64], noise: Noise) -> (Smoothed, f64) {
-    let best = JERKS.iter().map(|&j| (j, smooth_with(t, z, &[], noise, j).1)).max_by(|a, b| a.1.total_cmp(&b.1)).map_or(20.0, |b| b.0);
+    let best = JERKS
+        .iter()
+        .map(|&j| (j, smooth_with(t, z, &[], noise, j).1))
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+        .map_or(20.0, |b| b.0);
     (smooth_with(t, z, out_t, noise, best).0, best)
 }
 
@@ -107,15 +130,32 @@ fn smooth_with(t: &[f64], z: &[f64], out_t: &[f64], noise: Noise, jerk: f64) -> 
     // time constant from the mean sample interval.
     let m = noise.correlated_samples.max(1.0);
     let rho = (m - 1.0) / (m + 1.0);
-    let finite: Vec<f64> = t.iter().zip(z).filter(|(_, v)| v.is_finite()).map(|(a, _)| *a).collect();
-    let mean_dt = if finite.len() > 1 { (finite[finite.len() - 1] - finite[0]) / (finite.len() - 1) as f64 } else { 0.1 };
+    let finite: Vec<f64> = t
+        .iter()
+        .zip(z)
+        .filter(|(_, v)| v.is_finite())
+        .map(|(a, _)| *a)
+        .collect();
+    let mean_dt = if finite.len() > 1 {
+        (finite[finite.len() - 1] - finite[0]) / (finite.len() - 1) as f64
+    } else {
+        0.1
+    };
     let tau_c = if rho > 1e-6 { -mean_dt / rho.ln() } else { 0.0 };
     // A small white part keeps the update well conditioned.
     let r = SMatrix::<f64, 1, 1>::new(1e-4 * var + 1e-12);
     let first = z.iter().copied().find(|v| v.is_finite()).unwrap_or(0.0);
-    let mut f = Filter::<3>::new(Vector::<3>::new(first, 0.0, 0.0), Mat::<3>::from_diagonal(&Vector::<3>::new(var + 1e-6, 1.0, var)));
+    let mut f = Filter::<3>::new(
+        Vector::<3>::new(first, 0.0, 0.0),
+        Mat::<3>::from_diagonal(&Vector::<3>::new(var + 1e-6, 1.0, var)),
+    );
     // Merge the measurement and output times: measurements first at equal times.
-    let mut events: Vec<(f64, u8, usize)> = t.iter().enumerate().filter(|(k, _)| z[*k].is_finite()).map(|(k, &tk)| (tk, 0, k)).collect();
+    let mut events: Vec<(f64, u8, usize)> = t
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| z[*k].is_finite())
+        .map(|(k, &tk)| (tk, 0, k))
+        .collect();
     events.extend(out_t.iter().enumerate().map(|(k, &tk)| (tk, 1, k)));
     events.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
     let mut out_step = vec![0usize; out_t.len()];
@@ -125,9 +165,23 @@ fn smooth_with(t: &[f64], z: &[f64], out_t: &[f64], noise: Noise, jerk: f64) -> 
         let dt = tk - last;
         if dt > 0.0 {
             let q = white_accel(jerk, dt);
-            let a = if tau_c > 0.0 { (-dt / tau_c).exp() } else { 0.0 };
+            let a = if tau_c > 0.0 {
+                (-dt / tau_c).exp()
+            } else {
+                0.0
+            };
             let fm = Mat::<3>::new(1.0, dt, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, a);
-            let qm = Mat::<3>::new(q[0][0], q[0][1], 0.0, q[1][0], q[1][1], 0.0, 0.0, 0.0, var * (1.0 - a * a));
+            let qm = Mat::<3>::new(
+                q[0][0],
+                q[0][1],
+                0.0,
+                q[1][0],
+                q[1][1],
+                0.0,
+                0.0,
+                0.0,
+                var * (1.0 - a * a),
+            );
             f.predict(fm, Vector::<3>::zeros(), qm);
             last = tk;
         }
@@ -145,12 +199,23 @@ fn smooth_with(t: &[f64], z: &[f64], out_t: &[f64], noise: Noise, jerk: f64) -> 
         }
     }
     if out_t.is_empty() {
-        return (Smoothed { v: vec![], std: vec![], accel: vec![], noise }, loglik);
+        return (
+            Smoothed {
+                v: vec![],
+                std: vec![],
+                accel: vec![],
+                noise,
+            },
+            loglik,
+        );
     }
     let sm = f.smooth();
     let out = Smoothed {
         v: out_step.iter().map(|&s| sm[s].0[0]).collect(),
-        std: out_step.iter().map(|&s| sm[s].1[(0, 0)].max(0.0).sqrt()).collect(),
+        std: out_step
+            .iter()
+            .map(|&s| sm[s].1[(0, 0)].max(0.0).sqrt())
+            .collect(),
         accel: out_step.iter().map(|&s| sm[s].0[1]).collect(),
         noise,
     };
@@ -168,7 +233,13 @@ mod tests {
     #[test]
     fn sigma_stays_honest_on_white_and_prefiltered_logs() {
         let truth = |t: f64| {
-            let step = |t0: f64, a: f64| if t > t0 { a * (1.0 - (-(t - t0) / 1.2).exp()) } else { 0.0 };
+            let step = |t0: f64, a: f64| {
+                if t > t0 {
+                    a * (1.0 - (-(t - t0) / 1.2).exp())
+                } else {
+                    0.0
+                }
+            };
             step(5.0, 0.8) + step(20.0, -1.1) + step(35.0, 0.5)
         };
         for (tau, seed) in [(0.0, 1), (0.5, 2)] {
@@ -198,11 +269,23 @@ mod tests {
             let out: Vec<f64> = (100..2900).map(|k| k as f64 * 0.02).collect();
             let noise = noise_level(t, &z, 1e-4);
             let (s, _) = smooth_ml(t, &z, &out, noise);
-            let ratio = (out.iter().enumerate().map(|(k, &tk)| ((s.v[k] - truth(tk)) / s.std[k]).powi(2)).sum::<f64>() / out.len() as f64).sqrt();
-            assert!((0.6..1.6).contains(&ratio), "tau {tau}: error/sigma RMS {ratio} ({noise:?})");
+            let ratio = (out
+                .iter()
+                .enumerate()
+                .map(|(k, &tk)| ((s.v[k] - truth(tk)) / s.std[k]).powi(2))
+                .sum::<f64>()
+                / out.len() as f64)
+                .sqrt();
+            assert!(
+                (0.6..1.6).contains(&ratio),
+                "tau {tau}: error/sigma RMS {ratio} ({noise:?})"
+            );
             eprintln!("tau {tau}: error/sigma RMS {ratio:.3}");
             if tau > 0.0 {
-                assert!(noise.correlated_samples > 2.0 && noise.sigma > 1.5 * noise.sigma_lag1, "{noise:?}");
+                assert!(
+                    noise.correlated_samples > 2.0 && noise.sigma > 1.5 * noise.sigma_lag1,
+                    "{noise:?}"
+                );
             }
         }
     }

@@ -49,7 +49,10 @@ const TAU: [&str; 4] = ["X", "Y", "Z", "N"];
 pub fn write_table(path: &Path, thrust: &[[f64; 4]], f: &Fused) -> anyhow::Result<()> {
     let mut cols = vec![Column::new("t".into(), &f.t)];
     for (j, name) in TAU.iter().enumerate() {
-        cols.push(Column::new((*name).into(), thrust.iter().map(|r| r[j]).collect::<Vec<_>>()));
+        cols.push(Column::new(
+            (*name).into(),
+            thrust.iter().map(|r| r[j]).collect::<Vec<_>>(),
+        ));
     }
     for ((name, v), s) in VEL.iter().zip(&f.vel).zip(&f.std) {
         if let (Some(v), Some(s)) = (v, s) {
@@ -67,12 +70,22 @@ pub fn write_table(path: &Path, thrust: &[[f64; 4]], f: &Fused) -> anyhow::Resul
     Ok(())
 }
 
-fn read_table(path: &Path, known: [bool; 4], stats: Stats) -> anyhow::Result<(Vec<[f64; 4]>, Fused)> {
-    let df = ParquetReader::new(std::fs::File::open(path)?).set_rechunk(true).finish()?;
-    let get = |name: &str| -> anyhow::Result<Vec<f64>> { Ok(df.column(name)?.f64()?.into_no_null_iter().collect()) };
+fn read_table(
+    path: &Path,
+    known: [bool; 4],
+    stats: Stats,
+) -> anyhow::Result<(Vec<[f64; 4]>, Fused)> {
+    let df = ParquetReader::new(std::fs::File::open(path)?)
+        .set_rechunk(true)
+        .finish()?;
+    let get = |name: &str| -> anyhow::Result<Vec<f64>> {
+        Ok(df.column(name)?.f64()?.into_no_null_iter().collect())
+    };
     let t = get("t")?;
     let tau: Vec<Vec<f64>> = TAU.iter().map(|n| get(n)).collect::<Result<_, _>>()?;
-    let thrust = (0..t.len()).map(|k| [tau[0][k], tau[1][k], tau[2][k], tau[3][k]]).collect();
+    let thrust = (0..t.len())
+        .map(|k| [tau[0][k], tau[1][k], tau[2][k], tau[3][k]])
+        .collect();
     let mut vel: [Option<Vec<f64>>; 4] = Default::default();
     let mut std: [Option<Vec<f64>>; 4] = Default::default();
     for j in 0..4 {
@@ -81,7 +94,16 @@ fn read_table(path: &Path, known: [bool; 4], stats: Stats) -> anyhow::Result<(Ve
             std[j] = Some(get(&format!("{}_std", VEL[j]))?);
         }
     }
-    let fused = Fused { t, vel, std, x: get("x")?, y: get("y")?, z: get("z")?, psi: get("psi")?, stats };
+    let fused = Fused {
+        t,
+        vel,
+        std,
+        x: get("x")?,
+        y: get("y")?,
+        z: get("z")?,
+        psi: get("psi")?,
+        stats,
+    };
     Ok((thrust, fused))
 }
 
@@ -93,7 +115,12 @@ pub fn load(dir: &Path) -> anyhow::Result<FusedRun> {
         Some(s) => Some(read_table(&dir.join(TABLE_NO_SONAR), meta.known, s.clone())?.1),
         None => None,
     };
-    Ok(FusedRun { meta, thrust, fused, without_sonar })
+    Ok(FusedRun {
+        meta,
+        thrust,
+        fused,
+        without_sonar,
+    })
 }
 
 /// Loads a run for a model of `vehicle`: its command clipped at the vehicle's limits.
@@ -101,9 +128,13 @@ pub fn load_for(dir: &Path, vehicle: &crate::model::Vehicle) -> anyhow::Result<F
     Ok(load(dir)?.clip_to(vehicle))
 }
 
-
 /// The DOFs a pool run records, in the order of `Fused::vel` and the thrust columns.
-pub const POOL_DOFS: [crate::dof::Dof; 4] = [crate::dof::Dof::Surge, crate::dof::Dof::Sway, crate::dof::Dof::Heave, crate::dof::Dof::Yaw];
+pub const POOL_DOFS: [crate::dof::Dof; 4] = [
+    crate::dof::Dof::Surge,
+    crate::dof::Dof::Sway,
+    crate::dof::Dof::Heave,
+    crate::dof::Dof::Yaw,
+];
 
 impl FusedRun {
     /// The logged command as the thrusters can deliver it: clipped at the vehicle's
@@ -133,20 +164,41 @@ impl FusedRun {
     /// difference of raw samples would be noise. None when a DOF of the vehicle was not fused
     /// (the Coriolis terms need every velocity).
     pub fn as_response(&self, vehicle: &crate::model::Vehicle) -> Option<crate::io::Response> {
-        use crate::io::response::{differentiate, Series, Source};
-        let mut r = crate::io::Response { t: self.fused.t.clone(), dofs: Default::default() };
-        for (j, d) in POOL_DOFS.iter().enumerate().filter(|(_, d)| vehicle.dofs.contains(d)) {
+        use crate::io::response::{Series, Source, differentiate};
+        let mut r = crate::io::Response {
+            t: self.fused.t.clone(),
+            dofs: Default::default(),
+        };
+        for (j, d) in POOL_DOFS
+            .iter()
+            .enumerate()
+            .filter(|(_, d)| vehicle.dofs.contains(d))
+        {
             let v = self.fused.vel[j].as_ref()?;
             let force = self.thrust.iter().map(|c| c[j]).collect();
             let accel = differentiate(&r.t, v);
-            r.dofs.insert(*d, Series { force, velocity: v.clone(), accel, force_source: Source::Column, accel_source: Source::Differentiated });
+            r.dofs.insert(
+                *d,
+                Series {
+                    force,
+                    velocity: v.clone(),
+                    accel,
+                    force_source: Source::Column,
+                    accel_source: Source::Differentiated,
+                },
+            );
         }
         Some(r)
     }
 
     /// Which of the vehicle's DOFs this run lacks a fused velocity for.
     pub fn missing_dofs(&self, vehicle: &crate::model::Vehicle) -> Vec<crate::dof::Dof> {
-        POOL_DOFS.iter().enumerate().filter(|(j, d)| vehicle.dofs.contains(d) && self.fused.vel[*j].is_none()).map(|(_, d)| *d).collect()
+        POOL_DOFS
+            .iter()
+            .enumerate()
+            .filter(|(j, d)| vehicle.dofs.contains(d) && self.fused.vel[*j].is_none())
+            .map(|(_, d)| *d)
+            .collect()
     }
 }
 
@@ -172,12 +224,42 @@ mod tests {
             notes: vec![],
             repairs: vec![],
         };
-        let fused = Fused { t: vec![0.0, 1.0], vel: Default::default(), std: Default::default(), x: vec![], y: vec![], z: vec![], psi: vec![], stats: Stats::default() };
-        let run = FusedRun { meta, thrust: vec![[80.0, -10.0, -70.0, 20.0], [10.0, 10.0, 10.0, -12.0]], fused, without_sonar: None };
+        let fused = Fused {
+            t: vec![0.0, 1.0],
+            vel: Default::default(),
+            std: Default::default(),
+            x: vec![],
+            y: vec![],
+            z: vec![],
+            psi: vec![],
+            stats: Stats::default(),
+        };
+        let run = FusedRun {
+            meta,
+            thrust: vec![[80.0, -10.0, -70.0, 20.0], [10.0, 10.0, 10.0, -12.0]],
+            fused,
+            without_sonar: None,
+        };
         let mut v = crate::model::Vehicle::reference();
-        v.command_limits = [(crate::dof::Dof::Surge, 60.0), (crate::dof::Dof::Heave, 45.0), (crate::dof::Dof::Yaw, 9.0)].into_iter().collect();
+        v.command_limits = [
+            (crate::dof::Dof::Surge, 60.0),
+            (crate::dof::Dof::Heave, 45.0),
+            (crate::dof::Dof::Yaw, 9.0),
+        ]
+        .into_iter()
+        .collect();
         let run = run.clip_to(&v);
-        assert_eq!(run.thrust, vec![[60.0, -10.0, -45.0, 9.0], [10.0, 10.0, 10.0, -9.0]]);
-        assert!(run.meta.notes.iter().any(|n| n.starts_with("4 logged command values")), "{:?}", run.meta.notes);
+        assert_eq!(
+            run.thrust,
+            vec![[60.0, -10.0, -45.0, 9.0], [10.0, 10.0, 10.0, -9.0]]
+        );
+        assert!(
+            run.meta
+                .notes
+                .iter()
+                .any(|n| n.starts_with("4 logged command values")),
+            "{:?}",
+            run.meta.notes
+        );
     }
 }

@@ -5,11 +5,25 @@ use crate::model::effects::Effect;
 use crate::twin::pool as twin;
 
 /// Writes one twin run to a scratch folder and loads it as the pipeline would.
-pub(crate) fn twin_run(spec: &twin::RunSpec, effects: &[Effect], seed: u64) -> (PoolRun, twin::Truth, tempfile::TempDir) {
+pub(crate) fn twin_run(
+    spec: &twin::RunSpec,
+    effects: &[Effect],
+    seed: u64,
+) -> (PoolRun, twin::Truth, tempfile::TempDir) {
     let d = tempfile::tempdir().unwrap();
-    twin::write_runs(&d.path().join("cases/pool"), &d.path().join("truth"), std::slice::from_ref(spec), effects, seed).unwrap();
+    twin::write_runs(
+        &d.path().join("cases/pool"),
+        &d.path().join("truth"),
+        std::slice::from_ref(spec),
+        effects,
+        seed,
+    )
+    .unwrap();
     let dir = format!("cases/pool/{}", spec.name);
-    let mut files: Vec<String> = std::fs::read_dir(d.path().join(&dir)).unwrap().map(|e| format!("{dir}/{}", e.unwrap().file_name().to_string_lossy())).collect();
+    let mut files: Vec<String> = std::fs::read_dir(d.path().join(&dir))
+        .unwrap()
+        .map(|e| format!("{dir}/{}", e.unwrap().file_name().to_string_lossy()))
+        .collect();
     files.sort();
     let run = crate::io::pool::load(d.path(), &dir, &files).unwrap();
     let truth = twin::simulate(&twin::world(effects), spec, seed);
@@ -22,7 +36,9 @@ pub(crate) fn accuracy(f: &Fused, truth: &twin::Truth) -> ([f64; 4], [f64; 4]) {
     let mut rmse = [0.0; 4];
     let mut z = [0.0; 4];
     for (j, &i) in idx.iter().enumerate() {
-        let (Some(v), Some(s)) = (&f.vel[j], &f.std[j]) else { continue };
+        let (Some(v), Some(s)) = (&f.vel[j], &f.std[j]) else {
+            continue;
+        };
         let mut se = 0.0;
         let mut sz = 0.0;
         for (k, &t) in f.t.iter().enumerate() {
@@ -39,26 +55,54 @@ pub(crate) fn accuracy(f: &Fused, truth: &twin::Truth) -> ([f64; 4], [f64; 4]) {
 
 #[test]
 fn fused_velocities_match_the_twin_with_honest_uncertainty() {
-    for spec in [twin::default_runs()[0].clone(), twin::default_runs()[5].clone()] {
+    for spec in [
+        twin::default_runs()[0].clone(),
+        twin::default_runs()[5].clone(),
+    ] {
         let (run, truth, _d) = twin_run(&spec, &[], 7);
         for exclude in [vec![], vec!["sonar".to_string()]] {
-            let s = Settings { exclude: exclude.clone(), ..Settings::default() };
+            let s = Settings {
+                exclude: exclude.clone(),
+                ..Settings::default()
+            };
             let f = fuse(&run, &s);
             let (rmse, z) = accuracy(&f, &truth);
-            eprintln!("{} exclude {exclude:?}: rmse {rmse:.4?} z {z:.2?} stats {:?}", spec.name, f.stats);
+            eprintln!(
+                "{} exclude {exclude:?}: rmse {rmse:.4?} z {z:.2?} stats {:?}",
+                spec.name, f.stats
+            );
             // Peak speeds are ~1 m/s and ~0.5 rad/s: errors of a few cm/s are what a pool rig gives.
-            assert!(rmse[0] < 0.02 && rmse[1] < 0.02, "{}: u/v rmse {rmse:?}", spec.name);
+            assert!(
+                rmse[0] < 0.02 && rmse[1] < 0.02,
+                "{}: u/v rmse {rmse:?}",
+                spec.name
+            );
             assert!(rmse[2] < 0.012, "{}: w rmse {rmse:?}", spec.name);
             assert!(rmse[3] < 0.008, "{}: r rmse {rmse:?}", spec.name);
             // The stated standard deviations are honest: error / std has an RMS near one.
             for (j, zj) in z.iter().enumerate() {
-                assert!((0.6..1.5).contains(zj), "{} dof {j}: error / std rms {zj}", spec.name);
+                assert!(
+                    (0.6..1.5).contains(zj),
+                    "{} dof {j}: error / std rms {zj}",
+                    spec.name
+                );
             }
             let bias = f.stats.gyro_bias_dps.unwrap();
-            let truth_bias: twin::TruthRecord = serde_json::from_str(&std::fs::read_to_string(_d.path().join(format!("truth/{}.json", spec.name))).unwrap()).unwrap();
-            assert!((bias - truth_bias.sensors.gyro_bias_dps).abs() < 0.1, "gyro bias {bias} vs {}", truth_bias.sensors.gyro_bias_dps);
+            let truth_bias: twin::TruthRecord = serde_json::from_str(
+                &std::fs::read_to_string(_d.path().join(format!("truth/{}.json", spec.name)))
+                    .unwrap(),
+            )
+            .unwrap();
+            assert!(
+                (bias - truth_bias.sensors.gyro_bias_dps).abs() < 0.1,
+                "gyro bias {bias} vs {}",
+                truth_bias.sensors.gyro_bias_dps
+            );
         }
-        assert!(fuse(&run, &Settings::default()).stats.uwb_rejected_median > 0, "multipath outliers are rejected");
+        assert!(
+            fuse(&run, &Settings::default()).stats.uwb_rejected_median > 0,
+            "multipath outliers are rejected"
+        );
     }
 }
 

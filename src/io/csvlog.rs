@@ -41,11 +41,16 @@ impl Log {
     /// tick, inner iterations written out), and says how many were dropped.
     pub fn dedupe_times(&mut self, path: &str) {
         let n = self.t.len();
-        let keep: Vec<usize> = (0..n).filter(|&k| k + 1 == n || self.t[k + 1] != self.t[k]).collect();
+        let keep: Vec<usize> = (0..n)
+            .filter(|&k| k + 1 == n || self.t[k + 1] != self.t[k])
+            .collect();
         if keep.len() == n {
             return;
         }
-        self.notes.push(format!("{path}: {} rows repeated a time stamp; the last of each was kept", n - keep.len()));
+        self.notes.push(format!(
+            "{path}: {} rows repeated a time stamp; the last of each was kept",
+            n - keep.len()
+        ));
         self.t = keep.iter().map(|&k| self.t[k]).collect();
         for c in &mut self.cols {
             *c = keep.iter().map(|&k| c[k]).collect();
@@ -55,13 +60,21 @@ impl Log {
 
 fn unquote(s: &str) -> &str {
     let s = s.trim();
-    s.strip_prefix('"').and_then(|x| x.strip_suffix('"')).unwrap_or(s)
+    s.strip_prefix('"')
+        .and_then(|x| x.strip_suffix('"'))
+        .unwrap_or(s)
 }
 
 /// Parses `text` (the file `path`) expecting the columns `columns`, the first of which is the
 /// time `t`. Column names match ignoring case and surrounding quotes; extra columns are ignored.
 /// `what` names the log for messages ("UWB log"), `source` says where such a file comes from.
-pub fn parse(path: &str, text: &str, columns: &[&str], what: &str, min_rows: usize) -> Result<Log, InputError> {
+pub fn parse(
+    path: &str,
+    text: &str,
+    columns: &[&str],
+    what: &str,
+    min_rows: usize,
+) -> Result<Log, InputError> {
     let mut log = parse_columns(path, text, columns, columns.len(), what, min_rows)?;
     log.dedupe_times(path);
     Ok(log)
@@ -70,14 +83,26 @@ pub fn parse(path: &str, text: &str, columns: &[&str], what: &str, min_rows: usi
 /// As [`parse`], but rows that repeat a time stamp are kept: a log written by receive time
 /// holds many distinct rows within one tick of its clock, which only a clock repair
 /// ([`super::timing`]) can place; call [`Log::dedupe_times`] when no repair applies.
-pub fn parse_keeping_repeats(path: &str, text: &str, columns: &[&str], what: &str, min_rows: usize) -> Result<Log, InputError> {
+pub fn parse_keeping_repeats(
+    path: &str,
+    text: &str,
+    columns: &[&str],
+    what: &str,
+    min_rows: usize,
+) -> Result<Log, InputError> {
     parse_columns(path, text, columns, columns.len(), what, min_rows)
 }
 
 /// As [`parse`], but only `t` and the first `required - 1` data columns must be there; the
 /// others may be missing (a navigation log without rates, an AHRS without accelerometers),
 /// are NaN in the log, and are named in its notes. A file with none of them is an error.
-pub fn parse_subset(path: &str, text: &str, columns: &[&str], what: &str, min_rows: usize) -> Result<Log, InputError> {
+pub fn parse_subset(
+    path: &str,
+    text: &str,
+    columns: &[&str],
+    what: &str,
+    min_rows: usize,
+) -> Result<Log, InputError> {
     let mut log = parse_columns(path, text, columns, 1, what, min_rows)?;
     log.dedupe_times(path);
     Ok(log)
@@ -86,31 +111,76 @@ pub fn parse_subset(path: &str, text: &str, columns: &[&str], what: &str, min_ro
 /// As [`parse_subset`], and a value may be missing in a row (empty, or `nan` as loggers
 /// write it: a DVL that lost bottom lock): it is NaN in the log, left out of its channel, and
 /// counted in the notes. Time must still be a number in every row.
-pub fn parse_subset_with_gaps(path: &str, text: &str, columns: &[&str], what: &str, min_rows: usize) -> Result<Log, InputError> {
+pub fn parse_subset_with_gaps(
+    path: &str,
+    text: &str,
+    columns: &[&str],
+    what: &str,
+    min_rows: usize,
+) -> Result<Log, InputError> {
     let mut log = parse_columns_gaps(path, text, columns, 1, what, min_rows, true)?;
     log.dedupe_times(path);
     Ok(log)
 }
 
-fn parse_columns(path: &str, text: &str, columns: &[&str], required: usize, what: &str, min_rows: usize) -> Result<Log, InputError> {
+fn parse_columns(
+    path: &str,
+    text: &str,
+    columns: &[&str],
+    required: usize,
+    what: &str,
+    min_rows: usize,
+) -> Result<Log, InputError> {
     parse_columns_gaps(path, text, columns, required, what, min_rows, false)
 }
 
-fn parse_columns_gaps(path: &str, text: &str, columns: &[&str], required: usize, what: &str, min_rows: usize, gaps: bool) -> Result<Log, InputError> {
+fn parse_columns_gaps(
+    path: &str,
+    text: &str,
+    columns: &[&str],
+    required: usize,
+    what: &str,
+    min_rows: usize,
+    gaps: bool,
+) -> Result<Log, InputError> {
     let mut missing_values = 0usize;
-    let err = |line: usize, col: Option<usize>, msg: String, fix: String| InputError::file(path, msg, fix).at(line, col).with_source(text);
-    let mut lines = text.lines().enumerate().map(|(i, l)| (i + 1, l.trim_end_matches('\r'))).filter(|(_, l)| !l.trim().is_empty());
+    let err = |line: usize, col: Option<usize>, msg: String, fix: String| {
+        InputError::file(path, msg, fix)
+            .at(line, col)
+            .with_source(text)
+    };
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.trim_end_matches('\r')))
+        .filter(|(_, l)| !l.trim().is_empty());
     let Some((hline, header)) = lines.next() else {
-        return Err(InputError::file(path, format!("the {what} is empty"), format!("write the header `{}` and one row per sample", columns.join(","))));
+        return Err(InputError::file(
+            path,
+            format!("the {what} is empty"),
+            format!(
+                "write the header `{}` and one row per sample",
+                columns.join(",")
+            ),
+        ));
     };
     let names: Vec<&str> = header.split(',').map(unquote).collect();
     if names.len() == 1 && columns.len() > 1 {
         let delim = [';', '\t', ' '].into_iter().find(|d| header.contains(*d));
         let fix = match delim {
-            Some(d) => format!("the file is separated by {:?}; write it with commas: `{}`", d, columns.join(",")),
+            Some(d) => format!(
+                "the file is separated by {:?}; write it with commas: `{}`",
+                d,
+                columns.join(",")
+            ),
             None => format!("the header must be `{}`", columns.join(",")),
         };
-        return Err(err(hline, Some(1), format!("the header has one column; expected {}", columns.join(",")), fix));
+        return Err(err(
+            hline,
+            Some(1),
+            format!("the header has one column; expected {}", columns.join(",")),
+            fix,
+        ));
     }
     let mut index = Vec::with_capacity(columns.len());
     let mut present = Vec::with_capacity(columns.len());
@@ -125,29 +195,69 @@ fn parse_columns_gaps(path: &str, text: &str, columns: &[&str], required: usize,
                 present.push(false);
             }
             None => {
-                let hint = crate::diag::nearest(c, names.iter().copied().filter(|n| !columns.iter().any(|x| x.eq_ignore_ascii_case(n)))).map_or(String::new(), |n| format!(" (`{n}` is close; rename it)"));
+                let hint = crate::diag::nearest(
+                    c,
+                    names
+                        .iter()
+                        .copied()
+                        .filter(|n| !columns.iter().any(|x| x.eq_ignore_ascii_case(n))),
+                )
+                .map_or(String::new(), |n| format!(" (`{n}` is close; rename it)"));
                 return Err(err(
                     hline,
                     None,
                     format!("the {what} has no `{c}` column{hint}"),
-                    format!("the header must name the columns {} (in any order)", columns.join(",")),
+                    format!(
+                        "the header must name the columns {} (in any order)",
+                        columns.join(",")
+                    ),
                 ));
             }
         }
     }
     if required < columns.len() && !present[1..].iter().any(|p| *p) {
-        return Err(err(hline, None, format!("the {what} has none of its columns {}", columns[1..].join(",")), format!("the header must be `t` and any of {}", columns[1..].join(","))));
+        return Err(err(
+            hline,
+            None,
+            format!(
+                "the {what} has none of its columns {}",
+                columns[1..].join(",")
+            ),
+            format!(
+                "the header must be `t` and any of {}",
+                columns[1..].join(",")
+            ),
+        ));
     }
     let mut notes = Vec::new();
-    let missing: Vec<&str> = columns.iter().zip(&present).filter(|(_, p)| !**p).map(|(c, _)| *c).collect();
+    let missing: Vec<&str> = columns
+        .iter()
+        .zip(&present)
+        .filter(|(_, p)| !**p)
+        .map(|(c, _)| *c)
+        .collect();
     if !missing.is_empty() {
-        notes.push(format!("{path}: no {} column{}; used what is there", missing.join(", "), if missing.len() > 1 { "s" } else { "" }));
+        notes.push(format!(
+            "{path}: no {} column{}; used what is there",
+            missing.join(", "),
+            if missing.len() > 1 { "s" } else { "" }
+        ));
     }
-    let extra: Vec<&str> = names.iter().enumerate().filter(|(i, _)| !index.contains(i)).map(|(_, n)| *n).collect();
+    let extra: Vec<&str> = names
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| !index.contains(i))
+        .map(|(_, n)| *n)
+        .collect();
     if !extra.is_empty() {
         notes.push(format!("{path}: ignored columns {}", extra.join(", ")));
     }
-    let mut log = Log { t: Vec::new(), cols: vec![Vec::new(); columns.len() - 1], notes, present: present[1..].to_vec() };
+    let mut log = Log {
+        t: Vec::new(),
+        cols: vec![Vec::new(); columns.len() - 1],
+        notes,
+        present: present[1..].to_vec(),
+    };
     for (lno, line) in lines {
         let fields: Vec<&str> = line.split(',').collect();
         if fields.len() != names.len() {
@@ -172,28 +282,40 @@ fn parse_columns_gaps(path: &str, text: &str, columns: &[&str], required: usize,
                 continue;
             }
             let v: f64 = raw.parse().map_err(|_| {
-                let fix = if raw.contains(';') || raw.matches('.').count() == 0 && raw.contains(',') {
+                let fix = if raw.contains(';') || raw.matches('.').count() == 0 && raw.contains(',')
+                {
                     "use a point as the decimal separator and commas between columns".to_string()
                 } else {
                     format!("`{name}` must be a number; fix or delete this row")
                 };
-                err(lno, Some(col_of(i)), format!("`{raw}` in column `{name}` is not a number"), fix)
+                err(
+                    lno,
+                    Some(col_of(i)),
+                    format!("`{raw}` in column `{name}` is not a number"),
+                    fix,
+                )
             })?;
             if !v.is_finite() {
-                return Err(err(lno, Some(col_of(i)), format!("`{raw}` in column `{name}` is not a finite number"), "a sensor dropout should be a missing row, not NaN or inf: delete this row".into()));
+                return Err(err(
+                    lno,
+                    Some(col_of(i)),
+                    format!("`{raw}` in column `{name}` is not a finite number"),
+                    "a sensor dropout should be a missing row, not NaN or inf: delete this row"
+                        .into(),
+                ));
             }
             row.push(v);
         }
         let t = row[0];
-        if let Some(&prev) = log.t.last() {
-            if t < prev {
-                return Err(err(
+        if let Some(&prev) = log.t.last()
+            && t < prev
+        {
+            return Err(err(
                     lno,
                     Some(col_of(index[0])),
                     format!("time goes backwards: t = {t} after t = {prev}"),
                     "the log must be in time order; two recordings appended into one file must be split into two runs".into(),
                 ));
-            }
         }
         log.t.push(t);
         for (c, v) in log.cols.iter_mut().zip(&row[1..]) {
@@ -201,12 +323,17 @@ fn parse_columns_gaps(path: &str, text: &str, columns: &[&str], required: usize,
         }
     }
     if missing_values > 0 {
-        log.notes.push(format!("{path}: {missing_values} values missing (empty or nan), left out of their channel"));
+        log.notes.push(format!(
+            "{path}: {missing_values} values missing (empty or nan), left out of their channel"
+        ));
     }
     if log.len() < min_rows {
         return Err(InputError::file(
             path,
-            format!("the {what} has {} data rows; at least {min_rows} are needed", log.len()),
+            format!(
+                "the {what} has {} data rows; at least {min_rows} are needed",
+                log.len()
+            ),
             "check that the recording was not cut off".to_string(),
         )
         .at(hline, None));
@@ -239,7 +366,10 @@ mod tests {
             ("t;x_m;y_m\n0;1;2\n", "separated by ';'"),
             ("t,x_m,ym\n0,1,2\n", "no `y_m` column (`ym` is close"),
             ("t,x_m,y_m\n0,1,2\n0.2,1\n", ":3: 2 fields"),
-            ("t,x_m,y_m\n0,1,2\n0.2,abc,2\n", ":3:5: `abc` in column `x_m`"),
+            (
+                "t,x_m,y_m\n0,1,2\n0.2,abc,2\n",
+                ":3:5: `abc` in column `x_m`",
+            ),
             ("t,x_m,y_m\n0,1,2\n0.2,nan,2\n", "not a finite number"),
             ("t,x_m,y_m\n0.4,1,2\n0.2,1,2\n", "time goes backwards"),
         ];

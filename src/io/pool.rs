@@ -65,22 +65,70 @@ pub struct PoolRun {
 pub const THRUST: [&str; 5] = ["t", "X_N", "Y_N", "Z_N", "N_Nm"];
 pub const UWB: [&str; 4] = ["t", "x_m", "y_m", "z_m"];
 pub const SONAR: [&str; 3] = ["t", "x_m", "y_m"];
-pub const IMU: [&str; 10] = ["t", "roll_deg", "pitch_deg", "yaw_deg", "p_dps", "q_dps", "r_dps", "ax_g", "ay_g", "az_g"];
+pub const IMU: [&str; 10] = [
+    "t",
+    "roll_deg",
+    "pitch_deg",
+    "yaw_deg",
+    "p_dps",
+    "q_dps",
+    "r_dps",
+    "ax_g",
+    "ay_g",
+    "az_g",
+];
 pub const DEPTH: [&str; 2] = ["t", "depth_m"];
-pub const NAV: [&str; 10] = ["t", "u_m_s", "v_m_s", "w_m_s", "roll_deg", "pitch_deg", "yaw_deg", "p_dps", "q_dps", "r_dps"];
-const KNOWN: [&str; 7] = ["run.yaml", "thrust.csv", "uwb.csv", "sonar.csv", "imu.csv", "depth.csv", "nav.csv"];
+pub const NAV: [&str; 10] = [
+    "t",
+    "u_m_s",
+    "v_m_s",
+    "w_m_s",
+    "roll_deg",
+    "pitch_deg",
+    "yaw_deg",
+    "p_dps",
+    "q_dps",
+    "r_dps",
+];
+const KNOWN: [&str; 7] = [
+    "run.yaml",
+    "thrust.csv",
+    "uwb.csv",
+    "sonar.csv",
+    "imu.csv",
+    "depth.csv",
+    "nav.csv",
+];
 
 fn read(root: &Path, rel: &str) -> Result<String, InputError> {
-    let bytes = std::fs::read(root.join(rel)).map_err(|e| InputError::file(rel, format!("cannot read: {e}"), "check the file's permissions"))?;
+    let bytes = std::fs::read(root.join(rel)).map_err(|e| {
+        InputError::file(
+            rel,
+            format!("cannot read: {e}"),
+            "check the file's permissions",
+        )
+    })?;
     String::from_utf8(bytes).map_err(|e| {
-        InputError::file(rel, format!("not UTF-8 text (byte {} is invalid)", e.utf8_error().valid_up_to()), "export the log as CSV text, not a binary or spreadsheet file")
+        InputError::file(
+            rel,
+            format!(
+                "not UTF-8 text (byte {} is invalid)",
+                e.utf8_error().valid_up_to()
+            ),
+            "export the log as CSV text, not a binary or spreadsheet file",
+        )
     })
 }
 
 /// Loads the run in folder `dir` (relative to `root`, `/`-separated) whose files are `files`.
 pub fn load(root: &Path, dir: &str, files: &[String]) -> Result<PoolRun, InputError> {
     let name = dir.rsplit('/').next().unwrap_or(dir).to_string();
-    let file = |n: &str| files.iter().find(|f| f.rsplit('/').next() == Some(n)).cloned();
+    let file = |n: &str| {
+        files
+            .iter()
+            .find(|f| f.rsplit('/').next() == Some(n))
+            .cloned()
+    };
     let mut notes: Vec<String> = files
         .iter()
         .filter(|f| !KNOWN.contains(&f.rsplit('/').next().unwrap_or("")))
@@ -88,7 +136,11 @@ pub fn load(root: &Path, dir: &str, files: &[String]) -> Result<PoolRun, InputEr
         .collect();
 
     let meta_path = file("run.yaml").ok_or_else(|| {
-        InputError::file(format!("{dir}/run.yaml"), "the run has no run.yaml", "add run.yaml with at least `role: train` or `role: validate`")
+        InputError::file(
+            format!("{dir}/run.yaml"),
+            "the run has no run.yaml",
+            "add run.yaml with at least `role: train` or `role: validate`",
+        )
     })?;
     let text = read(root, &meta_path)?;
     let meta: RunMeta = serde_yaml_ng::from_str(&text).map_err(|e| {
@@ -105,26 +157,42 @@ pub fn load(root: &Path, dir: &str, files: &[String]) -> Result<PoolRun, InputEr
     let thrust_path = file("thrust.csv").ok_or_else(|| {
         InputError::file(format!("{dir}/thrust.csv"), "the run has no thrust log", "add thrust.csv (t,X_N,Y_N,Z_N,N_Nm): without the commanded force the model cannot be simulated")
     })?;
-    let mut thrust = csvlog::parse_keeping_repeats(&thrust_path, &read(root, &thrust_path)?, &THRUST, "thrust log", 10)?;
+    let mut thrust = csvlog::parse_keeping_repeats(
+        &thrust_path,
+        &read(root, &thrust_path)?,
+        &THRUST,
+        "thrust log",
+        10,
+    )?;
     type Parser = fn(&str, &str, &[&str], &str, usize) -> Result<Log, InputError>;
-    let mut optional = |n: &str, cols: &[&str], what: &str, parse: Parser| -> Result<Option<Log>, InputError> {
-        match file(n) {
-            None => {
-                notes.push(format!("{dir}: no {n}"));
-                Ok(None)
+    let mut optional =
+        |n: &str, cols: &[&str], what: &str, parse: Parser| -> Result<Option<Log>, InputError> {
+            match file(n) {
+                None => {
+                    notes.push(format!("{dir}: no {n}"));
+                    Ok(None)
+                }
+                Some(p) => parse(&p, &read(root, &p)?, cols, what, 2).map(Some),
             }
-            Some(p) => parse(&p, &read(root, &p)?, cols, what, 2).map(Some),
-        }
-    };
+        };
     let uwb = optional("uwb.csv", &UWB, "UWB log", csvlog::parse_subset)?;
     let sonar = optional("sonar.csv", &SONAR, "sonar log", csvlog::parse_subset)?;
     let mut imu = optional("imu.csv", &IMU, "IMU log", csvlog::parse_subset)?;
     let depth = optional("depth.csv", &DEPTH, "depth log", csvlog::parse_subset)?;
     // A navigation log may have gaps (a DVL without bottom lock writes empty or nan values).
-    let mut nav = optional("nav.csv", &NAV, "navigation log", csvlog::parse_subset_with_gaps)?;
+    let mut nav = optional(
+        "nav.csv",
+        &NAV,
+        "navigation log",
+        csvlog::parse_subset_with_gaps,
+    )?;
     for (log, n) in [(&uwb, "uwb.csv"), (&sonar, "sonar.csv")] {
         if log.as_ref().is_some_and(|l| !(l.has(0) && l.has(1))) {
-            return Err(InputError::file(format!("{dir}/{n}"), "a position log needs both x_m and y_m", "write both horizontal coordinates (pool frame); z_m is optional"));
+            return Err(InputError::file(
+                format!("{dir}/{n}"),
+                "a position log needs both x_m and y_m",
+                "write both horizontal coordinates (pool frame); z_m is optional",
+            ));
         }
     }
     if let Some(imu) = &mut imu {
@@ -146,10 +214,31 @@ pub fn load(root: &Path, dir: &str, files: &[String]) -> Result<PoolRun, InputEr
     }
     // Rows still sharing a time stamp (no regular clock could be fitted): the last of each.
     thrust.dedupe_times(&thrust_path);
-    for log in [Some(&thrust), uwb.as_ref(), sonar.as_ref(), imu.as_ref(), depth.as_ref(), nav.as_ref()].into_iter().flatten() {
+    for log in [
+        Some(&thrust),
+        uwb.as_ref(),
+        sonar.as_ref(),
+        imu.as_ref(),
+        depth.as_ref(),
+        nav.as_ref(),
+    ]
+    .into_iter()
+    .flatten()
+    {
         notes.extend(log.notes.iter().cloned());
     }
-    let mut run = PoolRun { name, meta, thrust, uwb, sonar, imu, depth, nav, notes, repairs };
+    let mut run = PoolRun {
+        name,
+        meta,
+        thrust,
+        uwb,
+        sonar,
+        imu,
+        depth,
+        nav,
+        notes,
+        repairs,
+    };
     if let Some(r) = super::timing::trim_to_overlap(&mut run) {
         run.repairs.push(format!("{thrust_path}: {r}"));
     }
@@ -159,7 +248,16 @@ pub fn load(root: &Path, dir: &str, files: &[String]) -> Result<PoolRun, InputEr
 impl PoolRun {
     /// The sensor logs the run has, by name.
     pub fn sensors(&self) -> Vec<(&'static str, &Log)> {
-        [("uwb", &self.uwb), ("sonar", &self.sonar), ("imu", &self.imu), ("depth", &self.depth), ("nav", &self.nav)].into_iter().filter_map(|(n, l)| Some((n, l.as_ref()?))).collect()
+        [
+            ("uwb", &self.uwb),
+            ("sonar", &self.sonar),
+            ("imu", &self.imu),
+            ("depth", &self.depth),
+            ("nav", &self.nav),
+        ]
+        .into_iter()
+        .filter_map(|(n, l)| Some((n, l.as_ref()?)))
+        .collect()
     }
 }
 
@@ -189,10 +287,20 @@ mod tests {
     #[test]
     fn optional_sensors_may_be_missing_and_units_are_converted() {
         let t = thrust();
-        let (d, files) = folder(&[("run.yaml", "role: validate\n"), ("thrust.csv", &t), ("imu.csv", "t,roll_deg,pitch_deg,yaw_deg,p_dps,q_dps,r_dps,ax_g,ay_g,az_g\n0,0,0,90,0,0,180,0,0,-1\n0.02,0,0,90,0,0,180,0,0,-1\n"), ("notes.txt", "x")]);
+        let (d, files) = folder(&[
+            ("run.yaml", "role: validate\n"),
+            ("thrust.csv", &t),
+            (
+                "imu.csv",
+                "t,roll_deg,pitch_deg,yaw_deg,p_dps,q_dps,r_dps,ax_g,ay_g,az_g\n0,0,0,90,0,0,180,0,0,-1\n0.02,0,0,90,0,0,180,0,0,-1\n",
+            ),
+            ("notes.txt", "x"),
+        ]);
         let run = load(d.path(), "cases/pool/r1", &files).unwrap();
         assert_eq!(run.meta.role, Role::Validate);
-        assert!(run.uwb.is_none() && run.sonar.is_none() && run.depth.is_none() && run.nav.is_none());
+        assert!(
+            run.uwb.is_none() && run.sonar.is_none() && run.depth.is_none() && run.nav.is_none()
+        );
         let imu = run.imu.unwrap();
         assert!((imu.cols[2][0] - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
         assert!((imu.cols[5][0] - std::f64::consts::PI).abs() < 1e-12);
@@ -203,14 +311,20 @@ mod tests {
     #[test]
     fn a_missing_thrust_log_or_bad_run_yaml_is_an_error() {
         let (d, files) = folder(&[("run.yaml", "role: train\n")]);
-        let e = load(d.path(), "cases/pool/r1", &files).unwrap_err().to_string();
+        let e = load(d.path(), "cases/pool/r1", &files)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("no thrust log") && e.contains("help:"), "{e}");
         let t = thrust();
         let (d, files) = folder(&[("run.yaml", "role: tran\n"), ("thrust.csv", &t)]);
-        let e = load(d.path(), "cases/pool/r1", &files).unwrap_err().to_string();
+        let e = load(d.path(), "cases/pool/r1", &files)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("run.yaml:1:") && e.contains("tran"), "{e}");
         let (d, files) = folder(&[("thrust.csv", &t)]);
-        let e = load(d.path(), "cases/pool/r1", &files).unwrap_err().to_string();
+        let e = load(d.path(), "cases/pool/r1", &files)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("no run.yaml"), "{e}");
     }
 
@@ -221,7 +335,11 @@ mod tests {
     fn a_navigation_log_with_gaps_and_no_rates_is_read() {
         let t = thrust();
         let nav = "t,u_m_s,v_m_s,w_m_s,yaw_deg\n0.0,0.10,0.00,0.01,90\n0.2,,nan,0.02,91\n0.4,0.12,NaN,0.02,92\n0.6,0.13,0.01,0.03,93\n";
-        let (d, files) = folder(&[("run.yaml", "role: train\n"), ("thrust.csv", &t), ("nav.csv", nav)]);
+        let (d, files) = folder(&[
+            ("run.yaml", "role: train\n"),
+            ("thrust.csv", &t),
+            ("nav.csv", nav),
+        ]);
         let run = load(d.path(), "cases/pool/r1", &files).unwrap();
         let nav = run.nav.unwrap();
         assert_eq!(nav.len(), 4);
@@ -231,10 +349,17 @@ mod tests {
         assert!(!nav.has(6) && !nav.has(8), "no rates in this log");
         let notes = run.notes.join("\n");
         assert!(notes.contains("3 values missing"), "{notes}");
-        assert!(notes.contains("no roll_deg, pitch_deg, p_dps, q_dps, r_dps columns"), "{notes}");
+        assert!(
+            notes.contains("no roll_deg, pitch_deg, p_dps, q_dps, r_dps columns"),
+            "{notes}"
+        );
         // Time itself may not be missing.
         let bad = "t,u_m_s\n0.0,0.1\n,0.2\n";
-        let (d, files) = folder(&[("run.yaml", "role: train\n"), ("thrust.csv", &t), ("nav.csv", bad)]);
+        let (d, files) = folder(&[
+            ("run.yaml", "role: train\n"),
+            ("thrust.csv", &t),
+            ("nav.csv", bad),
+        ]);
         assert!(load(d.path(), "cases/pool/r1", &files).is_err());
     }
 }

@@ -79,11 +79,17 @@ impl Response {
     }
 
     /// Inverse of `to_frame`; `sources` restores where each column came from.
-    pub fn from_frame(df: &DataFrame, sources: &BTreeMap<Dof, (Source, Source)>) -> PolarsResult<Response> {
+    pub fn from_frame(
+        df: &DataFrame,
+        sources: &BTreeMap<Dof, (Source, Source)>,
+    ) -> PolarsResult<Response> {
         let get = |name: &str| -> PolarsResult<Vec<f64>> {
             Ok(df.column(name)?.f64()?.into_no_null_iter().collect())
         };
-        let mut r = Response { t: get("t")?, dofs: BTreeMap::new() };
+        let mut r = Response {
+            t: get("t")?,
+            dofs: BTreeMap::new(),
+        };
         for (d, (fs, acs)) in sources {
             let s = Series {
                 force: get(d.force())?,
@@ -104,14 +110,20 @@ impl Response {
         Ok(())
     }
 
-    pub fn read_parquet(path: &Path, sources: &BTreeMap<Dof, (Source, Source)>) -> anyhow::Result<Response> {
+    pub fn read_parquet(
+        path: &Path,
+        sources: &BTreeMap<Dof, (Source, Source)>,
+    ) -> anyhow::Result<Response> {
         let file = std::fs::File::open(path)?;
         let df = ParquetReader::new(file).set_rechunk(true).finish()?;
         Ok(Response::from_frame(&df, sources)?)
     }
 
     pub fn sources(&self) -> BTreeMap<Dof, (Source, Source)> {
-        self.dofs.iter().map(|(d, s)| (*d, (s.force_source, s.accel_source))).collect()
+        self.dofs
+            .iter()
+            .map(|(d, s)| (*d, (s.force_source, s.accel_source)))
+            .collect()
     }
 }
 
@@ -135,7 +147,10 @@ mod tests {
 
     #[test]
     fn parquet_round_trip() {
-        let mut r = Response { t: vec![0.0, 0.1, 0.2], dofs: BTreeMap::new() };
+        let mut r = Response {
+            t: vec![0.0, 0.1, 0.2],
+            dofs: BTreeMap::new(),
+        };
         r.dofs.insert(
             Dof::Yaw,
             Series {

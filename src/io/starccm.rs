@@ -1,7 +1,7 @@
 //! STAR-CCM+ DFBI exports: `"<monitor>: <quantity> (<unit>)"` headers, unit conversion,
 //! column mapping, repeated inner-iteration rows collapsed to the last (FORMATS.md).
 
-use super::response::{differentiate, Response, Series, Source};
+use super::response::{Response, Series, Source, differentiate};
 use crate::diag::InputError;
 use crate::dof::Dof;
 use serde::{Deserialize, Serialize};
@@ -57,7 +57,9 @@ impl Role {
         let u = unit.replace(' ', "");
         let ok = match (self, angular) {
             (Role::Force, false) => matches!(u.as_str(), "N").then_some(1.0),
-            (Role::Force, true) => matches!(u.as_str(), "N-m" | "Nm" | "N*m" | "N.m").then_some(1.0),
+            (Role::Force, true) => {
+                matches!(u.as_str(), "N-m" | "Nm" | "N*m" | "N.m").then_some(1.0)
+            }
             (Role::Velocity, false) => (u == "m/s").then_some(1.0),
             (Role::Velocity, true) => match u.as_str() {
                 "rad/s" => Some(1.0),
@@ -92,11 +94,20 @@ struct Header {
 }
 
 fn parse_header(name: &str, col: usize) -> Header {
-    let monitor = name.split_once(": ").map_or(name, |(m, _)| m).trim().to_string();
+    let monitor = name
+        .split_once(": ")
+        .map_or(name, |(m, _)| m)
+        .trim()
+        .to_string();
     let unit = name
         .strip_suffix(')')
         .and_then(|s| s.rfind(" (").map(|i| s[i + 2..].to_string()));
-    Header { name: name.to_string(), monitor, unit, col }
+    Header {
+        name: name.to_string(),
+        monitor,
+        unit,
+        col,
+    }
 }
 
 /// Splits a CSV line into (1-based column, field) pairs; double quotes may wrap a field.
@@ -158,8 +169,18 @@ struct Mapped {
 }
 
 fn map_columns(path: &str, headers: &[Header], opts: &ImportOptions) -> Result<Mapped, InputError> {
-    let time_monitor = opts.columns.time.clone().unwrap_or_else(|| "Physical Time".into());
-    let found = || headers.iter().map(|h| format!("\"{}\"", h.name)).collect::<Vec<_>>().join(", ");
+    let time_monitor = opts
+        .columns
+        .time
+        .clone()
+        .unwrap_or_else(|| "Physical Time".into());
+    let found = || {
+        headers
+            .iter()
+            .map(|h| format!("\"{}\"", h.name))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
     let time = headers
         .iter()
         .find(|h| h.monitor.eq_ignore_ascii_case(&time_monitor))
@@ -175,7 +196,11 @@ fn map_columns(path: &str, headers: &[Header], opts: &ImportOptions) -> Result<M
     if time.unit.as_deref().is_some_and(|u| u != "s") {
         return Err(InputError::file(
             path,
-            format!("time column \"{}\" is in ({}), expected (s)", time.name, time.unit.as_deref().unwrap_or("")),
+            format!(
+                "time column \"{}\" is in ({}), expected (s)",
+                time.name,
+                time.unit.as_deref().unwrap_or("")
+            ),
             "export Physical Time in seconds",
         )
         .at(1, Some(time.col)));
@@ -196,7 +221,10 @@ fn map_columns(path: &str, headers: &[Header], opts: &ImportOptions) -> Result<M
                     continue;
                 }
                 if !opts.dofs.contains(&d) {
-                    notes.push(format!("ignored \"{}\": {d} is not one of the vehicle's DOFs", h.name));
+                    notes.push(format!(
+                        "ignored \"{}\": {d} is not one of the vehicle's DOFs",
+                        h.name
+                    ));
                     continue;
                 }
                 let unit = h.unit.clone().unwrap_or_default();
@@ -214,7 +242,12 @@ fn map_columns(path: &str, headers: &[Header], opts: &ImportOptions) -> Result<M
                 if let Some((prev, _)) = cols.insert((role, d), (h.clone(), factor)) {
                     return Err(InputError::file(
                         path,
-                        format!("two columns give the {d} {}: \"{}\" and \"{}\"", role.describe(), prev.name, h.name),
+                        format!(
+                            "two columns give the {d} {}: \"{}\" and \"{}\"",
+                            role.describe(),
+                            prev.name,
+                            h.name
+                        ),
                         "remove one from the export, or map the right one under settings.columns",
                     )
                     .at(1, Some(h.col)));
@@ -225,10 +258,24 @@ fn map_columns(path: &str, headers: &[Header], opts: &ImportOptions) -> Result<M
     Ok(Mapped { time, cols, notes })
 }
 
-fn check_dofs(path: &str, m: &Mapped, headers: &[Header], opts: &ImportOptions) -> Result<Vec<Dof>, InputError> {
-    let dofs: Vec<Dof> = opts.dofs.iter().copied().filter(|d| m.cols.contains_key(&(Role::Velocity, *d))).collect();
+fn check_dofs(
+    path: &str,
+    m: &Mapped,
+    headers: &[Header],
+    opts: &ImportOptions,
+) -> Result<Vec<Dof>, InputError> {
+    let dofs: Vec<Dof> = opts
+        .dofs
+        .iter()
+        .copied()
+        .filter(|d| m.cols.contains_key(&(Role::Velocity, *d)))
+        .collect();
     if dofs.is_empty() {
-        let names: Vec<String> = opts.dofs.iter().map(|d| format!("\"{}\"", Role::Velocity.default_monitor(*d))).collect();
+        let names: Vec<String> = opts
+            .dofs
+            .iter()
+            .map(|d| format!("\"{}\"", Role::Velocity.default_monitor(*d)))
+            .collect();
         let found: Vec<String> = headers.iter().map(|h| format!("\"{}\"", h.name)).collect();
         return Err(InputError::file(
             path,
@@ -241,8 +288,15 @@ fn check_dofs(path: &str, m: &Mapped, headers: &[Header], opts: &ImportOptions) 
         if *role != Role::Velocity && !dofs.contains(d) {
             return Err(InputError::file(
                 path,
-                format!("column \"{}\" gives the {d} {} but there is no {d} velocity column", h.name, role.describe()),
-                format!("export \"{}\" too, or map its monitor under settings.columns.velocity", Role::Velocity.default_monitor(*d)),
+                format!(
+                    "column \"{}\" gives the {d} {} but there is no {d} velocity column",
+                    h.name,
+                    role.describe()
+                ),
+                format!(
+                    "export \"{}\" too, or map its monitor under settings.columns.velocity",
+                    Role::Velocity.default_monitor(*d)
+                ),
             )
             .at(1, Some(h.col)));
         }
@@ -264,23 +318,51 @@ fn check_dofs(path: &str, m: &Mapped, headers: &[Header], opts: &ImportOptions) 
 pub fn parse(path: &str, text: &str, opts: &ImportOptions) -> Result<Imported, InputError> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let err = |line: usize, col: Option<usize>, what: String, fix: &str| {
-        InputError::file(path, what, fix).at(line, col).with_source(text)
+        InputError::file(path, what, fix)
+            .at(line, col)
+            .with_source(text)
     };
-    let mut lines = text.lines().enumerate().map(|(i, l)| (i + 1, l)).filter(|(_, l)| !l.trim().is_empty());
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| (i + 1, l))
+        .filter(|(_, l)| !l.trim().is_empty());
     let Some((hline, header_text)) = lines.next() else {
-        return Err(InputError::file(path, "the file is empty", "export the DFBI run again from STAR-CCM+ (File > Export, or the plot's Export to CSV)"));
+        return Err(InputError::file(
+            path,
+            "the file is empty",
+            "export the DFBI run again from STAR-CCM+ (File > Export, or the plot's Export to CSV)",
+        ));
     };
     let hfields = split_fields(header_text);
     if hfields.len() == 1
-        && let Some(d) = [';', '\t', '|'].into_iter().find(|c| header_text.contains(*c)) {
-            let shown = if d == '\t' { "a tab".to_string() } else { format!("'{d}'") };
-            return Err(err(hline, None, format!("the header is separated by {shown}, not commas"), "STAR-CCM+ exports are comma-separated: export again with ',' as the delimiter, or replace the delimiter"));
-        }
-    let headers: Vec<Header> = hfields.iter().map(|(c, n)| parse_header(n.trim(), *c)).collect();
+        && let Some(d) = [';', '\t', '|']
+            .into_iter()
+            .find(|c| header_text.contains(*c))
+    {
+        let shown = if d == '\t' {
+            "a tab".to_string()
+        } else {
+            format!("'{d}'")
+        };
+        return Err(err(
+            hline,
+            None,
+            format!("the header is separated by {shown}, not commas"),
+            "STAR-CCM+ exports are comma-separated: export again with ',' as the delimiter, or replace the delimiter",
+        ));
+    }
+    let headers: Vec<Header> = hfields
+        .iter()
+        .map(|(c, n)| parse_header(n.trim(), *c))
+        .collect();
     let mapped = map_columns(path, &headers, opts).map_err(|e| e.with_source(text))?;
     let dofs = check_dofs(path, &mapped, &headers, opts).map_err(|e| e.with_source(text))?;
 
-    let time_idx = headers.iter().position(|h| h.name == mapped.time.name).unwrap_or(0);
+    let time_idx = headers
+        .iter()
+        .position(|h| h.name == mapped.time.name)
+        .unwrap_or(0);
     let wanted: Vec<(usize, f64)> = mapped
         .cols
         .values()
@@ -293,7 +375,16 @@ pub fn parse(path: &str, text: &str, opts: &ImportOptions) -> Result<Imported, I
         rows_read += 1;
         let fields = split_fields(line);
         if fields.len() != headers.len() {
-            return Err(err(ln, None, format!("expected {} fields like the header, found {}", headers.len(), fields.len()), "a row was cut short or has an extra delimiter: fix or delete this line"));
+            return Err(err(
+                ln,
+                None,
+                format!(
+                    "expected {} fields like the header, found {}",
+                    headers.len(),
+                    fields.len()
+                ),
+                "a row was cut short or has an extra delimiter: fix or delete this line",
+            ));
         }
         let num = |i: usize| -> Result<f64, InputError> {
             let (col, raw) = &fields[i];
@@ -301,17 +392,30 @@ pub fn parse(path: &str, text: &str, opts: &ImportOptions) -> Result<Imported, I
                 err(ln, Some(*col), format!("cannot read \"{}\" in column \"{}\" as a number", raw.trim(), headers[i].name), "fix or delete this row (the export may have been written while the run was still going)")
             })?;
             if !v.is_finite() {
-                return Err(err(ln, Some(*col), format!("{} in column \"{}\"", raw.trim(), headers[i].name), "the solver diverged or the export is corrupt: rerun the case, or cut the export before this row"));
+                return Err(err(
+                    ln,
+                    Some(*col),
+                    format!("{} in column \"{}\"", raw.trim(), headers[i].name),
+                    "the solver diverged or the export is corrupt: rerun the case, or cut the export before this row",
+                ));
             }
             Ok(v)
         };
         let ti = num(time_idx)?;
-        let vals = wanted.iter().map(|(i, f)| num(*i).map(|v| v * f)).collect::<Result<Vec<_>, _>>()?;
+        let vals = wanted
+            .iter()
+            .map(|(i, f)| num(*i).map(|v| v * f))
+            .collect::<Result<Vec<_>, _>>()?;
         match t.last() {
             // Inner iterations written out: the last row of a physical time is the converged one.
             Some(&last) if ti == last => *rows.last_mut().expect("rows follow t") = vals,
             Some(&last) if ti < last => {
-                return Err(err(ln, Some(fields[time_idx].0), format!("time goes backwards: {ti} s after {last} s"), "the export mixes two runs or was appended to: export the run again"));
+                return Err(err(
+                    ln,
+                    Some(fields[time_idx].0),
+                    format!("time goes backwards: {ti} s after {last} s"),
+                    "the export mixes two runs or was appended to: export the run again",
+                ));
             }
             _ => {
                 t.push(ti);
@@ -320,11 +424,22 @@ pub fn parse(path: &str, text: &str, opts: &ImportOptions) -> Result<Imported, I
         }
     }
     if t.len() < 3 {
-        return Err(InputError::file(path, format!("{} data rows after the header; a DFBI response needs at least 3 time steps", t.len()), "export the whole run (all time steps)").at(hline, None));
+        return Err(InputError::file(
+            path,
+            format!(
+                "{} data rows after the header; a DFBI response needs at least 3 time steps",
+                t.len()
+            ),
+            "export the whole run (all time steps)",
+        )
+        .at(hline, None));
     }
     let col_of = |role: Role, d: Dof| mapped.cols.keys().position(|k| *k == (role, d));
     let column = |j: usize| rows.iter().map(|r| r[j]).collect::<Vec<f64>>();
-    let mut response = Response { t: t.clone(), dofs: BTreeMap::new() };
+    let mut response = Response {
+        t: t.clone(),
+        dofs: BTreeMap::new(),
+    };
     let mut notes = mapped.notes;
     for d in dofs {
         let velocity = column(col_of(Role::Velocity, d).expect("checked"));
@@ -332,20 +447,39 @@ pub fn parse(path: &str, text: &str, opts: &ImportOptions) -> Result<Imported, I
             Some(j) => (column(j), Source::Column),
             None => {
                 let f = opts.configured_force[&d];
-                notes.push(format!("{d} applied force {f} {} from pipeline.yaml", d.force_unit()));
+                notes.push(format!(
+                    "{d} applied force {f} {} from pipeline.yaml",
+                    d.force_unit()
+                ));
                 (vec![f; t.len()], Source::Configured)
             }
         };
         let (accel, accel_source) = match col_of(Role::Accel, d) {
             Some(j) => (column(j), Source::Column),
             None => {
-                notes.push(format!("{d} acceleration by central differences of the velocity"));
+                notes.push(format!(
+                    "{d} acceleration by central differences of the velocity"
+                ));
                 (differentiate(&t, &velocity), Source::Differentiated)
             }
         };
-        response.dofs.insert(d, Series { force, velocity, accel, force_source, accel_source });
+        response.dofs.insert(
+            d,
+            Series {
+                force,
+                velocity,
+                accel,
+                force_source,
+                accel_source,
+            },
+        );
     }
-    Ok(Imported { response, rows_read, rows_kept: t.len(), notes })
+    Ok(Imported {
+        response,
+        rows_read,
+        rows_kept: t.len(),
+        notes,
+    })
 }
 
 #[cfg(test)]

@@ -31,16 +31,30 @@ pub fn repair_command_clock(log: &mut Log) -> Option<String> {
     let mut period = (log.t[n - 1] - log.t[0]) / (n - 1) as f64;
     // The envelope's slope: through the least-delayed row of each half, twice.
     for _ in 0..2 {
-        let least = |r: std::ops::Range<usize>| r.min_by(|&a, &b| (log.t[a] - a as f64 * period).total_cmp(&(log.t[b] - b as f64 * period))).expect("n >= 10");
+        let least = |r: std::ops::Range<usize>| {
+            r.min_by(|&a, &b| {
+                (log.t[a] - a as f64 * period).total_cmp(&(log.t[b] - b as f64 * period))
+            })
+            .expect("n >= 10")
+        };
         let (a, b) = (least(0..n / 2), least(n / 2..n));
         period = (log.t[b] - log.t[a]) / (b - a) as f64;
     }
-    let t0 = (0..n).map(|k| log.t[k] - k as f64 * period).fold(f64::INFINITY, f64::min);
-    let latency: Vec<f64> = (0..n).map(|k| log.t[k] - (t0 + k as f64 * period)).collect();
+    let t0 = (0..n)
+        .map(|k| log.t[k] - k as f64 * period)
+        .fold(f64::INFINITY, f64::min);
+    let latency: Vec<f64> = (0..n)
+        .map(|k| log.t[k] - (t0 + k as f64 * period))
+        .collect();
     let worst = latency.iter().copied().fold(0.0, f64::max);
-    let what = format!("{:.0} % of its intervals are under 1 ms and the longest is {longest:.2} s (rows written by receive time, in bursts)", 100.0 * tiny);
+    let what = format!(
+        "{:.0} % of its intervals are under 1 ms and the longest is {longest:.2} s (rows written by receive time, in bursts)",
+        100.0 * tiny
+    );
     if worst > MAX_LATENCY_S {
-        return Some(format!("{what}; a regular clock would put rows {worst:.1} s late, so rows were lost: the receive times are kept"));
+        return Some(format!(
+            "{what}; a regular clock would put rows {worst:.1} s late, so rows were lost: the receive times are kept"
+        ));
     }
     let mut sorted = latency.clone();
     sorted.sort_by(f64::total_cmp);
@@ -62,16 +76,27 @@ pub fn trim_to_overlap(run: &mut PoolRun) -> Option<String> {
     if sensors.is_empty() {
         return None;
     }
-    let start = sensors.iter().map(|(_, l)| l.t[0]).fold(f64::NEG_INFINITY, f64::max);
-    let end = sensors.iter().map(|(_, l)| l.t[l.len() - 1]).fold(f64::INFINITY, f64::min);
+    let start = sensors
+        .iter()
+        .map(|(_, l)| l.t[0])
+        .fold(f64::NEG_INFINITY, f64::max);
+    let end = sensors
+        .iter()
+        .map(|(_, l)| l.t[l.len() - 1])
+        .fold(f64::INFINITY, f64::min);
     let log = &mut run.thrust;
     let (first, last) = (log.t[0], log.t[log.len() - 1]);
     if start <= first && end >= last {
         return None;
     }
-    let keep: Vec<usize> = (0..log.len()).filter(|&k| log.t[k] >= start && log.t[k] <= end).collect();
+    let keep: Vec<usize> = (0..log.len())
+        .filter(|&k| log.t[k] >= start && log.t[k] <= end)
+        .collect();
     if keep.len() < 10 {
-        return Some(format!("the sensor logs overlap the command log only from {start:.2} to {end:.2} s ({} command rows): kept as is", keep.len()));
+        return Some(format!(
+            "the sensor logs overlap the command log only from {start:.2} to {end:.2} s ({} command rows): kept as is",
+            keep.len()
+        ));
     }
     log.t = keep.iter().map(|&k| log.t[k]).collect();
     for c in &mut log.cols {
@@ -90,7 +115,12 @@ mod tests {
 
     fn log(t: Vec<f64>) -> Log {
         let n = t.len();
-        Log { t, cols: vec![vec![0.0; n]], notes: vec![], present: vec![true] }
+        Log {
+            t,
+            cols: vec![vec![0.0; n]],
+            notes: vec![],
+            present: vec![true],
+        }
     }
 
     /// A 50 Hz controller whose rows reach the logger in bursts: every 0.5-1.5 s a stall, then
@@ -110,12 +140,20 @@ mod tests {
             }
             // Queued until the next release, then written 20 us apart.
             let r = release.max(s) + 2e-5 * (recv.len() % 50) as f64;
-            recv.push(if recv.last().is_some_and(|p| r < *p) { *recv.last().unwrap() } else { r });
+            recv.push(if recv.last().is_some_and(|p| r < *p) {
+                *recv.last().unwrap()
+            } else {
+                r
+            });
         }
         let mut l = log(recv);
         let note = repair_command_clock(&mut l).expect("bursts are repaired");
         assert!(note.contains("regular 50.00 Hz"), "{note}");
-        let worst = l.t.iter().zip(&send).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        let worst =
+            l.t.iter()
+                .zip(&send)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
         // The lower envelope is set by the rows released earliest after their send time.
         assert!(worst < 0.025, "clock off by {worst} s");
         // A regular log is left alone.

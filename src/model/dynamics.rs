@@ -6,7 +6,11 @@ use super::{Hydro, Vehicle};
 pub type Vec6 = [f64; 6];
 
 fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
 }
 
 /// C(nu) nu for a diagonal mass matrix `m` (Kirchhoff form, Fossen eq. 6.43):
@@ -30,7 +34,9 @@ pub fn hydro_force(h: &Hydro, nu: &Vec6, nu_dot: &Vec6) -> Vec6 {
     let neg_added = h.added.map(|a| -a);
     let c = coriolis(&neg_added, nu);
     std::array::from_fn(|i| {
-        -h.added[i] * nu_dot[i] + c[i] - (h.lin[i] + h.quad[i] * nu[i].abs()) * nu[i] - h.constant[i]
+        -h.added[i] * nu_dot[i] + c[i]
+            - (h.lin[i] + h.quad[i] * nu[i].abs()) * nu[i]
+            - h.constant[i]
     })
 }
 
@@ -44,7 +50,11 @@ pub struct Plant {
 
 impl Plant {
     pub fn new(vehicle: &Vehicle, hydro: Hydro) -> Plant {
-        Plant { mrb: vehicle.rigid_mass(), hydro, active: vehicle.active() }
+        Plant {
+            mrb: vehicle.rigid_mass(),
+            hydro,
+            active: vehicle.active(),
+        }
     }
 
     /// The rigid-body side that does not depend on the unknowns: M_RB nu_dot + C_RB(nu) nu.
@@ -114,7 +124,15 @@ mod tests {
         let zero = [0.0; 6];
         let total = {
             let r = p.rigid_force(&nu, &zero);
-            let a = hydro_force(&Hydro { lin: [0.0; 6], quad: [0.0; 6], ..h }, &nu, &zero);
+            let a = hydro_force(
+                &Hydro {
+                    lin: [0.0; 6],
+                    quad: [0.0; 6],
+                    ..h
+                },
+                &nu,
+                &zero,
+            );
             std::array::from_fn::<f64, 6, _>(|i| r[i] + a[i])
         };
         let m = 35.2;
@@ -136,7 +154,11 @@ mod tests {
         let nu = p.simulate(&t, &tau, [0.0; 6], 0.01);
         let (a, b) = (-h.quad[0], -h.lin[0]);
         let u_ss = (-b + (b * b + 4.0 * a * f).sqrt()) / (2.0 * a);
-        assert!((nu.last().unwrap()[0] - u_ss).abs() < 1e-6, "{} vs {u_ss}", nu.last().unwrap()[0]);
+        assert!(
+            (nu.last().unwrap()[0] - u_ss).abs() < 1e-6,
+            "{} vs {u_ss}",
+            nu.last().unwrap()[0]
+        );
         assert!(nu.iter().all(|n| n[1] == 0.0 && n[5] == 0.0));
     }
 }

@@ -62,21 +62,40 @@ impl Effect {
 
     /// Parses `name=value` as the twin's command line takes it, with a typical second parameter.
     pub fn from_arg(arg: &str) -> Result<Effect, String> {
-        let (name, value) = arg.split_once('=').ok_or_else(|| format!("`{arg}`: write an effect as name=magnitude, e.g. thruster_lag=0.3"))?;
-        let x: f64 = value.parse().map_err(|_| format!("`{arg}`: magnitude `{value}` is not a number"))?;
+        let (name, value) = arg.split_once('=').ok_or_else(|| {
+            format!("`{arg}`: write an effect as name=magnitude, e.g. thruster_lag=0.3")
+        })?;
+        let x: f64 = value
+            .parse()
+            .map_err(|_| format!("`{arg}`: magnitude `{value}` is not a number"))?;
         Ok(match name {
             "net_buoyancy" => Effect::NetBuoyancy { force_n: x },
             "thruster_lag" => Effect::ThrusterLag { time_constant_s: x },
             "reverse_thrust_loss" => Effect::ReverseThrustLoss { loss: x },
-            "thruster_deadband" => Effect::ThrusterDeadband { force_n: x, moment_nm: x * 0.1 },
-            "tether_drag" => Effect::TetherDrag { coefficient: x, slack_m: 2.0 },
-            "water_current" => Effect::WaterCurrent { velocity_m_s: [x, 0.3 * x] },
-            "wall_effect" => Effect::WallEffect { coefficient: x, decay_m: 0.8 },
+            "thruster_deadband" => Effect::ThrusterDeadband {
+                force_n: x,
+                moment_nm: x * 0.1,
+            },
+            "tether_drag" => Effect::TetherDrag {
+                coefficient: x,
+                slack_m: 2.0,
+            },
+            "water_current" => Effect::WaterCurrent {
+                velocity_m_s: [x, 0.3 * x],
+            },
+            "wall_effect" => Effect::WallEffect {
+                coefficient: x,
+                decay_m: 0.8,
+            },
             "coupled_drag" => Effect::CoupledDrag { coefficient: x },
             "sensor_delay" => Effect::SensorDelay { delay_s: x },
             _ => {
-                let hint = crate::diag::nearest(name, NAMES).map_or(String::new(), |s| format!(" (did you mean `{s}`?)"));
-                return Err(format!("unknown effect `{name}`{hint}; known: {}", NAMES.join(", ")));
+                let hint = crate::diag::nearest(name, NAMES)
+                    .map_or(String::new(), |s| format!(" (did you mean `{s}`?)"));
+                return Err(format!(
+                    "unknown effect `{name}`{hint}; known: {}",
+                    NAMES.join(", ")
+                ));
             }
         })
     }
@@ -120,17 +139,30 @@ fn drag(p: &Plant, i: usize, x: f64) -> f64 {
 
 impl WorldPlant {
     pub fn new(plant: Plant) -> WorldPlant {
-        WorldPlant { plant, effects: Vec::new(), pool: None, tether_anchor: None, track_pose: true }
+        WorldPlant {
+            plant,
+            effects: Vec::new(),
+            pool: None,
+            tether_anchor: None,
+            track_pose: true,
+        }
     }
 
     /// Whether any effect depends on the vehicle's position or heading.
     pub fn effects_need_pose(&self) -> bool {
-        self.effects.iter().any(|e| matches!(e, Effect::TetherDrag { .. } | Effect::WaterCurrent { .. } | Effect::WallEffect { .. }))
+        self.effects.iter().any(|e| {
+            matches!(
+                e,
+                Effect::TetherDrag { .. } | Effect::WaterCurrent { .. } | Effect::WallEffect { .. }
+            )
+        })
     }
 
     pub fn lag(&self) -> Option<f64> {
         self.effects.iter().find_map(|e| match e {
-            Effect::ThrusterLag { time_constant_s } if *time_constant_s > 0.0 => Some(*time_constant_s),
+            Effect::ThrusterLag { time_constant_s } if *time_constant_s > 0.0 => {
+                Some(*time_constant_s)
+            }
             _ => None,
         })
     }
@@ -181,11 +213,21 @@ impl WorldPlant {
         for e in &self.effects {
             match e {
                 Effect::NetBuoyancy { force_n } => f[2] += force_n,
-                Effect::TetherDrag { coefficient, slack_m } => {
+                Effect::TetherDrag {
+                    coefficient,
+                    slack_m,
+                } => {
                     let a = self.tether_anchor.unwrap_or([0.0, 0.0, 0.0]);
-                    let l = ((s.pos[0] - a[0]).powi(2) + (s.pos[1] - a[1]).powi(2) + (s.pos[2] - a[2]).powi(2)).sqrt() + slack_m;
+                    let l = ((s.pos[0] - a[0]).powi(2)
+                        + (s.pos[1] - a[1]).powi(2)
+                        + (s.pos[2] - a[2]).powi(2))
+                    .sqrt()
+                        + slack_m;
                     let (vw, speed) = ground();
-                    let (bx, by) = to_body(-coefficient * l * speed * vw[0], -coefficient * l * speed * vw[1]);
+                    let (bx, by) = to_body(
+                        -coefficient * l * speed * vw[0],
+                        -coefficient * l * speed * vw[1],
+                    );
                     f[0] += bx;
                     f[1] += by;
                 }
@@ -195,12 +237,20 @@ impl WorldPlant {
                     f[0] += drag(p, 0, s.nu[0] - cu) - drag(p, 0, s.nu[0]);
                     f[1] += drag(p, 1, s.nu[1] - cv) - drag(p, 1, s.nu[1]);
                 }
-                Effect::WallEffect { coefficient, decay_m } => {
+                Effect::WallEffect {
+                    coefficient,
+                    decay_m,
+                } => {
                     if let Some(pool) = self.pool {
-                        let d = [s.pos[0], pool.length_m - s.pos[0], s.pos[1], pool.width_m - s.pos[1]]
-                            .into_iter()
-                            .fold(f64::INFINITY, f64::min)
-                            .max(0.0);
+                        let d = [
+                            s.pos[0],
+                            pool.length_m - s.pos[0],
+                            s.pos[1],
+                            pool.width_m - s.pos[1],
+                        ]
+                        .into_iter()
+                        .fold(f64::INFINITY, f64::min)
+                        .max(0.0);
                         let (vw, speed) = ground();
                         let k = coefficient * (-d / decay_m).exp() * speed;
                         let (bx, by) = to_body(-k * vw[0], -k * vw[1]);
@@ -221,14 +271,22 @@ impl WorldPlant {
     fn deriv(&self, s: &State, cmd: &Vec6) -> State {
         let target = self.shape_command(cmd);
         let (thrust, thrust_dot) = match self.lag() {
-            Some(tc) => (s.thrust, std::array::from_fn(|i| (target[i] - s.thrust[i]) / tc)),
+            Some(tc) => (
+                s.thrust,
+                std::array::from_fn(|i| (target[i] - s.thrust[i]) / tc),
+            ),
             None => (target, [0.0; 6]),
         };
         if !self.track_pose {
             // No effect reads the pose (the caller checked): heading unused, pose held.
             let extra = self.extra_force_at(s, 0.0, 0.0);
             let tau: Vec6 = std::array::from_fn(|i| thrust[i] + extra[i]);
-            return State { nu: self.plant.accel(&s.nu, &tau), pos: [0.0; 3], psi: 0.0, thrust: thrust_dot };
+            return State {
+                nu: self.plant.accel(&s.nu, &tau),
+                pos: [0.0; 3],
+                psi: 0.0,
+                thrust: thrust_dot,
+            };
         }
         let (c, sn) = (s.psi.cos(), s.psi.sin());
         let extra = self.extra_force_at(s, c, sn);
@@ -236,7 +294,11 @@ impl WorldPlant {
         let nu_dot = self.plant.accel(&s.nu, &tau);
         State {
             nu: nu_dot,
-            pos: [c * s.nu[0] - sn * s.nu[1], sn * s.nu[0] + c * s.nu[1], s.nu[2]],
+            pos: [
+                c * s.nu[0] - sn * s.nu[1],
+                sn * s.nu[0] + c * s.nu[1],
+                s.nu[2],
+            ],
             psi: s.nu[5],
             thrust: thrust_dot,
         }
@@ -262,7 +324,8 @@ impl WorldPlant {
         let mut out = *s;
         for i in 0..6 {
             out.nu[i] += h / 6.0 * (k1.nu[i] + 2.0 * k2.nu[i] + 2.0 * k3.nu[i] + k4.nu[i]);
-            out.thrust[i] += h / 6.0 * (k1.thrust[i] + 2.0 * k2.thrust[i] + 2.0 * k3.thrust[i] + k4.thrust[i]);
+            out.thrust[i] +=
+                h / 6.0 * (k1.thrust[i] + 2.0 * k2.thrust[i] + 2.0 * k3.thrust[i] + k4.thrust[i]);
         }
         for i in 0..3 {
             out.pos[i] += h / 6.0 * (k1.pos[i] + 2.0 * k2.pos[i] + 2.0 * k3.pos[i] + k4.pos[i]);
@@ -308,7 +371,10 @@ mod tests {
     fn without_effects_it_is_the_base_plant() {
         let w = world(vec![]);
         let t: Vec<f64> = (0..500).map(|k| k as f64 * 0.02).collect();
-        let cmd: Vec<Vec6> = t.iter().map(|&x| [40.0 * (x * 0.7).sin(), 10.0, -20.0, 0.0, 0.0, 2.0]).collect();
+        let cmd: Vec<Vec6> = t
+            .iter()
+            .map(|&x| [40.0 * (x * 0.7).sin(), 10.0, -20.0, 0.0, 0.0, 2.0])
+            .collect();
         let a = w.simulate(&t, &cmd, State::default(), 0.01);
         let b = w.plant.simulate(&t, &cmd, [0.0; 6], 0.01);
         for (x, y) in a.iter().zip(&b) {
@@ -319,9 +385,16 @@ mod tests {
     #[test]
     fn lag_and_buoyancy_have_their_closed_forms() {
         // A first-order lag delivers 1 - e^-1 of a step after one time constant.
-        let w = world(vec![Effect::ThrusterLag { time_constant_s: 0.5 }]);
+        let w = world(vec![Effect::ThrusterLag {
+            time_constant_s: 0.5,
+        }]);
         let t: Vec<f64> = (0..=50).map(|k| k as f64 * 0.01).collect();
-        let s = w.simulate(&t, &vec![[10.0, 0.0, 0.0, 0.0, 0.0, 0.0]; t.len()], State::default(), 0.01);
+        let s = w.simulate(
+            &t,
+            &vec![[10.0, 0.0, 0.0, 0.0, 0.0, 0.0]; t.len()],
+            State::default(),
+            0.01,
+        );
         assert!((s[50].thrust[0] - 10.0 * (1.0 - (-1.0f64).exp())).abs() < 1e-6);
         // Net buoyancy alone: heave settles where drag balances it.
         let w = world(vec![Effect::NetBuoyancy { force_n: 5.0 }]);
@@ -335,21 +408,34 @@ mod tests {
 
     #[test]
     fn current_drifts_a_passive_vehicle_with_the_water() {
-        let w = world(vec![Effect::WaterCurrent { velocity_m_s: [0.2, -0.1] }]);
+        let w = world(vec![Effect::WaterCurrent {
+            velocity_m_s: [0.2, -0.1],
+        }]);
         // Linear drag alone lets the relative velocity decay with (m - X_udot) / -X_u ~ 21 s.
         let t: Vec<f64> = (0..12000).map(|k| k as f64 * 0.02).collect();
-        let s0 = State { psi: 0.6, ..State::default() };
+        let s0 = State {
+            psi: 0.6,
+            ..State::default()
+        };
         let s = w.simulate(&t, &vec![[0.0; 6]; t.len()], s0, 0.01);
         let end = s.last().unwrap();
         let (c, sn) = (end.psi.cos(), end.psi.sin());
         let vx = c * end.nu[0] - sn * end.nu[1];
         let vy = sn * end.nu[0] + c * end.nu[1];
-        assert!((vx - 0.2).abs() < 1e-3 && (vy + 0.1).abs() < 1e-3, "{vx} {vy}");
+        assert!(
+            (vx - 0.2).abs() < 1e-3 && (vy + 0.1).abs() < 1e-3,
+            "{vx} {vy}"
+        );
     }
 
     #[test]
     fn effect_arguments_parse_and_misspellings_are_helped() {
-        assert_eq!(Effect::from_arg("thruster_lag=0.3").unwrap(), Effect::ThrusterLag { time_constant_s: 0.3 });
+        assert_eq!(
+            Effect::from_arg("thruster_lag=0.3").unwrap(),
+            Effect::ThrusterLag {
+                time_constant_s: 0.3
+            }
+        );
         let e = Effect::from_arg("tether_darg=1").unwrap_err();
         assert!(e.contains("did you mean `tether_drag`"), "{e}");
         for n in NAMES {

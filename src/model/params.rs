@@ -59,7 +59,10 @@ pub struct ParamLayout {
 
 impl ParamLayout {
     pub fn new(dofs: &[Dof]) -> ParamLayout {
-        ParamLayout { dofs: dofs.to_vec(), constant: Vec::new() }
+        ParamLayout {
+            dofs: dofs.to_vec(),
+            constant: Vec::new(),
+        }
     }
 
     /// The layout of a vehicle: its DOFs and the DOFs with a constant force term.
@@ -68,8 +71,15 @@ impl ParamLayout {
     }
 
     pub fn with_constant(dofs: &[Dof], constant: &[Dof]) -> ParamLayout {
-        let constant = dofs.iter().copied().filter(|d| constant.contains(d)).collect();
-        ParamLayout { dofs: dofs.to_vec(), constant }
+        let constant = dofs
+            .iter()
+            .copied()
+            .filter(|d| constant.contains(d))
+            .collect();
+        ParamLayout {
+            dofs: dofs.to_vec(),
+            constant,
+        }
     }
 
     pub fn len(&self) -> usize {
@@ -159,7 +169,10 @@ mod tests {
         let l = ParamLayout::new(&[Dof::Surge, Dof::Sway, Dof::Heave, Dof::Yaw]);
         assert_eq!(
             l.names(),
-            ["X_udot", "Y_vdot", "Z_wdot", "N_rdot", "X_u", "Y_v", "Z_w", "N_r", "X_uu", "Y_vv", "Z_ww", "N_rr"]
+            [
+                "X_udot", "Y_vdot", "Z_wdot", "N_rdot", "X_u", "Y_v", "Z_w", "N_r", "X_uu", "Y_vv",
+                "Z_ww", "N_rr"
+            ]
         );
         let h = Hydro::reference();
         assert_eq!(l.to_hydro(&l.from_hydro(&h)), h);

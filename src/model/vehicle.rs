@@ -62,7 +62,11 @@ impl Vehicle {
         Vehicle {
             name: "open-frame ROV (seed 001)".into(),
             mass_kg: 35.2,
-            inertia_kg_m2: Inertia { xx: 0.0, yy: 0.0, zz: 1.38 },
+            inertia_kg_m2: Inertia {
+                xx: 0.0,
+                yy: 0.0,
+                zz: 1.38,
+            },
             dofs: vec![Dof::Surge, Dof::Sway, Dof::Heave, Dof::Yaw],
             structure: Structure::Diagonal,
             constant_force: Vec::new(),
@@ -98,10 +102,16 @@ impl Vehicle {
     pub fn problems(&self) -> Vec<String> {
         let mut out = Vec::new();
         if !(self.mass_kg > 0.0 && self.mass_kg.is_finite()) {
-            out.push(format!("mass_kg must be a positive number of kilograms, not {}", self.mass_kg));
+            out.push(format!(
+                "mass_kg must be a positive number of kilograms, not {}",
+                self.mass_kg
+            ));
         }
         if self.dofs.is_empty() {
-            out.push("dofs is empty: list the DOFs the vehicle moves in, e.g. [surge, sway, heave, yaw]".into());
+            out.push(
+                "dofs is empty: list the DOFs the vehicle moves in, e.g. [surge, sway, heave, yaw]"
+                    .into(),
+            );
         }
         let mrb = self.rigid_mass();
         for d in &self.dofs {
@@ -117,7 +127,9 @@ impl Vehicle {
         }
         for (d, l) in &self.command_limits {
             if !(l.is_finite() && *l > 0.0) {
-                out.push(format!("command_limits.{d} must be a positive number (N or N m), not {l}"));
+                out.push(format!(
+                    "command_limits.{d} must be a positive number (N or N m), not {l}"
+                ));
             }
         }
         let mut seen = std::collections::BTreeSet::new();

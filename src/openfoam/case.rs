@@ -77,9 +77,19 @@ impl CylinderCase {
 
     /// Writes the case folder (refuses to overwrite an existing one).
     pub fn write(&self, dir: &Path) -> anyhow::Result<()> {
-        anyhow::ensure!(self.force_n.is_finite() && self.force_n != 0.0, "the applied force must be non-zero");
-        anyhow::ensure!(self.mass_kg > 0.0 && self.radius_m > 0.0, "mass and radius must be positive");
-        anyhow::ensure!(!dir.exists(), "{} exists; choose a new case folder", dir.display());
+        anyhow::ensure!(
+            self.force_n.is_finite() && self.force_n != 0.0,
+            "the applied force must be non-zero"
+        );
+        anyhow::ensure!(
+            self.mass_kg > 0.0 && self.radius_m > 0.0,
+            "mass and radius must be positive"
+        );
+        anyhow::ensure!(
+            !dir.exists(),
+            "{} exists; choose a new case folder",
+            dir.display()
+        );
         let subs = self.substitutions();
         for (rel, template) in TEMPLATES {
             let mut text = template.to_string();
@@ -96,16 +106,40 @@ impl CylinderCase {
 }
 
 const TEMPLATES: &[(&str, &str)] = &[
-    ("system/blockMeshDict", include_str!("template/system/blockMeshDict")),
-    ("system/controlDict", include_str!("template/system/controlDict")),
-    ("system/fvSchemes", include_str!("template/system/fvSchemes")),
-    ("system/fvSolution", include_str!("template/system/fvSolution")),
-    ("constant/dynamicMeshDict", include_str!("template/constant/dynamicMeshDict")),
-    ("constant/transportProperties", include_str!("template/constant/transportProperties")),
-    ("constant/turbulenceProperties", include_str!("template/constant/turbulenceProperties")),
+    (
+        "system/blockMeshDict",
+        include_str!("template/system/blockMeshDict"),
+    ),
+    (
+        "system/controlDict",
+        include_str!("template/system/controlDict"),
+    ),
+    (
+        "system/fvSchemes",
+        include_str!("template/system/fvSchemes"),
+    ),
+    (
+        "system/fvSolution",
+        include_str!("template/system/fvSolution"),
+    ),
+    (
+        "constant/dynamicMeshDict",
+        include_str!("template/constant/dynamicMeshDict"),
+    ),
+    (
+        "constant/transportProperties",
+        include_str!("template/constant/transportProperties"),
+    ),
+    (
+        "constant/turbulenceProperties",
+        include_str!("template/constant/turbulenceProperties"),
+    ),
     ("0/U", include_str!("template/0/U")),
     ("0/p", include_str!("template/0/p")),
-    ("0/pointDisplacement", include_str!("template/0/pointDisplacement")),
+    (
+        "0/pointDisplacement",
+        include_str!("template/0/pointDisplacement"),
+    ),
 ];
 
 #[cfg(test)]
@@ -114,7 +148,12 @@ mod tests {
 
     #[test]
     fn every_placeholder_is_filled() {
-        let c = CylinderCase { force_n: 2.0, mass_kg: 62.832, radius_m: 0.1, end_time_s: None };
+        let c = CylinderCase {
+            force_n: 2.0,
+            mass_kg: 62.832,
+            radius_m: 0.1,
+            end_time_s: None,
+        };
         let dir = tempfile::tempdir().unwrap();
         let case = dir.path().join("c");
         c.write(&case).unwrap();

@@ -181,7 +181,11 @@ fn parse_dict(toks: &[String], pos: &mut usize, top: bool) -> Result<Dict, DictE
 impl Dict {
     pub fn get(&self, key: &str) -> Option<&Entry> {
         // The last definition wins, as in OpenFOAM.
-        self.entries.iter().rev().find(|(k, _)| k == key).map(|(_, e)| e)
+        self.entries
+            .iter()
+            .rev()
+            .find(|(k, _)| k == key)
+            .map(|(_, e)| e)
     }
 
     pub fn dict(&self, key: &str) -> Option<&Dict> {
@@ -202,7 +206,11 @@ impl Dict {
 /// Looks `key` up in `scopes` (innermost last) and reads it as numbers: a scalar gives one,
 /// a vector `(x y z)` three. `$name` and `#eval{}` are resolved in the same scopes.
 pub fn numbers(scopes: &[&Dict], key: &str) -> Result<Vec<f64>, DictError> {
-    let tokens = scopes.iter().rev().find_map(|d| d.value(key)).ok_or_else(|| DictError::Missing(key.to_string()))?;
+    let tokens = scopes
+        .iter()
+        .rev()
+        .find_map(|d| d.value(key))
+        .ok_or_else(|| DictError::Missing(key.to_string()))?;
     let mut out = Vec::new();
     for t in tokens.iter().filter(|t| *t != "(" && *t != ")") {
         out.push(number(scopes, key, t, 0)?);
@@ -212,26 +220,46 @@ pub fn numbers(scopes: &[&Dict], key: &str) -> Result<Vec<f64>, DictError> {
 
 fn number(scopes: &[&Dict], key: &str, tok: &str, depth: usize) -> Result<f64, DictError> {
     if depth > 16 {
-        return Err(DictError::NotNumber(key.to_string(), format!("`{tok}` refers to itself")));
+        return Err(DictError::NotNumber(
+            key.to_string(),
+            format!("`{tok}` refers to itself"),
+        ));
     }
     if let Some(body) = tok.strip_prefix("#eval{").and_then(|b| b.strip_suffix('}')) {
-        let mut p = Expr { s: body.as_bytes(), i: 0, scopes, key, depth };
+        let mut p = Expr {
+            s: body.as_bytes(),
+            i: 0,
+            scopes,
+            key,
+            depth,
+        };
         let v = p.sum()?;
         p.ws();
         if p.i != p.s.len() {
-            return Err(DictError::NotNumber(key.to_string(), format!("cannot evaluate `{body}`")));
+            return Err(DictError::NotNumber(
+                key.to_string(),
+                format!("cannot evaluate `{body}`"),
+            ));
         }
         return Ok(v);
     }
     if let Some(name) = tok.strip_prefix('$') {
         let name = name.trim_matches(|c| c == '{' || c == '}');
-        let v = scopes.iter().rev().find_map(|d| d.value(name)).ok_or_else(|| DictError::Undefined(key.to_string(), name.to_string()))?;
+        let v = scopes
+            .iter()
+            .rev()
+            .find_map(|d| d.value(name))
+            .ok_or_else(|| DictError::Undefined(key.to_string(), name.to_string()))?;
         return match v {
             [one] => number(scopes, key, one, depth + 1),
-            _ => Err(DictError::NotNumber(key.to_string(), format!("${name} is not a single value"))),
+            _ => Err(DictError::NotNumber(
+                key.to_string(),
+                format!("${name} is not a single value"),
+            )),
         };
     }
-    tok.parse().map_err(|_| DictError::NotNumber(key.to_string(), format!("`{tok}`")))
+    tok.parse()
+        .map_err(|_| DictError::NotNumber(key.to_string(), format!("`{tok}`")))
 }
 
 /// `#eval` arithmetic: + - * / and parentheses over numbers and `$names`.
@@ -288,7 +316,12 @@ impl Expr<'_> {
 
     fn atom(&mut self) -> Result<f64, DictError> {
         self.ws();
-        let bad = |s: &Self| DictError::NotNumber(s.key.to_string(), format!("cannot evaluate `{}`", String::from_utf8_lossy(s.s)));
+        let bad = |s: &Self| {
+            DictError::NotNumber(
+                s.key.to_string(),
+                format!("cannot evaluate `{}`", String::from_utf8_lossy(s.s)),
+            )
+        };
         match self.s.get(self.i) {
             Some(b'(') => {
                 self.i += 1;
@@ -311,7 +344,11 @@ impl Expr<'_> {
             Some(b'$') => {
                 let start = self.i;
                 self.i += 1;
-                while self.i < self.s.len() && (self.s[self.i].is_ascii_alphanumeric() || self.s[self.i] == b'_' || self.s[self.i] == b'.') {
+                while self.i < self.s.len()
+                    && (self.s[self.i].is_ascii_alphanumeric()
+                        || self.s[self.i] == b'_'
+                        || self.s[self.i] == b'.')
+                {
                     self.i += 1;
                 }
                 let name = std::str::from_utf8(&self.s[start..self.i]).expect("ascii");
@@ -319,7 +356,13 @@ impl Expr<'_> {
             }
             Some(_) => {
                 let start = self.i;
-                while self.i < self.s.len() && (self.s[self.i].is_ascii_digit() || matches!(self.s[self.i], b'.' | b'e' | b'E') || ((self.s[self.i] == b'-' || self.s[self.i] == b'+') && self.i > start && matches!(self.s[self.i - 1], b'e' | b'E'))) {
+                while self.i < self.s.len()
+                    && (self.s[self.i].is_ascii_digit()
+                        || matches!(self.s[self.i], b'.' | b'e' | b'E')
+                        || ((self.s[self.i] == b'-' || self.s[self.i] == b'+')
+                            && self.i > start
+                            && matches!(self.s[self.i - 1], b'e' | b'E')))
+                {
                     self.i += 1;
                 }
                 let text = std::str::from_utf8(&self.s[start..self.i]).expect("ascii");
@@ -366,7 +409,10 @@ sixDoFRigidBodyMotionCoeffs
     fn eval_precedence_and_errors() {
         let d = parse("a 2; b #eval{ 1 + $a * (3 - 1) / 4 }; c $missing; e #eval{ 1 + };").unwrap();
         assert_eq!(numbers(&[&d], "b").unwrap(), vec![2.0]);
-        assert_eq!(numbers(&[&d], "c"), Err(DictError::Undefined("c".into(), "missing".into())));
+        assert_eq!(
+            numbers(&[&d], "c"),
+            Err(DictError::Undefined("c".into(), "missing".into()))
+        );
         assert!(numbers(&[&d], "e").is_err());
         assert_eq!(numbers(&[&d], "zz"), Err(DictError::Missing("zz".into())));
         assert_eq!(parse("a { b 1;"), Err(DictError::Eof));

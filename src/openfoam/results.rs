@@ -47,8 +47,16 @@ pub fn parse_log(text: &str) -> Log {
     let mut end = LogEnd::Truncated;
     let (mut exec, mut clock) = (None, None);
     for line in text.lines() {
-        if let Some(t) = line.strip_prefix("Time = ").and_then(|t| t.trim().parse::<f64>().ok()) {
-            steps.push(LogStep { t, centre: None, linear_velocity: None, angular_velocity: None });
+        if let Some(t) = line
+            .strip_prefix("Time = ")
+            .and_then(|t| t.trim().parse::<f64>().ok())
+        {
+            steps.push(LogStep {
+                t,
+                centre: None,
+                linear_velocity: None,
+                angular_velocity: None,
+            });
         } else if let Some(v) = after(line, "Centre of mass:") {
             // With several outer correctors the body is reported per corrector: the last one wins.
             if let Some(s) = steps.last_mut() {
@@ -65,7 +73,11 @@ pub fn parse_log(text: &str) -> Log {
         } else if let Some(rest) = line.strip_prefix("ExecutionTime = ") {
             let mut parts = rest.split_whitespace();
             exec = parts.next().and_then(|x| x.parse().ok());
-            clock = rest.split("ClockTime = ").nth(1).and_then(|c| c.split_whitespace().next()).and_then(|x| x.parse().ok());
+            clock = rest
+                .split("ClockTime = ")
+                .nth(1)
+                .and_then(|c| c.split_whitespace().next())
+                .and_then(|x| x.parse().ok());
         } else if line.trim() == "End" && !matches!(end, LogEnd::Crashed(_)) {
             end = LogEnd::Finished;
         } else if is_crash(line) && !matches!(end, LogEnd::Crashed(_)) {
@@ -78,7 +90,12 @@ pub fn parse_log(text: &str) -> Log {
             steps.pop();
         }
     }
-    Log { steps, end, execution_time_s: exec, clock_time_s: clock }
+    Log {
+        steps,
+        end,
+        execution_time_s: exec,
+        clock_time_s: clock,
+    }
 }
 
 /// A line that says the run died. The banner's `trapFpe: Floating point exception trapping
@@ -88,7 +105,11 @@ fn is_crash(line: &str) -> bool {
     if l.starts_with("trapFpe") {
         return false;
     }
-    l.contains("FOAM FATAL") || l.contains("sigFpe::sigHandler") || l.contains("sigSegv::sigHandler") || l.starts_with("Floating point exception") || l.starts_with("Segmentation fault")
+    l.contains("FOAM FATAL")
+        || l.contains("sigFpe::sigHandler")
+        || l.contains("sigSegv::sigHandler")
+        || l.starts_with("Floating point exception")
+        || l.starts_with("Segmentation fault")
 }
 
 /// The last `n` lines of a log, for error messages.
@@ -129,10 +150,18 @@ pub fn parse_vector_table(text: &str) -> Result<VectorTable, TableError> {
     for (i, line) in lines.iter().enumerate() {
         if let Some(h) = line.strip_prefix('#') {
             let h = h.trim();
-            if let Some(u) = h.strip_prefix("Angle Units").map(|u| u.trim_start_matches([' ', ':']).trim()) {
+            if let Some(u) = h
+                .strip_prefix("Angle Units")
+                .map(|u| u.trim_start_matches([' ', ':']).trim())
+            {
                 table.angle_units = Some(u.to_string());
             } else if h.starts_with("Time") {
-                table.columns = h.split('\t').skip(1).map(|c| c.trim().to_string()).filter(|c| !c.is_empty()).collect();
+                table.columns = h
+                    .split('\t')
+                    .skip(1)
+                    .map(|c| c.trim().to_string())
+                    .filter(|c| !c.is_empty())
+                    .collect();
                 if table.columns.len() <= 1 {
                     // Headers written with spaces: names are single words or parenthesised groups.
                     table.columns = split_header(h).into_iter().skip(1).collect();
@@ -150,7 +179,16 @@ pub fn parse_vector_table(text: &str) -> Result<VectorTable, TableError> {
                 table.rows.push(v);
             }
             _ if last => {}
-            _ => return Err(TableError { line: i + 1, msg: format!("expected a time and {} vectors, found `{}`", table.columns.len(), line.trim()) }),
+            _ => {
+                return Err(TableError {
+                    line: i + 1,
+                    msg: format!(
+                        "expected a time and {} vectors, found `{}`",
+                        table.columns.len(),
+                        line.trim()
+                    ),
+                });
+            }
         }
     }
     // Restarted runs may repeat times: keep the last row of each, in time order.

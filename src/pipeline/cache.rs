@@ -32,7 +32,9 @@ pub struct Cache {
 
 impl Cache {
     pub fn new(dir: &Path) -> Cache {
-        Cache { dir: dir.to_path_buf() }
+        Cache {
+            dir: dir.to_path_buf(),
+        }
     }
 
     pub fn dir(&self) -> &Path {
@@ -59,7 +61,14 @@ impl Cache {
     pub fn begin(&self, key: &str) -> std::io::Result<PathBuf> {
         let tmp = self.dir.join("tmp");
         std::fs::create_dir_all(&tmp)?;
-        let path = tmp.join(format!("{key}.{}.{:?}", std::process::id(), std::thread::current().id()).replace(['(', ')'], ""));
+        let path = tmp.join(
+            format!(
+                "{key}.{}.{:?}",
+                std::process::id(),
+                std::thread::current().id()
+            )
+            .replace(['(', ')'], ""),
+        );
         if path.exists() {
             std::fs::remove_dir_all(&path)?;
         }
@@ -73,7 +82,12 @@ impl Cache {
     }
 
     /// Commits a result; `missing` names the failed upstream instances it was built without.
-    pub fn commit_partial(&self, tmp: &Path, record: &Record, missing: &[String]) -> std::io::Result<()> {
+    pub fn commit_partial(
+        &self,
+        tmp: &Path,
+        record: &Record,
+        missing: &[String],
+    ) -> std::io::Result<()> {
         let text = serde_json::to_string_pretty(&record.fields).map_err(std::io::Error::other)?;
         crate::fsutil::write_atomic(&tmp.join(FIELDS_FILE), text.as_bytes())?;
         if !missing.is_empty() {
@@ -101,7 +115,10 @@ impl Cache {
     fn append(&self, record: &Record) -> std::io::Result<()> {
         let mut line = serde_json::to_string(record).map_err(std::io::Error::other)?;
         line.push('\n');
-        let mut f = std::fs::OpenOptions::new().create(true).append(true).open(self.dir.join(LOG))?;
+        let mut f = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(self.dir.join(LOG))?;
         // One write per record: a kill leaves at most one torn line, at the end.
         f.write_all(line.as_bytes())
     }
@@ -121,15 +138,24 @@ impl Cache {
         let _ = std::fs::remove_dir_all(self.dir.join("tmp"));
         std::fs::create_dir_all(&self.dir)?;
         let path = self.dir.join(LOG);
-        let Ok(text) = std::fs::read_to_string(&path) else { return Ok(()) };
+        let Ok(text) = std::fs::read_to_string(&path) else {
+            return Ok(());
+        };
         if !text.is_empty() && !text.ends_with('\n') {
             let keep = text.rfind('\n').map_or(0, |i| i + 1);
-            std::fs::OpenOptions::new().write(true).open(&path)?.set_len(keep as u64)?;
+            std::fs::OpenOptions::new()
+                .write(true)
+                .open(&path)?
+                .set_len(keep as u64)?;
         }
         if text.lines().count() > COMPACT_AT {
             let mut recs: Vec<Record> = self.records().into_values().collect();
             recs.sort_by(|a, b| a.id.cmp(&b.id));
-            let body: String = recs.iter().filter_map(|r| serde_json::to_string(r).ok()).map(|l| l + "\n").collect();
+            let body: String = recs
+                .iter()
+                .filter_map(|r| serde_json::to_string(r).ok())
+                .map(|l| l + "\n")
+                .collect();
             crate::fsutil::write_atomic(&path, body.as_bytes())?;
         }
         Ok(())
@@ -141,7 +167,11 @@ mod tests {
     use super::*;
 
     fn rec(id: &str, key: &str) -> Record {
-        Record { id: id.into(), key: key.into(), fields: Fields(vec![("kind".into(), "x".into())]) }
+        Record {
+            id: id.into(),
+            key: key.into(),
+            fields: Fields(vec![("kind".into(), "x".into())]),
+        }
     }
 
     #[test]
@@ -151,7 +181,10 @@ mod tests {
         std::fs::create_dir_all(dir.path()).unwrap();
         let t = c.begin("k1").unwrap();
         c.commit(&t, &rec("a", "k1")).unwrap();
-        let mut f = std::fs::OpenOptions::new().append(true).open(dir.path().join(LOG)).unwrap();
+        let mut f = std::fs::OpenOptions::new()
+            .append(true)
+            .open(dir.path().join(LOG))
+            .unwrap();
         f.write_all(b"{\"id\":\"b\",\"key\":\"k2\",\"fie").unwrap();
         assert_eq!(c.records().len(), 1);
         c.recover().unwrap();

@@ -2,7 +2,7 @@
 //! A failing instance stops only what depends on it; its temporary folder is removed.
 
 use super::cache::{Cache, Record};
-use super::{explain, Plan};
+use super::{Plan, explain};
 use crate::progress::Progress;
 use crate::stage::{InputFile, RunCtx, Upstream};
 use std::collections::HashMap;
@@ -41,7 +41,10 @@ enum State {
 
 pub fn build(plan: &Plan, opts: &Options, progress: &Progress) -> anyhow::Result<Summary> {
     let cache = plan.cache();
-    let need = plan.graph.closure(&opts.targets).map_err(anyhow::Error::msg)?;
+    let need = plan
+        .graph
+        .closure(&opts.targets)
+        .map_err(anyhow::Error::msg)?;
     let n = plan.graph.instances.len();
     let mut state: Vec<State> = (0..n)
         .map(|i| match (need[i], cache.has(&plan.keys[i])) {
@@ -50,9 +53,16 @@ pub fn build(plan: &Plan, opts: &Options, progress: &Progress) -> anyhow::Result
             (true, false) => State::Waiting,
         })
         .collect();
-    let mut summary = Summary { up_to_date: state.iter().filter(|s| **s == State::Done).count(), ..Default::default() };
+    let mut summary = Summary {
+        up_to_date: state.iter().filter(|s| **s == State::Done).count(),
+        ..Default::default()
+    };
     let to_run = state.iter().filter(|s| **s == State::Waiting).count();
-    let records = if opts.explain { cache.records() } else { HashMap::new() };
+    let records = if opts.explain {
+        cache.records()
+    } else {
+        HashMap::new()
+    };
     let bar = progress.bar(to_run as u64, "building");
     let jobs = opts.jobs.max(1);
     let (tx, rx) = mpsc::channel::<(usize, Result<(), String>)>();
@@ -61,13 +71,25 @@ pub fn build(plan: &Plan, opts: &Options, progress: &Progress) -> anyhow::Result
         loop {
             let stop = crate::interrupt::requested();
             let ready: Vec<usize> = (0..n)
-                .filter(|&i| !stop && state[i] == State::Waiting && plan.graph.instances[i].deps.iter().all(|&d| state[d] == State::Done || (state[d] == State::Failed && tolerable(plan, d))))
+                .filter(|&i| {
+                    !stop
+                        && state[i] == State::Waiting
+                        && plan.graph.instances[i].deps.iter().all(|&d| {
+                            state[d] == State::Done
+                                || (state[d] == State::Failed && tolerable(plan, d))
+                        })
+                })
                 .take(jobs - running)
                 .collect();
             for i in ready {
                 if opts.explain {
-                    let why = explain::reasons(records.get(&plan.graph.instances[i].id), &plan.fields[i]);
-                    progress.println(format!("{}: {}", plan.graph.instances[i].id, why.join("; ")));
+                    let why =
+                        explain::reasons(records.get(&plan.graph.instances[i].id), &plan.fields[i]);
+                    progress.println(format!(
+                        "{}: {}",
+                        plan.graph.instances[i].id,
+                        why.join("; ")
+                    ));
                 }
                 state[i] = State::Running;
                 running += 1;
@@ -77,12 +99,24 @@ pub fn build(plan: &Plan, opts: &Options, progress: &Progress) -> anyhow::Result
                     .filter(|&&d| state[d] == State::Failed)
                     .map(|&d| {
                         let id = &plan.graph.instances[d].id;
-                        (id.clone(), summary.failed.iter().find(|(f, _)| f == id).map_or_else(|| "not built".to_string(), |(_, e)| e.clone()))
+                        (
+                            id.clone(),
+                            summary
+                                .failed
+                                .iter()
+                                .find(|(f, _)| f == id)
+                                .map_or_else(|| "not built".to_string(), |(_, e)| e.clone()),
+                        )
                     })
                     .collect();
-                let (tx, cache, spinner) = (tx.clone(), &cache, progress.spinner(&plan.graph.instances[i].id));
+                let (tx, cache, spinner) = (
+                    tx.clone(),
+                    &cache,
+                    progress.spinner(&plan.graph.instances[i].id),
+                );
                 scope.spawn(move || {
-                    let r = run_one(plan, i, cache, &spinner, failed_deps).map_err(|e| format!("{e:#}"));
+                    let r = run_one(plan, i, cache, &spinner, failed_deps)
+                        .map_err(|e| format!("{e:#}"));
                     spinner.finish_and_clear();
                     let _ = tx.send((i, r));
                 });
@@ -106,7 +140,10 @@ pub fn build(plan: &Plan, opts: &Options, progress: &Progress) -> anyhow::Result
                 }
                 Err(e) => {
                     state[i] = State::Failed;
-                    progress.println(format!("error: stage {id} failed\n  {}", e.replace('\n', "\n  ")));
+                    progress.println(format!(
+                        "error: stage {id} failed\n  {}",
+                        e.replace('\n', "\n  ")
+                    ));
                     summary.failed.push((id, e));
                     skip_dependents(plan, i, &mut state, &mut summary);
                 }
@@ -125,7 +162,12 @@ pub fn build(plan: &Plan, opts: &Options, progress: &Progress) -> anyhow::Result
 /// order, so one forward pass reaches the whole downstream closure.
 fn skip_dependents(plan: &Plan, failed: usize, state: &mut [State], summary: &mut Summary) {
     for j in failed + 1..state.len() {
-        if state[j] == State::Waiting && plan.graph.instances[j].deps.iter().any(|&d| state[d] == State::Failed && !tolerable(plan, d)) {
+        if state[j] == State::Waiting
+            && plan.graph.instances[j]
+                .deps
+                .iter()
+                .any(|&d| state[d] == State::Failed && !tolerable(plan, d))
+        {
             state[j] = State::Failed;
             summary.skipped.push(plan.graph.instances[j].id.clone());
         }
@@ -137,19 +179,38 @@ fn skip_dependents(plan: &Plan, failed: usize, state: &mut [State], summary: &mu
 /// dependents list it and are rebuilt by the next build.
 fn tolerable(plan: &Plan, failed: usize) -> bool {
     let kind = plan.graph.stage_of(failed).kind;
-    kind.fan_out && kind.produces == crate::stage::Artifact::PoolRuns && !crate::interrupt::requested()
+    kind.fan_out
+        && kind.produces == crate::stage::Artifact::PoolRuns
+        && !crate::interrupt::requested()
 }
 
-fn run_one(plan: &Plan, i: usize, cache: &Cache, spinner: &indicatif::ProgressBar, failed_upstream: Vec<(String, String)>) -> anyhow::Result<()> {
+fn run_one(
+    plan: &Plan,
+    i: usize,
+    cache: &Cache,
+    spinner: &indicatif::ProgressBar,
+    failed_upstream: Vec<(String, String)>,
+) -> anyhow::Result<()> {
     let inst = &plan.graph.instances[i];
     let st = plan.graph.stage_of(i);
     let key = &plan.keys[i];
     let tmp = cache.begin(key)?;
-    let inputs: Vec<InputFile> = inst.inputs.iter().map(|p| InputFile { path: p.clone(), blake3: plan.hashes[p].clone() }).collect();
+    let inputs: Vec<InputFile> = inst
+        .inputs
+        .iter()
+        .map(|p| InputFile {
+            path: p.clone(),
+            blake3: plan.hashes[p].clone(),
+        })
+        .collect();
     let upstream = inst
         .deps
         .iter()
-        .filter(|&&d| !failed_upstream.iter().any(|(id, _)| *id == plan.graph.instances[d].id))
+        .filter(|&&d| {
+            !failed_upstream
+                .iter()
+                .any(|(id, _)| *id == plan.graph.instances[d].id)
+        })
         .map(|&d| Upstream {
             id: plan.graph.instances[d].id.clone(),
             stage: plan.graph.stage_of(d).name.clone(),
@@ -157,15 +218,38 @@ fn run_one(plan: &Plan, i: usize, cache: &Cache, spinner: &indicatif::ProgressBa
             dir: cache.object(&plan.keys[d]),
         })
         .collect();
-    let ctx = RunCtx { id: &inst.id, stage: &st.name, root: &plan.root, vehicle: &plan.graph.spec.vehicle, inputs: &inputs, upstream, failed_upstream: failed_upstream.clone(), out: &tmp, progress: spinner };
+    let ctx = RunCtx {
+        id: &inst.id,
+        stage: &st.name,
+        root: &plan.root,
+        vehicle: &plan.graph.spec.vehicle,
+        inputs: &inputs,
+        upstream,
+        failed_upstream: failed_upstream.clone(),
+        out: &tmp,
+        progress: spinner,
+    };
     let start = Instant::now();
     // A panic is a bug, but it must not take the other stages (or the cache) down with it.
     let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| st.imp.run(&ctx)))
-        .unwrap_or_else(|p| Err(anyhow::anyhow!("internal error (please report): {}", panic_text(&p))));
+        .unwrap_or_else(|p| {
+            Err(anyhow::anyhow!(
+                "internal error (please report): {}",
+                panic_text(&p)
+            ))
+        });
     match result {
         Ok(()) => {
             let missing: Vec<String> = failed_upstream.into_iter().map(|(id, _)| id).collect();
-            cache.commit_partial(&tmp, &Record { id: inst.id.clone(), key: key.clone(), fields: plan.fields[i].clone() }, &missing)?;
+            cache.commit_partial(
+                &tmp,
+                &Record {
+                    id: inst.id.clone(),
+                    key: key.clone(),
+                    fields: plan.fields[i].clone(),
+                },
+                &missing,
+            )?;
             log_time(spinner, &inst.id, start);
             Ok(())
         }
@@ -184,16 +268,24 @@ fn log_time(spinner: &indicatif::ProgressBar, id: &str, start: Instant) {
 }
 
 fn panic_text(p: &Box<dyn std::any::Any + Send>) -> String {
-    p.downcast_ref::<&str>().map(|s| s.to_string()).or_else(|| p.downcast_ref::<String>().cloned()).unwrap_or_else(|| "panic".into())
+    p.downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| p.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "panic".into())
 }
 
 /// Copies a finished instance's artifacts to the folder its kind publishes to, where they are
 /// missing or differ; returns the files written.
 fn publish(plan: &Plan, i: usize, cache: &Cache) -> anyhow::Result<Vec<String>> {
-    let Some(dest) = plan.graph.stage_of(i).kind.publishes_to else { return Ok(vec![]) };
+    let Some(dest) = plan.graph.stage_of(i).kind.publishes_to else {
+        return Ok(vec![]);
+    };
     let obj = cache.object(&plan.keys[i]);
     let mut written = Vec::new();
-    let mut names: Vec<_> = std::fs::read_dir(&obj)?.filter_map(|e| e.ok()).map(|e| e.file_name()).collect();
+    let mut names: Vec<_> = std::fs::read_dir(&obj)?
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name())
+        .collect();
     names.sort();
     for name in names {
         let name = name.to_string_lossy().into_owned();
@@ -212,7 +304,9 @@ fn publish(plan: &Plan, i: usize, cache: &Cache) -> anyhow::Result<Vec<String>> 
 
 fn same_contents(a: &Path, b: &Path) -> bool {
     match (std::fs::metadata(a), std::fs::metadata(b)) {
-        (Ok(x), Ok(y)) if x.len() == y.len() => crate::fsutil::hash_file(a).ok() == crate::fsutil::hash_file(b).ok(),
+        (Ok(x), Ok(y)) if x.len() == y.len() => {
+            crate::fsutil::hash_file(a).ok() == crate::fsutil::hash_file(b).ok()
+        }
         _ => false,
     }
 }

@@ -5,13 +5,21 @@ use super::cache::Record;
 use super::key::Fields;
 
 fn short(v: &str) -> String {
-    if v.len() == 64 && v.chars().all(|c| c.is_ascii_hexdigit()) { v[..12].to_string() } else { v.to_string() }
+    if v.len() == 64 && v.chars().all(|c| c.is_ascii_hexdigit()) {
+        v[..12].to_string()
+    } else {
+        v.to_string()
+    }
 }
 
 /// Reasons, most specific first. `None` for `prev` means the instance was never built.
 pub fn reasons(prev: Option<&Record>, cur: &Fields) -> Vec<String> {
     let Some(prev) = prev else {
-        let inputs: Vec<&str> = cur.0.iter().filter_map(|(n, _)| n.strip_prefix("input ")).collect();
+        let inputs: Vec<&str> = cur
+            .0
+            .iter()
+            .filter_map(|(n, _)| n.strip_prefix("input "))
+            .collect();
         return vec![match inputs.as_slice() {
             [one] => format!("new input {one} (never built)"),
             [] => "never built".to_string(),
@@ -27,7 +35,9 @@ pub fn reasons(prev: Option<&Record>, cur: &Fields) -> Vec<String> {
                 _ => format!("{n} set to {v}"),
             }),
             Some(old) if old != v => out.push(match n.split_once(' ') {
-                Some(("input", p)) => format!("input {p} changed (blake3 {} -> {})", short(old), short(v)),
+                Some(("input", p)) => {
+                    format!("input {p} changed (blake3 {} -> {})", short(old), short(v))
+                }
                 Some(("upstream", u)) => format!("upstream {u} changed"),
                 _ => format!("{n} changed: {old} -> {v}"),
             }),
@@ -54,17 +64,41 @@ mod tests {
     use super::*;
 
     fn f(pairs: &[(&str, &str)]) -> Fields {
-        Fields(pairs.iter().map(|(a, b)| (a.to_string(), b.to_string())).collect())
+        Fields(
+            pairs
+                .iter()
+                .map(|(a, b)| (a.to_string(), b.to_string()))
+                .collect(),
+        )
     }
 
     #[test]
     fn names_what_changed() {
-        let prev = Record { id: "fit".into(), key: "k".into(), fields: f(&[("setting.method", "\"ols\""), ("upstream cfd[a]", "1"), ("upstream cfd[b]", "2")]) };
-        let cur = f(&[("setting.method", "\"tls\""), ("upstream cfd[a]", "1"), ("upstream cfd[c]", "3")]);
+        let prev = Record {
+            id: "fit".into(),
+            key: "k".into(),
+            fields: f(&[
+                ("setting.method", "\"ols\""),
+                ("upstream cfd[a]", "1"),
+                ("upstream cfd[b]", "2"),
+            ]),
+        };
+        let cur = f(&[
+            ("setting.method", "\"tls\""),
+            ("upstream cfd[a]", "1"),
+            ("upstream cfd[c]", "3"),
+        ]);
         assert_eq!(
             reasons(Some(&prev), &cur),
-            ["setting.method changed: \"ols\" -> \"tls\"", "new upstream cfd[c]", "upstream cfd[b] was removed"]
+            [
+                "setting.method changed: \"ols\" -> \"tls\"",
+                "new upstream cfd[c]",
+                "upstream cfd[b] was removed"
+            ]
         );
-        assert_eq!(reasons(None, &f(&[("input cases/a.csv", "h")])), ["new input cases/a.csv (never built)"]);
+        assert_eq!(
+            reasons(None, &f(&[("input cases/a.csv", "h")])),
+            ["new input cases/a.csv (never built)"]
+        );
     }
 }

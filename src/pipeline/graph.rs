@@ -25,17 +25,28 @@ pub struct Graph {
 
 #[derive(Debug, thiserror::Error)]
 pub enum GraphError {
-    #[error("stage `{stage}` matched no files with {globs}\n  help: put its input files there, or fix the glob under stages.{stage}.inputs in pipeline.yaml")]
+    #[error(
+        "stage `{stage}` matched no files with {globs}\n  help: put its input files there, or fix the glob under stages.{stage}.inputs in pipeline.yaml"
+    )]
     NoInputs { stage: String, globs: String },
     #[error("cannot list {pattern}: {source}")]
-    Glob { pattern: String, source: glob::GlobError },
+    Glob {
+        pattern: String,
+        source: glob::GlobError,
+    },
     #[error("cannot read input {path}: {source}")]
-    Read { path: String, source: std::io::Error },
+    Read {
+        path: String,
+        source: std::io::Error,
+    },
 }
 
 fn rel(root: &Path, p: &Path) -> String {
     let r = p.strip_prefix(root).unwrap_or(p);
-    r.components().map(|c| c.as_os_str().to_string_lossy()).collect::<Vec<_>>().join("/")
+    r.components()
+        .map(|c| c.as_os_str().to_string_lossy())
+        .collect::<Vec<_>>()
+        .join("/")
 }
 
 /// Files under a matched folder (a case directory), skipping hidden names.
@@ -62,14 +73,22 @@ fn fan_out(root: &Path, st: &StageSpec) -> Result<Vec<(String, Vec<String>)>, Gr
         let pattern = root.join(g).to_string_lossy().into_owned();
         let paths = glob::glob(&pattern).expect("globs are checked when the spec is parsed");
         for p in paths {
-            let p = p.map_err(|source| GraphError::Glob { pattern: g.clone(), source })?;
+            let p = p.map_err(|source| GraphError::Glob {
+                pattern: g.clone(),
+                source,
+            })?;
             let r = rel(root, &p);
-            if p.file_name().is_some_and(|n| n.to_string_lossy().starts_with('.')) {
+            if p.file_name()
+                .is_some_and(|n| n.to_string_lossy().starts_with('.'))
+            {
                 continue;
             }
             let mut files = Vec::new();
             if p.is_dir() {
-                files_under(root, &p, &mut files).map_err(|source| GraphError::Read { path: r.clone(), source })?;
+                files_under(root, &p, &mut files).map_err(|source| GraphError::Read {
+                    path: r.clone(),
+                    source,
+                })?;
                 if let Some(keep) = st.kind.input_filter {
                     let prefix = format!("{r}/");
                     files.retain(|f| f.strip_prefix(&prefix).is_some_and(keep));
@@ -81,15 +100,34 @@ fn fan_out(root: &Path, st: &StageSpec) -> Result<Vec<(String, Vec<String>)>, Gr
         }
     }
     if matched.is_empty() {
-        return Err(GraphError::NoInputs { stage: st.name.clone(), globs: st.inputs.join(", ") });
+        return Err(GraphError::NoInputs {
+            stage: st.name.clone(),
+            globs: st.inputs.join(", "),
+        });
     }
     // Name each instance by its file stem; fall back to the path where stems collide.
-    let stem = |r: &str| Path::new(r).file_stem().map_or(r.to_string(), |s| s.to_string_lossy().into_owned());
+    let stem = |r: &str| {
+        Path::new(r)
+            .file_stem()
+            .map_or(r.to_string(), |s| s.to_string_lossy().into_owned())
+    };
     let mut count: BTreeMap<String, usize> = BTreeMap::new();
     for r in matched.keys() {
         *count.entry(stem(r)).or_default() += 1;
     }
-    Ok(matched.into_iter().map(|(r, files)| (if count[&stem(&r)] > 1 { r.clone() } else { stem(&r) }, files)).collect())
+    Ok(matched
+        .into_iter()
+        .map(|(r, files)| {
+            (
+                if count[&stem(&r)] > 1 {
+                    r.clone()
+                } else {
+                    stem(&r)
+                },
+                files,
+            )
+        })
+        .collect())
 }
 
 impl Graph {
@@ -97,7 +135,11 @@ impl Graph {
         let mut instances: Vec<Instance> = Vec::new();
         let mut of_stage: BTreeMap<&str, Vec<usize>> = BTreeMap::new();
         for (si, st) in spec.stages.iter().enumerate() {
-            let deps: Vec<usize> = st.from.iter().flat_map(|f| of_stage[f.as_str()].iter().copied()).collect();
+            let deps: Vec<usize> = st
+                .from
+                .iter()
+                .flat_map(|f| of_stage[f.as_str()].iter().copied())
+                .collect();
             let entries = if st.kind.fan_out {
                 fan_out(root, st)?
             } else if st.inputs.is_empty() {
@@ -112,9 +154,18 @@ impl Graph {
             };
             let mut mine = Vec::new();
             for (name, inputs) in entries {
-                let id = if name.is_empty() { st.name.clone() } else { format!("{}[{name}]", st.name) };
+                let id = if name.is_empty() {
+                    st.name.clone()
+                } else {
+                    format!("{}[{name}]", st.name)
+                };
                 mine.push(instances.len());
-                instances.push(Instance { id, stage: si, inputs, deps: deps.clone() });
+                instances.push(Instance {
+                    id,
+                    stage: si,
+                    inputs,
+                    deps: deps.clone(),
+                });
             }
             of_stage.insert(&st.name, mine);
         }
@@ -131,7 +182,12 @@ impl Graph {
         for inst in &self.instances {
             for f in &inst.inputs {
                 if !out.contains_key(f) {
-                    let h = crate::fsutil::hash_file(&root.join(f)).map_err(|source| GraphError::Read { path: f.clone(), source })?;
+                    let h = crate::fsutil::hash_file(&root.join(f)).map_err(|source| {
+                        GraphError::Read {
+                            path: f.clone(),
+                            source,
+                        }
+                    })?;
                     out.insert(f.clone(), h);
                 }
             }
@@ -143,11 +199,16 @@ impl Graph {
     pub fn closure(&self, targets: &[String]) -> Result<Vec<bool>, String> {
         let mut need = vec![targets.is_empty(); self.instances.len()];
         for t in targets {
-            let hits: Vec<usize> = (0..self.instances.len()).filter(|&i| self.instances[i].id == *t || self.stage_of(i).name == *t).collect();
+            let hits: Vec<usize> = (0..self.instances.len())
+                .filter(|&i| self.instances[i].id == *t || self.stage_of(i).name == *t)
+                .collect();
             if hits.is_empty() {
                 let names = self.spec.stages.iter().map(|s| s.name.as_str());
-                let hint = crate::diag::nearest(t, names).map_or(String::new(), |s| format!(" (did you mean `{s}`?)"));
-                return Err(format!("no stage or stage instance named `{t}` in pipeline.yaml{hint}"));
+                let hint = crate::diag::nearest(t, names)
+                    .map_or(String::new(), |s| format!(" (did you mean `{s}`?)"));
+                return Err(format!(
+                    "no stage or stage instance named `{t}` in pipeline.yaml{hint}"
+                ));
             }
             for i in hits {
                 need[i] = true;

@@ -27,7 +27,10 @@ impl Fields {
     }
 
     pub fn get(&self, name: &str) -> Option<&str> {
-        self.0.iter().find(|(n, _)| n == name).map(|(_, v)| v.as_str())
+        self.0
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| v.as_str())
     }
 
     /// The fields as text, one per line.
@@ -52,7 +55,12 @@ pub const TOOL: &str = concat!(env!("CARGO_PKG_VERSION"), "+", env!("HYDROFIT_SO
 
 /// Fields of instance `i`: kind, its version, the tool version, settings, vehicle (when the
 /// kind uses it), every input file's blake3 and every upstream instance's key.
-pub fn fields(graph: &Graph, i: usize, hashes: &BTreeMap<String, String>, keys: &[String]) -> Fields {
+pub fn fields(
+    graph: &Graph,
+    i: usize,
+    hashes: &BTreeMap<String, String>,
+    keys: &[String],
+) -> Fields {
     let inst = &graph.instances[i];
     let st = graph.stage_of(i);
     let mut f = Fields::default();
@@ -69,7 +77,10 @@ pub fn fields(graph: &Graph, i: usize, hashes: &BTreeMap<String, String>, keys: 
         f.push(format!("input {p}"), hashes[p].clone());
     }
     for &d in &inst.deps {
-        f.push(format!("upstream {}", graph.instances[d].id), keys[d].clone());
+        f.push(
+            format!("upstream {}", graph.instances[d].id),
+            keys[d].clone(),
+        );
     }
     f
 }

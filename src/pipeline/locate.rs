@@ -23,12 +23,18 @@ impl KeyIndex {
                 indent += 2;
                 body = rest.trim_start();
             }
-            let Some(key) = leading_key(body) else { continue };
+            let Some(key) = leading_key(body) else {
+                continue;
+            };
             while stack.last().is_some_and(|(ind, _)| *ind >= indent) {
                 stack.pop();
             }
             stack.push((indent, key));
-            let path = stack.iter().map(|(_, k)| k.as_str()).collect::<Vec<_>>().join(".");
+            let path = stack
+                .iter()
+                .map(|(_, k)| k.as_str())
+                .collect::<Vec<_>>()
+                .join(".");
             keys.entry(path).or_insert((i + 1, indent + 1));
         }
         KeyIndex { keys }
@@ -58,7 +64,10 @@ fn leading_key(body: &str) -> Option<String> {
     let key = &rest[..end];
     let after = &rest[end + usize::from(quote.is_some())..];
     let after = after.strip_prefix(':')?;
-    let plain = quote.is_some() || key.chars().all(|c| c.is_alphanumeric() || "_-. ".contains(c));
+    let plain = quote.is_some()
+        || key
+            .chars()
+            .all(|c| c.is_alphanumeric() || "_-. ".contains(c));
     (plain && (after.is_empty() || after.starts_with(' '))).then(|| key.trim().to_string())
 }
 

@@ -12,7 +12,12 @@ pub struct BuildLock {
 /// Takes the lock, calling `waiting(holder)` once if another build has it, then blocking.
 pub fn acquire(state_dir: &Path, waiting: impl FnOnce(&str)) -> std::io::Result<BuildLock> {
     std::fs::create_dir_all(state_dir)?;
-    let mut file = OpenOptions::new().read(true).write(true).create(true).truncate(false).open(state_dir.join("lock"))?;
+    let mut file = OpenOptions::new()
+        .read(true)
+        .write(true)
+        .create(true)
+        .truncate(false)
+        .open(state_dir.join("lock"))?;
     match file.try_lock() {
         Ok(()) => {}
         Err(TryLockError::WouldBlock) => {
@@ -25,8 +30,14 @@ pub fn acquire(state_dir: &Path, waiting: impl FnOnce(&str)) -> std::io::Result<
     }
     file.set_len(0)?;
     file.rewind()?;
-    let since = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs());
-    write!(file, "pid {} (hydrofit build, started at unix time {since})", std::process::id())?;
+    let since = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs());
+    write!(
+        file,
+        "pid {} (hydrofit build, started at unix time {since})",
+        std::process::id()
+    )?;
     file.flush()?;
     Ok(BuildLock { _file: file })
 }

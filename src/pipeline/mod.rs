@@ -28,8 +28,13 @@ pub struct Plan {
 impl Plan {
     pub fn load(root: &Path) -> anyhow::Result<Plan> {
         let spec_path = root.join(SPEC_FILE);
-        let text = std::fs::read_to_string(&spec_path)
-            .with_context(|| format!("cannot read {} (is {} a hydrofit project? use --project DIR)", spec_path.display(), root.display()))?;
+        let text = std::fs::read_to_string(&spec_path).with_context(|| {
+            format!(
+                "cannot read {} (is {} a hydrofit project? use --project DIR)",
+                spec_path.display(),
+                root.display()
+            )
+        })?;
         let spec = spec::parse(SPEC_FILE, &text)?;
         let graph = graph::Graph::expand(root, spec)?;
         let hashes = graph.hash_inputs(root)?;
@@ -40,7 +45,13 @@ impl Plan {
             keys.push(f.key());
             fields.push(f);
         }
-        Ok(Plan { root: root.to_path_buf(), graph, hashes, fields, keys })
+        Ok(Plan {
+            root: root.to_path_buf(),
+            graph,
+            hashes,
+            fields,
+            keys,
+        })
     }
 
     pub fn cache(&self) -> cache::Cache {

@@ -8,7 +8,10 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
 fn nmae(m: &BTreeMap<crate::dof::Dof, f64>) -> String {
-    m.iter().map(|(d, v)| format!("{d} {v:.3}")).collect::<Vec<_>>().join(", ")
+    m.iter()
+        .map(|(d, v)| format!("{d} {v:.3}"))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 pub fn section(d: &Diagnosis, figures: &[Figure]) -> String {
@@ -27,35 +30,70 @@ pub fn section(d: &Diagnosis, figures: &[Figure]) -> String {
         d.elapsed_s
     );
     if !d.diverged.is_empty() {
-        let _ = writeln!(h, "<p class=\"warn\">The model diverges on: {}. Nothing was diagnosed.</p>", esc(&d.diverged.join(", ")));
+        let _ = writeln!(
+            h,
+            "<p class=\"warn\">The model diverges on: {}. Nothing was diagnosed.</p>",
+            esc(&d.diverged.join(", "))
+        );
         return h;
     }
     if !d.untested.is_empty() {
         h.push_str("<p>Not tested (the runs lack what these hypotheses need):</p><ul>\n");
         for u in &d.untested {
-            let _ = writeln!(h, "<li><code>{}</code>: {}</li>", esc(&u.name), esc(&u.missing));
+            let _ = writeln!(
+                h,
+                "<li><code>{}</code>: {}</li>",
+                esc(&u.name),
+                esc(&u.missing)
+            );
         }
         h.push_str("</ul>\n");
     }
-    let refused: Vec<&crate::diagnose::Tested> = d.hypotheses.iter().filter(|t| !t.at_bound.is_empty() && t.gain > 0.0).collect();
+    let refused: Vec<&crate::diagnose::Tested> = d
+        .hypotheses
+        .iter()
+        .filter(|t| !t.at_bound.is_empty() && t.gain > 0.0)
+        .collect();
     if !refused.is_empty() {
         h.push_str("<p>Not findings — pushed to the bound (the data want more than these effects can give):</p><ul>\n");
         for t in refused {
-            let _ = writeln!(h, "<li><code>{}</code> (round {}): {} at its bound; held-out cost {:+.1} %</li>", esc(&t.name), t.round, esc(&t.at_bound.join(", ")), -100.0 * t.gain);
+            let _ = writeln!(
+                h,
+                "<li><code>{}</code> (round {}): {} at its bound; held-out cost {:+.1} %</li>",
+                esc(&t.name),
+                t.round,
+                esc(&t.at_bound.join(", ")),
+                -100.0 * t.gain
+            );
         }
         h.push_str("</ul>\n");
     }
     h.push_str("<table><tr><th>model</th><th>held-out NMAE per DOF</th><th>error cost</th></tr>\n");
-    let _ = writeln!(h, "<tr><td>model as fitted</td><td>{}</td><td>{:.4}</td></tr>", nmae(&d.baseline.validation_nmae), d.baseline.validation_cost);
+    let _ = writeln!(
+        h,
+        "<tr><td>model as fitted</td><td>{}</td><td>{:.4}</td></tr>",
+        nmae(&d.baseline.validation_nmae),
+        d.baseline.validation_cost
+    );
     let _ = writeln!(
         h,
         "<tr><td>its parameters re-estimated on the training runs (drift)</td><td>{}</td><td>{:.4}{}</td></tr>",
         nmae(&d.baseline.reestimated.validation_nmae),
         d.baseline.reestimated.validation_cost,
-        if d.baseline.reestimated.within_noise { " (within noise)" } else { "" }
+        if d.baseline.reestimated.within_noise {
+            " (within noise)"
+        } else {
+            ""
+        }
     );
     for e in d.effects.iter().filter(|e| e.name != "unexplained") {
-        let _ = writeln!(h, "<tr><td>+ <code>{}</code></td><td>{}</td><td>{:.4}</td></tr>", esc(&e.name), nmae(&e.validation_nmae_after), e.validation_cost_after);
+        let _ = writeln!(
+            h,
+            "<tr><td>+ <code>{}</code></td><td>{}</td><td>{:.4}</td></tr>",
+            esc(&e.name),
+            nmae(&e.validation_nmae_after),
+            e.validation_cost_after
+        );
     }
     h.push_str("</table>\n");
     if !d.effects.is_empty() {
@@ -65,8 +103,17 @@ pub fn section(d: &Diagnosis, figures: &[Figure]) -> String {
                 h,
                 "<tr><td><code>{}</code></td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
                 esc(&e.name),
-                e.dofs.iter().map(|x| x.name()).collect::<Vec<_>>().join(", "),
-                esc(&e.parameters.iter().map(|(k, v)| format!("{k} = {v:.3}")).collect::<Vec<_>>().join(", ")),
+                e.dofs
+                    .iter()
+                    .map(|x| x.name())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                esc(&e
+                    .parameters
+                    .iter()
+                    .map(|(k, v)| format!("{k} = {v:.3}"))
+                    .collect::<Vec<_>>()
+                    .join(", ")),
                 nmae(&e.validation_nmae_before),
                 nmae(&e.validation_nmae_after),
                 esc(&e.evidence)
@@ -87,8 +134,20 @@ pub fn section(d: &Diagnosis, figures: &[Figure]) -> String {
     }
     h.push_str("<h3>Where the model misses (held-out runs)</h3>\n<table><tr><th>run</th><th>DOF</th><th>share of the error</th><th>worst windows (s)</th></tr>\n");
     for m in &d.mismatch {
-        let w = m.windows_s.iter().map(|w| format!("{:.1}–{:.1}", w[0], w[1])).collect::<Vec<_>>().join(", ");
-        let _ = writeln!(h, "<tr><td>{}</td><td>{}</td><td>{:.0} %</td><td>{}</td></tr>", esc(&m.run), m.dof, 100.0 * m.share_of_error, w);
+        let w = m
+            .windows_s
+            .iter()
+            .map(|w| format!("{:.1}–{:.1}", w[0], w[1]))
+            .collect::<Vec<_>>()
+            .join(", ");
+        let _ = writeln!(
+            h,
+            "<tr><td>{}</td><td>{}</td><td>{:.0} %</td><td>{}</td></tr>",
+            esc(&m.run),
+            m.dof,
+            100.0 * m.share_of_error,
+            w
+        );
     }
     h.push_str("</table>\n<table><tr><th>regime</th><th>share of the error</th><th>share of the time</th><th>concentration</th></tr>\n");
     for r in &d.regimes {
@@ -98,12 +157,21 @@ pub fn section(d: &Diagnosis, figures: &[Figure]) -> String {
             esc(&r.label),
             100.0 * r.share_of_error,
             100.0 * r.share_of_time,
-            if r.share_of_time > 0.0 { r.share_of_error / r.share_of_time } else { f64::NAN }
+            if r.share_of_time > 0.0 {
+                r.share_of_error / r.share_of_time
+            } else {
+                f64::NAN
+            }
         );
     }
     h.push_str("</table>\n");
     for f in figures {
-        let _ = writeln!(h, "<figure>{}<figcaption>{}</figcaption></figure>", f.svg, esc(&f.caption));
+        let _ = writeln!(
+            h,
+            "<figure>{}<figcaption>{}</figcaption></figure>",
+            f.svg,
+            esc(&f.caption)
+        );
     }
     h.push_str("<details><summary>Every hypothesis tested</summary><table><tr><th>round</th><th>effect</th><th>parameters</th><th>training cost</th><th>held-out cost</th><th>gain</th><th>score (ln before/after − penalty)</th><th>kept</th></tr>\n");
     for t in &d.hypotheses {
@@ -112,7 +180,12 @@ pub fn section(d: &Diagnosis, figures: &[Figure]) -> String {
             "<tr><td>{}</td><td><code>{}</code></td><td>{}</td><td>{:.4}</td><td>{:.4}</td><td>{:+.1} %</td><td>{:+.3}</td><td>{}</td></tr>",
             t.round,
             esc(&t.name),
-            esc(&t.parameters.iter().map(|(k, v)| format!("{k} = {v:.3}")).collect::<Vec<_>>().join(", ")),
+            esc(&t
+                .parameters
+                .iter()
+                .map(|(k, v)| format!("{k} = {v:.3}"))
+                .collect::<Vec<_>>()
+                .join(", ")),
             t.train_cost,
             t.validation_cost,
             100.0 * t.gain,
@@ -120,7 +193,10 @@ pub fn section(d: &Diagnosis, figures: &[Figure]) -> String {
             if t.accepted {
                 "yes".to_string()
             } else if !t.at_bound.is_empty() {
-                format!("no: {} pushed to the bound (the data want more than this effect can give)", esc(&t.at_bound.join(", ")))
+                format!(
+                    "no: {} pushed to the bound (the data want more than this effect can give)",
+                    esc(&t.at_bound.join(", "))
+                )
             } else {
                 String::new()
             }

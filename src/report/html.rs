@@ -6,7 +6,10 @@ use crate::stage::fit::FitResult;
 use std::fmt::Write as _;
 
 pub fn esc(s: &str) -> String {
-    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
 }
 
 /// Significant-figure formatting for tables.
@@ -15,7 +18,11 @@ fn num(v: f64) -> String {
         return "–".into();
     }
     let a = v.abs();
-    if a != 0.0 && !(1e-3..1e5).contains(&a) { format!("{v:.3e}") } else { format!("{v:.4}") }
+    if a != 0.0 && !(1e-3..1e5).contains(&a) {
+        format!("{v:.3e}")
+    } else {
+        format!("{v:.4}")
+    }
 }
 
 const STYLE: &str = "body{font-family:sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;color:#222}
@@ -54,7 +61,13 @@ impl Page<'_> {
             name = esc(&self.vehicle.name),
             ver = env!("CARGO_PKG_VERSION"),
             m = self.vehicle.mass_kg,
-            dofs = self.vehicle.dofs.iter().map(|d| d.name()).collect::<Vec<_>>().join(", "),
+            dofs = self
+                .vehicle
+                .dofs
+                .iter()
+                .map(|d| d.name())
+                .collect::<Vec<_>>()
+                .join(", "),
             st = self.vehicle.structure.label(),
         );
         if !self.failed.is_empty() {
@@ -68,7 +81,10 @@ impl Page<'_> {
         if !self.plots.is_empty() {
             h.push_str("<h2 id=\"plots\">CFD responses and the identified model</h2>\n");
             for (dof, svg) in &self.plots {
-                let _ = writeln!(h, "<figure id=\"plot-{dof}\">{svg}<figcaption>{dof}: velocity of each CFD case (colour) and of the identified model simulated under the same applied force from the same initial state (dashed black).</figcaption></figure>");
+                let _ = writeln!(
+                    h,
+                    "<figure id=\"plot-{dof}\">{svg}<figcaption>{dof}: velocity of each CFD case (colour) and of the identified model simulated under the same applied force from the same initial state (dashed black).</figcaption></figure>"
+                );
             }
             self.validation_table(&mut h);
         }
@@ -85,28 +101,63 @@ impl Page<'_> {
                 h,
                 "<h2 id=\"model-{s}\">Parameters — model <code>{s}</code></h2>\n<p>Method <code>{m}</code>, objective {o}, {n} equation rows from {c} CFD cases and {r} pool runs; regressor condition number {k}.</p>\n\
                  <table><tr><th>parameter</th><th>value</th><th>± std. error</th><th>unit</th><th>rel. error</th><th>provenance</th></tr>\n",
-                s = esc(&f.stage), m = esc(&f.method), o = f.objective.label(), n = f.fit.samples, c = f.cases.len(), r = f.runs.len(), k = num(f.fit.condition_number),
+                s = esc(&f.stage),
+                m = esc(&f.method),
+                o = f.objective.label(),
+                n = f.fit.samples,
+                c = f.cases.len(),
+                r = f.runs.len(),
+                k = num(f.fit.condition_number),
             );
             if !f.notes.is_empty() {
-                let _ = writeln!(h, "<ul class=\"small\">{}</ul>", f.notes.iter().map(|n| format!("<li>{}</li>", esc(n))).collect::<String>());
+                let _ = writeln!(
+                    h,
+                    "<ul class=\"small\">{}</ul>",
+                    f.notes
+                        .iter()
+                        .map(|n| format!("<li>{}</li>", esc(n)))
+                        .collect::<String>()
+                );
             }
             if let Some(why) = &f.fit.stopped_early {
-                let _ = writeln!(h, "<p class=\"warn\">The search was cut short: {}. These values depend on the machine's speed, not only on the seed.</p>", esc(why));
+                let _ = writeln!(
+                    h,
+                    "<p class=\"warn\">The search was cut short: {}. These values depend on the machine's speed, not only on the seed.</p>",
+                    esc(why)
+                );
             }
             if let Some(e) = f.fit.evaluations {
-                let _ = writeln!(h, "<p class=\"small\">{e} objective evaluations; ± is the standard deviation over seeded restarts, the interval their range (see parameters.json).</p>");
+                let _ = writeln!(
+                    h,
+                    "<p class=\"small\">{e} objective evaluations; ± is the standard deviation over seeded restarts, the interval their range (see parameters.json).</p>"
+                );
             }
-            for p in self.parameters.parameters.iter().filter(|p| p.model == f.stage) {
+            for p in self
+                .parameters
+                .parameters
+                .iter()
+                .filter(|p| p.model == f.stage)
+            {
                 let rel = 100.0 * p.stderr / p.value.abs();
                 let flag = match (p.identifiable, &p.note) {
                     (true, _) => String::new(),
-                    (false, Some(why)) => format!(" <span class=\"warn\">not identifiable: {}</span>", esc(why)),
-                    (false, None) => " <span class=\"warn\">not identifiable from these cases</span>".into(),
+                    (false, Some(why)) => format!(
+                        " <span class=\"warn\">not identifiable: {}</span>",
+                        esc(why)
+                    ),
+                    (false, None) => {
+                        " <span class=\"warn\">not identifiable from these cases</span>".into()
+                    }
                 };
                 let _ = writeln!(
                     h,
                     "<tr><td><code>{n}</code>{flag}</td><td>{v}</td><td>{e}</td><td>{u}</td><td>{r:.2} %</td><td><a href=\"#prov-{s}-{n}\">inputs</a></td></tr>",
-                    n = esc(&p.name), v = num(p.value), e = num(p.stderr), u = esc(&p.unit), r = rel, s = esc(&f.stage),
+                    n = esc(&p.name),
+                    v = num(p.value),
+                    e = num(p.stderr),
+                    u = esc(&p.unit),
+                    r = rel,
+                    s = esc(&f.stage),
                 );
             }
             h.push_str("</table>\n");
@@ -116,12 +167,29 @@ impl Page<'_> {
     fn validation_table(&self, h: &mut String) {
         h.push_str("<h2 id=\"validation\">How well each model reproduces each CFD case</h2>\n<p>Per run and DOF: mean absolute error, normalised MAE (mean |v<sub>model</sub> − v<sub>meas</sub>| / mean |v<sub>meas</sub>|) and RMSE as a percentage of the run's peak speed. <code>train</code> runs were used in the fit.</p>\n");
         for m in &self.validation.models {
-            let _ = writeln!(h, "<table><tr><th>model <code>{}</code>: run</th><th>role</th><th>DOF</th><th>MAE</th><th>NMAE</th><th>RMSE % of peak</th></tr>", esc(&m.model));
+            let _ = writeln!(
+                h,
+                "<table><tr><th>model <code>{}</code>: run</th><th>role</th><th>DOF</th><th>MAE</th><th>NMAE</th><th>RMSE % of peak</th></tr>",
+                esc(&m.model)
+            );
             // Pool runs have their own section below (with whiteness and plots).
             for r in &m.runs {
-                for (dof, x) in r.dofs.iter().filter(|(_, x)| x.residual_acf_outside_band.is_none()) {
+                for (dof, x) in r
+                    .dofs
+                    .iter()
+                    .filter(|(_, x)| x.residual_acf_outside_band.is_none())
+                {
                     let x = &x.metrics;
-                    let _ = writeln!(h, "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.3}</td></tr>", esc(&r.run), r.role, dof, num(x.mae), num(x.nmae), x.rmse_pct);
+                    let _ = writeln!(
+                        h,
+                        "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.3}</td></tr>",
+                        esc(&r.run),
+                        r.role,
+                        dof,
+                        num(x.mae),
+                        num(x.nmae),
+                        x.rmse_pct
+                    );
                 }
             }
             h.push_str("</table>\n");
@@ -134,17 +202,33 @@ impl Page<'_> {
             let _ = write!(
                 h,
                 "<details id=\"prov-{s}-{n}\"><summary><code>{n}</code> = {v} {u} ← stage <code>{s}</code>, method <code>{m}</code>, settings <code>{set}</code> ← {k} input files</summary><table><tr><th>file</th><th>blake3</th></tr>",
-                s = esc(&p.stage), n = esc(&p.name), v = num(p.value), u = esc(&p.unit), m = esc(&p.method), set = esc(&p.settings.to_string()), k = p.inputs.len(),
+                s = esc(&p.stage),
+                n = esc(&p.name),
+                v = num(p.value),
+                u = esc(&p.unit),
+                m = esc(&p.method),
+                set = esc(&p.settings.to_string()),
+                k = p.inputs.len(),
             );
             for i in &p.inputs {
-                let _ = write!(h, "<tr><td>{}</td><td><code>{}</code></td></tr>", esc(&i.path), &i.blake3);
+                let _ = write!(
+                    h,
+                    "<tr><td>{}</td><td><code>{}</code></td></tr>",
+                    esc(&i.path),
+                    &i.blake3
+                );
             }
             h.push_str("</table></details>\n");
         }
         if self.notes.iter().any(|(_, n)| !n.is_empty()) {
             h.push_str("<h3>Import notes</h3><ul>\n");
             for (case, notes) in self.notes.iter().filter(|(_, n)| !n.is_empty()) {
-                let _ = writeln!(h, "<li><code>{}</code>: {}</li>", esc(case), esc(&notes.join("; ")));
+                let _ = writeln!(
+                    h,
+                    "<li><code>{}</code>: {}</li>",
+                    esc(case),
+                    esc(&notes.join("; "))
+                );
             }
             h.push_str("</ul>\n");
         }

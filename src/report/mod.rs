@@ -5,6 +5,6 @@ pub mod compare;
 pub mod diagnose;
 pub mod html;
 pub mod json;
-pub mod plots;
 pub mod openfoam;
+pub mod plots;
 pub mod pool;

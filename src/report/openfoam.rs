@@ -31,15 +31,26 @@ pub struct DragCurve {
 }
 
 fn value(f: &FitResult, name: &str) -> Option<(f64, f64)> {
-    f.fit.parameters.iter().find(|p| p.name == name).map(|p| (p.value, p.stderr))
+    f.fit
+        .parameters
+        .iter()
+        .find(|p| p.name == name)
+        .map(|p| (p.value, p.stderr))
 }
 
 pub fn drag_curve(c: &Case, f: &FitResult, length: f64) -> DragCurve {
     let ma = -value(f, "X_udot").map_or(0.0, |v| v.0);
-    let (xu, xuu) = (value(f, "X_u").map_or(0.0, |v| v.0), value(f, "X_uu").map_or(0.0, |v| v.0));
+    let (xu, xuu) = (
+        value(f, "X_u").map_or(0.0, |v| v.0),
+        value(f, "X_uu").map_or(0.0, |v| v.0),
+    );
     let umax = c.velocity.iter().fold(0.0f64, |a, v| a.max(v.abs()));
     let q = |u: f64| 0.5 * c.info.rho * length * u * u;
-    let mut out = DragCurve { travel: Vec::new(), measured: Vec::new(), model: Vec::new() };
+    let mut out = DragCurve {
+        travel: Vec::new(),
+        measured: Vec::new(),
+        model: Vec::new(),
+    };
     let track = c.track.filter(|tr| tr.t.len() + 1 == c.t.len());
     for k in 1..c.t.len() {
         let u = c.velocity[k];
@@ -50,10 +61,19 @@ pub fn drag_curve(c: &Case, f: &FitResult, length: f64) -> DragCurve {
         let (x, drag) = match track {
             Some(tr) => {
                 let fx = tr.fluid_force.as_ref().map(|f| f[k - 1][0]);
-                let drag = fx.map_or(c.info.applied_force_n[0] - (c.info.mass_kg + ma) * c.accel[k], |fx| -fx - ma * c.accel[k]);
-                (tr.position[k - 1][0] - tr.position[0][0] + (tr.position[0][0]), drag)
+                let drag = fx.map_or(
+                    c.info.applied_force_n[0] - (c.info.mass_kg + ma) * c.accel[k],
+                    |fx| -fx - ma * c.accel[k],
+                );
+                (
+                    tr.position[k - 1][0] - tr.position[0][0] + (tr.position[0][0]),
+                    drag,
+                )
             }
-            None => (f64::NAN, c.info.applied_force_n[0] - (c.info.mass_kg + ma) * c.accel[k]),
+            None => (
+                f64::NAN,
+                c.info.applied_force_n[0] - (c.info.mass_kg + ma) * c.accel[k],
+            ),
         };
         out.travel.push(x / length);
         out.measured.push(drag / q(u));
@@ -64,8 +84,16 @@ pub fn drag_curve(c: &Case, f: &FitResult, length: f64) -> DragCurve {
 
 pub fn section(f: &FitResult, cases: &[Case]) -> anyhow::Result<String> {
     let mut h = String::new();
-    let body = f.vehicle.as_ref().map_or("CFD test body".to_string(), |v| v.name.clone());
-    let _ = writeln!(h, "<h2 id=\"openfoam-{s}\">OpenFOAM: {b} — model <code>{s}</code></h2>", s = esc(&f.stage), b = esc(&body));
+    let body = f
+        .vehicle
+        .as_ref()
+        .map_or("CFD test body".to_string(), |v| v.name.clone());
+    let _ = writeln!(
+        h,
+        "<h2 id=\"openfoam-{s}\">OpenFOAM: {b} — model <code>{s}</code></h2>",
+        s = esc(&f.stage),
+        b = esc(&body)
+    );
     h.push_str("<p>Each case was run by OpenFOAM (pimpleFoam, laminar, sixDoFRigidBodyMotion on a morphing mesh): a constant force pushes the body from rest in still water. Masses and forces are per metre of span.</p>\n");
     h.push_str("<table><tr><th>case</th><th>force (N)</th><th>mass (kg)</th><th>end time (s)</th><th>steps</th><th>solver CPU (s)</th><th>wall (s)</th><th>results</th><th>peak speed (m/s)</th><th>model NMAE</th></tr>\n");
     for c in cases {
@@ -80,48 +108,128 @@ pub fn section(f: &FitResult, cases: &[Case]) -> anyhow::Result<String> {
             i.steps,
             i.cpu_time_s.map_or("–".into(), |x| format!("{x:.0}")),
             i.wall_time_s.map_or("–".into(), |x| format!("{x:.0}")),
-            if i.ran_in_this_build { "run by this build" } else { "read from the case folder" },
+            if i.ran_in_this_build {
+                "run by this build"
+            } else {
+                "read from the case folder"
+            },
             c.velocity.iter().fold(0.0f64, |a, v| a.max(v.abs())),
             c.nmae,
         );
     }
     h.push_str("</table>\n");
-    if let Some(v) = cases.iter().map(|c| &c.info.openfoam).find(|s| !s.is_empty()) {
-        let _ = writeln!(h, "<p class=\"small\">OpenFOAM build: <code>{}</code>.</p>", esc(v));
+    if let Some(v) = cases
+        .iter()
+        .map(|c| &c.info.openfoam)
+        .find(|s| !s.is_empty())
+    {
+        let _ = writeln!(
+            h,
+            "<p class=\"small\">OpenFOAM build: <code>{}</code>.</p>",
+            esc(v)
+        );
     }
 
     let one_step = f.one_step.as_deref();
-    if let Some(w) = f.settings.get("added_mass_window_s").and_then(|v| v.as_f64()) {
-        let _ = writeln!(h, "<p>Two-step fit: the added mass from the first {w} s of each case (after the start-up transient), while the body accelerates from rest and its drag is still small; then the linear and quadratic drag from every sample with that added mass held.</p>");
+    if let Some(w) = f
+        .settings
+        .get("added_mass_window_s")
+        .and_then(|v| v.as_f64())
+    {
+        let _ = writeln!(
+            h,
+            "<p>Two-step fit: the added mass from the first {w} s of each case (after the start-up transient), while the body accelerates from rest and its drag is still small; then the linear and quadratic drag from every sample with that added mass held.</p>"
+        );
     }
     let _ = writeln!(
         h,
         "<h3>Identified against reference values</h3>\n<table><tr><th>parameter</th><th>identified</th><th>± std. error</th><th>reference</th><th>difference</th><th>reference from</th>{}</tr>",
-        if one_step.is_some() { "<th>one-step fit over whole runs</th>" } else { "" }
+        if one_step.is_some() {
+            "<th>one-step fit over whole runs</th>"
+        } else {
+            ""
+        }
     );
     for p in &f.fit.parameters {
-        let one = one_step.and_then(|o| o.iter().find(|q| q.name == p.name)).map(|q| {
-            let rel = f.expected.get(&p.name).map_or(String::new(), |e| format!(" ({:+.1} %)", 100.0 * (q.value - e.value) / e.value.abs()));
-            format!("<td>{:.4}{rel}</td>", q.value)
-        });
+        let one = one_step
+            .and_then(|o| o.iter().find(|q| q.name == p.name))
+            .map(|q| {
+                let rel = f.expected.get(&p.name).map_or(String::new(), |e| {
+                    format!(" ({:+.1} %)", 100.0 * (q.value - e.value) / e.value.abs())
+                });
+                format!("<td>{:.4}{rel}</td>", q.value)
+            });
         let (r, diff, src) = match f.expected.get(&p.name) {
-            Some(e) => (format!("{:.4}", e.value), format!("{:+.2} %", 100.0 * (p.value - e.value) / e.value.abs()), esc(&e.source)),
+            Some(e) => (
+                format!("{:.4}", e.value),
+                format!("{:+.2} %", 100.0 * (p.value - e.value) / e.value.abs()),
+                esc(&e.source),
+            ),
             None => ("–".into(), "–".into(), String::new()),
         };
-        let _ = writeln!(h, "<tr><td><code>{}</code></td><td>{:.4}</td><td>{:.2e}</td><td>{r}</td><td>{diff}</td><td>{src}</td>{}</tr>", esc(&p.name), p.value, p.stderr, one.unwrap_or_default());
+        let _ = writeln!(
+            h,
+            "<tr><td><code>{}</code></td><td>{:.4}</td><td>{:.2e}</td><td>{r}</td><td>{diff}</td><td>{src}</td>{}</tr>",
+            esc(&p.name),
+            p.value,
+            p.stderr,
+            one.unwrap_or_default()
+        );
     }
     h.push_str("</table>\n");
 
-    let traces: Vec<Trace> = cases.iter().map(|c| Trace { label: c.name, t: c.t, measured: c.velocity, simulated: &c.simulated }).collect();
-    let svg = plots::curves("surge velocity: OpenFOAM and the identified model", "time (s)", "u (m/s)", &traces, "identified model (dashed)")?;
-    let _ = writeln!(h, "<figure id=\"openfoam-velocity\">{svg}<figcaption>Velocity of each OpenFOAM case (colour) and of the identified constant-coefficient model under the same force (dashed).</figcaption></figure>");
+    let traces: Vec<Trace> = cases
+        .iter()
+        .map(|c| Trace {
+            label: c.name,
+            t: c.t,
+            measured: c.velocity,
+            simulated: &c.simulated,
+        })
+        .collect();
+    let svg = plots::curves(
+        "surge velocity: OpenFOAM and the identified model",
+        "time (s)",
+        "u (m/s)",
+        &traces,
+        "identified model (dashed)",
+    )?;
+    let _ = writeln!(
+        h,
+        "<figure id=\"openfoam-velocity\">{svg}<figcaption>Velocity of each OpenFOAM case (colour) and of the identified constant-coefficient model under the same force (dashed).</figcaption></figure>"
+    );
 
-    if let Some(length) = f.settings.get("reference_length_m").and_then(|v| v.as_f64()) {
-        let curves: Vec<(&Case, DragCurve)> = cases.iter().map(|c| (c, drag_curve(c, f, length))).filter(|(_, d)| !d.travel.is_empty()).collect();
-        let traces: Vec<Trace> = curves.iter().map(|(c, d)| Trace { label: c.name, t: &d.travel, measured: &d.measured, simulated: &d.model }).collect();
+    if let Some(length) = f
+        .settings
+        .get("reference_length_m")
+        .and_then(|v| v.as_f64())
+    {
+        let curves: Vec<(&Case, DragCurve)> = cases
+            .iter()
+            .map(|c| (c, drag_curve(c, f, length)))
+            .filter(|(_, d)| !d.travel.is_empty())
+            .collect();
+        let traces: Vec<Trace> = curves
+            .iter()
+            .map(|(c, d)| Trace {
+                label: c.name,
+                t: &d.travel,
+                measured: &d.measured,
+                simulated: &d.model,
+            })
+            .collect();
         if !traces.is_empty() {
-            let svg = plots::curves("drag coefficient against distance travelled", "distance travelled / reference length", "Cd", &traces, "constant-coefficient model")?;
-            let _ = writeln!(h, "<figure id=\"openfoam-drag\">{svg}<figcaption>Drag coefficient Cd = drag / (½ ρ u² L), L = {length} m, from the fluid force on the body less the added-mass reaction, at speeds above a fifth of each run's peak (colour); the identified model's Cd at the same speed (dashed).</figcaption></figure>");
+            let svg = plots::curves(
+                "drag coefficient against distance travelled",
+                "distance travelled / reference length",
+                "Cd",
+                &traces,
+                "constant-coefficient model",
+            )?;
+            let _ = writeln!(
+                h,
+                "<figure id=\"openfoam-drag\">{svg}<figcaption>Drag coefficient Cd = drag / (½ ρ u² L), L = {length} m, from the fluid force on the body less the added-mass reaction, at speeds above a fifth of each run's peak (colour); the identified model's Cd at the same speed (dashed).</figcaption></figure>"
+            );
             h.push_str(&finding(&curves, f));
         }
     }
@@ -133,7 +241,11 @@ fn finding(curves: &[(&Case, DragCurve)], f: &FitResult) -> String {
     let mut h = String::from("<h3>What the runs say about the drag</h3>\n<ul>\n");
     let mut spread = Vec::new();
     for (c, d) in curves {
-        let (kmax, cmax) = d.measured.iter().enumerate().fold((0, f64::MIN), |a, (k, v)| if *v > a.1 { (k, *v) } else { a });
+        let (kmax, cmax) =
+            d.measured.iter().enumerate().fold(
+                (0, f64::MIN),
+                |a, (k, v)| if *v > a.1 { (k, *v) } else { a },
+            );
         let end = *d.measured.last().expect("non-empty");
         let model_end = *d.model.last().expect("non-empty");
         spread.push((cmax, end));

@@ -2,7 +2,7 @@
 
 use crate::dof::Dof;
 use plotters::prelude::*;
-use plotters::style::{register_font, FontStyle};
+use plotters::style::{FontStyle, register_font};
 use std::sync::Once;
 
 /// DejaVu Sans (fonts-dejavu-core, Bitstream Vera licence; see assets/fonts): plotters'
@@ -13,7 +13,9 @@ static REGISTER: Once = Once::new();
 fn ensure_font() {
     REGISTER.call_once(|| {
         // The bytes are a valid TTF shipped with the crate; failure is a broken build.
-        register_font("sans-serif", FontStyle::Normal, FONT).map_err(|_| ()).expect("embedded font parses");
+        register_font("sans-serif", FontStyle::Normal, FONT)
+            .map_err(|_| ())
+            .expect("embedded font parses");
     });
 }
 
@@ -62,15 +64,34 @@ const LEGEND: u32 = 200;
 /// Velocity responses of one DOF: each CFD case in colour, the fitted model dashed black on
 /// top, and a legend naming every case in a column of its own.
 pub fn velocity(dof: Dof, traces: &[Trace]) -> anyhow::Result<String> {
-    curves(&format!("{dof}: CFD response and identified model"), "time (s)", &format!("{} ({})", dof.velocity(), dof.velocity_unit()), traces, "identified model (dashed)")
+    curves(
+        &format!("{dof}: CFD response and identified model"),
+        "time (s)",
+        &format!("{} ({})", dof.velocity(), dof.velocity_unit()),
+        traces,
+        "identified model (dashed)",
+    )
 }
 
 /// Measured curves in colour against x, each with its model curve dashed black on top.
-pub fn curves(title: &str, x_desc: &str, y_desc: &str, traces: &[Trace], dashed: &str) -> anyhow::Result<String> {
+pub fn curves(
+    title: &str,
+    x_desc: &str,
+    y_desc: &str,
+    traces: &[Trace],
+    dashed: &str,
+) -> anyhow::Result<String> {
     ensure_font();
     let finite = |v: &&f64| v.is_finite();
-    let xmax = traces.iter().flat_map(|tr| tr.t.iter().filter(finite)).fold(f64::MIN, |a, b| a.max(*b));
-    let xmin = traces.iter().flat_map(|tr| tr.t.iter().filter(finite)).fold(f64::MAX, |a, b| a.min(*b)).min(0.0);
+    let xmax = traces
+        .iter()
+        .flat_map(|tr| tr.t.iter().filter(finite))
+        .fold(f64::MIN, |a, b| a.max(*b));
+    let xmin = traces
+        .iter()
+        .flat_map(|tr| tr.t.iter().filter(finite))
+        .fold(f64::MAX, |a, b| a.min(*b))
+        .min(0.0);
     let xmax = if xmax > xmin { xmax } else { xmin + 1e-3 };
     let (lo, hi) = traces
         .iter()
@@ -88,13 +109,26 @@ pub fn curves(title: &str, x_desc: &str, y_desc: &str, traces: &[Trace], dashed:
             .x_label_area_size(40)
             .y_label_area_size(64)
             .build_cartesian_2d(xmin..xmax, (lo - pad)..(hi + pad))?;
-        chart.configure_mesh().x_desc(x_desc).y_desc(y_desc).label_style(("sans-serif", 13)).draw()?;
+        chart
+            .configure_mesh()
+            .x_desc(x_desc)
+            .y_desc(y_desc)
+            .label_style(("sans-serif", 13))
+            .draw()?;
         let ok = |p: &(f64, f64)| p.0.is_finite() && p.1.is_finite();
         for (i, tr) in traces.iter().enumerate() {
-            chart.draw_series(LineSeries::new(thin(tr.t, tr.measured).filter(ok), PALETTE[i % PALETTE.len()].stroke_width(3)))?;
+            chart.draw_series(LineSeries::new(
+                thin(tr.t, tr.measured).filter(ok),
+                PALETTE[i % PALETTE.len()].stroke_width(3),
+            ))?;
         }
         for tr in traces {
-            chart.draw_series(DashedLineSeries::new(thin(tr.t, tr.simulated).filter(ok), 6, 4, BLACK.stroke_width(1)))?;
+            chart.draw_series(DashedLineSeries::new(
+                thin(tr.t, tr.simulated).filter(ok),
+                6,
+                4,
+                BLACK.stroke_width(1),
+            ))?;
         }
         draw_legend(&legend, traces, dashed)?;
         root.present()?;
@@ -102,7 +136,11 @@ pub fn curves(title: &str, x_desc: &str, y_desc: &str, traces: &[Trace], dashed:
     Ok(svg)
 }
 
-fn draw_legend<DB: DrawingBackend>(area: &DrawingArea<DB, plotters::coord::Shift>, traces: &[Trace], dashed: &str) -> anyhow::Result<()>
+fn draw_legend<DB: DrawingBackend>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    traces: &[Trace],
+    dashed: &str,
+) -> anyhow::Result<()>
 where
     DB::ErrorType: 'static,
 {
@@ -111,11 +149,17 @@ where
     let mut y = 40;
     for (i, tr) in traces.iter().enumerate() {
         let color = PALETTE[i % PALETTE.len()];
-        area.draw(&PathElement::new(vec![(8, y), (30, y)], color.stroke_width(3)))?;
+        area.draw(&PathElement::new(
+            vec![(8, y), (30, y)],
+            color.stroke_width(3),
+        ))?;
         area.draw(&Text::new(tr.label.to_string(), (36, y - 7), font.clone()))?;
         y += row;
     }
-    area.draw(&PathElement::new(vec![(8, y), (30, y)], BLACK.stroke_width(1)))?;
+    area.draw(&PathElement::new(
+        vec![(8, y), (30, y)],
+        BLACK.stroke_width(1),
+    ))?;
     area.draw(&Text::new(dashed.to_string(), (36, y - 7), font))?;
     Ok(())
 }
@@ -140,14 +184,23 @@ pub fn pool_run(run: &str, model: &str, traces: &[PoolTrace]) -> anyhow::Result<
         let root = SVGBackend::with_string(&mut svg, (WIDTH, height)).into_drawing_area();
         root.fill(&WHITE)?;
         let (title, body) = root.split_vertically(30);
-        title.draw(&Text::new(format!("pool run {run}: fused velocity (blue, ±2σ band) and model {model} (dashed)"), (12, 8), ("sans-serif", 16).into_font()))?;
+        title.draw(&Text::new(
+            format!("pool run {run}: fused velocity (blue, ±2σ band) and model {model} (dashed)"),
+            (12, 8),
+            ("sans-serif", 16).into_font(),
+        ))?;
         let panels = body.split_evenly((traces.len().max(1), 1));
         let blue = PALETTE[0];
         for (tr, area) in traces.iter().zip(panels) {
             let (top, bottom) = area.split_vertically(PANEL * 62 / 100);
             let tmax = tr.t.last().copied().unwrap_or(1.0).max(1e-3);
             let finite = |v: &&f64| v.is_finite();
-            let (lo, hi) = tr.measured.iter().chain(tr.simulated).filter(finite).fold((0.0f64, 0.0f64), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
+            let (lo, hi) = tr
+                .measured
+                .iter()
+                .chain(tr.simulated)
+                .filter(finite)
+                .fold((0.0f64, 0.0f64), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
             let pad = 0.08 * (hi - lo).max(1e-6);
             let unit = tr.dof.velocity_unit();
             let mut chart = ChartBuilder::on(&top)
@@ -167,13 +220,39 @@ pub fn pool_run(run: &str, model: &str, traces: &[PoolTrace]) -> anyhow::Result<
             let band: Vec<(f64, f64)> = thin(tr.t, tr.measured)
                 .zip(thin(tr.t, tr.std))
                 .map(|((t, m), (_, s))| (t, m + 2.0 * s))
-                .chain(thin(tr.t, tr.measured).zip(thin(tr.t, tr.std)).map(|((t, m), (_, s))| (t, m - 2.0 * s)).collect::<Vec<_>>().into_iter().rev())
+                .chain(
+                    thin(tr.t, tr.measured)
+                        .zip(thin(tr.t, tr.std))
+                        .map(|((t, m), (_, s))| (t, m - 2.0 * s))
+                        .collect::<Vec<_>>()
+                        .into_iter()
+                        .rev(),
+                )
                 .collect();
             chart.draw_series(std::iter::once(Polygon::new(band, blue.mix(0.25).filled())))?;
-            chart.draw_series(LineSeries::new(thin(tr.t, tr.measured), blue.stroke_width(2)))?;
-            chart.draw_series(DashedLineSeries::new(thin(tr.t, tr.simulated).filter(|p| p.1.is_finite()), 6, 4, BLACK.stroke_width(1)))?;
-            let err: Vec<f64> = tr.simulated.iter().zip(tr.measured).map(|(s, m)| s - m).collect();
-            let emax = err.iter().chain(tr.std.iter().map(|s| s * 2.0).collect::<Vec<_>>().iter()).filter(finite).fold(0.0f64, |a, b| a.max(b.abs())).max(1e-6) * 1.1;
+            chart.draw_series(LineSeries::new(
+                thin(tr.t, tr.measured),
+                blue.stroke_width(2),
+            ))?;
+            chart.draw_series(DashedLineSeries::new(
+                thin(tr.t, tr.simulated).filter(|p| p.1.is_finite()),
+                6,
+                4,
+                BLACK.stroke_width(1),
+            ))?;
+            let err: Vec<f64> = tr
+                .simulated
+                .iter()
+                .zip(tr.measured)
+                .map(|(s, m)| s - m)
+                .collect();
+            let emax = err
+                .iter()
+                .chain(tr.std.iter().map(|s| s * 2.0).collect::<Vec<_>>().iter())
+                .filter(finite)
+                .fold(0.0f64, |a, b| a.max(b.abs()))
+                .max(1e-6)
+                * 1.1;
             let mut echart = ChartBuilder::on(&bottom)
                 .margin_left(12)
                 .margin_right(20)
@@ -189,9 +268,24 @@ pub fn pool_run(run: &str, model: &str, traces: &[PoolTrace]) -> anyhow::Result<
                 .light_line_style(TRANSPARENT)
                 .label_style(("sans-serif", 12))
                 .draw()?;
-            let zero_band: Vec<(f64, f64)> = thin(tr.t, tr.std).map(|(t, s)| (t, 2.0 * s)).chain(thin(tr.t, tr.std).map(|(t, s)| (t, -2.0 * s)).collect::<Vec<_>>().into_iter().rev()).collect();
-            echart.draw_series(std::iter::once(Polygon::new(zero_band, blue.mix(0.2).filled())))?;
-            echart.draw_series(LineSeries::new(thin(tr.t, &err).filter(|p| p.1.is_finite()), PALETTE[3].stroke_width(1)))?;
+            let zero_band: Vec<(f64, f64)> = thin(tr.t, tr.std)
+                .map(|(t, s)| (t, 2.0 * s))
+                .chain(
+                    thin(tr.t, tr.std)
+                        .map(|(t, s)| (t, -2.0 * s))
+                        .collect::<Vec<_>>()
+                        .into_iter()
+                        .rev(),
+                )
+                .collect();
+            echart.draw_series(std::iter::once(Polygon::new(
+                zero_band,
+                blue.mix(0.2).filled(),
+            )))?;
+            echart.draw_series(LineSeries::new(
+                thin(tr.t, &err).filter(|p| p.1.is_finite()),
+                PALETTE[3].stroke_width(1),
+            ))?;
         }
         root.present()?;
     }

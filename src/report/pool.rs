@@ -4,10 +4,10 @@
 use super::html::esc;
 use super::plots::{self, PoolTrace};
 use crate::dof::Dof;
-use crate::fusion::{interp, Fused};
+use crate::fusion::{Fused, interp};
 use crate::io::csvlog;
 use crate::stage::pool::FusedRun;
-use crate::stage::validate::{Scores, Simulated, POOL_DOFS};
+use crate::stage::validate::{POOL_DOFS, Scores, Simulated};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -27,7 +27,9 @@ fn rmse_against(truth: &csvlog::Log, f: &Fused) -> (BTreeMap<Dof, f64>, BTreeMap
     let mut rmse = BTreeMap::new();
     let mut z = BTreeMap::new();
     for (j, d) in POOL_DOFS.iter().enumerate() {
-        let (Some(v), Some(s)) = (&f.vel[j], &f.std[j]) else { continue };
+        let (Some(v), Some(s)) = (&f.vel[j], &f.std[j]) else {
+            continue;
+        };
         let (mut se, mut sz) = (0.0, 0.0);
         for (k, &t) in f.t.iter().enumerate() {
             let e = v[k] - interp(&truth.t, &truth.cols[j], t);
@@ -42,15 +44,33 @@ fn rmse_against(truth: &csvlog::Log, f: &Fused) -> (BTreeMap<Dof, f64>, BTreeMap
 }
 
 /// Compares each run with the truth file of the same name (`<run>.csv`: t,u,v,w,r,...).
-pub fn fusion_accuracy(root: &std::path::Path, truth_files: &[String], runs: &[FusedRun]) -> anyhow::Result<Vec<FusionAccuracy>> {
+pub fn fusion_accuracy(
+    root: &std::path::Path,
+    truth_files: &[String],
+    runs: &[FusedRun],
+) -> anyhow::Result<Vec<FusionAccuracy>> {
     let mut out = Vec::new();
     for run in runs {
-        let Some(path) = truth_files.iter().find(|p| p.rsplit('/').next() == Some(&format!("{}.csv", run.meta.run))) else { continue };
+        let Some(path) = truth_files
+            .iter()
+            .find(|p| p.rsplit('/').next() == Some(&format!("{}.csv", run.meta.run)))
+        else {
+            continue;
+        };
         let text = std::fs::read_to_string(root.join(path))?;
         let truth = csvlog::parse(path, &text, &["t", "u", "v", "w", "r"], "truth file", 2)?;
         let (rmse, z) = rmse_against(&truth, &run.fused);
-        let rmse_without_sonar = run.without_sonar.as_ref().map(|f| rmse_against(&truth, f).0);
-        out.push(FusionAccuracy { run: run.meta.run.clone(), truth: path.clone(), rmse, error_over_std: z, rmse_without_sonar });
+        let rmse_without_sonar = run
+            .without_sonar
+            .as_ref()
+            .map(|f| rmse_against(&truth, f).0);
+        out.push(FusionAccuracy {
+            run: run.meta.run.clone(),
+            truth: path.clone(),
+            rmse,
+            error_over_std: z,
+            rmse_without_sonar,
+        });
     }
     Ok(out)
 }
@@ -60,7 +80,12 @@ fn unit(d: Dof) -> &'static str {
 }
 
 /// The HTML of the pool sections, plots included.
-pub fn section(runs: &[FusedRun], scores: Option<&Scores>, sims: &[Simulated], accuracy: &[FusionAccuracy]) -> anyhow::Result<String> {
+pub fn section(
+    runs: &[FusedRun],
+    scores: Option<&Scores>,
+    sims: &[Simulated],
+    accuracy: &[FusionAccuracy],
+) -> anyhow::Result<String> {
     let mut h = String::new();
     if runs.is_empty() {
         return Ok(h);
@@ -69,7 +94,12 @@ pub fn section(runs: &[FusedRun], scores: Option<&Scores>, sims: &[Simulated], a
     h.push_str("<table><tr><th>run</th><th>role</th><th>sensors</th><th>UWB fixes (multipath rejected)</th><th>sonar fixes</th><th>gyro bias (°/s)</th><th>UWB σ (m)</th><th>DOFs known</th></tr>\n");
     for r in runs {
         let s = &r.meta.stats;
-        let known: Vec<&str> = POOL_DOFS.iter().enumerate().filter(|(j, _)| r.meta.known[*j]).map(|(_, d)| d.name()).collect();
+        let known: Vec<&str> = POOL_DOFS
+            .iter()
+            .enumerate()
+            .filter(|(j, _)| r.meta.known[*j])
+            .map(|(_, d)| d.name())
+            .collect();
         let _ = writeln!(
             h,
             "<tr><td>{}</td><td>{}</td><td>{}</td><td>{} ({} + {})</td><td>{}</td><td>{}</td><td>{:.3}</td><td>{}</td></tr>",
@@ -86,12 +116,20 @@ pub fn section(runs: &[FusedRun], scores: Option<&Scores>, sims: &[Simulated], a
         );
     }
     h.push_str("</table>\n");
-    let repaired: Vec<&FusedRun> = runs.iter().filter(|r| !r.meta.repairs.is_empty() || !r.meta.stats.nav.is_empty()).collect();
+    let repaired: Vec<&FusedRun> = runs
+        .iter()
+        .filter(|r| !r.meta.repairs.is_empty() || !r.meta.stats.nav.is_empty())
+        .collect();
     if !repaired.is_empty() {
         h.push_str("<h3 id=\"repairs\">Timing repairs and navigation-log noise</h3>\n<ul>\n");
         for r in repaired {
             for rep in &r.meta.repairs {
-                let _ = writeln!(h, "<li><code>{}</code>: {}</li>", esc(&r.meta.run), esc(rep));
+                let _ = writeln!(
+                    h,
+                    "<li><code>{}</code>: {}</li>",
+                    esc(&r.meta.run),
+                    esc(rep)
+                );
             }
             for (ch, n) in &r.meta.stats.nav {
                 let _ = writeln!(
@@ -101,7 +139,11 @@ pub fn section(runs: &[FusedRun], scores: Option<&Scores>, sims: &[Simulated], a
                     n.sigma,
                     n.sigma_lag1,
                     n.correlated_samples,
-                    if n.correlated_samples > 2.0 { " — the log was filtered before it was written, so its samples count for less" } else { "" }
+                    if n.correlated_samples > 2.0 {
+                        " — the log was filtered before it was written, so its samples count for less"
+                    } else {
+                        ""
+                    }
                 );
             }
         }
@@ -111,8 +153,19 @@ pub fn section(runs: &[FusedRun], scores: Option<&Scores>, sims: &[Simulated], a
         h.push_str("<h3 id=\"fusion-accuracy\">Fusion accuracy against the twin's truth</h3>\n<p>These runs are synthetic: their true velocities are in the truth files named below (outside <code>cases/</code>, never read by the fusion). RMSE of the fused velocity, with and without the sonar; error/σ is the RMS of the error divided by the stated standard deviation (near 1 when the uncertainty is honest).</p>\n<table><tr><th>run</th><th>DOF</th><th>RMSE</th><th>RMSE without sonar</th><th>error/σ</th><th>truth</th></tr>\n");
         for a in accuracy {
             for (d, e) in &a.rmse {
-                let ns = a.rmse_without_sonar.as_ref().and_then(|m| m.get(d)).map_or("no sonar in run".into(), |x| format!("{x:.4} {}", unit(*d)));
-                let _ = writeln!(h, "<tr><td>{}</td><td>{d}</td><td>{e:.4} {}</td><td>{ns}</td><td>{:.2}</td><td><code>{}</code></td></tr>", esc(&a.run), unit(*d), a.error_over_std[d], esc(&a.truth));
+                let ns = a
+                    .rmse_without_sonar
+                    .as_ref()
+                    .and_then(|m| m.get(d))
+                    .map_or("no sonar in run".into(), |x| format!("{x:.4} {}", unit(*d)));
+                let _ = writeln!(
+                    h,
+                    "<tr><td>{}</td><td>{d}</td><td>{e:.4} {}</td><td>{ns}</td><td>{:.2}</td><td><code>{}</code></td></tr>",
+                    esc(&a.run),
+                    unit(*d),
+                    a.error_over_std[d],
+                    esc(&a.truth)
+                );
             }
         }
         h.push_str("</table>\n");
@@ -120,10 +173,18 @@ pub fn section(runs: &[FusedRun], scores: Option<&Scores>, sims: &[Simulated], a
     let Some(scores) = scores else { return Ok(h) };
     h.push_str("<h2 id=\"pool-validation\">Pool runs: the model against the recordings</h2>\n<p>Each model simulated (RK4, 0.01 s) under the run's logged thrust from the fused initial state; where the model is locally unstable along a run (a perturbation grows, as an open-frame vehicle's sway and yaw do at speed), the simulation is re-anchored to the fused state over windows short enough that an error at most doubles, since a pilot or autopilot kept the real vehicle on course. Residual whiteness (seed 000): share of autocorrelation lags up to 5 s outside the 95 % band ±1.96/√N — about 5 % for a model that explains everything but noise. σ̄ is the mean standard deviation of the fused velocity, the floor no model can beat.</p>\n");
     for m in &scores.models {
-        let _ = writeln!(h, "<table><tr><th>model <code>{}</code>: run</th><th>role</th><th>DOF</th><th>MAE</th><th>NMAE</th><th>RMSE % of peak</th><th>residual ACF outside band</th><th>σ̄</th></tr>", esc(&m.model));
+        let _ = writeln!(
+            h,
+            "<table><tr><th>model <code>{}</code>: run</th><th>role</th><th>DOF</th><th>MAE</th><th>NMAE</th><th>RMSE % of peak</th><th>residual ACF outside band</th><th>σ̄</th></tr>",
+            esc(&m.model)
+        );
         for r in &m.runs {
             for (d, s) in &r.dofs {
-                let flag = if r.diverged { " <span class=\"warn\">diverged</span>" } else { "" };
+                let flag = if r.diverged {
+                    " <span class=\"warn\">diverged</span>"
+                } else {
+                    ""
+                };
                 let _ = writeln!(
                     h,
                     "<tr><td>{}{flag}</td><td>{}</td><td>{d}</td><td>{:.4}</td><td>{:.3}</td><td>{:.2}</td><td>{:.0} %</td><td>{:.4}</td></tr>",
@@ -138,9 +199,26 @@ pub fn section(runs: &[FusedRun], scores: Option<&Scores>, sims: &[Simulated], a
             }
         }
         h.push_str("</table>\n");
-        let stab: String = m.runs.iter().filter_map(|r| r.stability.map(|s| format!("<li><code>{}</code>: {}</li>", esc(&r.run), esc(&crate::model::stability::describe(&s))))).collect();
+        let stab: String = m
+            .runs
+            .iter()
+            .filter_map(|r| {
+                r.stability.map(|s| {
+                    format!(
+                        "<li><code>{}</code>: {}</li>",
+                        esc(&r.run),
+                        esc(&crate::model::stability::describe(&s))
+                    )
+                })
+            })
+            .collect();
         if !stab.is_empty() {
-            let _ = writeln!(h, "<p>Local stability of model <code>{}</code> along each run (eigenvalues of the model linearised at the recorded velocity):</p><ul class=\"small\" id=\"stability-{}\">{stab}</ul>", esc(&m.model), esc(&m.model));
+            let _ = writeln!(
+                h,
+                "<p>Local stability of model <code>{}</code> along each run (eigenvalues of the model linearised at the recorded velocity):</p><ul class=\"small\" id=\"stability-{}\">{stab}</ul>",
+                esc(&m.model),
+                esc(&m.model)
+            );
         }
         h.push_str("<p>Cross-validation summary, mean NMAE per DOF: ");
         for (role, per) in &m.mean_nmae {
@@ -159,14 +237,23 @@ pub fn section(runs: &[FusedRun], scores: Option<&Scores>, sims: &[Simulated], a
         for c in &scores.cross {
             let _ = write!(h, "<tr><td>{}</td>", esc(&c.trained_on));
             for n in &names {
-                let cell = c.runs.iter().find(|r| r.run == *n).map_or("–".to_string(), |r| {
-                    if r.diverged {
-                        "diverged".into()
-                    } else {
-                        let v: Vec<f64> = r.dofs.values().map(|s| s.metrics.nmae).filter(|x| x.is_finite()).collect();
-                        format!("{:.3}", v.iter().sum::<f64>() / v.len().max(1) as f64)
-                    }
-                });
+                let cell = c
+                    .runs
+                    .iter()
+                    .find(|r| r.run == *n)
+                    .map_or("–".to_string(), |r| {
+                        if r.diverged {
+                            "diverged".into()
+                        } else {
+                            let v: Vec<f64> = r
+                                .dofs
+                                .values()
+                                .map(|s| s.metrics.nmae)
+                                .filter(|x| x.is_finite())
+                                .collect();
+                            format!("{:.3}", v.iter().sum::<f64>() / v.len().max(1) as f64)
+                        }
+                    });
                 let _ = write!(h, "<td>{cell}</td>");
             }
             h.push_str("</tr>\n");
@@ -176,19 +263,45 @@ pub fn section(runs: &[FusedRun], scores: Option<&Scores>, sims: &[Simulated], a
             let _ = writeln!(h, "<p class=\"small\">{}</p>", esc(n));
         }
     }
-    let first = scores.models.first().map(|m| m.model.clone()).unwrap_or_default();
+    let first = scores
+        .models
+        .first()
+        .map(|m| m.model.clone())
+        .unwrap_or_default();
     for r in runs {
-        let Some(sim) = sims.iter().find(|s| s.model == first && s.run == r.meta.run) else { continue };
+        let Some(sim) = sims
+            .iter()
+            .find(|s| s.model == first && s.run == r.meta.run)
+        else {
+            continue;
+        };
         let traces: Vec<PoolTrace> = POOL_DOFS
             .iter()
             .enumerate()
             .filter_map(|(j, d)| {
-                let (v, s, m) = (r.fused.vel[j].as_ref()?, r.fused.std[j].as_ref()?, sim.nu.get(d)?);
-                Some(PoolTrace { dof: *d, t: &r.fused.t, measured: v, std: s, simulated: m })
+                let (v, s, m) = (
+                    r.fused.vel[j].as_ref()?,
+                    r.fused.std[j].as_ref()?,
+                    sim.nu.get(d)?,
+                );
+                Some(PoolTrace {
+                    dof: *d,
+                    t: &r.fused.t,
+                    measured: v,
+                    std: s,
+                    simulated: m,
+                })
             })
             .collect();
         let svg = plots::pool_run(&r.meta.run, &first, &traces)?;
-        let _ = writeln!(h, "<figure id=\"pool-{}\">{svg}<figcaption>Run <code>{}</code> ({}): per DOF, the fused velocity with its ±2σ band and model <code>{}</code> simulated under the logged thrust; beneath, the error (red) inside the ±2σ band.</figcaption></figure>", esc(&r.meta.run), esc(&r.meta.run), r.meta.role.as_str(), esc(&first));
+        let _ = writeln!(
+            h,
+            "<figure id=\"pool-{}\">{svg}<figcaption>Run <code>{}</code> ({}): per DOF, the fused velocity with its ±2σ band and model <code>{}</code> simulated under the logged thrust; beneath, the error (red) inside the ±2σ band.</figcaption></figure>",
+            esc(&r.meta.run),
+            esc(&r.meta.run),
+            r.meta.role.as_str(),
+            esc(&first)
+        );
     }
     Ok(h)
 }

@@ -2,7 +2,7 @@
 //! Table 2 does: parameters, error against a known truth (when the cases come from a twin),
 //! validation error on the pool runs, run time and objective evaluations.
 
-use super::{fit, pool, starccm, validate, Artifact, Kind, RunCtx, StageImpl};
+use super::{Artifact, Kind, RunCtx, StageImpl, fit, pool, starccm, validate};
 use crate::estimate::{self, Regression};
 use crate::model::{ParamLayout, Plant};
 use serde::{Deserialize, Serialize};
@@ -47,8 +47,17 @@ pub struct Settings {
 
 impl Default for Settings {
     fn default() -> Settings {
-        let m = |name: &str| fit::Settings { method: name.into(), ..fit::Settings::default() };
-        Settings { methods: ["ols", "tls", "rls", "qpso", "pso", "ga"].iter().map(|n| m(n)).collect(), truth: BTreeMap::new() }
+        let m = |name: &str| fit::Settings {
+            method: name.into(),
+            ..fit::Settings::default()
+        };
+        Settings {
+            methods: ["ols", "tls", "rls", "qpso", "pso", "ga"]
+                .iter()
+                .map(|n| m(n))
+                .collect(),
+            truth: BTreeMap::new(),
+        }
     }
 }
 
@@ -83,8 +92,16 @@ pub fn load(dir: &Path) -> anyhow::Result<Comparison> {
 
 fn label(s: &fit::Settings) -> String {
     let stochastic = estimate::by_name(&s.method).is_some_and(|e| e.stochastic());
-    let obj = if s.objective == fit::Objective::OutputError { ", output error" } else { "" };
-    if stochastic { format!("{} ({:?}{obj})", s.method, s.norm).to_lowercase() } else { s.method.clone() }
+    let obj = if s.objective == fit::Objective::OutputError {
+        ", output error"
+    } else {
+        ""
+    };
+    if stochastic {
+        format!("{} ({:?}{obj})", s.method, s.norm).to_lowercase()
+    } else {
+        s.method.clone()
+    }
 }
 
 impl StageImpl for Settings {
@@ -98,9 +115,17 @@ impl StageImpl for Settings {
         for up in ctx.upstream_of(Artifact::Responses) {
             responses.push(starccm::load(&up.dir)?.1);
         }
-        let runs: Vec<pool::FusedRun> = ctx.upstream_of(Artifact::PoolRuns).map(|u| pool::load_for(&u.dir, ctx.vehicle)).collect::<Result<_, _>>()?;
-        let held_out: Vec<&pool::FusedRun> = if runs.iter().any(|r| r.meta.role == crate::io::pool::Role::Validate) {
-            runs.iter().filter(|r| r.meta.role == crate::io::pool::Role::Validate).collect()
+        let runs: Vec<pool::FusedRun> = ctx
+            .upstream_of(Artifact::PoolRuns)
+            .map(|u| pool::load_for(&u.dir, ctx.vehicle))
+            .collect::<Result<_, _>>()?;
+        let held_out: Vec<&pool::FusedRun> = if runs
+            .iter()
+            .any(|r| r.meta.role == crate::io::pool::Role::Validate)
+        {
+            runs.iter()
+                .filter(|r| r.meta.role == crate::io::pool::Role::Validate)
+                .collect()
         } else {
             runs.iter().collect()
         };
@@ -108,7 +133,8 @@ impl StageImpl for Settings {
         let mut rows = Vec::new();
         let mut samples = 0;
         for (i, m) in self.methods.iter().enumerate() {
-            ctx.progress.set_message(format!("{} ({}/{})", label(m), i + 1, self.methods.len()));
+            ctx.progress
+                .set_message(format!("{} ({}/{})", label(m), i + 1, self.methods.len()));
             let problem = Regression::build(ctx.vehicle, &refs, m.skip_start_s);
             samples = problem.rows();
             let est = estimate::by_name(&m.method).expect("checked when parsed");
@@ -121,7 +147,8 @@ impl StageImpl for Settings {
                 norm: m.norm,
                 forgetting: m.forgetting,
                 progress: None,
-                output_error: (m.objective == fit::Objective::OutputError).then_some((ctx.vehicle, &refs[..])),
+                output_error: (m.objective == fit::Objective::OutputError)
+                    .then_some((ctx.vehicle, &refs[..])),
                 max_seconds: m.max_seconds,
             };
             let start = std::time::Instant::now();
@@ -143,28 +170,42 @@ impl StageImpl for Settings {
                 Ok(fit) => {
                     for p in &fit.parameters {
                         if let Some(t) = self.truth.get(&p.name) {
-                            row.error_pct.insert(p.name.clone(), 100.0 * (p.value - t) / t.abs());
+                            row.error_pct
+                                .insert(p.name.clone(), 100.0 * (p.value - t) / t.abs());
                         }
                     }
-                    row.max_abs_error_pct = row.error_pct.values().map(|e| e.abs()).reduce(f64::max);
+                    row.max_abs_error_pct =
+                        row.error_pct.values().map(|e| e.abs()).reduce(f64::max);
                     let theta: Vec<f64> = fit.parameters.iter().map(|p| p.value).collect();
-                    let plant = Plant::new(ctx.vehicle, ParamLayout::of(ctx.vehicle).to_hydro(&theta));
+                    let plant =
+                        Plant::new(ctx.vehicle, ParamLayout::of(ctx.vehicle).to_hydro(&theta));
                     let nmae: Vec<f64> = held_out
                         .iter()
                         .flat_map(|r| {
-                            let s = validate::score_run(&ctx.vehicle.dofs, r, &validate::simulate_run(&plant, r, Default::default()).0, 1.0);
+                            let s = validate::score_run(
+                                &ctx.vehicle.dofs,
+                                r,
+                                &validate::simulate_run(&plant, r, Default::default()).0,
+                                1.0,
+                            );
                             s.dofs.values().map(|d| d.metrics.nmae).collect::<Vec<_>>()
                         })
                         .filter(|x| x.is_finite())
                         .collect();
-                    row.pool_nmae = (!nmae.is_empty()).then(|| nmae.iter().sum::<f64>() / nmae.len() as f64);
+                    row.pool_nmae =
+                        (!nmae.is_empty()).then(|| nmae.iter().sum::<f64>() / nmae.len() as f64);
                     row.evaluations = fit.evaluations;
                     row.parameters = fit.parameters;
                 }
             }
             rows.push(row);
         }
-        let result = Comparison { rows, samples, cases: responses.len(), pool_runs: held_out.iter().map(|r| r.meta.run.clone()).collect() };
+        let result = Comparison {
+            rows,
+            samples,
+            cases: responses.len(),
+            pool_runs: held_out.iter().map(|r| r.meta.run.clone()).collect(),
+        };
         super::write_json(&ctx.out.join(RESULT), &result)
     }
 }

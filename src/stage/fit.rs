@@ -1,6 +1,6 @@
 //! `kind: fit` — identifies the hydrodynamic parameters from every CFD response it reads.
 
-use super::{pool, starccm, Artifact, InputFile, Kind, RunCtx, StageImpl};
+use super::{Artifact, InputFile, Kind, RunCtx, StageImpl, pool, starccm};
 use crate::dof::Dof;
 use crate::estimate::{self, Fit, Regression};
 use crate::model::{ParamLayout, Structure};
@@ -200,8 +200,15 @@ impl FitResult {
 
     /// Every input file the values depend on: CFD cases and pool runs.
     pub fn input_files(&self) -> Vec<InputFile> {
-        let cfd = self.cases.iter().flat_map(|c| if c.inputs.is_empty() { vec![c.source.clone()] } else { c.inputs.clone() });
-        cfd.chain(self.runs.iter().flat_map(|r| r.inputs.clone())).collect()
+        let cfd = self.cases.iter().flat_map(|c| {
+            if c.inputs.is_empty() {
+                vec![c.source.clone()]
+            } else {
+                c.inputs.clone()
+            }
+        });
+        cfd.chain(self.runs.iter().flat_map(|r| r.inputs.clone()))
+            .collect()
     }
 }
 
@@ -217,7 +224,14 @@ impl StageImpl for Settings {
         let obj = v.as_object_mut().expect("settings are a map");
         let stochastic = estimate::by_name(&self.method).is_some_and(|e| e.stochastic());
         if !stochastic {
-            for k in ["seed", "population", "iterations", "restarts", "norm", "max_seconds"] {
+            for k in [
+                "seed",
+                "population",
+                "iterations",
+                "restarts",
+                "norm",
+                "max_seconds",
+            ] {
                 obj.remove(k);
             }
         }
@@ -234,7 +248,13 @@ impl StageImpl for Settings {
         let mut responses = Vec::new();
         for up in ctx.upstream_of(Artifact::Responses) {
             let (meta, r) = starccm::load(&up.dir)?;
-            cases.push(CaseRef { id: up.id.clone(), case: meta.case, source: meta.source, inputs: meta.all_inputs, mass_kg: meta.body_mass_kg });
+            cases.push(CaseRef {
+                id: up.id.clone(),
+                case: meta.case,
+                source: meta.source,
+                inputs: meta.all_inputs,
+                mass_kg: meta.body_mass_kg,
+            });
             responses.push(r);
         }
         let (runs, pool_responses, mut notes) = training_runs(ctx, vehicle)?;
@@ -267,7 +287,8 @@ impl StageImpl for Settings {
             sim_vehicle.mass_kg = *m;
         }
         let estimator = estimate::by_name(&self.method).expect("checked when parsed");
-        ctx.progress.set_message(format!("{} on {} samples", self.method, problem.rows()));
+        ctx.progress
+            .set_message(format!("{} on {} samples", self.method, problem.rows()));
         let bar = ctx.progress;
         let report = move |f: f64| bar.set_message(format!("{:.0} %", 100.0 * f));
         let opts = estimate::Options {
@@ -279,22 +300,33 @@ impl StageImpl for Settings {
             norm: self.norm,
             forgetting: self.forgetting,
             progress: Some(&report),
-            output_error: (self.objective == Objective::OutputError).then_some((&sim_vehicle, &refs[..])),
+            output_error: (self.objective == Objective::OutputError)
+                .then_some((&sim_vehicle, &refs[..])),
             max_seconds: self.max_seconds,
         };
         let (mut fit, one_step) = match self.added_mass_window_s {
             None => (estimator.fit(&problem, &opts)?, None),
             Some(window) => {
-                anyhow::ensure!(self.method == "ols" && self.objective == Objective::EquationError, "added_mass_window_s is a two-step least-squares fit: use method: ols, objective: equation_error");
+                anyhow::ensure!(
+                    self.method == "ols" && self.objective == Objective::EquationError,
+                    "added_mass_window_s is a two-step least-squares fit: use method: ols, objective: equation_error"
+                );
                 anyhow::ensure!(window > 0.0, "added_mass_window_s must be positive");
-                anyhow::ensure!(pool_refs.is_empty(), "added_mass_window_s is for CFD runs from rest; remove the pool stage from this fit's `from`");
+                anyhow::ensure!(
+                    pool_refs.is_empty(),
+                    "added_mass_window_s is for CFD runs from rest; remove the pool stage from this fit's `from`"
+                );
                 let mut early = Regression::build(vehicle, &[], self.skip_start_s);
                 for (c, r) in cases.iter().zip(&responses) {
                     let mut v = vehicle.clone();
                     if let Some(m) = c.mass_kg {
                         v.mass_kg = m;
                     }
-                    early.append(Regression::build(&v, &[&truncate(r, self.skip_start_s + window)], self.skip_start_s));
+                    early.append(Regression::build(
+                        &v,
+                        &[&truncate(r, self.skip_start_s + window)],
+                        self.skip_start_s,
+                    ));
                 }
                 let one = estimator.fit(&problem, &opts).ok().map(|f| f.parameters);
                 (two_step(&early, &problem)?, one)
@@ -324,7 +356,10 @@ impl StageImpl for Settings {
 
 /// The `role: train` pool runs among the upstream, as response tables (logged command, fused
 /// velocity and its derivative). Runs without every DOF of the vehicle are left out and said.
-fn training_runs(ctx: &RunCtx, vehicle: &crate::model::Vehicle) -> anyhow::Result<(Vec<RunRef>, Vec<crate::io::Response>, Vec<String>)> {
+fn training_runs(
+    ctx: &RunCtx,
+    vehicle: &crate::model::Vehicle,
+) -> anyhow::Result<(Vec<RunRef>, Vec<crate::io::Response>, Vec<String>)> {
     let (mut refs, mut responses, mut notes) = (Vec::new(), Vec::new(), Vec::new());
     for up in ctx.upstream_of(Artifact::PoolRuns) {
         let run = pool::load_for(&up.dir, vehicle)?;
@@ -333,17 +368,36 @@ fn training_runs(ctx: &RunCtx, vehicle: &crate::model::Vehicle) -> anyhow::Resul
         }
         match run.as_response(vehicle) {
             Some(r) => {
-                refs.push(RunRef { id: up.id.clone(), run: run.meta.run.clone(), inputs: run.meta.sources.clone() });
+                refs.push(RunRef {
+                    id: up.id.clone(),
+                    run: run.meta.run.clone(),
+                    inputs: run.meta.sources.clone(),
+                });
                 responses.push(r);
             }
             None => {
-                let missing: Vec<String> = run.missing_dofs(vehicle).iter().map(|d| d.to_string()).collect();
-                notes.push(format!("pool run {} left out: its sensors gave no {} velocity", run.meta.run, missing.join(", ")));
+                let missing: Vec<String> = run
+                    .missing_dofs(vehicle)
+                    .iter()
+                    .map(|d| d.to_string())
+                    .collect();
+                notes.push(format!(
+                    "pool run {} left out: its sensors gave no {} velocity",
+                    run.meta.run,
+                    missing.join(", ")
+                ));
             }
         }
     }
     if ctx.upstream_of(Artifact::PoolRuns).next().is_some() && refs.is_empty() {
-        anyhow::bail!("no pool run with `role: train` and every DOF fused to fit on\n  help: mark the runs to identify from `role: train` in their run.yaml; {}", if notes.is_empty() { "the others are held out for validation".into() } else { notes.join("; ") });
+        anyhow::bail!(
+            "no pool run with `role: train` and every DOF fused to fit on\n  help: mark the runs to identify from `role: train` in their run.yaml; {}",
+            if notes.is_empty() {
+                "the others are held out for validation".into()
+            } else {
+                notes.join("; ")
+            }
+        );
     }
     Ok((refs, responses, notes))
 }
@@ -362,7 +416,10 @@ fn combine(mut cfd: Regression, mut pool: Regression, notes: &mut Vec<String>) -
     for (name, reg) in [("CFD", &mut cfd), ("pool", &mut pool)] {
         let sigma = source_sigma(reg);
         let levels: Vec<String> = sigma.iter().map(|(d, s)| format!("{d} {s:.3}")).collect();
-        notes.push(format!("{name} rows weighted by their own residual level ({})", levels.join(", ")));
+        notes.push(format!(
+            "{name} rows weighted by their own residual level ({})",
+            levels.join(", ")
+        ));
         reg.scale_rows(&sigma);
     }
     cfd.append(pool);
@@ -382,7 +439,9 @@ fn source_sigma(reg: &Regression) -> BTreeMap<Dof, f64> {
                 e.0 += y * y;
                 e.1 += 1;
             }
-            acc.into_iter().map(|(d, (s, n))| (d, (s / n as f64).sqrt().max(1e-9))).collect()
+            acc.into_iter()
+                .map(|(d, (s, n))| (d, (s / n as f64).sqrt().max(1e-9)))
+                .collect()
         }
     }
 }
@@ -402,19 +461,40 @@ fn truncate(r: &crate::io::Response, t_end: f64) -> crate::io::Response {
 
 /// Least squares over the columns `cols` of `reg`, with the other parameters held at `held`:
 /// values, standard errors and the condition number of that sub-problem.
-fn subset_lstsq(reg: &Regression, cols: &[usize], held: &[f64]) -> anyhow::Result<(Vec<f64>, Vec<f64>, f64)> {
+fn subset_lstsq(
+    reg: &Regression,
+    cols: &[usize],
+    held: &[f64],
+) -> anyhow::Result<(Vec<f64>, Vec<f64>, f64)> {
     use nalgebra::{DMatrix, DVector};
     let (n, c) = (reg.rows(), cols.len());
-    anyhow::ensure!(n > c, "{n} equation rows cannot determine {c} parameters: lengthen the window");
+    anyhow::ensure!(
+        n > c,
+        "{n} equation rows cannot determine {c} parameters: lengthen the window"
+    );
     let a = DMatrix::from_fn(n, c, |i, j| reg.row(i)[cols[j]]);
-    let b = DVector::from_fn(n, |i, _| reg.y[i] - (0..reg.cols()).filter(|j| !cols.contains(j)).map(|j| reg.row(i)[j] * held[j]).sum::<f64>());
+    let b = DVector::from_fn(n, |i, _| {
+        reg.y[i]
+            - (0..reg.cols())
+                .filter(|j| !cols.contains(j))
+                .map(|j| reg.row(i)[j] * held[j])
+                .sum::<f64>()
+    });
     let svd = a.clone().svd(true, true);
     let (smax, smin) = (svd.singular_values.max(), svd.singular_values.min());
-    let x = svd.solve(&b, 1e-12 * smax).map_err(|e| anyhow::anyhow!("least squares: {e}"))?;
+    let x = svd
+        .solve(&b, 1e-12 * smax)
+        .map_err(|e| anyhow::anyhow!("least squares: {e}"))?;
     let res = &b - &a * &x;
     let s2 = res.norm_squared() / (n - c) as f64;
-    let cov = (a.transpose() * &a).try_inverse().unwrap_or_else(|| DMatrix::from_element(c, c, f64::INFINITY));
-    Ok((x.iter().copied().collect(), (0..c).map(|j| (s2 * cov[(j, j)]).sqrt()).collect(), smax / smin.max(f64::MIN_POSITIVE)))
+    let cov = (a.transpose() * &a)
+        .try_inverse()
+        .unwrap_or_else(|| DMatrix::from_element(c, c, f64::INFINITY));
+    Ok((
+        x.iter().copied().collect(),
+        (0..c).map(|j| (s2 * cov[(j, j)]).sqrt()).collect(),
+        smax / smin.max(f64::MIN_POSITIVE),
+    ))
 }
 
 /// Added mass from the acceleration window (drag neglected there), then the drag from every
@@ -423,8 +503,12 @@ fn two_step(early: &Regression, all: &Regression) -> anyhow::Result<Fit> {
     use crate::model::params::Group;
     let layout = &all.layout;
     let p = layout.len();
-    let added: Vec<usize> = (0..p).filter(|&j| layout.slot(j).0 == Group::AddedMass).collect();
-    let drag: Vec<usize> = (0..p).filter(|&j| layout.slot(j).0 != Group::AddedMass).collect();
+    let added: Vec<usize> = (0..p)
+        .filter(|&j| layout.slot(j).0 == Group::AddedMass)
+        .collect();
+    let drag: Vec<usize> = (0..p)
+        .filter(|&j| layout.slot(j).0 != Group::AddedMass)
+        .collect();
     // Step 1: drag held at zero over the window.
     let (am, am_se, k1) = subset_lstsq(early, &added, &vec![0.0; p])?;
     let mut theta = vec![0.0; p];
@@ -440,7 +524,13 @@ fn two_step(early: &Regression, all: &Regression) -> anyhow::Result<Fit> {
     }
     let mut sigma: BTreeMap<String, (f64, usize)> = BTreeMap::new();
     for i in 0..all.rows() {
-        let r = all.y[i] - all.row(i).iter().zip(&theta).map(|(a, t)| a * t).sum::<f64>();
+        let r = all.y[i]
+            - all
+                .row(i)
+                .iter()
+                .zip(&theta)
+                .map(|(a, t)| a * t)
+                .sum::<f64>();
         let e = sigma.entry(all.row_dof[i].name().to_string()).or_default();
         e.0 += r * r;
         e.1 += 1;
@@ -454,11 +544,16 @@ fn two_step(early: &Regression, all: &Regression) -> anyhow::Result<Fit> {
                 unit: layout.unit(j).to_string(),
                 stderr: se[j],
                 interval: None,
-                identifiable: se[j].is_finite() && se[j] < 0.5 * theta[j].abs() && condition_number < 1e8,
+                identifiable: se[j].is_finite()
+                    && se[j] < 0.5 * theta[j].abs()
+                    && condition_number < 1e8,
                 note: None,
             })
             .collect(),
-        residual_sigma: sigma.into_iter().map(|(d, (ss, n))| (d, (ss / n.max(1) as f64).sqrt())).collect(),
+        residual_sigma: sigma
+            .into_iter()
+            .map(|(d, (ss, n))| (d, (ss / n.max(1) as f64).sqrt()))
+            .collect(),
         samples: all.rows(),
         condition_number,
         evaluations: None,

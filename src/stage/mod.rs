@@ -92,10 +92,20 @@ pub struct Kind {
     /// Folder of the project its results are copied to (the report), if any.
     pub publishes_to: Option<&'static str>,
     /// Parses the stage's `settings` (unknown keys rejected).
-    pub parse: fn(serde_yaml_ng::Value) -> Result<std::sync::Arc<dyn StageImpl>, serde_yaml_ng::Error>,
+    pub parse:
+        fn(serde_yaml_ng::Value) -> Result<std::sync::Arc<dyn StageImpl>, serde_yaml_ng::Error>,
 }
 
-pub const KINDS: &[&Kind] = &[&starccm::KIND, &openfoam::KIND, &pool::KIND, &fit::KIND, &validate::KIND, &compare::KIND, &diagnose::KIND, &report::KIND];
+pub const KINDS: &[&Kind] = &[
+    &starccm::KIND,
+    &openfoam::KIND,
+    &pool::KIND,
+    &fit::KIND,
+    &validate::KIND,
+    &compare::KIND,
+    &diagnose::KIND,
+    &report::KIND,
+];
 
 pub fn kind(name: &str) -> Option<&'static Kind> {
     KINDS.iter().copied().find(|k| k.name == name)
@@ -135,7 +145,15 @@ impl RunCtx<'_> {
 
     /// One line per failed upstream this stage went on without: `pool[x] failed: <error>`.
     pub fn failed_notes(&self) -> Vec<String> {
-        self.failed_upstream.iter().map(|(id, e)| format!("{id} failed and is left out: {}", e.lines().next().unwrap_or(""))).collect()
+        self.failed_upstream
+            .iter()
+            .map(|(id, e)| {
+                format!(
+                    "{id} failed and is left out: {}",
+                    e.lines().next().unwrap_or("")
+                )
+            })
+            .collect()
     }
 }
 

@@ -2,12 +2,12 @@
 //! its solver) when its inputs have no results yet, or reuses the results a run of exactly
 //! these inputs left in the folder, and turns the body's motion into a response table.
 
-use super::starccm::{ResponseMeta, META, TABLE};
+use super::starccm::{META, ResponseMeta, TABLE};
 use super::{Artifact, InputFile, Kind, RunCtx, StageImpl};
 use crate::diag::InputError;
 use crate::dof::Dof;
-use crate::io::response::{differentiate, Series, Source};
 use crate::io::Response;
+use crate::io::response::{Series, Source, differentiate};
 use crate::openfoam::{self, Stamp, Track};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -39,7 +39,9 @@ pub struct Settings {
 
 impl Default for Settings {
     fn default() -> Self {
-        Settings { keep_results_in_case: true }
+        Settings {
+            keep_results_in_case: true,
+        }
     }
 }
 
@@ -76,39 +78,93 @@ impl StageImpl for Settings {
             .inputs
             .iter()
             .find_map(|i| i.path.strip_suffix("/system/controlDict"))
-            .ok_or_else(|| anyhow::anyhow!("{}: not an OpenFOAM case (no system/controlDict)", ctx.inputs.first().map_or("?", |i| i.path.as_str())))?;
+            .ok_or_else(|| {
+                anyhow::anyhow!(
+                    "{}: not an OpenFOAM case (no system/controlDict)",
+                    ctx.inputs.first().map_or("?", |i| i.path.as_str())
+                )
+            })?;
         let case_rel = control.to_string();
         let case_dir = ctx.root.join(&case_rel);
-        let name = Path::new(&case_rel).file_name().map_or(case_rel.clone(), |n| n.to_string_lossy().into_owned());
-        let local: Vec<(String, String)> = ctx.inputs.iter().map(|i| (i.path[case_rel.len() + 1..].to_string(), i.blake3.clone())).collect();
+        let name = Path::new(&case_rel)
+            .file_name()
+            .map_or(case_rel.clone(), |n| n.to_string_lossy().into_owned());
+        let local: Vec<(String, String)> = ctx
+            .inputs
+            .iter()
+            .map(|i| (i.path[case_rel.len() + 1..].to_string(), i.blake3.clone()))
+            .collect();
         let identity = openfoam::inputs_hash(&local);
         let setup = openfoam::read_setup(&case_dir, &case_rel)?;
         let solver = setup.application.clone();
 
-        let stamp: Option<Stamp> = std::fs::read_to_string(case_dir.join(openfoam::STAMP)).ok().and_then(|t| serde_json::from_str(&t).ok());
+        let stamp: Option<Stamp> = std::fs::read_to_string(case_dir.join(openfoam::STAMP))
+            .ok()
+            .and_then(|t| serde_json::from_str(&t).ok());
         let has_results = case_dir.join(format!("log.{solver}")).exists();
         let mut notes = Vec::new();
-        let (source_dir, stamp, ran, _scratch) = if stamp.as_ref().is_some_and(|s| s.inputs == identity) && has_results {
+        let (source_dir, stamp, ran, _scratch) = if stamp
+            .as_ref()
+            .is_some_and(|s| s.inputs == identity)
+            && has_results
+        {
             (case_dir.clone(), stamp.expect("checked"), false, None)
         } else if openfoam::solver_available(&solver) {
-            let scratch = tempfile::Builder::new().prefix("hydrofit-openfoam-").tempdir()?;
+            let scratch = tempfile::Builder::new()
+                .prefix("hydrofit-openfoam-")
+                .tempdir()?;
             let end = setup.end_time_s;
             let bar = ctx.progress;
             bar.set_message(format!("{solver}: meshing"));
             let label = solver.clone();
-            let progress = move |t: f64| bar.set_message(format!("{label} t = {t:.2} / {end} s ({:.0} %)", 100.0 * t / end.max(1e-12)));
+            let progress = move |t: f64| {
+                bar.set_message(format!(
+                    "{label} t = {t:.2} / {end} s ({:.0} %)",
+                    100.0 * t / end.max(1e-12)
+                ))
+            };
             let files: Vec<String> = local.iter().map(|(p, _)| p.clone()).collect();
-            let stamp = openfoam::run(&case_dir, &files, scratch.path(), &setup, &progress, &identity).map_err(|e| anyhow::anyhow!("case {case_rel}: {e}"))?;
+            let stamp = openfoam::run(
+                &case_dir,
+                &files,
+                scratch.path(),
+                &setup,
+                &progress,
+                &identity,
+            )
+            .map_err(|e| anyhow::anyhow!("case {case_rel}: {e}"))?;
             (scratch.path().to_path_buf(), stamp, true, Some(scratch))
         } else if has_results && stamp.is_none() {
             notes.push(format!("results in {case_rel} were not produced by hydrofit (no {}): used as they are, unverified against the case's inputs", openfoam::STAMP));
-            (case_dir.clone(), Stamp { inputs: identity.clone(), solver: solver.clone(), openfoam: String::new(), steps: 0, execution_time_s: None, clock_time_s: None }, false, None)
+            (
+                case_dir.clone(),
+                Stamp {
+                    inputs: identity.clone(),
+                    solver: solver.clone(),
+                    openfoam: String::new(),
+                    steps: 0,
+                    execution_time_s: None,
+                    clock_time_s: None,
+                },
+                false,
+                None,
+            )
         } else {
-            let what = if has_results { "the case's inputs changed since its results were produced" } else { "the case has never been run" };
-            return Err(InputError::file(&case_rel, format!("{what}, and {solver} (OpenFOAM) is not installed here"), openfoam::INSTALL_HINT).into());
+            let what = if has_results {
+                "the case's inputs changed since its results were produced"
+            } else {
+                "the case has never been run"
+            };
+            return Err(InputError::file(
+                &case_rel,
+                format!("{what}, and {solver} (OpenFOAM) is not installed here"),
+                openfoam::INSTALL_HINT,
+            )
+            .into());
         };
 
-        let (track, log, _) = openfoam::read_track(&source_dir, &solver).map_err(|e| anyhow::anyhow!("case {case_rel}: {e}"))?;
+        let (track, log, _) = openfoam::read_track(&source_dir, &solver)
+            .map_err(|e| anyhow::anyhow!("case {case_rel}: {e}"))?;
         for rel in openfoam::result_files(&solver) {
             if let Ok(bytes) = std::fs::read(source_dir.join(&rel)) {
                 let flat = rel.replace('/', "_");
@@ -122,10 +178,16 @@ impl StageImpl for Settings {
         }
         if ran && self.keep_results_in_case {
             // Last: the stamp vouches for the files written before it.
-            crate::fsutil::write_atomic(&case_dir.join(openfoam::STAMP), serde_json::to_string_pretty(&stamp)?.as_bytes())?;
+            crate::fsutil::write_atomic(
+                &case_dir.join(openfoam::STAMP),
+                serde_json::to_string_pretty(&stamp)?.as_bytes(),
+            )?;
         }
         let response = to_response(&track, &setup, &ctx.vehicle.dofs);
-        anyhow::ensure!(!response.dofs.is_empty(), "case {case_rel}: the body neither moves nor is pushed in any of the vehicle's DOFs");
+        anyhow::ensure!(
+            !response.dofs.is_empty(),
+            "case {case_rel}: the body neither moves nor is pushed in any of the vehicle's DOFs"
+        );
         response.write_parquet(&ctx.out.join(TABLE))?;
         super::write_json(&ctx.out.join(super::openfoam::TRACK), &track)?;
         let info = RunInfo {
@@ -142,7 +204,14 @@ impl StageImpl for Settings {
         };
         let meta = ResponseMeta {
             case: name,
-            source: InputFile { path: format!("{case_rel}/constant/dynamicMeshDict"), blake3: ctx.inputs.iter().find(|i| i.path.ends_with("constant/dynamicMeshDict")).map_or(String::new(), |i| i.blake3.clone()) },
+            source: InputFile {
+                path: format!("{case_rel}/constant/dynamicMeshDict"),
+                blake3: ctx
+                    .inputs
+                    .iter()
+                    .find(|i| i.path.ends_with("constant/dynamicMeshDict"))
+                    .map_or(String::new(), |i| i.blake3.clone()),
+            },
             dofs: response.dofs.keys().copied().collect(),
             sources: response.sources(),
             rows_read: track.t.len(),
@@ -162,7 +231,10 @@ fn to_response(track: &Track, setup: &openfoam::CaseSetup, dofs: &[Dof]) -> Resp
     t.extend(track.t.iter().copied().filter(|&x| x > 0.0));
     let skip = track.t.len() + 1 - t.len();
     let force = setup.applied_force();
-    let mut out = Response { t: t.clone(), dofs: BTreeMap::new() };
+    let mut out = Response {
+        t: t.clone(),
+        dofs: BTreeMap::new(),
+    };
     for d in dofs {
         let (series, f): (Vec<f64>, f64) = match d {
             Dof::Surge => (track.velocity.iter().map(|v| v[0]).collect(), force[0]),
@@ -177,7 +249,16 @@ fn to_response(track: &Track, setup: &openfoam::CaseSetup, dofs: &[Dof]) -> Resp
             continue;
         }
         let accel = differentiate(&t, &velocity);
-        out.dofs.insert(*d, Series { force: vec![f; t.len()], velocity, accel, force_source: Source::Case, accel_source: Source::Differentiated });
+        out.dofs.insert(
+            *d,
+            Series {
+                force: vec![f; t.len()],
+                velocity,
+                accel,
+                force_source: Source::Case,
+                accel_source: Source::Differentiated,
+            },
+        );
     }
     out
 }

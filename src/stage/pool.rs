@@ -28,7 +28,7 @@ pub struct Settings {
     pub fusion: fusion::Settings,
 }
 
-pub use crate::fusion::run::{load, load_for, FusedRun, RunMeta, META};
+pub use crate::fusion::run::{FusedRun, META, RunMeta, load, load_for};
 
 impl StageImpl for Settings {
     fn settings(&self) -> serde_json::Value {
@@ -38,18 +38,34 @@ impl StageImpl for Settings {
     fn run(&self, ctx: &RunCtx) -> anyhow::Result<()> {
         let files: Vec<String> = ctx.inputs.iter().map(|f| f.path.clone()).collect();
         if files.is_empty() {
-            anyhow::bail!("{}: the run folder is empty\n  help: a pool run needs at least run.yaml and thrust.csv", ctx.id);
+            anyhow::bail!(
+                "{}: the run folder is empty\n  help: a pool run needs at least run.yaml and thrust.csv",
+                ctx.id
+            );
         }
         let dir = common_dir(&files);
         let run = pool::load(ctx.root, &dir, &files)?;
         ctx.progress.set_message(format!("fusing {}", run.name));
         let fused = fusion::fuse(&run, &self.fusion);
-        let without_sonar = run.sonar.as_ref().filter(|_| !self.fusion.exclude.iter().any(|e| e == "sonar")).map(|_| {
-            let mut s = self.fusion.clone();
-            s.exclude.push("sonar".into());
-            fusion::fuse(&run, &s)
-        });
-        let thrust: Vec<[f64; 4]> = (0..run.thrust.len()).map(|k| [run.thrust.cols[0][k], run.thrust.cols[1][k], run.thrust.cols[2][k], run.thrust.cols[3][k]]).collect();
+        let without_sonar = run
+            .sonar
+            .as_ref()
+            .filter(|_| !self.fusion.exclude.iter().any(|e| e == "sonar"))
+            .map(|_| {
+                let mut s = self.fusion.clone();
+                s.exclude.push("sonar".into());
+                fusion::fuse(&run, &s)
+            });
+        let thrust: Vec<[f64; 4]> = (0..run.thrust.len())
+            .map(|k| {
+                [
+                    run.thrust.cols[0][k],
+                    run.thrust.cols[1][k],
+                    run.thrust.cols[2][k],
+                    run.thrust.cols[3][k],
+                ]
+            })
+            .collect();
         run::write_table(&ctx.out.join(run::TABLE), &thrust, &fused)?;
         if let Some(f) = &without_sonar {
             run::write_table(&ctx.out.join(run::TABLE_NO_SONAR), &thrust, f)?;

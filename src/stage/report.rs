@@ -1,14 +1,14 @@
 //! `kind: report` — validates every model on every CFD response it reads and writes the report.
 
-use super::{fit, starccm, Artifact, Kind, RunCtx, StageImpl};
-use crate::io::Response;
+use super::{Artifact, Kind, RunCtx, StageImpl, fit, starccm};
 use crate::dof::Dof;
+use crate::io::Response;
 use crate::model::{Plant, Vec6};
-use std::collections::BTreeMap;
 use crate::report::json::{self, DofMetrics, ModelScore, RunScore, Validation};
 use crate::report::{html, plots};
 use crate::validate;
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 use std::sync::Arc;
 
 pub static KIND: Kind = Kind {
@@ -18,7 +18,14 @@ pub static KIND: Kind = Kind {
     reads_files: true,
     input_filter: None,
     produces: Artifact::Report,
-    consumes: &[Artifact::Model, Artifact::Responses, Artifact::PoolRuns, Artifact::Validation, Artifact::Comparison, Artifact::Diagnosis],
+    consumes: &[
+        Artifact::Model,
+        Artifact::Responses,
+        Artifact::PoolRuns,
+        Artifact::Validation,
+        Artifact::Comparison,
+        Artifact::Diagnosis,
+    ],
     requires: &[Artifact::Model],
     requires_one_of: &[],
     uses_vehicle: super::VehicleUse::All,
@@ -30,7 +37,13 @@ pub static KIND: Kind = Kind {
 #[serde(deny_unknown_fields, default)]
 pub struct Settings {}
 
-pub const FILES: [&str; 5] = ["index.html", "parameters.json", "validation.json", "fusion.json", "diagnosis.json"];
+pub const FILES: [&str; 5] = [
+    "index.html",
+    "parameters.json",
+    "validation.json",
+    "fusion.json",
+    "diagnosis.json",
+];
 
 struct Case {
     id: String,
@@ -49,15 +62,33 @@ impl StageImpl for Settings {
     }
 
     fn run(&self, ctx: &RunCtx) -> anyhow::Result<()> {
-        let fits: Vec<fit::FitResult> = ctx.upstream_of(Artifact::Model).map(|u| fit::load(&u.dir)).collect::<Result<_, _>>()?;
+        let fits: Vec<fit::FitResult> = ctx
+            .upstream_of(Artifact::Model)
+            .map(|u| fit::load(&u.dir))
+            .collect::<Result<_, _>>()?;
         let mut cases = Vec::new();
         for u in ctx.upstream_of(Artifact::Responses) {
             let (meta, response) = starccm::load(&u.dir)?;
             let track = crate::stage::openfoam::load_track(&u.dir);
-            cases.push(Case { id: u.id.clone(), name: meta.case, response, notes: meta.notes, mass: meta.body_mass_kg, openfoam: meta.openfoam, track });
+            cases.push(Case {
+                id: u.id.clone(),
+                name: meta.case,
+                response,
+                notes: meta.notes,
+                mass: meta.body_mass_kg,
+                openfoam: meta.openfoam,
+                track,
+            });
         }
-        let pool_runs: Vec<crate::stage::pool::FusedRun> = ctx.upstream_of(Artifact::PoolRuns).map(|u| crate::stage::pool::load_for(&u.dir, ctx.vehicle)).collect::<Result<_, _>>()?;
-        let pool_scores = ctx.upstream_of(Artifact::Validation).next().map(|u| crate::stage::validate::load(&u.dir)).transpose()?;
+        let pool_runs: Vec<crate::stage::pool::FusedRun> = ctx
+            .upstream_of(Artifact::PoolRuns)
+            .map(|u| crate::stage::pool::load_for(&u.dir, ctx.vehicle))
+            .collect::<Result<_, _>>()?;
+        let pool_scores = ctx
+            .upstream_of(Artifact::Validation)
+            .next()
+            .map(|u| crate::stage::validate::load(&u.dir))
+            .transpose()?;
         let mut models = Vec::new();
         let mut first_sims: Vec<Option<Vec<Vec6>>> = vec![None; cases.len()];
         let mut body_html = String::new();
@@ -82,13 +113,29 @@ impl StageImpl for Settings {
                 let role = if trained { "train" } else { "validate" };
                 let scores = validate::score(&c.response, &sim);
                 if f.vehicle.is_some() {
-                    own_cases.push((ci, scores.first().map_or(f64::NAN, |(_, m)| m.nmae), sim.iter().map(|nu| nu[0]).collect::<Vec<f64>>()));
+                    own_cases.push((
+                        ci,
+                        scores.first().map_or(f64::NAN, |(_, m)| m.nmae),
+                        sim.iter().map(|nu| nu[0]).collect::<Vec<f64>>(),
+                    ));
                 }
                 let dofs = scores
                     .into_iter()
-                    .map(|(d, metrics)| (d.name().to_string(), DofMetrics { metrics, residual_acf_outside_band: None }))
+                    .map(|(d, metrics)| {
+                        (
+                            d.name().to_string(),
+                            DofMetrics {
+                                metrics,
+                                residual_acf_outside_band: None,
+                            },
+                        )
+                    })
                     .collect();
-                runs.push(RunScore { run: c.name.clone(), role: role.into(), dofs });
+                runs.push(RunScore {
+                    run: c.name.clone(),
+                    role: role.into(),
+                    dofs,
+                });
                 if first_sims[ci].is_none() && f.vehicle.is_none() {
                     first_sims[ci] = Some(sim);
                 }
@@ -98,32 +145,82 @@ impl StageImpl for Settings {
                 .filter_map(|(ci, nmae, simulated)| {
                     let c = &cases[ci];
                     let s = c.response.dofs.get(&Dof::Surge)?;
-                    Some(crate::report::openfoam::Case { name: &c.name, info: c.openfoam.as_ref()?, t: &c.response.t, velocity: &s.velocity, accel: &s.accel, simulated, nmae, track: c.track.as_ref() })
+                    Some(crate::report::openfoam::Case {
+                        name: &c.name,
+                        info: c.openfoam.as_ref()?,
+                        t: &c.response.t,
+                        velocity: &s.velocity,
+                        accel: &s.accel,
+                        simulated,
+                        nmae,
+                        track: c.track.as_ref(),
+                    })
                 })
                 .collect();
             if !of_cases.is_empty() {
                 body_html += &crate::report::openfoam::section(f, &of_cases)?;
             }
-            if let Some(ms) = pool_scores.as_ref().and_then(|(s, _)| s.models.iter().find(|m| m.model == f.stage)) {
+            if let Some(ms) = pool_scores
+                .as_ref()
+                .and_then(|(s, _)| s.models.iter().find(|m| m.model == f.stage))
+            {
                 for r in &ms.runs {
                     let dofs = r
                         .dofs
                         .iter()
-                        .map(|(d, s)| (d.name().to_string(), DofMetrics { metrics: s.metrics, residual_acf_outside_band: Some(s.whiteness.outside) }))
+                        .map(|(d, s)| {
+                            (
+                                d.name().to_string(),
+                                DofMetrics {
+                                    metrics: s.metrics,
+                                    residual_acf_outside_band: Some(s.whiteness.outside),
+                                },
+                            )
+                        })
                         .collect();
-                    runs.push(RunScore { run: r.run.clone(), role: r.role.clone(), dofs });
+                    runs.push(RunScore {
+                        run: r.run.clone(),
+                        role: r.role.clone(),
+                        dofs,
+                    });
                 }
             }
-            models.push(ModelScore { model: f.stage.clone(), runs });
+            models.push(ModelScore {
+                model: f.stage.clone(),
+                runs,
+            });
         }
         let truth_files: Vec<String> = ctx.inputs.iter().map(|i| i.path.clone()).collect();
         let accuracy = crate::report::pool::fusion_accuracy(ctx.root, &truth_files, &pool_runs)?;
-        let comparison = ctx.upstream_of(Artifact::Comparison).next().map(|u| crate::stage::compare::load(&u.dir)).transpose()?;
-        let compare_html = comparison.as_ref().map_or(String::new(), crate::report::compare::section);
-        let diagnosis = ctx.upstream_of(Artifact::Diagnosis).next().map(|u| crate::stage::diagnose::load(&u.dir)).transpose()?;
-        let diagnosis_html = diagnosis.as_ref().map_or(String::new(), |(d, figs)| crate::report::diagnose::section(d, figs));
-        let pool_html = compare_html + &diagnosis_html + &crate::report::pool::section(&pool_runs, pool_scores.as_ref().map(|(s, _)| s), pool_scores.as_ref().map_or(&[][..], |(_, v)| v), &accuracy)?;
-        let plotted: Vec<(&Case, &Vec<Vec6>)> = cases.iter().zip(&first_sims).filter_map(|(c, s)| Some((c, s.as_ref()?))).collect();
+        let comparison = ctx
+            .upstream_of(Artifact::Comparison)
+            .next()
+            .map(|u| crate::stage::compare::load(&u.dir))
+            .transpose()?;
+        let compare_html = comparison
+            .as_ref()
+            .map_or(String::new(), crate::report::compare::section);
+        let diagnosis = ctx
+            .upstream_of(Artifact::Diagnosis)
+            .next()
+            .map(|u| crate::stage::diagnose::load(&u.dir))
+            .transpose()?;
+        let diagnosis_html = diagnosis.as_ref().map_or(String::new(), |(d, figs)| {
+            crate::report::diagnose::section(d, figs)
+        });
+        let pool_html = compare_html
+            + &diagnosis_html
+            + &crate::report::pool::section(
+                &pool_runs,
+                pool_scores.as_ref().map(|(s, _)| s),
+                pool_scores.as_ref().map_or(&[][..], |(_, v)| v),
+                &accuracy,
+            )?;
+        let plotted: Vec<(&Case, &Vec<Vec6>)> = cases
+            .iter()
+            .zip(&first_sims)
+            .filter_map(|(c, s)| Some((c, s.as_ref()?)))
+            .collect();
         let svgs = velocity_plots(&plotted)?;
         let parameters = json::parameters(&fits);
         let validation = Validation { models };
@@ -133,7 +230,15 @@ impl StageImpl for Settings {
             parameters: &parameters,
             validation: &validation,
             plots: svgs,
-            notes: cases.iter().map(|c| (c.name.clone(), c.notes.clone())).chain(pool_runs.iter().map(|r| (r.meta.run.clone(), r.meta.notes.clone()))).collect(),
+            notes: cases
+                .iter()
+                .map(|c| (c.name.clone(), c.notes.clone()))
+                .chain(
+                    pool_runs
+                        .iter()
+                        .map(|r| (r.meta.run.clone(), r.meta.notes.clone())),
+                )
+                .collect(),
             pool_html,
             body_html,
             failed: ctx.failed_notes(),
@@ -145,7 +250,10 @@ impl StageImpl for Settings {
             .iter()
             .map(|r| serde_json::json!({"run": r.meta.run, "role": r.meta.role, "sensors": r.meta.sensors, "stats": r.meta.stats, "accuracy_against_truth": accuracy.iter().find(|a| a.run == r.meta.run)}))
             .collect();
-        super::write_json(&ctx.out.join("fusion.json"), &serde_json::json!({ "runs": fusion }))?;
+        super::write_json(
+            &ctx.out.join("fusion.json"),
+            &serde_json::json!({ "runs": fusion }),
+        )?;
         if let Some((d, _)) = &diagnosis {
             super::write_json(&ctx.out.join("diagnosis.json"), d)?;
         }
@@ -158,7 +266,10 @@ fn velocity_plots(plotted: &[(&Case, &Vec<Vec6>)]) -> anyhow::Result<Vec<(String
     let mut by_dof: BTreeMap<Dof, Vec<(&Case, Vec<f64>)>> = BTreeMap::new();
     for (c, sim) in plotted {
         for d in c.response.dofs.keys() {
-            by_dof.entry(*d).or_default().push((c, sim.iter().map(|nu| nu[d.index()]).collect()));
+            by_dof
+                .entry(*d)
+                .or_default()
+                .push((c, sim.iter().map(|nu| nu[d.index()]).collect()));
         }
     }
     by_dof
@@ -166,7 +277,12 @@ fn velocity_plots(plotted: &[(&Case, &Vec<Vec6>)]) -> anyhow::Result<Vec<(String
         .map(|(d, list)| {
             let traces: Vec<plots::Trace> = list
                 .iter()
-                .map(|(c, s)| plots::Trace { label: &c.name, t: &c.response.t, measured: &c.response.dofs[&d].velocity, simulated: s })
+                .map(|(c, s)| plots::Trace {
+                    label: &c.name,
+                    t: &c.response.t,
+                    measured: &c.response.dofs[&d].velocity,
+                    simulated: s,
+                })
                 .collect();
             Ok((d.name().to_string(), plots::velocity(d, &traces)?))
         })

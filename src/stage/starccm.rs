@@ -2,8 +2,8 @@
 
 use super::{Artifact, Kind, RunCtx, StageImpl};
 use crate::dof::Dof;
-use crate::io::starccm::{self, ColumnMap, ImportOptions};
 use crate::io::Response;
+use crate::io::starccm::{self, ColumnMap, ImportOptions};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -76,10 +76,20 @@ impl StageImpl for Settings {
     }
 
     fn run(&self, ctx: &RunCtx) -> anyhow::Result<()> {
-        let input = ctx.inputs.first().ok_or_else(|| anyhow::anyhow!("no input file"))?;
+        let input = ctx
+            .inputs
+            .first()
+            .ok_or_else(|| anyhow::anyhow!("no input file"))?;
         let text = std::fs::read(ctx.root.join(&input.path))?;
         let text = String::from_utf8(text).map_err(|e| {
-            crate::diag::InputError::file(&input.path, format!("not UTF-8 text (byte {} is invalid)", e.utf8_error().valid_up_to()), "export as CSV text from STAR-CCM+, not a binary or spreadsheet file")
+            crate::diag::InputError::file(
+                &input.path,
+                format!(
+                    "not UTF-8 text (byte {} is invalid)",
+                    e.utf8_error().valid_up_to()
+                ),
+                "export as CSV text from STAR-CCM+, not a binary or spreadsheet file",
+            )
         })?;
         let mut configured_force = BTreeMap::new();
         for af in &self.applied_force {
@@ -87,10 +97,16 @@ impl StageImpl for Settings {
                 configured_force.extend(af.force.iter().map(|(d, f)| (*d, *f)));
             }
         }
-        let opts = ImportOptions { columns: &self.columns, dofs: &ctx.vehicle.dofs, configured_force };
+        let opts = ImportOptions {
+            columns: &self.columns,
+            dofs: &ctx.vehicle.dofs,
+            configured_force,
+        };
         let imported = starccm::parse(&input.path, &text, &opts)?;
         imported.response.write_parquet(&ctx.out.join(TABLE))?;
-        let case = std::path::Path::new(&input.path).file_stem().map_or(input.path.clone(), |s| s.to_string_lossy().into_owned());
+        let case = std::path::Path::new(&input.path)
+            .file_stem()
+            .map_or(input.path.clone(), |s| s.to_string_lossy().into_owned());
         let meta = ResponseMeta {
             case,
             source: input.clone(),

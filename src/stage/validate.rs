@@ -2,7 +2,7 @@
 //! from the run's fused initial state, and scores it per DOF: MAE, normalised MAE (seed 003),
 //! RMSE as % of the run's peak speed (seed 001) and the residual's whiteness (seed 000).
 
-use super::{fit, pool, Artifact, Kind, RunCtx, StageImpl};
+use super::{Artifact, Kind, RunCtx, StageImpl, fit, pool};
 use crate::dof::Dof;
 use crate::model::stability::{Horizon, Stability};
 use crate::model::{Plant, Vec6};
@@ -43,7 +43,11 @@ pub struct Settings {
 
 impl Default for Settings {
     fn default() -> Settings {
-        Settings { max_lag_s: 5.0, cross_validate: true, horizon_s: Horizon::WholeRun }
+        Settings {
+            max_lag_s: 5.0,
+            cross_validate: true,
+            horizon_s: Horizon::WholeRun,
+        }
     }
 }
 
@@ -126,14 +130,26 @@ pub use crate::fusion::run::POOL_DOFS;
 /// The model's response to a fused run's logged thrust, from the run's first fused state,
 /// re-anchored to the fused state every window where `horizon` asks for it (multiple
 /// shooting, see [`crate::model::stability`]), and the stability that chose the window.
-pub fn simulate_run(plant: &Plant, run: &pool::FusedRun, horizon: Horizon) -> (Vec<Vec6>, Stability) {
+pub fn simulate_run(
+    plant: &Plant,
+    run: &pool::FusedRun,
+    horizon: Horizon,
+) -> (Vec<Vec6>, Stability) {
     let t = &run.fused.t;
-    let tau: Vec<Vec6> = run.thrust.iter().map(|c| [c[0], c[1], c[2], 0.0, 0.0, c[3]]).collect();
+    let tau: Vec<Vec6> = run
+        .thrust
+        .iter()
+        .map(|c| [c[0], c[1], c[2], 0.0, 0.0, c[3]])
+        .collect();
     // A window after the first starts from the recording's centred mean over five samples, so
     // that one sample's noise is not carried through it.
     let fused_at = |k: usize| -> Vec6 {
         let mut nu = [0.0; 6];
-        let (a, b) = if k == 0 { (0, 0) } else { (k.saturating_sub(2), (k + 2).min(t.len() - 1)) };
+        let (a, b) = if k == 0 {
+            (0, 0)
+        } else {
+            (k.saturating_sub(2), (k + 2).min(t.len() - 1))
+        };
         for (j, d) in POOL_DOFS.iter().enumerate() {
             if let Some(v) = &run.fused.vel[j] {
                 nu[d.index()] = v[a..=b].iter().sum::<f64>() / (b - a + 1) as f64;
@@ -141,7 +157,9 @@ pub fn simulate_run(plant: &Plant, run: &pool::FusedRun, horizon: Horizon) -> (V
         }
         nu
     };
-    let vel: Vec<[f64; 4]> = (0..t.len()).map(|k| std::array::from_fn(|j| run.fused.vel[j].as_ref().map_or(0.0, |v| v[k]))).collect();
+    let vel: Vec<[f64; 4]> = (0..t.len())
+        .map(|k| std::array::from_fn(|j| run.fused.vel[j].as_ref().map_or(0.0, |v| v[k])))
+        .collect();
     let stability = crate::model::stability::along(plant, t, &vel, horizon);
     let mut anchors = crate::model::stability::anchors(t, stability.horizon_s);
     anchors.push(t.len());
@@ -158,12 +176,25 @@ pub fn simulate_run(plant: &Plant, run: &pool::FusedRun, horizon: Horizon) -> (V
 }
 
 /// Scores of one simulation against one fused run, for the DOFs both have.
-pub fn score_run(vehicle_dofs: &[Dof], run: &pool::FusedRun, sim: &[Vec6], max_lag_s: f64) -> RunScore {
-    let dt = if run.fused.t.len() > 1 { (run.fused.t[run.fused.t.len() - 1] - run.fused.t[0]) / (run.fused.t.len() - 1) as f64 } else { 0.05 };
-    let diverged = sim.iter().any(|nu| nu.iter().any(|x| !x.is_finite() || x.abs() > 50.0));
+pub fn score_run(
+    vehicle_dofs: &[Dof],
+    run: &pool::FusedRun,
+    sim: &[Vec6],
+    max_lag_s: f64,
+) -> RunScore {
+    let dt = if run.fused.t.len() > 1 {
+        (run.fused.t[run.fused.t.len() - 1] - run.fused.t[0]) / (run.fused.t.len() - 1) as f64
+    } else {
+        0.05
+    };
+    let diverged = sim
+        .iter()
+        .any(|nu| nu.iter().any(|x| !x.is_finite() || x.abs() > 50.0));
     let mut dofs = BTreeMap::new();
     for (j, d) in POOL_DOFS.iter().enumerate() {
-        let (Some(v), Some(s)) = (&run.fused.vel[j], &run.fused.std[j]) else { continue };
+        let (Some(v), Some(s)) = (&run.fused.vel[j], &run.fused.std[j]) else {
+            continue;
+        };
         if !vehicle_dofs.contains(d) {
             continue;
         }
@@ -178,7 +209,13 @@ pub fn score_run(vehicle_dofs: &[Dof], run: &pool::FusedRun, sim: &[Vec6], max_l
             },
         );
     }
-    RunScore { run: run.meta.run.clone(), role: run.meta.role.as_str().into(), dofs, diverged, stability: None }
+    RunScore {
+        run: run.meta.run.clone(),
+        role: run.meta.role.as_str().into(),
+        dofs,
+        diverged,
+        stability: None,
+    }
 }
 
 impl StageImpl for Settings {
@@ -187,8 +224,14 @@ impl StageImpl for Settings {
     }
 
     fn run(&self, ctx: &RunCtx) -> anyhow::Result<()> {
-        let fits: Vec<fit::FitResult> = ctx.upstream_of(Artifact::Model).map(|u| fit::load(&u.dir)).collect::<Result<_, _>>()?;
-        let runs: Vec<pool::FusedRun> = ctx.upstream_of(Artifact::PoolRuns).map(|u| pool::load_for(&u.dir, ctx.vehicle)).collect::<Result<_, _>>()?;
+        let fits: Vec<fit::FitResult> = ctx
+            .upstream_of(Artifact::Model)
+            .map(|u| fit::load(&u.dir))
+            .collect::<Result<_, _>>()?;
+        let runs: Vec<pool::FusedRun> = ctx
+            .upstream_of(Artifact::PoolRuns)
+            .map(|u| pool::load_for(&u.dir, ctx.vehicle))
+            .collect::<Result<_, _>>()?;
         let mut models = Vec::new();
         for f in &fits {
             let plant = f.plant(ctx.vehicle);
@@ -198,35 +241,80 @@ impl StageImpl for Settings {
                 let mut score = score_run(&ctx.vehicle.dofs, run, &sim, self.max_lag_s);
                 score.stability = Some(stability);
                 scored.push(score);
-                let nu = POOL_DOFS.iter().filter(|d| ctx.vehicle.dofs.contains(d)).map(|d| (*d, sim.iter().map(|x| x[d.index()]).collect())).collect();
-                let s = Simulated { model: f.stage.clone(), run: run.meta.run.clone(), t: run.fused.t.clone(), nu };
+                let nu = POOL_DOFS
+                    .iter()
+                    .filter(|d| ctx.vehicle.dofs.contains(d))
+                    .map(|d| (*d, sim.iter().map(|x| x[d.index()]).collect()))
+                    .collect();
+                let s = Simulated {
+                    model: f.stage.clone(),
+                    run: run.meta.run.clone(),
+                    t: run.fused.t.clone(),
+                    nu,
+                };
                 super::write_json(&ctx.out.join(sim_file(&f.stage, &run.meta.run)), &s)?;
             }
             let mut mean_nmae: BTreeMap<String, BTreeMap<Dof, f64>> = BTreeMap::new();
             for role in ["train", "validate"] {
-                let of_role: Vec<&RunScore> = scored.iter().filter(|r| r.role == role && !r.diverged).collect();
+                let of_role: Vec<&RunScore> = scored
+                    .iter()
+                    .filter(|r| r.role == role && !r.diverged)
+                    .collect();
                 for d in POOL_DOFS {
-                    let v: Vec<f64> = of_role.iter().filter_map(|r| r.dofs.get(&d)).map(|s| s.metrics.nmae).filter(|x| x.is_finite()).collect();
+                    let v: Vec<f64> = of_role
+                        .iter()
+                        .filter_map(|r| r.dofs.get(&d))
+                        .map(|s| s.metrics.nmae)
+                        .filter(|x| x.is_finite())
+                        .collect();
                     if !v.is_empty() {
-                        mean_nmae.entry(role.into()).or_default().insert(d, v.iter().sum::<f64>() / v.len() as f64);
+                        mean_nmae
+                            .entry(role.into())
+                            .or_default()
+                            .insert(d, v.iter().sum::<f64>() / v.len() as f64);
                     }
                 }
             }
-            models.push(ModelScore { model: f.stage.clone(), runs: scored, mean_nmae });
+            models.push(ModelScore {
+                model: f.stage.clone(),
+                runs: scored,
+                mean_nmae,
+            });
         }
-        let (cross, mut notes) = if self.cross_validate { cross_validate(ctx.vehicle, &runs, self.max_lag_s) } else { (vec![], vec![]) };
+        let (cross, mut notes) = if self.cross_validate {
+            cross_validate(ctx.vehicle, &runs, self.max_lag_s)
+        } else {
+            (vec![], vec![])
+        };
         notes.extend(ctx.failed_notes());
-        super::write_json(&ctx.out.join(SCORES), &Scores { models, cross, notes })
+        super::write_json(
+            &ctx.out.join(SCORES),
+            &Scores {
+                models,
+                cross,
+                notes,
+            },
+        )
     }
 }
 
-fn cross_validate(vehicle: &crate::model::Vehicle, runs: &[pool::FusedRun], max_lag_s: f64) -> (Vec<CrossFit>, Vec<String>) {
+fn cross_validate(
+    vehicle: &crate::model::Vehicle,
+    runs: &[pool::FusedRun],
+    max_lag_s: f64,
+) -> (Vec<CrossFit>, Vec<String>) {
     use crate::estimate::Estimator as _;
     let mut out = Vec::new();
     let mut notes = Vec::new();
-    for train in runs.iter().filter(|r| r.meta.role == crate::io::pool::Role::Train) {
+    for train in runs
+        .iter()
+        .filter(|r| r.meta.role == crate::io::pool::Role::Train)
+    {
         let Some(resp) = train.as_response(vehicle) else {
-            notes.push(format!("{}: not every DOF was fused, so no model was re-estimated on it", train.meta.run));
+            notes.push(format!(
+                "{}: not every DOF was fused, so no model was re-estimated on it",
+                train.meta.run
+            ));
             continue;
         };
         let problem = crate::estimate::Regression::build(vehicle, &[&resp], 1.0);
@@ -239,8 +327,23 @@ fn cross_validate(vehicle: &crate::model::Vehicle, runs: &[pool::FusedRun], max_
         };
         let theta: Vec<f64> = fit.parameters.iter().map(|p| p.value).collect();
         let plant = Plant::new(vehicle, problem.layout.to_hydro(&theta));
-        let scored = runs.iter().filter(|r| r.meta.run != train.meta.run).map(|r| score_run(&vehicle.dofs, r, &simulate_run(&plant, r, Horizon::WholeRun).0, max_lag_s)).collect();
-        out.push(CrossFit { trained_on: train.meta.run.clone(), parameters: fit.parameters, runs: scored });
+        let scored = runs
+            .iter()
+            .filter(|r| r.meta.run != train.meta.run)
+            .map(|r| {
+                score_run(
+                    &vehicle.dofs,
+                    r,
+                    &simulate_run(&plant, r, Horizon::WholeRun).0,
+                    max_lag_s,
+                )
+            })
+            .collect();
+        out.push(CrossFit {
+            trained_on: train.meta.run.clone(),
+            parameters: fit.parameters,
+            runs: scored,
+        });
     }
     (out, notes)
 }
@@ -264,7 +367,13 @@ mod tests {
         for (k, nu) in sim.iter().enumerate() {
             let s = &truth.states[k * 5];
             for i in [0, 1, 2, 5] {
-                assert!((nu[i] - s.nu[i]).abs() < 1e-6, "t {} dof {i}: {} vs {}", t[k], nu[i], s.nu[i]);
+                assert!(
+                    (nu[i] - s.nu[i]).abs() < 1e-6,
+                    "t {} dof {i}: {} vs {}",
+                    t[k],
+                    nu[i],
+                    s.nu[i]
+                );
             }
         }
     }

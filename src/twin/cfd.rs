@@ -38,7 +38,10 @@ fn level_name(v: f64) -> String {
 /// combined runs in which the Coriolis and Munk terms (eq. 6-7) act.
 pub fn default_cases() -> Vec<Case> {
     let mut cases = Vec::new();
-    let plain = Export { inner_rows: 1, ..Default::default() };
+    let plain = Export {
+        inner_rows: 1,
+        ..Default::default()
+    };
     let mut add = |dof: Dof, levels: &[f64], duration_s: f64, unit: &str| {
         for (i, f) in levels.iter().enumerate() {
             // Every third run written with its inner iterations, as a monitor set to
@@ -48,18 +51,36 @@ pub fn default_cases() -> Vec<Case> {
                 degrees: dof == Dof::Yaw && i % 2 == 1,
                 no_acceleration: dof == Dof::Surge && *f == 50.0,
             };
-            cases.push(Case { name: format!("{dof}_{}{unit}", level_name(*f)), loads: vec![(dof, *f)], duration_s, export });
+            cases.push(Case {
+                name: format!("{dof}_{}{unit}", level_name(*f)),
+                loads: vec![(dof, *f)],
+                duration_s,
+                export,
+            });
         }
     };
     // Seed 001 lists 2 N, 5 N and 10-100 N every 10 N (12 levels) yet counts 13 cases:
     // 15 N fills the gap where the drag changes from mostly linear to mostly quadratic.
-    let surge_levels: Vec<f64> = [2.0, 5.0, 15.0].into_iter().chain((1..=10).map(|k| 10.0 * k as f64)).collect();
+    let surge_levels: Vec<f64> = [2.0, 5.0, 15.0]
+        .into_iter()
+        .chain((1..=10).map(|k| 10.0 * k as f64))
+        .collect();
     add(Dof::Surge, &surge_levels, 24.0, "N");
     add(Dof::Sway, &[2.0, 5.0, 10.0, 20.0, 40.0, 60.0], 20.0, "N");
     add(Dof::Heave, &[5.0, 10.0, 20.0, 40.0, 60.0, 80.0], 16.0, "N");
     add(Dof::Yaw, &[0.5, 1.0, 2.0, 4.0, 6.0, 8.0], 16.0, "Nm");
-    cases.push(Case { name: "surge_yaw_40N_2Nm".into(), loads: vec![(Dof::Surge, 40.0), (Dof::Yaw, 2.0)], duration_s: 20.0, export: plain });
-    cases.push(Case { name: "sway_yaw_10N_1Nm".into(), loads: vec![(Dof::Sway, 10.0), (Dof::Yaw, 1.0)], duration_s: 20.0, export: plain });
+    cases.push(Case {
+        name: "surge_yaw_40N_2Nm".into(),
+        loads: vec![(Dof::Surge, 40.0), (Dof::Yaw, 2.0)],
+        duration_s: 20.0,
+        export: plain,
+    });
+    cases.push(Case {
+        name: "sway_yaw_10N_1Nm".into(),
+        loads: vec![(Dof::Sway, 10.0), (Dof::Yaw, 1.0)],
+        duration_s: 20.0,
+        export: plain,
+    });
     cases
 }
 
@@ -85,7 +106,12 @@ fn simulate(plant: &Plant, case: &Case, rng: &mut Rng) -> Run {
     let sub = 10;
     let h = DT / sub as f64;
     let mut nu = [0.0; 6];
-    let mut run = Run { t: vec![], tau: vec![], nu: vec![], nu_dot: vec![] };
+    let mut run = Run {
+        t: vec![],
+        tau: vec![],
+        nu: vec![],
+        nu_dot: vec![],
+    };
     let load_at = |t: f64| -> [f64; 6] {
         let ripple = 1.0 + 0.005 * (std::f64::consts::TAU * freq * t + phase).sin();
         applied.map(|f| f * ripple)
@@ -105,7 +131,9 @@ fn simulate(plant: &Plant, case: &Case, rng: &mut Rng) -> Run {
 }
 
 fn rk4(plant: &Plant, nu: &[f64; 6], t: f64, h: f64, load: &dyn Fn(f64) -> [f64; 6]) -> [f64; 6] {
-    let add = |a: &[f64; 6], k: &[f64; 6], s: f64| -> [f64; 6] { std::array::from_fn(|i| a[i] + s * k[i]) };
+    let add = |a: &[f64; 6], k: &[f64; 6], s: f64| -> [f64; 6] {
+        std::array::from_fn(|i| a[i] + s * k[i])
+    };
     let k1 = plant.accel(nu, &load(t));
     let k2 = plant.accel(&add(nu, &k1, h / 2.0), &load(t + h / 2.0));
     let k3 = plant.accel(&add(nu, &k2, h / 2.0), &load(t + h / 2.0));
@@ -121,9 +149,17 @@ fn monitor_headers(d: Dof, degrees: bool, no_acc: bool) -> Vec<String> {
         (true, true) => ("N-m", "deg/s", "deg/s^2"),
     };
     let (f, v, acc) = if d.is_angular() {
-        (format!("Applied Moment {a} Monitor: Moment ({fu})"), format!("Body Angular Velocity {a} Monitor: Angular Velocity ({vu})"), format!("Body Angular Acceleration {a} Monitor: Angular Acceleration ({au})"))
+        (
+            format!("Applied Moment {a} Monitor: Moment ({fu})"),
+            format!("Body Angular Velocity {a} Monitor: Angular Velocity ({vu})"),
+            format!("Body Angular Acceleration {a} Monitor: Angular Acceleration ({au})"),
+        )
     } else {
-        (format!("Applied Force {a} Monitor: Force ({fu})"), format!("Body Velocity {a} Monitor: Velocity ({vu})"), format!("Body Acceleration {a} Monitor: Acceleration ({au})"))
+        (
+            format!("Applied Force {a} Monitor: Force ({fu})"),
+            format!("Body Velocity {a} Monitor: Velocity ({vu})"),
+            format!("Body Acceleration {a} Monitor: Acceleration ({au})"),
+        )
     };
     let mut h = vec![f, v];
     if !no_acc {
@@ -138,12 +174,26 @@ fn render(case: &Case, run: &Run, rng: &mut Rng) -> String {
     // Every DOF that moves is exported, loaded or not: in a combined run the Coriolis terms
     // drive the free DOFs too (surge + yaw makes the vehicle sway), and a DFBI export records them.
     let moves = |d: Dof| run.nu.iter().any(|nu| nu[d.index()].abs() > 1e-6);
-    let dofs: Vec<Dof> = Dof::ALL.into_iter().filter(|d| case.loads.iter().any(|(l, _)| l == d) || moves(*d)).collect();
-    let mut header = vec!["Iteration".to_string(), "Physical Time: Physical Time (s)".to_string()];
+    let dofs: Vec<Dof> = Dof::ALL
+        .into_iter()
+        .filter(|d| case.loads.iter().any(|(l, _)| l == d) || moves(*d))
+        .collect();
+    let mut header = vec![
+        "Iteration".to_string(),
+        "Physical Time: Physical Time (s)".to_string(),
+    ];
     for d in &dofs {
-        header.extend(monitor_headers(*d, case.export.degrees, case.export.no_acceleration));
+        header.extend(monitor_headers(
+            *d,
+            case.export.degrees,
+            case.export.no_acceleration,
+        ));
     }
-    let mut out = header.iter().map(|h| format!("\"{h}\"")).collect::<Vec<_>>().join(",");
+    let mut out = header
+        .iter()
+        .map(|h| format!("\"{h}\""))
+        .collect::<Vec<_>>()
+        .join(",");
     out.push('\n');
     // Numerical noise: 0.05 % of the final speed on velocity, 1 % of the initial acceleration
     // on the acceleration monitor (derived from noisy pressure integrals).
@@ -157,10 +207,18 @@ fn render(case: &Case, run: &Run, rng: &mut Rng) -> String {
             let _ = write!(out, "{iteration},{:.2}", run.t[k]);
             for d in &dofs {
                 let i = d.index();
-                let scale = if d.is_angular() && case.export.degrees { 180.0 / std::f64::consts::PI } else { 1.0 };
+                let scale = if d.is_angular() && case.export.degrees {
+                    180.0 / std::f64::consts::PI
+                } else {
+                    1.0
+                };
                 let a0 = run.nu_dot[0][i].abs();
-                let v = run.nu[k][i] + 5e-4 * last[i].abs() * rng.normal() + unconverged * 0.02 * last[i].abs() * rng.normal();
-                let a = run.nu_dot[k][i] + 0.01 * a0 * rng.normal() + unconverged * 0.2 * a0 * rng.normal();
+                let v = run.nu[k][i]
+                    + 5e-4 * last[i].abs() * rng.normal()
+                    + unconverged * 0.02 * last[i].abs() * rng.normal();
+                let a = run.nu_dot[k][i]
+                    + 0.01 * a0 * rng.normal()
+                    + unconverged * 0.2 * a0 * rng.normal();
                 let _ = write!(out, ",{:.8e},{:.8e}", run.tau[k][i], v * scale);
                 if !case.export.no_acceleration {
                     let _ = write!(out, ",{:.8e}", a * scale);
@@ -187,7 +245,10 @@ pub fn write_cases(dir: &Path, cases: &[Case], seed: u64) -> std::io::Result<Vec
     let mut written = Vec::new();
     for case in cases {
         let path = dir.join(format!("{}.csv", case.name));
-        crate::fsutil::write_atomic(&path, export(&vehicle, Hydro::reference(), case, seed).as_bytes())?;
+        crate::fsutil::write_atomic(
+            &path,
+            export(&vehicle, Hydro::reference(), case, seed).as_bytes(),
+        )?;
         written.push(path);
     }
     Ok(written)

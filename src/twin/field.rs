@@ -42,7 +42,14 @@ pub struct Hidden {
 
 impl Default for Hidden {
     fn default() -> Hidden {
-        Hidden { buoyancy_up_n: 6.0, tether_k: 1.6, tether_slack_m: 1.5, nav_latency_s: 0.15, nav_filter_s: 0.25, limits: [60.0, 50.0, 45.0, 9.0] }
+        Hidden {
+            buoyancy_up_n: 6.0,
+            tether_k: 1.6,
+            tether_slack_m: 1.5,
+            nav_latency_s: 0.15,
+            nav_filter_s: 0.25,
+            limits: [60.0, 50.0, 45.0, 9.0],
+        }
     }
 }
 
@@ -64,7 +71,11 @@ pub fn hydro() -> Hydro {
     }
 }
 
-pub const POOL: crate::model::effects::Pool = crate::model::effects::Pool { length_m: 30.0, width_m: 15.0, depth_m: 5.0 };
+pub const POOL: crate::model::effects::Pool = crate::model::effects::Pool {
+    length_m: 30.0,
+    width_m: 15.0,
+    depth_m: 5.0,
+};
 pub const ANCHOR: [f64; 3] = [1.0, 7.5, 0.0];
 
 /// The flights: what the controller is asked to do.
@@ -92,7 +103,12 @@ pub struct RunSpec {
 }
 
 pub fn default_runs() -> Vec<RunSpec> {
-    let r = |name: &str, role: &str, flight| RunSpec { name: name.into(), role: role.into(), flight, duration_s: 60.0 };
+    let r = |name: &str, role: &str, flight| RunSpec {
+        name: name.into(),
+        role: role.into(),
+        flight,
+        duration_s: 60.0,
+    };
     vec![
         r("box_1", "train", Flight::Box),
         r("depth_steps", "train", Flight::DepthSteps),
@@ -108,7 +124,12 @@ fn reference(f: Flight, t: f64, start: [f64; 3]) -> ([f64; 3], f64) {
     let [x0, y0, z0] = start;
     match f {
         Flight::Box => {
-            let corners = [(x0, y0), (x0 + 8.0, y0), (x0 + 8.0, y0 + 4.0), (x0, y0 + 4.0)];
+            let corners = [
+                (x0, y0),
+                (x0 + 8.0, y0),
+                (x0 + 8.0, y0 + 4.0),
+                (x0, y0 + 4.0),
+            ];
             let i = ((t / 15.0) as usize) % 4;
             let (a, b) = (corners[i], corners[(i + 1) % 4]);
             let heading = (b.1 - a.1).atan2(b.0 - a.0);
@@ -122,11 +143,21 @@ fn reference(f: Flight, t: f64, start: [f64; 3]) -> ([f64; 3], f64) {
         Flight::Transects => {
             let out = ((t / 20.0) as usize).is_multiple_of(2);
             let x = if out { x0 + 14.0 } else { x0 };
-            ([x, y0, z0 + 0.3 * (t / 7.0).sin()], if out { 0.0 } else { std::f64::consts::PI })
+            (
+                [x, y0, z0 + 0.3 * (t / 7.0).sin()],
+                if out { 0.0 } else { std::f64::consts::PI },
+            )
         }
         Flight::FigureEight => {
             let w = 2.0 * std::f64::consts::PI / 30.0;
-            ([x0 + 3.0 * (w * t).sin(), y0 + 1.5 * (2.0 * w * t).sin(), z0 + 0.5 * (0.5 * w * t).sin()], 0.3)
+            (
+                [
+                    x0 + 3.0 * (w * t).sin(),
+                    y0 + 1.5 * (2.0 * w * t).sin(),
+                    z0 + 0.5 * (0.5 * w * t).sin(),
+                ],
+                0.3,
+            )
         }
         Flight::Turns => {
             let heading = [0.0, 1.2, -0.4, 2.0, 0.6][((t / 10.0) as usize) % 5];
@@ -163,18 +194,37 @@ fn environment(h: &Hidden, s: &S) -> [f64; 4] {
     let vx = c * s.nu[0] - sn * s.nu[1];
     let vy = sn * s.nu[0] + c * s.nu[1];
     let speed = vx.hypot(vy);
-    let paid_out = (s.pos[0] - ANCHOR[0]).hypot(s.pos[1] - ANCHOR[1]) + s.pos[2].max(0.0) + h.tether_slack_m;
-    let (fx, fy) = (-h.tether_k * paid_out * speed * vx, -h.tether_k * paid_out * speed * vy);
+    let paid_out =
+        (s.pos[0] - ANCHOR[0]).hypot(s.pos[1] - ANCHOR[1]) + s.pos[2].max(0.0) + h.tether_slack_m;
+    let (fx, fy) = (
+        -h.tether_k * paid_out * speed * vx,
+        -h.tether_k * paid_out * speed * vy,
+    );
     [c * fx + sn * fy, -sn * fx + c * fy, -h.buoyancy_up_n, 0.0]
 }
 
 fn deriv(plant: &Plant, h: &Hidden, s: &S, tau: &[f64; 4]) -> S {
     let env = environment(h, s);
     let nu6: Vec6 = [s.nu[0], s.nu[1], s.nu[2], 0.0, 0.0, s.nu[3]];
-    let f: Vec6 = [tau[0] + env[0], tau[1] + env[1], tau[2] + env[2], 0.0, 0.0, tau[3] + env[3]];
+    let f: Vec6 = [
+        tau[0] + env[0],
+        tau[1] + env[1],
+        tau[2] + env[2],
+        0.0,
+        0.0,
+        tau[3] + env[3],
+    ];
     let a = plant.accel(&nu6, &f);
     let (c, sn) = (s.psi.cos(), s.psi.sin());
-    S { nu: [a[0], a[1], a[2], a[5]], pos: [c * s.nu[0] - sn * s.nu[1], sn * s.nu[0] + c * s.nu[1], s.nu[2]], psi: s.nu[3] }
+    S {
+        nu: [a[0], a[1], a[2], a[5]],
+        pos: [
+            c * s.nu[0] - sn * s.nu[1],
+            sn * s.nu[0] + c * s.nu[1],
+            s.nu[2],
+        ],
+        psi: s.nu[3],
+    }
 }
 
 fn add(s: &S, d: &S, k: f64) -> S {
@@ -194,7 +244,11 @@ struct Controller {
 impl Controller {
     fn command(&mut self, s: &S, pos_ref: [f64; 3], psi_ref: f64, dt: f64) -> [f64; 4] {
         let (c, sn) = (s.psi.cos(), s.psi.sin());
-        let e = [pos_ref[0] - s.pos[0], pos_ref[1] - s.pos[1], pos_ref[2] - s.pos[2]];
+        let e = [
+            pos_ref[0] - s.pos[0],
+            pos_ref[1] - s.pos[1],
+            pos_ref[2] - s.pos[2],
+        ];
         // Desired pool-frame velocity, limited to what the pilot allows.
         let sat = |x: f64, l: f64| x.clamp(-l, l);
         let vdx = sat(0.5 * e[0], 0.9);
@@ -208,7 +262,10 @@ impl Controller {
         [
             m_guess * 1.5 * (ud - s.nu[0]) + ff_drag(6.0, 32.0, ud),
             m_guess * 1.5 * (vd - s.nu[1]) + ff_drag(9.0, 58.0, vd),
-            (25.0 + 40.0) * 2.0 * (vdz - s.nu[2]) + ff_drag(14.0, 70.0, vdz) + 3.0 + 8.0 * self.depth_integral,
+            (25.0 + 40.0) * 2.0 * (vdz - s.nu[2])
+                + ff_drag(14.0, 70.0, vdz)
+                + 3.0
+                + 8.0 * self.depth_integral,
             i_guess * 2.5 * (rd - s.nu[3]) + ff_drag(2.2, 1.6, rd),
         ]
     }
@@ -218,11 +275,28 @@ impl Controller {
 pub fn simulate(h: &Hidden, spec: &RunSpec, seed: u64) -> Truth {
     let mut rng = Rng::derive(seed, &format!("field/{}/start", spec.name));
     let plant = Plant::new(&vehicle(), hydro());
-    let start = [8.0 + 4.0 * rng.uniform(), 5.0 + 2.0 * rng.uniform(), 1.2 + 0.5 * rng.uniform()];
-    let mut s = S { pos: start, psi: 0.4 * (2.0 * rng.uniform() - 1.0), ..S::default() };
-    let mut ctl = Controller { depth_integral: 0.0 };
+    let start = [
+        8.0 + 4.0 * rng.uniform(),
+        5.0 + 2.0 * rng.uniform(),
+        1.2 + 0.5 * rng.uniform(),
+    ];
+    let mut s = S {
+        pos: start,
+        psi: 0.4 * (2.0 * rng.uniform() - 1.0),
+        ..S::default()
+    };
+    let mut ctl = Controller {
+        depth_integral: 0.0,
+    };
     let n = (spec.duration_s / STEP).round() as usize + 1;
-    let mut truth = Truth { t: vec![], nu: vec![], pos: vec![], psi: vec![], cmd_t: vec![], cmd: vec![] };
+    let mut truth = Truth {
+        t: vec![],
+        nu: vec![],
+        pos: vec![],
+        psi: vec![],
+        cmd_t: vec![],
+        cmd: vec![],
+    };
     let mut delivered = [0.0; 4];
     for k in 0..n {
         let t = k as f64 * STEP;
@@ -243,8 +317,12 @@ pub fn simulate(h: &Hidden, spec: &RunSpec, seed: u64) -> Truth {
         let k3 = deriv(&plant, h, &add(&s, &k2, STEP / 2.0), &delivered);
         let k4 = deriv(&plant, h, &add(&s, &k3, STEP), &delivered);
         s = S {
-            nu: std::array::from_fn(|i| s.nu[i] + STEP / 6.0 * (k1.nu[i] + 2.0 * k2.nu[i] + 2.0 * k3.nu[i] + k4.nu[i])),
-            pos: std::array::from_fn(|i| s.pos[i] + STEP / 6.0 * (k1.pos[i] + 2.0 * k2.pos[i] + 2.0 * k3.pos[i] + k4.pos[i])),
+            nu: std::array::from_fn(|i| {
+                s.nu[i] + STEP / 6.0 * (k1.nu[i] + 2.0 * k2.nu[i] + 2.0 * k3.nu[i] + k4.nu[i])
+            }),
+            pos: std::array::from_fn(|i| {
+                s.pos[i] + STEP / 6.0 * (k1.pos[i] + 2.0 * k2.pos[i] + 2.0 * k3.pos[i] + k4.pos[i])
+            }),
             psi: s.psi + STEP / 6.0 * (k1.psi + 2.0 * k2.psi + 2.0 * k3.psi + k4.psi),
         };
     }
@@ -256,7 +334,11 @@ fn at(truth: &Truth, t: f64) -> ([f64; 4], [f64; 3], f64) {
     let i = (x.floor() as usize).min(truth.t.len() - 2);
     let w = x - i as f64;
     let l = |a: f64, b: f64| a + w * (b - a);
-    (std::array::from_fn(|j| l(truth.nu[i][j], truth.nu[i + 1][j])), std::array::from_fn(|j| l(truth.pos[i][j], truth.pos[i + 1][j])), l(truth.psi[i], truth.psi[i + 1]))
+    (
+        std::array::from_fn(|j| l(truth.nu[i][j], truth.nu[i + 1][j])),
+        std::array::from_fn(|j| l(truth.pos[i][j], truth.pos[i + 1][j])),
+        l(truth.psi[i], truth.psi[i + 1]),
+    )
 }
 
 /// Receive times of a 50 Hz stream written in bursts: rows queue during stalls of 0.2-1.2 s
@@ -290,7 +372,11 @@ pub fn render(h: &Hidden, spec: &RunSpec, truth: &Truth, seed: u64) -> Vec<(&'st
     let recv = bursty(&truth.cmd_t, &mut rng);
     let mut thrust = String::from("t,X_N,Y_N,Z_N,N_Nm\n");
     for (t, c) in recv.iter().zip(&truth.cmd) {
-        let _ = writeln!(thrust, "{:.4},{:.2},{:.2},{:.2},{:.3}", t, c[0], c[1], c[2], c[3]);
+        let _ = writeln!(
+            thrust,
+            "{:.4},{:.2},{:.2},{:.2},{:.3}",
+            t, c[0], c[1], c[2], c[3]
+        );
     }
     files.push(("thrust.csv", thrust));
 
@@ -310,7 +396,17 @@ pub fn render(h: &Hidden, spec: &RunSpec, truth: &Truth, seed: u64) -> Vec<(&'st
         }
         let (_, _, psi) = at(truth, t_out - h.nav_latency_s);
         let yaw = wrap(psi + 0.4f64.to_radians() * rng.normal()).to_degrees();
-        let _ = writeln!(nav, "{:.4},{:.4},{:.4},{:.4},{:.2},{:.2},{:.2}", t_out, filt[0], filt[1], filt[2], 0.3 * rng.normal(), 0.3 * rng.normal(), yaw);
+        let _ = writeln!(
+            nav,
+            "{:.4},{:.4},{:.4},{:.4},{:.2},{:.2},{:.2}",
+            t_out,
+            filt[0],
+            filt[1],
+            filt[2],
+            0.3 * rng.normal(),
+            0.3 * rng.normal(),
+            yaw
+        );
         t_out += 1.0 / (5.0 + 2.0 * rng.uniform());
     }
     files.push(("nav.csv", nav));
@@ -329,7 +425,13 @@ pub fn render(h: &Hidden, spec: &RunSpec, truth: &Truth, seed: u64) -> Vec<(&'st
     while t < end - 0.4 {
         let (_, p, _) = at(truth, t);
         let jump = if rng.uniform() < 0.02 { 1.5 } else { 0.0 };
-        let _ = writeln!(uwb, "{:.3},{:.3},{:.3}", t, p[0] + 0.05 * rng.normal() + jump, p[1] + 0.05 * rng.normal());
+        let _ = writeln!(
+            uwb,
+            "{:.3},{:.3},{:.3}",
+            t,
+            p[0] + 0.05 * rng.normal() + jump,
+            p[1] + 0.05 * rng.normal()
+        );
         t += 0.1;
     }
     files.push(("uwb.csv", uwb));
@@ -341,18 +443,35 @@ pub fn truth_csv(truth: &Truth) -> String {
     let mut out = String::from("t,u,v,w,r,x_m,y_m,z_m,psi_rad\n");
     for k in (0..truth.t.len()).step_by(CONTROL_EVERY) {
         let (nu, p) = (truth.nu[k], truth.pos[k]);
-        let _ = writeln!(out, "{:.3},{:.6},{:.6},{:.6},{:.6},{:.5},{:.5},{:.5},{:.6}", truth.t[k], nu[0], nu[1], nu[2], nu[3], p[0], p[1], p[2], truth.psi[k]);
+        let _ = writeln!(
+            out,
+            "{:.3},{:.6},{:.6},{:.6},{:.6},{:.5},{:.5},{:.5},{:.6}",
+            truth.t[k], nu[0], nu[1], nu[2], nu[3], p[0], p[1], p[2], truth.psi[k]
+        );
     }
     out
 }
 
 /// Writes `cases_dir/<run>/` and `truth_dir/<run>.{csv,json}` for every run.
-pub fn write_runs(cases_dir: &Path, truth_dir: &Path, runs: &[RunSpec], h: &Hidden, seed: u64) -> anyhow::Result<Vec<PathBuf>> {
+pub fn write_runs(
+    cases_dir: &Path,
+    truth_dir: &Path,
+    runs: &[RunSpec],
+    h: &Hidden,
+    seed: u64,
+) -> anyhow::Result<Vec<PathBuf>> {
     let mut written = Vec::new();
     for spec in runs {
         let truth = simulate(h, spec, seed);
         let record = serde_json::json!({"run": spec.name, "seed": seed, "hidden": h, "spec": spec, "vehicle": vehicle(), "hydro": {"added": hydro().added, "lin": hydro().lin, "quad": hydro().quad}});
-        written.push(super::write_run(cases_dir, truth_dir, &spec.name, &render(h, spec, &truth, seed), &truth_csv(&truth), &record)?);
+        written.push(super::write_run(
+            cases_dir,
+            truth_dir,
+            &spec.name,
+            &render(h, spec, &truth, seed),
+            &truth_csv(&truth),
+            &record,
+        )?);
     }
     Ok(written)
 }
@@ -370,18 +489,39 @@ mod tests {
         for spec in default_runs() {
             let truth = simulate(&h, &spec, 1);
             for p in &truth.pos {
-                assert!(p[0] > 0.5 && p[0] < POOL.length_m - 0.5 && p[1] > 0.5 && p[1] < POOL.width_m - 0.5 && p[2] > 0.1 && p[2] < POOL.depth_m, "{}: {p:?}", spec.name);
+                assert!(
+                    p[0] > 0.5
+                        && p[0] < POOL.length_m - 0.5
+                        && p[1] > 0.5
+                        && p[1] < POOL.width_m - 0.5
+                        && p[2] > 0.1
+                        && p[2] < POOL.depth_m,
+                    "{}: {p:?}",
+                    spec.name
+                );
             }
-            let peak: [f64; 4] = std::array::from_fn(|j| truth.nu.iter().fold(0.0f64, |a, n| a.max(n[j].abs())));
+            let peak: [f64; 4] =
+                std::array::from_fn(|j| truth.nu.iter().fold(0.0f64, |a, n| a.max(n[j].abs())));
             // Every flight turns and translates; together they move the vehicle in every DOF.
-            assert!(peak[3] > 0.02 && peak[..3].iter().any(|p| *p > 0.1) && peak[0] < 2.0, "{}: peaks {peak:?}", spec.name);
+            assert!(
+                peak[3] > 0.02 && peak[..3].iter().any(|p| *p > 0.1) && peak[0] < 2.0,
+                "{}: peaks {peak:?}",
+                spec.name
+            );
             for j in 0..4 {
                 all_peaks[j] = all_peaks[j].max(peak[j]);
             }
         }
-        assert!(all_peaks.iter().all(|p| *p > 0.1), "a DOF no flight moves in: {all_peaks:?}");
+        assert!(
+            all_peaks.iter().all(|p| *p > 0.1),
+            "a DOF no flight moves in: {all_peaks:?}"
+        );
         let t = simulate(&h, &default_runs()[2], 1);
-        let clipped = t.cmd.iter().filter(|c| (0..4).any(|i| c[i].abs() > h.limits[i])).count();
+        let clipped = t
+            .cmd
+            .iter()
+            .filter(|c| (0..4).any(|i| c[i].abs() > h.limits[i]))
+            .count();
         assert!(clipped > 0, "transects never saturate the thrusters");
     }
 }

@@ -22,6 +22,9 @@ pub fn write_run(
         crate::fsutil::write_atomic(&dir.join(file), text.as_bytes())?;
     }
     crate::fsutil::write_atomic(&truth_dir.join(format!("{name}.csv")), truth_csv.as_bytes())?;
-    crate::fsutil::write_atomic(&truth_dir.join(format!("{name}.json")), serde_json::to_string_pretty(record)?.as_bytes())?;
+    crate::fsutil::write_atomic(
+        &truth_dir.join(format!("{name}.json")),
+        serde_json::to_string_pretty(record)?.as_bytes(),
+    )?;
     Ok(dir)
 }

@@ -11,7 +11,11 @@ use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-pub const POOL: Pool = Pool { length_m: 25.0, width_m: 12.0, depth_m: 4.0 };
+pub const POOL: Pool = Pool {
+    length_m: 25.0,
+    width_m: 12.0,
+    depth_m: 4.0,
+};
 /// Where the umbilical enters the water: the middle of one short side, at the surface.
 pub const TETHER_ANCHOR: [f64; 3] = [0.5, 6.0, 0.0];
 /// The imaging sonar: on the same short side, looking down the pool (+x).
@@ -48,7 +52,13 @@ pub struct RunSpec {
 }
 
 pub fn default_runs() -> Vec<RunSpec> {
-    let r = |name: &str, role: &str, m, sonar| RunSpec { name: name.into(), role: role.into(), manoeuvre: m, duration_s: 120.0, sonar };
+    let r = |name: &str, role: &str, m, sonar| RunSpec {
+        name: name.into(),
+        role: role.into(),
+        manoeuvre: m,
+        duration_s: 120.0,
+        sonar,
+    };
     vec![
         r("surge_steps", "train", Manoeuvre::SurgeSteps, true),
         r("sway_heave", "train", Manoeuvre::SwayHeave, true),
@@ -61,7 +71,15 @@ pub fn default_runs() -> Vec<RunSpec> {
 
 /// The effects concealed in the shipped pool runs.
 pub fn default_effects() -> Vec<Effect> {
-    vec![Effect::ThrusterLag { time_constant_s: 0.35 }, Effect::TetherDrag { coefficient: 1.2, slack_m: 2.0 }]
+    vec![
+        Effect::ThrusterLag {
+            time_constant_s: 0.35,
+        },
+        Effect::TetherDrag {
+            coefficient: 1.2,
+            slack_m: 2.0,
+        },
+    ]
 }
 
 /// Sensor errors drawn for one run (part of the truth, not of the run's files).
@@ -114,7 +132,13 @@ fn square(t: f64, period: f64, levels: &[f64]) -> f64 {
 fn program(m: Manoeuvre, t: f64, prbs: &mut [(f64, f64); 4], rng: &mut Rng) -> [f64; 4] {
     match m {
         Manoeuvre::SurgeSteps => [
-            square(t, 6.0, &[30.0, 0.0, -25.0, 60.0, -45.0, 15.0, 85.0, -60.0, 0.0, 45.0, -20.0, 70.0]),
+            square(
+                t,
+                6.0,
+                &[
+                    30.0, 0.0, -25.0, 60.0, -45.0, 15.0, 85.0, -60.0, 0.0, 45.0, -20.0, 70.0,
+                ],
+            ),
             0.0,
             0.0,
             square(t, 15.0, &[1.0, -1.0, 0.0, 2.0]),
@@ -136,7 +160,8 @@ fn program(m: Manoeuvre, t: f64, prbs: &mut [(f64, f64); 4], rng: &mut Rng) -> [
             std::array::from_fn(|i| {
                 let (level, next) = &mut prbs[i];
                 if t >= *next {
-                    *level = if rng.uniform() < 0.5 { amp[i] } else { -amp[i] } * (0.4 + 0.6 * rng.uniform());
+                    *level = if rng.uniform() < 0.5 { amp[i] } else { -amp[i] }
+                        * (0.4 + 0.6 * rng.uniform());
                     *next = t + 1.0 + 3.0 * rng.uniform();
                 }
                 *level
@@ -158,8 +183,16 @@ fn pilot(s: &State) -> [f64; 3] {
     const KP: f64 = 60.0;
     const KD: f64 = 80.0;
     let (c, sn) = (s.psi.cos(), s.psi.sin());
-    let v = [c * s.nu[0] - sn * s.nu[1], sn * s.nu[0] + c * s.nu[1], s.nu[2]];
-    let bounds = [(POOL.length_m, MARGIN), (POOL.width_m, MARGIN), (POOL.depth_m, 1.0)];
+    let v = [
+        c * s.nu[0] - sn * s.nu[1],
+        sn * s.nu[0] + c * s.nu[1],
+        s.nu[2],
+    ];
+    let bounds = [
+        (POOL.length_m, MARGIN),
+        (POOL.width_m, MARGIN),
+        (POOL.depth_m, 1.0),
+    ];
     std::array::from_fn(|i| {
         let (size, m) = bounds[i];
         let p = s.pos[i];
@@ -179,11 +212,20 @@ pub fn simulate(world: &WorldPlant, spec: &RunSpec, seed: u64) -> Truth {
     let mut prbs = [(0.0, 0.0); 4];
     let n = (spec.duration_s / STEP).round() as usize + 1;
     let mut s = State {
-        pos: [POOL.length_m / 2.0 + 2.0 * rng.uniform() - 1.0, POOL.width_m / 2.0 + rng.uniform() - 0.5, 1.5],
+        pos: [
+            POOL.length_m / 2.0 + 2.0 * rng.uniform() - 1.0,
+            POOL.width_m / 2.0 + rng.uniform() - 0.5,
+            1.5,
+        ],
         psi: std::f64::consts::PI * (2.0 * rng.uniform() - 1.0),
         ..State::default()
     };
-    let mut truth = Truth { t: Vec::with_capacity(n), states: Vec::with_capacity(n), accel: Vec::with_capacity(n), cmd: Vec::new() };
+    let mut truth = Truth {
+        t: Vec::with_capacity(n),
+        states: Vec::with_capacity(n),
+        accel: Vec::with_capacity(n),
+        cmd: Vec::new(),
+    };
     let mut cmd = [0.0; 6];
     for k in 0..n {
         let t = k as f64 * STEP;
@@ -191,7 +233,12 @@ pub fn simulate(world: &WorldPlant, spec: &RunSpec, seed: u64) -> Truth {
             let p = program(spec.manoeuvre, t, &mut prbs, &mut rng);
             let f = pilot(&s);
             let (c, sn) = (s.psi.cos(), s.psi.sin());
-            let body = [p[0] + c * f[0] + sn * f[1], p[1] - sn * f[0] + c * f[1], p[2] + f[2], p[3]];
+            let body = [
+                p[0] + c * f[0] + sn * f[1],
+                p[1] - sn * f[0] + c * f[1],
+                p[2] + f[2],
+                p[3],
+            ];
             let b: [f64; 4] = std::array::from_fn(|i| (body[i] * 10.0).round() / 10.0);
             let b: [f64; 4] = std::array::from_fn(|i| b[i].clamp(-LIMITS[i], LIMITS[i]));
             cmd = [b[0], b[1], b[2], 0.0, 0.0, b[3]];
@@ -226,11 +273,20 @@ fn at(truth: &Truth, t: f64) -> (State, Vec6) {
         psi: lerp(a.psi, b.psi),
         thrust: a.thrust,
     };
-    (s, std::array::from_fn(|j| lerp(truth.accel[i][j], truth.accel[i + 1][j])))
+    (
+        s,
+        std::array::from_fn(|j| lerp(truth.accel[i][j], truth.accel[i + 1][j])),
+    )
 }
 
 /// The files of one run folder, rendered: (file name, contents).
-pub fn render(spec: &RunSpec, truth: &Truth, sensors: &Sensors, delay: f64, seed: u64) -> Vec<(&'static str, String)> {
+pub fn render(
+    spec: &RunSpec,
+    truth: &Truth,
+    sensors: &Sensors,
+    delay: f64,
+    seed: u64,
+) -> Vec<(&'static str, String)> {
     let mut rng = Rng::derive(seed, &format!("pool/{}/sensors", spec.name));
     let end = *truth.t.last().unwrap();
     let seen = |t: f64| at(truth, t - delay);
@@ -243,13 +299,26 @@ pub fn render(spec: &RunSpec, truth: &Truth, sensors: &Sensors, delay: f64, seed
     let _ = write!(
         run_yaml,
         "pool: {{length_m: {}, width_m: {}, depth_m: {}}}\ntether_anchor_m: [{}, {}, {}]\n",
-        POOL.length_m, POOL.width_m, POOL.depth_m, TETHER_ANCHOR[0], TETHER_ANCHOR[1], TETHER_ANCHOR[2]
+        POOL.length_m,
+        POOL.width_m,
+        POOL.depth_m,
+        TETHER_ANCHOR[0],
+        TETHER_ANCHOR[1],
+        TETHER_ANCHOR[2]
     );
     files.push(("run.yaml", run_yaml));
 
     let mut thrust = String::from("t,X_N,Y_N,Z_N,N_Nm\n");
     for (k, c) in truth.cmd.iter().enumerate() {
-        let _ = writeln!(thrust, "{:.2},{:.1},{:.1},{:.1},{:.2}", k as f64 * STEP * LOG_EVERY as f64, c[0], c[1], c[2], c[5]);
+        let _ = writeln!(
+            thrust,
+            "{:.2},{:.1},{:.1},{:.1},{:.2}",
+            k as f64 * STEP * LOG_EVERY as f64,
+            c[0],
+            c[1],
+            c[2],
+            c[5]
+        );
     }
     files.push(("thrust.csv", thrust));
 
@@ -257,10 +326,14 @@ pub fn render(spec: &RunSpec, truth: &Truth, sensors: &Sensors, delay: f64, seed
     let mut t = 0.05;
     while t <= end {
         let (s, _) = seen(t);
-        let mut p: [f64; 3] = std::array::from_fn(|i| s.pos[i] + sensors.uwb_sigma_m[i] * rng.normal());
+        let mut p: [f64; 3] =
+            std::array::from_fn(|i| s.pos[i] + sensors.uwb_sigma_m[i] * rng.normal());
         if rng.uniform() < sensors.uwb_outlier_rate {
             // Multipath: a reflected path is longer, so the fix jumps by up to a few metres.
-            let (mag, dir) = (0.5 + 2.5 * rng.uniform(), 2.0 * std::f64::consts::PI * rng.uniform());
+            let (mag, dir) = (
+                0.5 + 2.5 * rng.uniform(),
+                2.0 * std::f64::consts::PI * rng.uniform(),
+            );
             p[0] += mag * dir.cos();
             p[1] += mag * dir.sin();
             p[2] += 0.3 * mag * rng.normal();
@@ -283,9 +356,16 @@ pub fn render(spec: &RunSpec, truth: &Truth, sensors: &Sensors, delay: f64, seed
             let (dx, dy) = (s.pos[0] - SONAR_AT[0], s.pos[1] - SONAR_AT[1]);
             let range = (dx * dx + dy * dy).sqrt();
             let bearing = dy.atan2(dx).to_degrees();
-            if bearing.abs() <= SONAR_HALF_FOV_DEG && (SONAR_RANGE_M.0..=SONAR_RANGE_M.1).contains(&range) {
+            if bearing.abs() <= SONAR_HALF_FOV_DEG
+                && (SONAR_RANGE_M.0..=SONAR_RANGE_M.1).contains(&range)
+            {
                 let sigma = sensors.sonar_sigma_m * (1.0 + range / 10.0);
-                let _ = writeln!(sonar, "{t:.1},{:.3},{:.3}", s.pos[0] + sigma * rng.normal(), s.pos[1] + sigma * rng.normal());
+                let _ = writeln!(
+                    sonar,
+                    "{t:.1},{:.3},{:.3}",
+                    s.pos[0] + sigma * rng.normal(),
+                    s.pos[1] + sigma * rng.normal()
+                );
             }
         }
         files.push(("sonar.csv", sonar));
@@ -322,7 +402,11 @@ pub fn render(spec: &RunSpec, truth: &Truth, sensors: &Sensors, delay: f64, seed
         if t > end {
             break;
         }
-        let _ = writeln!(depth, "{t:.2},{:.3}", seen(t).0.pos[2] + sensors.depth_sigma_m * rng.normal());
+        let _ = writeln!(
+            depth,
+            "{t:.2},{:.3}",
+            seen(t).0.pos[2] + sensors.depth_sigma_m * rng.normal()
+        );
     }
     files.push(("depth.csv", depth));
     files
@@ -361,18 +445,49 @@ pub fn world(effects: &[Effect]) -> WorldPlant {
 }
 
 /// Writes `cases_dir/<run>/` and `truth_dir/<run>.{csv,json}` for every run.
-pub fn write_runs(cases_dir: &Path, truth_dir: &Path, runs: &[RunSpec], effects: &[Effect], seed: u64) -> anyhow::Result<Vec<PathBuf>> {
+pub fn write_runs(
+    cases_dir: &Path,
+    truth_dir: &Path,
+    runs: &[RunSpec],
+    effects: &[Effect],
+    seed: u64,
+) -> anyhow::Result<Vec<PathBuf>> {
     let w = world(effects);
-    let delay = effects.iter().find_map(|e| if let Effect::SensorDelay { delay_s } = e { Some(*delay_s) } else { None }).unwrap_or(0.0);
+    let delay = effects
+        .iter()
+        .find_map(|e| {
+            if let Effect::SensorDelay { delay_s } = e {
+                Some(*delay_s)
+            } else {
+                None
+            }
+        })
+        .unwrap_or(0.0);
     std::fs::create_dir_all(truth_dir)?;
     let mut written = Vec::new();
     for spec in runs {
         let truth = simulate(&w, spec, seed);
-        let sensors = Sensors::draw(&mut Rng::derive(seed, &format!("pool/{}/errors", spec.name)));
+        let sensors = Sensors::draw(&mut Rng::derive(
+            seed,
+            &format!("pool/{}/errors", spec.name),
+        ));
         let mut files = render(spec, &truth, &sensors, delay, seed);
         files.retain(|(name, _)| spec.sonar || *name != "sonar.csv");
-        let record = TruthRecord { run: spec.name.clone(), seed, effects: effects.to_vec(), spec: spec.clone(), sensors };
-        let dir = super::write_run(cases_dir, truth_dir, &spec.name, &files, &truth_csv(&truth), &record)?;
+        let record = TruthRecord {
+            run: spec.name.clone(),
+            seed,
+            effects: effects.to_vec(),
+            spec: spec.clone(),
+            sensors,
+        };
+        let dir = super::write_run(
+            cases_dir,
+            truth_dir,
+            &spec.name,
+            &files,
+            &truth_csv(&truth),
+            &record,
+        )?;
         // A run without sonar: no sonar log left from an earlier write either.
         if !spec.sonar {
             let _ = std::fs::remove_file(dir.join("sonar.csv"));
@@ -392,11 +507,29 @@ mod tests {
         for spec in default_runs() {
             let truth = simulate(&w, &spec, 1);
             for s in &truth.states {
-                assert!(s.pos[0] > 0.3 && s.pos[0] < POOL.length_m - 0.3, "{}: x {}", spec.name, s.pos[0]);
-                assert!(s.pos[1] > 0.3 && s.pos[1] < POOL.width_m - 0.3, "{}: y {}", spec.name, s.pos[1]);
-                assert!(s.pos[2] > 0.0 && s.pos[2] < POOL.depth_m, "{}: z {}", spec.name, s.pos[2]);
+                assert!(
+                    s.pos[0] > 0.3 && s.pos[0] < POOL.length_m - 0.3,
+                    "{}: x {}",
+                    spec.name,
+                    s.pos[0]
+                );
+                assert!(
+                    s.pos[1] > 0.3 && s.pos[1] < POOL.width_m - 0.3,
+                    "{}: y {}",
+                    spec.name,
+                    s.pos[1]
+                );
+                assert!(
+                    s.pos[2] > 0.0 && s.pos[2] < POOL.depth_m,
+                    "{}: z {}",
+                    spec.name,
+                    s.pos[2]
+                );
             }
-            let peak = truth.states.iter().fold(0.0f64, |a, s| a.max(s.nu[0].abs()));
+            let peak = truth
+                .states
+                .iter()
+                .fold(0.0f64, |a, s| a.max(s.nu[0].abs()));
             assert!(peak > 0.3 && peak < 1.6, "{}: peak surge {peak}", spec.name);
         }
     }

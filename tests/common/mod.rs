@@ -13,7 +13,11 @@ pub fn manifest_dir() -> PathBuf {
 /// A temporary project holding the shipped pipeline.yaml and cases/.
 pub fn project() -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::copy(manifest_dir().join("pipeline.yaml"), dir.path().join("pipeline.yaml")).unwrap();
+    std::fs::copy(
+        manifest_dir().join("pipeline.yaml"),
+        dir.path().join("pipeline.yaml"),
+    )
+    .unwrap();
     hydrofit::fsutil::copy_dir(&manifest_dir().join("cases"), &dir.path().join("cases")).unwrap();
     hydrofit::fsutil::copy_dir(&manifest_dir().join("truth"), &dir.path().join("truth")).unwrap();
     dir
@@ -27,7 +31,12 @@ pub fn count(dir: &Path, rel: &str) -> usize {
 }
 
 pub fn run(dir: &Path, args: &[&str]) -> Output {
-    Command::new(BIN).arg("--project").arg(dir).args(args).output().unwrap()
+    Command::new(BIN)
+        .arg("--project")
+        .arg(dir)
+        .args(args)
+        .output()
+        .unwrap()
 }
 
 pub fn stderr(o: &Output) -> String {
@@ -41,7 +50,12 @@ pub fn stdout(o: &Output) -> String {
 /// Runs and asserts success, returning stderr.
 pub fn ok(dir: &Path, args: &[&str]) -> String {
     let o = run(dir, args);
-    assert!(o.status.success(), "hydrofit {args:?} failed:\n{}\n{}", stdout(&o), stderr(&o));
+    assert!(
+        o.status.success(),
+        "hydrofit {args:?} failed:\n{}\n{}",
+        stdout(&o),
+        stderr(&o)
+    );
     stderr(&o) + &stdout(&o)
 }
 
@@ -49,7 +63,11 @@ pub fn ok(dir: &Path, args: &[&str]) -> String {
 pub fn ran(summary: &str) -> usize {
     summary
         .lines()
-        .find_map(|l| l.strip_prefix("hydrofit: ran ").and_then(|r| r.split(',').next()).and_then(|n| n.trim().parse().ok()))
+        .find_map(|l| {
+            l.strip_prefix("hydrofit: ran ")
+                .and_then(|r| r.split(',').next())
+                .and_then(|n| n.trim().parse().ok())
+        })
         .unwrap_or(0)
 }
 

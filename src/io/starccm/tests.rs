@@ -9,7 +9,15 @@ fn run(text: &str) -> Result<Imported, InputError> {
 
 fn run_with(text: &str, configured_force: BTreeMap<Dof, f64>) -> Result<Imported, InputError> {
     let columns = ColumnMap::default();
-    parse("case.csv", text, &ImportOptions { columns: &columns, dofs: &DOFS, configured_force })
+    parse(
+        "case.csv",
+        text,
+        &ImportOptions {
+            columns: &columns,
+            dofs: &DOFS,
+            configured_force,
+        },
+    )
 }
 
 fn msg(text: &str) -> String {
@@ -18,7 +26,9 @@ fn msg(text: &str) -> String {
 
 #[test]
 fn reads_a_surge_export_and_keeps_the_last_inner_iteration() {
-    let text = format!("{HEAD}\n1,0.02,10,0.001,0.5\n2,0.02,10,0.004,0.19\n3,0.04,10,0.008,0.18\n4,0.06,10,0.011,0.17\n");
+    let text = format!(
+        "{HEAD}\n1,0.02,10,0.001,0.5\n2,0.02,10,0.004,0.19\n3,0.04,10,0.008,0.18\n4,0.06,10,0.011,0.17\n"
+    );
     let r = run(&text).unwrap();
     assert_eq!(r.rows_read, 4);
     assert_eq!(r.rows_kept, 3);
@@ -43,7 +53,12 @@ fn converts_degrees_and_newton_metres() {
 #[test]
 fn takes_a_missing_force_from_the_configuration() {
     let text = "\"Physical Time: Physical Time (s)\",\"Body Velocity Y Monitor: Velocity (m/s)\"\n0,0\n0.02,0.01\n0.04,0.02\n";
-    assert!(run(text).unwrap_err().to_string().contains("no applied-force column for sway"));
+    assert!(
+        run(text)
+            .unwrap_err()
+            .to_string()
+            .contains("no applied-force column for sway")
+    );
     let r = run_with(text, [(Dof::Sway, 7.5)].into()).unwrap();
     assert_eq!(r.response.dofs[&Dof::Sway].force, [7.5; 3]);
     assert_eq!(r.response.dofs[&Dof::Sway].force_source, Source::Configured);
@@ -53,8 +68,15 @@ fn takes_a_missing_force_from_the_configuration() {
 fn ignores_columns_of_dofs_the_vehicle_lacks() {
     let text = "\"Physical Time: Physical Time (s)\",\"Applied Force X Monitor: Force (N)\",\"Body Velocity X Monitor: Velocity (m/s)\",\"Body Angular Velocity X Monitor: Angular Velocity (rad/s)\"\n0,1,0,0\n0.1,1,0.1,0\n0.2,1,0.2,0\n";
     let r = run(text).unwrap();
-    assert_eq!(r.response.dofs.keys().copied().collect::<Vec<_>>(), [Dof::Surge]);
-    assert!(r.notes.iter().any(|n| n.contains("roll is not one of the vehicle's DOFs")));
+    assert_eq!(
+        r.response.dofs.keys().copied().collect::<Vec<_>>(),
+        [Dof::Surge]
+    );
+    assert!(
+        r.notes
+            .iter()
+            .any(|n| n.contains("roll is not one of the vehicle's DOFs"))
+    );
 }
 
 #[test]
@@ -71,8 +93,13 @@ fn header_only() {
 
 #[test]
 fn wrong_delimiter() {
-    let m = msg("\"Physical Time: Physical Time (s)\";\"Body Velocity X Monitor: Velocity (m/s)\"\n0;0\n");
-    assert!(m.starts_with("case.csv:1: the header is separated by ';', not commas"), "{m}");
+    let m = msg(
+        "\"Physical Time: Physical Time (s)\";\"Body Velocity X Monitor: Velocity (m/s)\"\n0;0\n",
+    );
+    assert!(
+        m.starts_with("case.csv:1: the header is separated by ';', not commas"),
+        "{m}"
+    );
     assert!(m.contains("help: STAR-CCM+ exports are comma-separated"));
 }
 
@@ -112,7 +139,10 @@ fn nan_and_inf_are_errors() {
 fn time_going_backwards() {
     let text = format!("{HEAD}\n1,0.02,10,0.001,0.5\n2,0.04,10,0.002,0.5\n3,0.03,10,0.003,0.5\n");
     let m = msg(&text);
-    assert!(m.starts_with("case.csv:4:3: time goes backwards: 0.03 s after 0.04 s"), "{m}");
+    assert!(
+        m.starts_with("case.csv:4:3: time goes backwards: 0.03 s after 0.04 s"),
+        "{m}"
+    );
 }
 
 #[test]
@@ -123,7 +153,9 @@ fn short_row() {
 
 #[test]
 fn wrong_unit() {
-    let m = msg("\"Physical Time: Physical Time (s)\",\"Applied Force X Monitor: Force (N)\",\"Body Velocity X Monitor: Velocity (km/h)\"\n0,1,0\n");
+    let m = msg(
+        "\"Physical Time: Physical Time (s)\",\"Applied Force X Monitor: Force (N)\",\"Body Velocity X Monitor: Velocity (km/h)\"\n0,1,0\n",
+    );
     assert!(m.contains("its unit is (km/h), expected (m/s)"), "{m}");
     assert!(m.starts_with("case.csv:1:73:"), "{m}");
 }
@@ -136,7 +168,11 @@ fn custom_monitor_names() {
         ..Default::default()
     };
     let text = "\"Physical Time: Physical Time (s)\",\"Thrust: Force (N)\",\"Vx: Velocity (m/s)\"\n0,1,0\n0.1,1,0.1\n0.2,1,0.2\n";
-    let opts = ImportOptions { columns: &columns, dofs: &DOFS, configured_force: BTreeMap::new() };
+    let opts = ImportOptions {
+        columns: &columns,
+        dofs: &DOFS,
+        configured_force: BTreeMap::new(),
+    };
     let r = parse("c.csv", text, &opts).unwrap();
     assert_eq!(r.response.dofs[&Dof::Surge].force, [1.0; 3]);
 }

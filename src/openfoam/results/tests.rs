@@ -4,7 +4,12 @@
 use super::*;
 
 fn data(name: &str) -> String {
-    std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/openfoam").join(name)).unwrap()
+    std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/data/openfoam")
+            .join(name),
+    )
+    .unwrap()
 }
 
 #[test]
@@ -15,7 +20,10 @@ fn a_finished_log_gives_every_step_and_its_cpu_time() {
     assert_eq!(log.steps[0].t, 0.02);
     let last = log.steps.last().unwrap();
     assert_eq!(last.t, 4.0);
-    assert!((last.linear_velocity.unwrap()[0] - 0.0826188).abs() < 1e-7, "{last:?}");
+    assert!(
+        (last.linear_velocity.unwrap()[0] - 0.0826188).abs() < 1e-7,
+        "{last:?}"
+    );
     assert_eq!(last.angular_velocity, Some([0.0, 0.0, 0.0]));
     assert!(log.execution_time_s.unwrap() > 1.0 && log.clock_time_s.is_some());
 }
@@ -36,7 +44,11 @@ fn a_diverged_run_is_a_crash_with_the_reason() {
         LogEnd::Crashed(why) => assert!(why.contains("sigFpe::sigHandler"), "{why}"),
         e => panic!("{e:?}"),
     }
-    assert!(log.steps.iter().any(|s| s.linear_velocity.unwrap()[0].abs() > 1e100));
+    assert!(
+        log.steps
+            .iter()
+            .any(|s| s.linear_velocity.unwrap()[0].abs() > 1e100)
+    );
     assert!(tail(&data("diverged.log"), 5).contains("pimpleFoam"));
 }
 
@@ -44,7 +56,16 @@ fn a_diverged_run_is_a_crash_with_the_reason() {
 fn the_state_table_reads_by_column_name() {
     let t = parse_vector_table(&data("state.dat")).unwrap();
     assert_eq!(t.angle_units.as_deref(), Some("radians"));
-    assert_eq!(t.columns, ["centreOfRotation", "centreOfMass", "rotation", "velocity", "omega"]);
+    assert_eq!(
+        t.columns,
+        [
+            "centreOfRotation",
+            "centreOfMass",
+            "rotation",
+            "velocity",
+            "omega"
+        ]
+    );
     assert_eq!(t.t.len(), 9);
     assert_eq!(t.t[0], 0.02);
     assert!((t.column("velocity").unwrap()[1][0] - 9.236938e-4).abs() < 1e-12);

@@ -20,14 +20,20 @@ fn parses_and_orders_stages() {
 #[test]
 fn unknown_top_level_key_suggests_the_nearest() {
     let e = err(&OK.replace("stages:", "stagess:"));
-    assert!(e.starts_with("pipeline.yaml:5:1: unknown field `stagess`"), "{e}");
+    assert!(
+        e.starts_with("pipeline.yaml:5:1: unknown field `stagess`"),
+        "{e}"
+    );
     assert!(e.contains("did you mean `stages`?"), "{e}");
 }
 
 #[test]
 fn unknown_setting_is_located_and_suggested() {
     let e = err(&OK.replace("method: ols", "methd: ols"));
-    assert!(e.starts_with("pipeline.yaml:13:7: unknown field `methd`"), "{e}");
+    assert!(
+        e.starts_with("pipeline.yaml:13:7: unknown field `methd`"),
+        "{e}"
+    );
     assert!(e.contains("did you mean `method`?"), "{e}");
 }
 
@@ -42,14 +48,20 @@ fn unknown_method_lists_the_registry() {
 #[test]
 fn unknown_kind() {
     let e = err(&OK.replace("kind: starccm", "kind: starcm"));
-    assert!(e.starts_with("pipeline.yaml:7:5: stage `cfd`: unknown kind `starcm`"), "{e}");
+    assert!(
+        e.starts_with("pipeline.yaml:7:5: stage `cfd`: unknown kind `starcm`"),
+        "{e}"
+    );
     assert!(e.contains("did you mean `starccm`?"), "{e}");
 }
 
 #[test]
 fn unknown_upstream() {
     let e = err(&OK.replace("from: [cfd]", "from: [cdf]"));
-    assert!(e.starts_with("pipeline.yaml:11:5: stage `fit` reads from `cdf`, which is not a stage"), "{e}");
+    assert!(
+        e.starts_with("pipeline.yaml:11:5: stage `fit` reads from `cdf`, which is not a stage"),
+        "{e}"
+    );
     assert!(e.contains("did you mean `cfd`?"), "{e}");
 }
 
@@ -57,12 +69,17 @@ fn unknown_upstream() {
 fn cycles_are_spelled_out() {
     // Today's kinds cannot form a cycle without a type error, so order raw stages directly.
     let text = "stages:\n  a:\n    from: [b]\n  b:\n    from: [c]\n  c:\n    from: [a]\n";
-    let p = Parser { path: "pipeline.yaml", text, index: KeyIndex::new(text) };
+    let p = Parser {
+        path: "pipeline.yaml",
+        text,
+        index: KeyIndex::new(text),
+    };
     let kind = stage::kind("report").unwrap();
     let mk = |name: &str, from: &str| StageSpec {
         name: name.into(),
         kind,
-        imp: (kind.parse)(serde_yaml_ng::Value::Null).unwrap_or_else(|_| (kind.parse)(serde_yaml_ng::from_str("{}").unwrap()).unwrap()),
+        imp: (kind.parse)(serde_yaml_ng::Value::Null)
+            .unwrap_or_else(|_| (kind.parse)(serde_yaml_ng::from_str("{}").unwrap()).unwrap()),
         inputs: vec![],
         from: vec![from.into()],
     };
@@ -71,19 +88,28 @@ fn cycles_are_spelled_out() {
         Ok(_) => panic!("cycle not found"),
         Err(e) => e.to_string(),
     };
-    assert!(e.starts_with("pipeline.yaml:3:5: the stages form a cycle: a -> b -> c -> a"), "{e}");
+    assert!(
+        e.starts_with("pipeline.yaml:3:5: the stages form a cycle: a -> b -> c -> a"),
+        "{e}"
+    );
 }
 
 #[test]
 fn a_stage_without_its_required_input_is_rejected() {
     let e = err(&OK.replace("    from: [fit, cfd]\n", ""));
-    assert!(e.contains("stage `report` (report) needs a stage that produces an identified model"), "{e}");
+    assert!(
+        e.contains("stage `report` (report) needs a stage that produces an identified model"),
+        "{e}"
+    );
 }
 
 #[test]
 fn vehicle_problems_are_reported() {
     let e = err(&OK.replace("dofs: [surge, yaw]", "dofs: [surge, yaw, roll]"));
-    assert!(e.starts_with("pipeline.yaml:1:1: vehicle: roll is a DOF but inertia_kg_m2.xx is not set"), "{e}");
+    assert!(
+        e.starts_with("pipeline.yaml:1:1: vehicle: roll is a DOF but inertia_kg_m2.xx is not set"),
+        "{e}"
+    );
 }
 
 #[test]
