@@ -1,4 +1,5 @@
-//! File-system helpers: atomic writes (temp file + rename) and content hashes.
+//! File-system helpers: atomic writes (temp file + rename), content hashes, and the JSON
+//! artifacts every stage reads and writes (with NaN written as `null` and read back).
 
 use std::io::Write;
 use std::os::unix::fs::PermissionsExt;
@@ -56,4 +57,21 @@ pub fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> anyhow::Result
     let text = serde_json::to_string_pretty(value)?;
     write_atomic(path, text.as_bytes())?;
     Ok(())
+}
+
+/// JSON has no NaN: serde_json writes it as `null`; read `null` back as NaN.
+pub fn f64_or_nan<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    Ok(<Option<f64> as serde::Deserialize>::deserialize(d)?.unwrap_or(f64::NAN))
+}
+
+/// Series of numbers per DOF whose `null`s (NaN written by serde_json) read back as NaN.
+pub fn series_or_nan<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> Result<std::collections::BTreeMap<crate::dof::Dof, Vec<f64>>, D::Error> {
+    let raw: std::collections::BTreeMap<crate::dof::Dof, Vec<Option<f64>>> =
+        serde::Deserialize::deserialize(d)?;
+    Ok(raw
+        .into_iter()
+        .map(|(k, v)| (k, v.into_iter().map(|x| x.unwrap_or(f64::NAN)).collect()))
+        .collect())
 }

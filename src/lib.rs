@@ -17,6 +17,7 @@ pub mod io;
 pub mod model;
 pub mod openfoam;
 pub mod pipeline;
+pub mod plot;
 pub mod progress;
 pub mod provenance;
 pub mod report;

@@ -335,11 +335,10 @@ fn diagnosis() -> anyhow::Result<ExitCode> {
     ]
     .into_iter()
     .collect();
-    let fused: Vec<crate::stage::pool::FusedRun> = specs
+    let fused: Vec<crate::fusion::run::FusedRun> = specs
         .par_iter()
         .map(|spec| {
-            crate::diagnose::scenario::fuse_folder(tmp.path(), &spec.name)
-                .map(|r| r.clip_to(&vehicle))
+            crate::twin::scenario::fuse_folder(tmp.path(), &spec.name).map(|r| r.clip_to(&vehicle))
         })
         .collect::<anyhow::Result<_>>()?;
     let train: Vec<crate::io::Response> = fused
@@ -362,7 +361,7 @@ fn diagnosis() -> anyhow::Result<ExitCode> {
         ..Default::default()
     };
     let start = std::time::Instant::now();
-    let (d, _) = crate::stage::diagnose::diagnose(&vehicle, "fit", &plant, &fused, &crit, &|_| {})?;
+    let (d, _) = crate::diagnose::diagnose(&vehicle, "fit", &plant, &fused, &crit, &|_| {})?;
     let secs = start.elapsed().as_secs_f64();
     let names: Vec<&str> = d.effects.iter().map(|e| e.name.as_str()).collect();
     println!(

@@ -18,7 +18,7 @@ pub fn run(
         eprintln!("hydrofit: waiting for another build of this project to finish ({holder})");
     })?;
     // Plan after taking the lock: the other build may have changed the cache.
-    let plan = Plan::load(root)?;
+    let plan = Plan::load(root, crate::stage::KINDS)?;
     plan.cache().recover()?;
     let jobs = jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     let progress = Progress::new();

@@ -11,7 +11,7 @@ pub fn run(root: &Path) -> anyhow::Result<ExitCode> {
             eprintln!("hydrofit: waiting for a build to finish ({holder})")
         })?;
         // Published files are those of report stages; other files in reports/ are the user's.
-        let published: Vec<String> = match Plan::load(root) {
+        let published: Vec<String> = match Plan::load(root, crate::stage::KINDS) {
             Ok(plan) => plan
                 .graph
                 .spec

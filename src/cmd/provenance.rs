@@ -1,7 +1,7 @@
 //! `hydrofit provenance NAME`: value <- fit stage, method, settings <- imported cases <- files.
 
 use crate::pipeline::{Plan, explain};
-use crate::stage::{Artifact, fit};
+use crate::stage::Artifact;
 use std::path::Path;
 use std::process::ExitCode;
 
@@ -10,7 +10,7 @@ fn short(h: &str) -> &str {
 }
 
 pub fn run(root: &Path, name: &str) -> anyhow::Result<ExitCode> {
-    let plan = Plan::load(root)?;
+    let plan = Plan::load(root, crate::stage::KINDS)?;
     let cache = plan.cache();
     let g = &plan.graph;
     let models: Vec<usize> = (0..g.instances.len())
@@ -28,7 +28,7 @@ pub fn run(root: &Path, name: &str) -> anyhow::Result<ExitCode> {
                 why.join("; ")
             );
         }
-        let r = fit::load(&cache.object(&plan.keys[i]))?;
+        let r = crate::estimate::result::load(&cache.object(&plan.keys[i]))?;
         known.extend(r.fit.parameters.iter().map(|p| p.name.clone()));
         let Some(p) = r.fit.parameters.iter().find(|p| p.name == name) else {
             continue;

@@ -91,8 +91,8 @@ pub fn field(root: &Path, out: &Path, truth: &Path, seed: u64) -> anyhow::Result
 /// alone at two magnitudes, pairs of effects, and nothing, for each seed; prints every verdict
 /// and the confusion table (concealed vs named).
 pub fn check_diagnosis(seeds: &[u64]) -> anyhow::Result<ExitCode> {
-    use crate::diagnose::scenario;
     use crate::model::effects::{Effect, NAMES};
+    use crate::twin::scenario;
     let singles = [
         ("net_buoyancy", [6.0, -20.0]),
         ("thruster_lag", [0.2, 0.6]),
@@ -136,7 +136,7 @@ pub fn check_diagnosis(seeds: &[u64]) -> anyhow::Result<ExitCode> {
         for effects in &scenarios {
             let fused = scenario::fused_runs(effects, seed)?;
             let t = std::time::Instant::now();
-            let (d, _) = crate::stage::diagnose::diagnose(
+            let (d, _) = crate::diagnose::diagnose(
                 &vehicle,
                 "fit",
                 &plant,

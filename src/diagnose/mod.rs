@@ -17,11 +17,12 @@
 //! so surge (m/s) and yaw (rad/s) weigh alike; the noise floor is the same sum over the fused
 //! velocities' own variances.
 
-pub mod scenario;
+pub mod result;
 pub mod search;
 mod select;
 #[cfg(test)]
 mod tests;
+mod verdict;
 
 use crate::dof::Dof;
 use crate::fusion::run::FusedRun;
@@ -31,7 +32,9 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
+pub use result::{Diagnosis, Figure};
 pub use select::{Criteria, Search, Tested, Untested, params_map, select, untested};
+pub use verdict::diagnose;
 
 /// The pool DOFs, in the order of the fused tables: surge, sway, heave, yaw.
 pub const DOFS: [Dof; 4] = [Dof::Surge, Dof::Sway, Dof::Heave, Dof::Yaw];

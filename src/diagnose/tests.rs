@@ -1,6 +1,7 @@
 use super::*;
+use crate::diagnose::{Diagnosis, diagnose};
 use crate::model::effects::Effect;
-use crate::stage::diagnose::{Diagnosis, diagnose};
+use crate::twin::scenario;
 
 fn run_scenario(effects: &[Effect], seed: u64) -> (Search, Data) {
     let runs = scenario::runs(effects, seed).unwrap();
@@ -11,7 +12,7 @@ fn run_scenario(effects: &[Effect], seed: u64) -> (Search, Data) {
 }
 
 /// The full diagnosis of a generated scenario, against the CFD fit of the twin's STAR-CCM+ cases.
-fn full(fused: &[crate::stage::pool::FusedRun], plant: &crate::model::Plant) -> Diagnosis {
+fn full(fused: &[crate::fusion::run::FusedRun], plant: &crate::model::Plant) -> Diagnosis {
     diagnose(
         &crate::model::Vehicle::reference(),
         "fit",
@@ -288,7 +289,7 @@ fn experiment() {
 /// moment over yaw damping), so an open-loop simulation of the logged command drifts apart
 /// from the recording whatever the model. Re-anchored over windows the true model must be
 /// found sufficient: nothing named, nothing unexplained.
-fn piloted_fast_runs(seed: u64) -> Vec<crate::stage::pool::FusedRun> {
+fn piloted_fast_runs(seed: u64) -> Vec<crate::fusion::run::FusedRun> {
     use crate::model::{Hydro, Plant, Vehicle};
     let plant = Plant::new(&Vehicle::reference(), Hydro::reference());
     let mut rng = crate::rng::Rng::new(seed);
@@ -360,7 +361,7 @@ fn piloted_fast_runs(seed: u64) -> Vec<crate::stage::pool::FusedRun> {
             fused.std[j] = Some(vec![sigma; n]);
             fused.vel[j] = Some(std::mem::take(v));
         }
-        let meta = crate::stage::pool::RunMeta {
+        let meta = crate::fusion::run::RunMeta {
             run: format!("straight_{i}"),
             role: if i >= 4 {
                 crate::io::pool::Role::Validate
@@ -382,7 +383,7 @@ fn piloted_fast_runs(seed: u64) -> Vec<crate::stage::pool::FusedRun> {
             notes: vec![],
             repairs: vec![],
         };
-        out.push(crate::stage::pool::FusedRun {
+        out.push(crate::fusion::run::FusedRun {
             meta,
             thrust,
             fused,

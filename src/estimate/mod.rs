@@ -1,10 +1,12 @@
 //! Estimators of the hydrodynamic parameters, behind one registry so `pipeline.yaml` can name them.
 
+pub mod comparison;
 mod kernels;
 pub mod ols;
 pub mod output_error;
 pub mod refine;
 pub mod regression;
+pub mod result;
 pub mod rls;
 pub mod swarm;
 pub mod tls;
@@ -20,7 +22,7 @@ pub struct Estimate {
     pub value: f64,
     pub unit: String,
     /// NaN (JSON `null`) when there is nothing to estimate it from.
-    #[serde(deserialize_with = "crate::validate::f64_or_nan")]
+    #[serde(deserialize_with = "crate::fsutil::f64_or_nan")]
     pub stderr: f64,
     /// For the swarm and genetic methods: the range of the answers of seeded restarts.
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -41,7 +41,7 @@ impl<'a> OutputError<'a> {
         let plant = crate::model::Plant::new(self.vehicle, layout.to_hydro(theta));
         let mut out = Vec::new();
         for (r, w) in self.responses.iter().zip(&self.weight) {
-            let sim = crate::validate::simulate_response(&plant, r);
+            let sim = r.simulate(&plant);
             for (d, series) in &r.dofs {
                 let i = d.index();
                 let sw = w[i].sqrt();
@@ -59,7 +59,7 @@ impl<'a> OutputError<'a> {
         let plant = crate::model::Plant::new(self.vehicle, layout.to_hydro(theta));
         let (mut s, mut n) = (0.0, 0usize);
         for (r, w) in self.responses.iter().zip(&self.weight) {
-            let sim = crate::validate::simulate_response(&plant, r);
+            let sim = r.simulate(&plant);
             for (d, series) in &r.dofs {
                 let i = d.index();
                 for (k, v) in series.velocity.iter().enumerate() {

@@ -38,6 +38,12 @@ pub struct Response {
 }
 
 impl Response {
+    /// `plant`'s velocities under this response's applied force, from its first measured state.
+    pub fn simulate(&self, plant: &crate::model::Plant) -> Vec<crate::model::Vec6> {
+        let tau: Vec<crate::model::Vec6> = (0..self.len()).map(|k| self.tau(k)).collect();
+        plant.simulate(&self.t, &tau, self.nu(0), 0.01)
+    }
+
     pub fn len(&self) -> usize {
         self.t.len()
     }
@@ -176,4 +182,36 @@ mod tests {
             assert!((d[k] - 2.0 * t[k]).abs() < 1e-12);
         }
     }
+}
+
+/// What the import wrote besides the table: where it came from and what was done to it.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct ResponseMeta {
+    pub case: String,
+    pub source: crate::provenance::InputFile,
+    pub dofs: Vec<Dof>,
+    pub sources: BTreeMap<Dof, (Source, Source)>,
+    pub rows_read: usize,
+    pub rows_kept: usize,
+    pub notes: Vec<String>,
+    /// The body's mass when the case states its own (an OpenFOAM case), kg; otherwise the
+    /// vehicle's in pipeline.yaml applies.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub body_mass_kg: Option<f64>,
+    /// Every input file when the case is more than `source` (an OpenFOAM case folder).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub all_inputs: Vec<crate::provenance::InputFile>,
+    /// How an OpenFOAM case was run.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub openfoam: Option<crate::openfoam::RunInfo>,
+}
+
+pub const TABLE: &str = "response.parquet";
+pub const META: &str = "response.json";
+
+/// Loads a response written by any `Responses` stage.
+pub fn load(dir: &Path) -> anyhow::Result<(ResponseMeta, Response)> {
+    let meta: ResponseMeta = crate::fsutil::read_json(&dir.join(META))?;
+    let r = Response::read_parquet(&dir.join(TABLE), &meta.sources)?;
+    Ok((meta, r))
 }

@@ -483,3 +483,26 @@ mod tests {
         assert_eq!(s.rho, 1000.0);
     }
 }
+
+/// How the case's results came about; shown in the report.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunInfo {
+    pub solver: String,
+    pub openfoam: String,
+    /// True when this build ran the solver; false when it read results left in the case.
+    pub ran_in_this_build: bool,
+    pub steps: usize,
+    pub end_time_s: f64,
+    pub cpu_time_s: Option<f64>,
+    pub wall_time_s: Option<f64>,
+    pub applied_force_n: [f64; 3],
+    pub mass_kg: f64,
+    pub rho: f64,
+}
+
+/// The body's path and the fluid force on it, for the report's drag analysis.
+pub const TRACK: &str = "track.json";
+
+pub fn load_track(dir: &Path) -> Option<Track> {
+    crate::fsutil::read_json(&dir.join(TRACK)).ok()
+}

@@ -2,9 +2,10 @@
 //! A failing instance stops only what depends on it; its temporary folder is removed.
 
 use super::cache::{Cache, Record};
+use super::contract::{RunCtx, Upstream};
 use super::{Plan, explain};
 use crate::progress::Progress;
-use crate::stage::{InputFile, RunCtx, Upstream};
+use crate::provenance::InputFile;
 use std::collections::HashMap;
 use std::path::Path;
 use std::sync::mpsc;
@@ -180,7 +181,7 @@ fn skip_dependents(plan: &Plan, failed: usize, state: &mut [State], summary: &mu
 fn tolerable(plan: &Plan, failed: usize) -> bool {
     let kind = plan.graph.stage_of(failed).kind;
     kind.fan_out
-        && kind.produces == crate::stage::Artifact::PoolRuns
+        && kind.produces == super::contract::Artifact::PoolRuns
         && !crate::interrupt::requested()
 }
 

@@ -2,8 +2,8 @@
 //! either hashed (blake3, length-prefixed) or shown to a person, so `--explain` and `status`
 //! cannot drift from the real decision.
 
+use super::contract::VehicleUse;
 use super::graph::Graph;
-use crate::stage::VehicleUse;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 

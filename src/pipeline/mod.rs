@@ -1,6 +1,7 @@
 //! The build engine: spec -> graph of stage instances -> keys -> cached, parallel execution.
 
 pub mod cache;
+pub mod contract;
 pub mod executor;
 pub mod explain;
 pub mod graph;
@@ -26,7 +27,8 @@ pub struct Plan {
 }
 
 impl Plan {
-    pub fn load(root: &Path) -> anyhow::Result<Plan> {
+    /// Reads the project at `root`, whose stages are of the kinds in `kinds`.
+    pub fn load(root: &Path, kinds: contract::Registry) -> anyhow::Result<Plan> {
         let spec_path = root.join(SPEC_FILE);
         let text = std::fs::read_to_string(&spec_path).with_context(|| {
             format!(
@@ -35,7 +37,7 @@ impl Plan {
                 root.display()
             )
         })?;
-        let spec = spec::parse(SPEC_FILE, &text)?;
+        let spec = spec::parse(SPEC_FILE, &text, kinds)?;
         let graph = graph::Graph::expand(root, spec)?;
         let hashes = graph.hash_inputs(root)?;
         let mut fields = Vec::with_capacity(graph.instances.len());

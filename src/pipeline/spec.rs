@@ -1,9 +1,9 @@
 //! `pipeline.yaml`: the vehicle and the named stages, parsed with every error located.
 
+use super::contract::{self, Kind, Registry, StageImpl};
 use super::locate::KeyIndex;
 use crate::diag::{InputError, nearest};
 use crate::model::Vehicle;
-use crate::stage::{self, Kind, StageImpl};
 use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -87,6 +87,7 @@ fn with_suggestion(msg: &str) -> (String, String) {
 
 pub struct Parser<'a> {
     path: &'a str,
+    kinds: Registry,
     text: &'a str,
     index: KeyIndex,
 }
@@ -140,10 +141,11 @@ impl<'a> Parser<'a> {
     }
 }
 
-/// Parses and checks `text` (the contents of `path`).
-pub fn parse(path: &str, text: &str) -> Result<Spec, InputError> {
+/// Parses and checks `text` (the contents of `path`); stage kinds are looked up in `kinds`.
+pub fn parse(path: &str, text: &str, kinds: Registry) -> Result<Spec, InputError> {
     let p = Parser {
         path,
+        kinds,
         text,
         index: KeyIndex::new(text),
     };
@@ -187,8 +189,8 @@ fn check_stage(
             "rename the stage",
         ));
     }
-    let kind = stage::kind(&rs.kind).ok_or_else(|| {
-        let names = stage::KINDS.iter().map(|k| k.name);
+    let kind = contract::find(p.kinds, &rs.kind).ok_or_else(|| {
+        let names = p.kinds.iter().map(|k| k.name);
         let fix = match nearest(&rs.kind, names.clone()) {
             Some(s) => format!("did you mean `{s}`?"),
             None => format!(
@@ -255,7 +257,7 @@ fn check_stage(
                 fix,
             ));
         };
-        let up_kind = stage::kind(&up.kind).map(|k| k.produces);
+        let up_kind = contract::find(p.kinds, &up.kind).map(|k| k.produces);
         if up_kind.is_some_and(|a| !kind.consumes.contains(&a)) {
             return Err(p.error(
                 &format!("{at}.from"),
@@ -280,7 +282,7 @@ fn check_stage(
     for need in kind.requires {
         if !rs.from.iter().any(|f| {
             all.get(f)
-                .and_then(|s| stage::kind(&s.kind))
+                .and_then(|s| contract::find(p.kinds, &s.kind))
                 .is_some_and(|k| k.produces == *need)
         }) {
             return Err(p.error(
@@ -299,7 +301,7 @@ fn check_stage(
     }
     let produces = |f: &String| {
         all.get(f)
-            .and_then(|s| stage::kind(&s.kind))
+            .and_then(|s| contract::find(p.kinds, &s.kind))
             .map(|k| k.produces)
     };
     if !kind.requires_one_of.is_empty()

@@ -1,7 +1,7 @@
 //! The estimator comparison (seed 001 Table 2, reproduced on this project's data).
 
 use super::html::esc;
-use crate::stage::compare::Comparison;
+use crate::estimate::comparison::Comparison;
 use std::fmt::Write as _;
 
 fn pct(x: Option<f64>) -> String {

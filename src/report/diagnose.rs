@@ -3,7 +3,7 @@
 //! hypothesis tested.
 
 use super::html::esc;
-use crate::stage::diagnose::{Diagnosis, Figure};
+use crate::diagnose::{Diagnosis, Figure};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 

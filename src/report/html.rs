@@ -1,8 +1,8 @@
 //! `index.html`: one self-contained page (inline CSS and SVG; a CSP forbids any fetch).
 
 use super::json::{Parameters, Validation};
+use crate::estimate::result::FitResult;
 use crate::model::Vehicle;
-use crate::stage::fit::FitResult;
 use std::fmt::Write as _;
 
 pub fn esc(s: &str) -> String {

@@ -1,7 +1,7 @@
 //! `parameters.json` and `validation.json`, exactly in FORMATS.md's shape.
 
-use crate::stage::InputFile;
-use crate::stage::fit::FitResult;
+use crate::estimate::result::FitResult;
+use crate::provenance::InputFile;
 use crate::validate::Metrics;
 use serde::Serialize;
 use std::collections::BTreeMap;

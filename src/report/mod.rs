@@ -6,5 +6,4 @@ pub mod diagnose;
 pub mod html;
 pub mod json;
 pub mod openfoam;
-pub mod plots;
 pub mod pool;

@@ -3,10 +3,10 @@
 //! added mass), and the drag the runs show against what a constant-coefficient model can say.
 
 use super::html::esc;
-use super::plots::{self, Trace};
+use crate::estimate::result::FitResult;
+use crate::openfoam::RunInfo;
 use crate::openfoam::Track;
-use crate::stage::fit::FitResult;
-use crate::stage::openfoam::RunInfo;
+use crate::plot::{self as plots, Trace};
 use std::fmt::Write;
 
 /// One OpenFOAM case of the fit, with the model simulated under its applied force.

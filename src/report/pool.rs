@@ -2,12 +2,13 @@
 //! a twin's truth exists, and each model against each recording (tables and plots).
 
 use super::html::esc;
-use super::plots::{self, PoolTrace};
 use crate::dof::Dof;
+use crate::fusion::run::FusedRun;
+use crate::fusion::run::POOL_DOFS;
 use crate::fusion::{Fused, interp};
 use crate::io::csvlog;
-use crate::stage::pool::FusedRun;
-use crate::stage::validate::{POOL_DOFS, Scores, Simulated};
+use crate::plot::{self as plots, PoolTrace};
+use crate::validate::pool::{Scores, Simulated};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;

@@ -2,12 +2,13 @@
 //! Table 2 does: parameters, error against a known truth (when the cases come from a twin),
 //! validation error on the pool runs, run time and objective evaluations.
 
-use super::{Artifact, Kind, RunCtx, StageImpl, fit, pool, starccm, validate};
+use super::{Artifact, Kind, RunCtx, StageImpl, fit};
+use crate::estimate::comparison::{Comparison, RESULT, Row};
 use crate::estimate::{self, Regression};
+use crate::io::response;
 use crate::model::{ParamLayout, Plant};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
-use std::path::Path;
 use std::sync::Arc;
 
 pub static KIND: Kind = Kind {
@@ -61,38 +62,9 @@ impl Default for Settings {
     }
 }
 
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct Row {
-    pub label: String,
-    pub settings: serde_json::Value,
-    pub parameters: Vec<estimate::Estimate>,
-    /// Relative error against truth per parameter, %.
-    pub error_pct: BTreeMap<String, f64>,
-    pub max_abs_error_pct: Option<f64>,
-    /// Mean NMAE over DOFs and pool runs of role `validate` (all runs when none is).
-    pub pool_nmae: Option<f64>,
-    pub seconds: f64,
-    pub evaluations: Option<usize>,
-    pub error: Option<String>,
-}
-
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct Comparison {
-    pub rows: Vec<Row>,
-    pub samples: usize,
-    pub cases: usize,
-    pub pool_runs: Vec<String>,
-}
-
-pub const RESULT: &str = "compare.json";
-
-pub fn load(dir: &Path) -> anyhow::Result<Comparison> {
-    super::read_json(&dir.join(RESULT))
-}
-
 fn label(s: &fit::Settings) -> String {
     let stochastic = estimate::by_name(&s.method).is_some_and(|e| e.stochastic());
-    let obj = if s.objective == fit::Objective::OutputError {
+    let obj = if s.objective == crate::estimate::result::Objective::OutputError {
         ", output error"
     } else {
         ""
@@ -113,13 +85,13 @@ impl StageImpl for Settings {
     fn run(&self, ctx: &RunCtx) -> anyhow::Result<()> {
         let mut responses = Vec::new();
         for up in ctx.upstream_of(Artifact::Responses) {
-            responses.push(starccm::load(&up.dir)?.1);
+            responses.push(response::load(&up.dir)?.1);
         }
-        let runs: Vec<pool::FusedRun> = ctx
+        let runs: Vec<crate::fusion::run::FusedRun> = ctx
             .upstream_of(Artifact::PoolRuns)
-            .map(|u| pool::load_for(&u.dir, ctx.vehicle))
+            .map(|u| crate::fusion::run::load_for(&u.dir, ctx.vehicle))
             .collect::<Result<_, _>>()?;
-        let held_out: Vec<&pool::FusedRun> = if runs
+        let held_out: Vec<&crate::fusion::run::FusedRun> = if runs
             .iter()
             .any(|r| r.meta.role == crate::io::pool::Role::Validate)
         {
@@ -147,7 +119,7 @@ impl StageImpl for Settings {
                 norm: m.norm,
                 forgetting: m.forgetting,
                 progress: None,
-                output_error: (m.objective == fit::Objective::OutputError)
+                output_error: (m.objective == crate::estimate::result::Objective::OutputError)
                     .then_some((ctx.vehicle, &refs[..])),
                 max_seconds: m.max_seconds,
             };
@@ -182,10 +154,11 @@ impl StageImpl for Settings {
                     let nmae: Vec<f64> = held_out
                         .iter()
                         .flat_map(|r| {
-                            let s = validate::score_run(
+                            let s = crate::validate::pool::score_run(
                                 &ctx.vehicle.dofs,
                                 r,
-                                &validate::simulate_run(&plant, r, Default::default()).0,
+                                &crate::validate::pool::simulate_run(&plant, r, Default::default())
+                                    .0,
                                 1.0,
                             );
                             s.dofs.values().map(|d| d.metrics.nmae).collect::<Vec<_>>()

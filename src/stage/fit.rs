@@ -1,12 +1,12 @@
 //! `kind: fit` — identifies the hydrodynamic parameters from every CFD response it reads.
 
-use super::{Artifact, InputFile, Kind, RunCtx, StageImpl, pool, starccm};
+use super::{Artifact, Kind, RunCtx, StageImpl};
 use crate::dof::Dof;
+use crate::estimate::result::{CaseRef, Expected, FitResult, Objective, RESULT, RunRef};
 use crate::estimate::{self, Fit, Regression};
-use crate::model::{ParamLayout, Structure};
+use crate::io::response;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
-use std::path::Path;
 use std::sync::Arc;
 
 pub static KIND: Kind = Kind {
@@ -31,25 +31,6 @@ fn parse_settings(v: serde_yaml_ng::Value) -> Result<Arc<dyn StageImpl>, serde_y
         return Err(serde::de::Error::unknown_variant(&s.method, names));
     }
     Ok(Arc::new(s))
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "snake_case")]
-pub enum Objective {
-    /// Force reconstructed from measured velocity and acceleration vs applied force (seed 001 eq. 14).
-    #[default]
-    EquationError,
-    /// Velocity simulated under the applied force vs measured velocity (seed 001 eq. 9).
-    OutputError,
-}
-
-impl Objective {
-    pub fn label(self) -> &'static str {
-        match self {
-            Objective::EquationError => "equation error (seed 001 eq. 14)",
-            Objective::OutputError => "output error (seed 001 eq. 9, simulator in the loop)",
-        }
-    }
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -97,14 +78,6 @@ pub struct Settings {
     pub added_mass_window_s: Option<f64>,
 }
 
-/// A reference value of one parameter and where it comes from.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Expected {
-    pub value: f64,
-    pub source: String,
-}
-
 impl Default for Settings {
     fn default() -> Self {
         Settings {
@@ -124,96 +97,6 @@ impl Default for Settings {
             added_mass_window_s: None,
         }
     }
-}
-
-/// A CFD case the fit used.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct CaseRef {
-    pub id: String,
-    pub case: String,
-    pub source: InputFile,
-    /// All of the case's input files when it has more than `source` (an OpenFOAM case).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub inputs: Vec<InputFile>,
-    /// The body mass the case states, when it does.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub mass_kg: Option<f64>,
-}
-
-/// A pool run the fit used.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct RunRef {
-    pub id: String,
-    pub run: String,
-    pub inputs: Vec<InputFile>,
-}
-
-/// The fit stage's artifact: parameters with their provenance.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct FitResult {
-    pub stage: String,
-    pub method: String,
-    pub objective: Objective,
-    pub settings: serde_json::Value,
-    pub structure: Structure,
-    pub dofs: Vec<Dof>,
-    /// DOFs whose model has a constant force term (X_0 ..), after `dofs`' terms.
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub constant_force: Vec<Dof>,
-    pub fit: Fit,
-    pub cases: Vec<CaseRef>,
-    /// The pool runs the fit used (`role: train`).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub runs: Vec<RunRef>,
-    /// What the fit did besides the numbers (runs left out, how sources were weighted).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub notes: Vec<String>,
-    pub elapsed_s: f64,
-    /// The body, when it is not the pipeline's vehicle.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub vehicle: Option<crate::model::Vehicle>,
-    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
-    pub expected: BTreeMap<String, Expected>,
-    /// With `added_mass_window_s`: what the one-step fit over whole runs gives, for contrast.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub one_step: Option<Vec<estimate::Estimate>>,
-}
-
-pub const RESULT: &str = "fit.json";
-
-impl FitResult {
-    /// The parameter layout the values are in.
-    pub fn layout(&self) -> ParamLayout {
-        ParamLayout::with_constant(&self.dofs, &self.constant_force)
-    }
-
-    /// The identified coefficients.
-    pub fn hydro(&self) -> crate::model::Hydro {
-        let theta: Vec<f64> = self.fit.parameters.iter().map(|p| p.value).collect();
-        self.layout().to_hydro(&theta)
-    }
-
-    /// The identified model of `vehicle` (the fit's own body when it has one).
-    pub fn plant(&self, vehicle: &crate::model::Vehicle) -> crate::model::Plant {
-        crate::model::Plant::new(self.vehicle.as_ref().unwrap_or(vehicle), self.hydro())
-    }
-
-    /// Every input file the values depend on: CFD cases and pool runs.
-    pub fn input_files(&self) -> Vec<InputFile> {
-        let cfd = self.cases.iter().flat_map(|c| {
-            if c.inputs.is_empty() {
-                vec![c.source.clone()]
-            } else {
-                c.inputs.clone()
-            }
-        });
-        cfd.chain(self.runs.iter().flat_map(|r| r.inputs.clone()))
-            .collect()
-    }
-}
-
-pub fn load(dir: &Path) -> anyhow::Result<FitResult> {
-    super::read_json(&dir.join(RESULT))
 }
 
 impl StageImpl for Settings {
@@ -247,7 +130,7 @@ impl StageImpl for Settings {
         let mut cases = Vec::new();
         let mut responses = Vec::new();
         for up in ctx.upstream_of(Artifact::Responses) {
-            let (meta, r) = starccm::load(&up.dir)?;
+            let (meta, r) = response::load(&up.dir)?;
             cases.push(CaseRef {
                 id: up.id.clone(),
                 case: meta.case,
@@ -362,7 +245,7 @@ fn training_runs(
 ) -> anyhow::Result<(Vec<RunRef>, Vec<crate::io::Response>, Vec<String>)> {
     let (mut refs, mut responses, mut notes) = (Vec::new(), Vec::new(), Vec::new());
     for up in ctx.upstream_of(Artifact::PoolRuns) {
-        let run = pool::load_for(&up.dir, vehicle)?;
+        let run = crate::fusion::run::load_for(&up.dir, vehicle)?;
         if run.meta.role != crate::io::pool::Role::Train {
             continue;
         }

@@ -10,93 +10,11 @@ pub mod report;
 pub mod starccm;
 pub mod validate;
 
-use crate::model::Vehicle;
-use serde::{Deserialize, Serialize};
-use std::path::{Path, PathBuf};
+pub use crate::pipeline::contract::{
+    Artifact, Kind, Registry, RunCtx, StageImpl, Upstream, VehicleUse,
+};
 
-/// What a stage produces, so the spec can check that `from` connects compatible stages.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Artifact {
-    /// A CFD response table (force, velocity, acceleration per DOF).
-    Responses,
-    /// An identified vehicle model.
-    Model,
-    /// A pool run fused into body-frame velocities.
-    PoolRuns,
-    /// Scores of models on pool runs.
-    Validation,
-    /// Estimators side by side.
-    Comparison,
-    /// Why the recordings and the model differ.
-    Diagnosis,
-    /// The published report.
-    Report,
-}
-
-impl Artifact {
-    pub fn describe(self) -> &'static str {
-        match self {
-            Artifact::Responses => "CFD responses",
-            Artifact::Model => "an identified model",
-            Artifact::PoolRuns => "fused pool runs",
-            Artifact::Validation => "validation scores",
-            Artifact::Comparison => "an estimator comparison",
-            Artifact::Diagnosis => "a missing-physics diagnosis",
-            Artifact::Report => "a report",
-        }
-    }
-
-    pub fn example(self) -> &'static str {
-        match self {
-            Artifact::Responses => "a `starccm` stage",
-            Artifact::Model => "a `fit` stage",
-            Artifact::PoolRuns => "a `pool` stage",
-            Artifact::Validation => "a `validate` stage",
-            Artifact::Comparison => "a `compare` stage",
-            Artifact::Diagnosis => "a `diagnose` stage",
-            Artifact::Report => "a `report` stage",
-        }
-    }
-}
-
-/// How much of the vehicle a kind depends on: an importer needs only the DOF list, so a new
-/// mass reruns the fit but not every import.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum VehicleUse {
-    Dofs,
-    All,
-}
-
-/// A stage kind: its contract with the engine.
-pub struct Kind {
-    pub name: &'static str,
-    /// Bump when the kind's algorithm or artifact format changes: part of every cache key.
-    pub version: u32,
-    /// One instance per input file or folder matched by the stage's globs.
-    pub fan_out: bool,
-    /// A single-instance kind that may also read files by glob (the report reads the twin's
-    /// truth when there is one); a glob that matches nothing is then not an error.
-    pub reads_files: bool,
-    /// For a fan-out over folders: which files of a matched folder (path relative to it) are
-    /// inputs; None takes them all. An OpenFOAM case folder also holds the results of its runs.
-    pub input_filter: Option<fn(&str) -> bool>,
-    pub produces: Artifact,
-    /// What it may read from (`from`), and what it must read from.
-    pub consumes: &'static [Artifact],
-    pub requires: &'static [Artifact],
-    /// At least one of these must be under `from` (a fit reads CFD responses, pool runs or both).
-    pub requires_one_of: &'static [Artifact],
-    /// Which part of the vehicle section is part of its key.
-    pub uses_vehicle: VehicleUse,
-    /// Folder of the project its results are copied to (the report), if any.
-    pub publishes_to: Option<&'static str>,
-    /// Parses the stage's `settings` (unknown keys rejected).
-    pub parse:
-        fn(serde_yaml_ng::Value) -> Result<std::sync::Arc<dyn StageImpl>, serde_yaml_ng::Error>,
-}
-
-pub const KINDS: &[&Kind] = &[
+pub const KINDS: Registry = &[
     &starccm::KIND,
     &openfoam::KIND,
     &pool::KIND,
@@ -108,61 +26,7 @@ pub const KINDS: &[&Kind] = &[
 ];
 
 pub fn kind(name: &str) -> Option<&'static Kind> {
-    KINDS.iter().copied().find(|k| k.name == name)
-}
-
-pub use crate::provenance::InputFile;
-
-/// A finished upstream instance whose artifacts a stage reads.
-#[derive(Debug, Clone)]
-pub struct Upstream {
-    pub id: String,
-    pub stage: String,
-    pub produces: Artifact,
-    pub dir: PathBuf,
-}
-
-/// Everything a running stage may touch.
-pub struct RunCtx<'a> {
-    pub id: &'a str,
-    pub stage: &'a str,
-    pub root: &'a Path,
-    pub vehicle: &'a Vehicle,
-    pub inputs: &'a [InputFile],
-    pub upstream: Vec<Upstream>,
-    /// Upstream instances that failed and that this stage goes on without (pool runs that
-    /// could not be imported or fused), with their errors: list them, use the rest.
-    pub failed_upstream: Vec<(String, String)>,
-    /// Fresh, empty folder for the artifacts; renamed into the cache only if `run` succeeds.
-    pub out: &'a Path,
-    pub progress: &'a indicatif::ProgressBar,
-}
-
-impl RunCtx<'_> {
-    pub fn upstream_of(&self, a: Artifact) -> impl Iterator<Item = &Upstream> {
-        self.upstream.iter().filter(move |u| u.produces == a)
-    }
-
-    /// One line per failed upstream this stage went on without: `pool[x] failed: <error>`.
-    pub fn failed_notes(&self) -> Vec<String> {
-        self.failed_upstream
-            .iter()
-            .map(|(id, e)| {
-                format!(
-                    "{id} failed and is left out: {}",
-                    e.lines().next().unwrap_or("")
-                )
-            })
-            .collect()
-    }
-}
-
-/// A configured stage: the kind's settings, ready to run.
-pub trait StageImpl: Send + Sync {
-    /// The settings with defaults filled in, as hashed into the key and shown by `--explain`.
-    fn settings(&self) -> serde_json::Value;
-    /// Runs the stage, writing its artifacts into `ctx.out`.
-    fn run(&self, ctx: &RunCtx) -> anyhow::Result<()>;
+    crate::pipeline::contract::find(KINDS, name)
 }
 
 pub use crate::fsutil::{read_json, write_json};

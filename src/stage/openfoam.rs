@@ -2,13 +2,14 @@
 //! its solver) when its inputs have no results yet, or reuses the results a run of exactly
 //! these inputs left in the folder, and turns the body's motion into a response table.
 
-use super::starccm::{META, ResponseMeta, TABLE};
-use super::{Artifact, InputFile, Kind, RunCtx, StageImpl};
+use super::{Artifact, Kind, RunCtx, StageImpl};
 use crate::diag::InputError;
 use crate::dof::Dof;
 use crate::io::Response;
+use crate::io::response::{META, ResponseMeta, TABLE};
 use crate::io::response::{Series, Source, differentiate};
 use crate::openfoam::{self, Stamp, Track};
+use crate::provenance::InputFile;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -43,29 +44,6 @@ impl Default for Settings {
             keep_results_in_case: true,
         }
     }
-}
-
-/// How the case's results came about; shown in the report.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct RunInfo {
-    pub solver: String,
-    pub openfoam: String,
-    /// True when this build ran the solver; false when it read results left in the case.
-    pub ran_in_this_build: bool,
-    pub steps: usize,
-    pub end_time_s: f64,
-    pub cpu_time_s: Option<f64>,
-    pub wall_time_s: Option<f64>,
-    pub applied_force_n: [f64; 3],
-    pub mass_kg: f64,
-    pub rho: f64,
-}
-
-/// The body's path and the fluid force on it, for the report's drag analysis.
-pub const TRACK: &str = "track.json";
-
-pub fn load_track(dir: &Path) -> Option<Track> {
-    super::read_json(&dir.join(TRACK)).ok()
 }
 
 impl StageImpl for Settings {
@@ -189,8 +167,8 @@ impl StageImpl for Settings {
             "case {case_rel}: the body neither moves nor is pushed in any of the vehicle's DOFs"
         );
         response.write_parquet(&ctx.out.join(TABLE))?;
-        super::write_json(&ctx.out.join(super::openfoam::TRACK), &track)?;
-        let info = RunInfo {
+        super::write_json(&ctx.out.join(openfoam::TRACK), &track)?;
+        let info = openfoam::RunInfo {
             solver: solver.clone(),
             openfoam: stamp.openfoam.clone(),
             ran_in_this_build: ran,

@@ -28,8 +28,6 @@ pub struct Settings {
     pub fusion: fusion::Settings,
 }
 
-pub use crate::fusion::run::{FusedRun, META, RunMeta, load, load_for};
-
 impl StageImpl for Settings {
     fn settings(&self) -> serde_json::Value {
         serde_json::to_value(self).expect("settings serialise")
@@ -73,7 +71,7 @@ impl StageImpl for Settings {
         let sensors = run.sensors().iter().map(|(n, _)| n.to_string()).collect();
         let mut notes = run.notes.clone();
         notes.extend(fused.stats.notes.iter().cloned());
-        let meta = RunMeta {
+        let meta = run::RunMeta {
             run: run.name.clone(),
             role: run.meta.role,
             description: run.meta.description.clone(),
@@ -87,7 +85,7 @@ impl StageImpl for Settings {
             notes,
             repairs: run.repairs.clone(),
         };
-        super::write_json(&ctx.out.join(META), &meta)
+        super::write_json(&ctx.out.join(run::META), &meta)
     }
 }
 

@@ -1,11 +1,13 @@
 //! `kind: report` — validates every model on every CFD response it reads and writes the report.
 
-use super::{Artifact, Kind, RunCtx, StageImpl, fit, starccm};
+use super::{Artifact, Kind, RunCtx, StageImpl};
 use crate::dof::Dof;
 use crate::io::Response;
+use crate::io::response;
 use crate::model::{Plant, Vec6};
+use crate::plot as plots;
+use crate::report::html;
 use crate::report::json::{self, DofMetrics, ModelScore, RunScore, Validation};
-use crate::report::{html, plots};
 use crate::validate;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -52,7 +54,7 @@ struct Case {
     notes: Vec<String>,
     /// The body mass the case states (OpenFOAM), which replaces the vehicle's.
     mass: Option<f64>,
-    openfoam: Option<crate::stage::openfoam::RunInfo>,
+    openfoam: Option<crate::openfoam::RunInfo>,
     track: Option<crate::openfoam::Track>,
 }
 
@@ -62,14 +64,14 @@ impl StageImpl for Settings {
     }
 
     fn run(&self, ctx: &RunCtx) -> anyhow::Result<()> {
-        let fits: Vec<fit::FitResult> = ctx
+        let fits: Vec<crate::estimate::result::FitResult> = ctx
             .upstream_of(Artifact::Model)
-            .map(|u| fit::load(&u.dir))
+            .map(|u| crate::estimate::result::load(&u.dir))
             .collect::<Result<_, _>>()?;
         let mut cases = Vec::new();
         for u in ctx.upstream_of(Artifact::Responses) {
-            let (meta, response) = starccm::load(&u.dir)?;
-            let track = crate::stage::openfoam::load_track(&u.dir);
+            let (meta, response) = response::load(&u.dir)?;
+            let track = crate::openfoam::load_track(&u.dir);
             cases.push(Case {
                 id: u.id.clone(),
                 name: meta.case,
@@ -80,14 +82,14 @@ impl StageImpl for Settings {
                 track,
             });
         }
-        let pool_runs: Vec<crate::stage::pool::FusedRun> = ctx
+        let pool_runs: Vec<crate::fusion::run::FusedRun> = ctx
             .upstream_of(Artifact::PoolRuns)
-            .map(|u| crate::stage::pool::load_for(&u.dir, ctx.vehicle))
+            .map(|u| crate::fusion::run::load_for(&u.dir, ctx.vehicle))
             .collect::<Result<_, _>>()?;
         let pool_scores = ctx
             .upstream_of(Artifact::Validation)
             .next()
-            .map(|u| crate::stage::validate::load(&u.dir))
+            .map(|u| crate::validate::pool::load(&u.dir))
             .transpose()?;
         let mut models = Vec::new();
         let mut first_sims: Vec<Option<Vec<Vec6>>> = vec![None; cases.len()];
@@ -109,7 +111,7 @@ impl StageImpl for Settings {
                     v.mass_kg = m;
                 }
                 let plant = Plant::new(&v, hydro);
-                let sim = validate::simulate_response(&plant, &c.response);
+                let sim = c.response.simulate(&plant);
                 let role = if trained { "train" } else { "validate" };
                 let scores = validate::score(&c.response, &sim);
                 if f.vehicle.is_some() {
@@ -195,7 +197,7 @@ impl StageImpl for Settings {
         let comparison = ctx
             .upstream_of(Artifact::Comparison)
             .next()
-            .map(|u| crate::stage::compare::load(&u.dir))
+            .map(|u| crate::estimate::comparison::load(&u.dir))
             .transpose()?;
         let compare_html = comparison
             .as_ref()
@@ -203,7 +205,7 @@ impl StageImpl for Settings {
         let diagnosis = ctx
             .upstream_of(Artifact::Diagnosis)
             .next()
-            .map(|u| crate::stage::diagnose::load(&u.dir))
+            .map(|u| crate::diagnose::result::load(&u.dir))
             .transpose()?;
         let diagnosis_html = diagnosis.as_ref().map_or(String::new(), |(d, figs)| {
             crate::report::diagnose::section(d, figs)

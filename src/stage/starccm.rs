@@ -2,7 +2,7 @@
 
 use super::{Artifact, Kind, RunCtx, StageImpl};
 use crate::dof::Dof;
-use crate::io::Response;
+use crate::io::response::{META, ResponseMeta, TABLE};
 use crate::io::starccm::{self, ColumnMap, ImportOptions};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -36,38 +36,6 @@ pub struct AppliedForce {
 pub struct Settings {
     pub columns: ColumnMap,
     pub applied_force: Vec<AppliedForce>,
-}
-
-/// What the import wrote besides the table: where it came from and what was done to it.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct ResponseMeta {
-    pub case: String,
-    pub source: super::InputFile,
-    pub dofs: Vec<Dof>,
-    pub sources: BTreeMap<Dof, (crate::io::response::Source, crate::io::response::Source)>,
-    pub rows_read: usize,
-    pub rows_kept: usize,
-    pub notes: Vec<String>,
-    /// The body's mass when the case states its own (an OpenFOAM case), kg; otherwise the
-    /// vehicle's in pipeline.yaml applies.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub body_mass_kg: Option<f64>,
-    /// Every input file when the case is more than `source` (an OpenFOAM case folder).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub all_inputs: Vec<super::InputFile>,
-    /// How an OpenFOAM case was run.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub openfoam: Option<crate::stage::openfoam::RunInfo>,
-}
-
-pub const TABLE: &str = "response.parquet";
-pub const META: &str = "response.json";
-
-/// Loads a response written by any `Responses` stage.
-pub fn load(dir: &std::path::Path) -> anyhow::Result<(ResponseMeta, Response)> {
-    let meta: ResponseMeta = super::read_json(&dir.join(META))?;
-    let r = Response::read_parquet(&dir.join(TABLE), &meta.sources)?;
-    Ok((meta, r))
 }
 
 impl StageImpl for Settings {

@@ -1,38 +1,24 @@
 //! Model-vs-measurement metrics: MAE, normalised MAE (seed 003) and RMSE as a percentage of
 //! the run's peak speed (seed 001).
 
+pub mod pool;
+
 use crate::dof::Dof;
 use crate::io::Response;
-use crate::model::{Plant, Vec6};
+use crate::model::Vec6;
 use serde::{Deserialize, Serialize};
 
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Metrics {
     /// Mean absolute error, in the DOF's velocity unit.
-    #[serde(deserialize_with = "f64_or_nan")]
+    #[serde(deserialize_with = "crate::fsutil::f64_or_nan")]
     pub mae: f64,
     /// mean |v_model - v_meas| / mean |v_meas| (seed 003).
-    #[serde(deserialize_with = "f64_or_nan")]
+    #[serde(deserialize_with = "crate::fsutil::f64_or_nan")]
     pub nmae: f64,
     /// 100 * RMSE / max |v_meas| (seed 001 states its velocity error this way).
-    #[serde(deserialize_with = "f64_or_nan")]
+    #[serde(deserialize_with = "crate::fsutil::f64_or_nan")]
     pub rmse_pct: f64,
-}
-
-/// JSON has no NaN: serde_json writes it as `null`; read `null` back as NaN.
-pub fn f64_or_nan<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
-    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
-}
-
-/// Series of numbers per DOF whose `null`s (NaN written by serde_json) read back as NaN.
-pub fn series_or_nan<'de, D: serde::Deserializer<'de>>(
-    d: D,
-) -> Result<std::collections::BTreeMap<Dof, Vec<f64>>, D::Error> {
-    let raw = std::collections::BTreeMap::<Dof, Vec<Option<f64>>>::deserialize(d)?;
-    Ok(raw
-        .into_iter()
-        .map(|(k, v)| (k, v.into_iter().map(|x| x.unwrap_or(f64::NAN)).collect()))
-        .collect())
 }
 
 pub fn metrics(measured: &[f64], simulated: &[f64]) -> Metrics {
@@ -55,12 +41,6 @@ pub fn metrics(measured: &[f64], simulated: &[f64]) -> Metrics {
             f64::NAN
         },
     }
-}
-
-/// The model's velocities under the response's applied force, from its first measured state.
-pub fn simulate_response(plant: &Plant, r: &Response) -> Vec<Vec6> {
-    let tau: Vec<Vec6> = (0..r.len()).map(|k| r.tau(k)).collect();
-    plant.simulate(&r.t, &tau, r.nu(0), 0.01)
 }
 
 /// Metrics per DOF of the response.

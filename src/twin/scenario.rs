@@ -1,10 +1,10 @@
 //! Scenarios for proving the diagnosis: the twin's six pool runs with chosen effects concealed,
 //! written to a scratch folder, read back and fused exactly as the `pool` stage does.
 
-use super::Run;
+use super::pool as twin;
+use crate::diagnose::Run;
+use crate::fusion::run::{FusedRun, RunMeta};
 use crate::model::effects::Effect;
-use crate::stage::pool::{FusedRun, RunMeta};
-use crate::twin::pool as twin;
 use rayon::prelude::*;
 
 /// The fused runs of one generated scenario, as the `pool` stage would store them.
@@ -75,8 +75,8 @@ pub fn cfd_fit_plant(seed: u64) -> anyhow::Result<crate::model::Plant> {
     use crate::model::{Hydro, Plant, Vehicle};
     let vehicle = Vehicle::reference();
     let mut responses = Vec::new();
-    for c in &crate::twin::cfd::default_cases() {
-        let text = crate::twin::cfd::export(&vehicle, Hydro::reference(), c, seed);
+    for c in &super::cfd::default_cases() {
+        let text = super::cfd::export(&vehicle, Hydro::reference(), c, seed);
         let opts = crate::io::starccm::ImportOptions {
             columns: &Default::default(),
             dofs: &vehicle.dofs,

@@ -1,0 +1,152 @@
+//! The diagnosis as the `diagnose` stage stores it (`diagnosis.json`, `figures.json`): the
+//! verdict, what was tested and where the mismatch lies, and the evidence figures.
+
+use super::{Criteria, Data, Mismatch, RegimeShare, Tested, Untested};
+use crate::dof::Dof;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Reestimated {
+    pub parameters: Vec<crate::estimate::Estimate>,
+    pub validation_nmae: BTreeMap<Dof, f64>,
+    #[serde(deserialize_with = "crate::fsutil::f64_or_nan")]
+    pub validation_cost: f64,
+    pub within_noise: bool,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Baseline {
+    pub model: String,
+    pub validation_nmae: BTreeMap<Dof, f64>,
+    /// Normalised cost on the held-out runs (sum over DOFs of MSE / mean square velocity).
+    #[serde(deserialize_with = "crate::fsutil::f64_or_nan")]
+    pub validation_cost: f64,
+    /// The same cost of the measurement noise alone: what no model can beat.
+    pub noise_cost: f64,
+    /// The model's parameters re-estimated on the training runs (parameter drift).
+    pub reestimated: Reestimated,
+    /// True when the verdict is "the parameters drifted": use `reestimated.parameters`.
+    pub parameters_reestimated: bool,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Found {
+    pub name: String,
+    pub dofs: Vec<Dof>,
+    pub parameters: BTreeMap<String, f64>,
+    pub evidence: String,
+    pub validation_nmae_before: BTreeMap<Dof, f64>,
+    pub validation_nmae_after: BTreeMap<Dof, f64>,
+    pub validation_cost_before: f64,
+    pub validation_cost_after: f64,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Runs {
+    pub train: Vec<String>,
+    pub validate: Vec<String>,
+    pub skipped: Vec<String>,
+}
+
+/// `diagnosis.json` (FORMATS.md), with the evidence behind it.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Diagnosis {
+    pub baseline: Baseline,
+    pub mismatch: Vec<Mismatch>,
+    pub effects: Vec<Found>,
+    pub verdict: String,
+    /// Shares of the CFD model's held-out error per regime.
+    pub regimes: Vec<RegimeShare>,
+    /// Every hypothesis tested, per greedy round.
+    pub hypotheses: Vec<Tested>,
+    pub criteria: Criteria,
+    pub runs: Runs,
+    /// Runs on which the model's simulation diverged: then nothing is diagnosed.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub diverged: Vec<String>,
+    /// Hypotheses that could not be tested, with what the runs lack (FORMATS.md).
+    #[serde(default)]
+    pub untested: Vec<Untested>,
+    /// The model's local stability along each run, and the simulation window it led to.
+    #[serde(default)]
+    pub stability: BTreeMap<String, crate::model::stability::Stability>,
+    pub elapsed_s: f64,
+}
+
+/// An SVG figure with its caption.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Figure {
+    pub caption: String,
+    pub svg: String,
+}
+
+pub const RESULT: &str = "diagnosis.json";
+
+impl Diagnosis {
+    /// The answer for a model whose simulation diverges: it is not diagnosed at all.
+    pub(crate) fn unsound(
+        model: &str,
+        data: &Data,
+        diverged: Vec<String>,
+        crit: &Criteria,
+        skipped: Vec<String>,
+        elapsed_s: f64,
+    ) -> Diagnosis {
+        let verdict = format!(
+            "Not diagnosed: model `{model}` diverges when simulated under the logged command of {}. A model that leaves the range a vehicle can reach is unsound (a drag term with the wrong sign, a lost DOF, an unstable identification); any effect fitted on top of it would only patch the divergence. Fix the model first (see its parameters' notes), then diagnose again.",
+            diverged.join(", ")
+        );
+        Diagnosis {
+            baseline: Baseline {
+                model: model.to_string(),
+                validation_nmae: BTreeMap::new(),
+                validation_cost: f64::NAN,
+                noise_cost: data.noise_cost,
+                reestimated: Reestimated {
+                    parameters: Vec::new(),
+                    validation_nmae: BTreeMap::new(),
+                    validation_cost: f64::NAN,
+                    within_noise: false,
+                },
+                parameters_reestimated: false,
+            },
+            mismatch: Vec::new(),
+            effects: Vec::new(),
+            verdict,
+            regimes: Vec::new(),
+            hypotheses: Vec::new(),
+            criteria: crit.clone(),
+            runs: Runs {
+                train: data.train.iter().map(|r| r.name.clone()).collect(),
+                validate: data.validate.iter().map(|r| r.name.clone()).collect(),
+                skipped,
+            },
+            diverged,
+            untested: Vec::new(),
+            stability: BTreeMap::new(),
+            elapsed_s,
+        }
+    }
+}
+
+pub const FIGURES: &str = "figures.json";
+
+pub fn load(dir: &Path) -> anyhow::Result<(Diagnosis, Vec<Figure>)> {
+    Ok((
+        crate::fsutil::read_json(&dir.join(RESULT))?,
+        crate::fsutil::read_json(&dir.join(FIGURES))?,
+    ))
+}
+
+pub(crate) fn pct(x: f64) -> String {
+    format!("{:.0} %", 100.0 * x)
+}
+
+pub(crate) fn fmt_params(p: &BTreeMap<String, f64>) -> String {
+    p.iter()
+        .map(|(k, v)| format!("{k} = {v:.3}"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}

@@ -1,0 +1,564 @@
+//! The whole diagnosis of a model on fused pool runs: drift or missing structure, the named
+//! effects tested and chosen on held-out runs, what is left `unexplained`, and the figures
+//! that show the evidence (see the module documentation of [`crate::diagnose`]).
+
+use super::result::*;
+use super::{self as dx, Augmentation, Criteria, DOFS, Data, Mismatch, Run};
+use crate::dof::Dof;
+use crate::model::{ParamLayout, Plant};
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+
+/// The whole diagnosis of `plant` (the model of fit stage `model`) on fused pool runs.
+pub fn diagnose(
+    vehicle: &crate::model::Vehicle,
+    model: &str,
+    plant: &Plant,
+    fused: &[crate::fusion::run::FusedRun],
+    crit: &Criteria,
+    progress: &(dyn Fn(&str) + Sync),
+) -> anyhow::Result<(Diagnosis, Vec<Figure>)> {
+    let start = std::time::Instant::now();
+    let mut skipped = Vec::new();
+    let runs: Vec<Run> = fused
+        .iter()
+        .filter_map(|r| {
+            let run = Run::from_fused(r);
+            if run.is_none() {
+                skipped.push(format!("{}: not every DOF was fused", r.meta.run));
+            }
+            run
+        })
+        .collect();
+    let mut runs = runs;
+    let mut stability = BTreeMap::new();
+    for r in &mut runs {
+        let vel: Vec<[f64; 4]> = (0..r.t.len())
+            .map(|k| std::array::from_fn(|j| r.vel[j][k]))
+            .collect();
+        let s = crate::model::stability::along(plant, &r.t, &vel, crit.horizon_s);
+        r.horizon_s = s.horizon_s;
+        stability.insert(r.name.clone(), s);
+    }
+    let data = Data::new(runs)?;
+    let diverged: Vec<String> = data
+        .train
+        .iter()
+        .chain(&data.validate)
+        .filter_map(|r| dx::divergence(plant, r).map(|t| format!("{} (at t = {t:.1} s)", r.name)))
+        .collect();
+    if !diverged.is_empty() {
+        let mut d = Diagnosis::unsound(
+            model,
+            &data,
+            diverged,
+            crit,
+            skipped,
+            start.elapsed().as_secs_f64(),
+        );
+        d.stability = stability;
+        return Ok((d, Vec::new()));
+    }
+    progress("baseline and re-estimated parameters");
+
+    // 1. Drift: the same model structure, parameters re-estimated on the training runs.
+    let base = data.eval(plant, &Augmentation::default(), true);
+    let base_cost = base.cost(&data.scale);
+    let reest = reestimate(vehicle, fused, &data)?;
+    let re_plant = Plant::new(
+        vehicle,
+        ParamLayout::of(vehicle).to_hydro(&reest.iter().map(|p| p.value).collect::<Vec<_>>()),
+    );
+    let re_sums = data.eval(&re_plant, &Augmentation::default(), true);
+    let re_cost = re_sums.cost(&data.scale);
+
+    // 2. Locate the CFD model's held-out residual.
+    let res_before = dx::residuals(plant, &Augmentation::default(), &data.validate);
+    let mut mismatch = dx::locate(&data.validate, &res_before, &data.scale);
+    mismatch.retain(|m| m.share_of_error >= 0.02);
+    mismatch.truncate(8);
+    let regimes = dx::regime_shares(&data.validate, &res_before, &data.scale);
+
+    // 3. Hypotheses, greedily.
+    let search = dx::select(plant, &data, crit, progress);
+    let mut effects = Vec::new();
+    let mut prefix: dx::Selection = Vec::new();
+    let mut figures = Vec::new();
+    for (h, p) in &search.selected {
+        let aug_before = dx::augmentation(&prefix);
+        prefix.push((*h, p.clone()));
+        let aug_after = dx::augmentation(&prefix);
+        let (sb, sa) = (
+            data.eval(plant, &aug_before, true),
+            data.eval(plant, &aug_after, true),
+        );
+        let (nb, na) = (sb.nmae(), sa.nmae());
+        let dofs: Vec<Dof> = (0..4)
+            .filter(|&j| nb[j] - na[j] > 0.1 * nb[j] && nb[j] - na[j] > 0.003)
+            .map(|j| DOFS[j])
+            .collect();
+        let (cb, ca) = (sb.cost(&data.scale), sa.cost(&data.scale));
+        let params = dx::params_map(h, p);
+        // The regime is read off the residual this effect was chosen to explain (after the
+        // effects kept before it), where its signature is not masked by theirs.
+        let res_prefix = dx::residuals(plant, &aug_before, &data.validate);
+        let regime = dx::regime_shares(&data.validate, &res_prefix, &data.scale)
+            .into_iter()
+            .find(|r| r.regime == dx::evidence_regime(h));
+        let mut evidence = format!(
+            "Fitted on the training runs: {}. On the held-out runs the error cost falls {} ({:.4} to {:.4}; noise floor {:.4})",
+            fmt_params(&params),
+            pct((cb - ca) / cb),
+            cb,
+            ca,
+            data.noise_cost
+        );
+        if let Some(r) = regime {
+            let _ = write!(
+                evidence,
+                "; the residual it explains has {} of its error {} ({} of the time)",
+                pct(r.share_of_error),
+                r.label,
+                pct(r.share_of_time)
+            );
+        }
+        evidence.push('.');
+        figures.extend(evidence_figures(
+            plant,
+            &data,
+            h,
+            &aug_before,
+            &aug_after,
+            &dofs,
+        )?);
+        effects.push(Found {
+            name: h.name.into(),
+            dofs,
+            parameters: params,
+            evidence,
+            validation_nmae_before: dx::nmae_map(&sb),
+            validation_nmae_after: dx::nmae_map(&sa),
+            validation_cost_before: cb,
+            validation_cost_after: ca,
+        });
+    }
+    let final_cost = *search.costs.last().unwrap_or(&base_cost);
+    let within = |c: f64| c <= crit.within_noise * data.noise_cost;
+    // Drift wins when re-estimating the model's own parameters explains the held-out runs
+    // better than the effects did (and the CFD model itself is not already within noise).
+    let drift = re_cost < final_cost && !within(base_cost) && re_cost < 0.5 * base_cost;
+    if drift {
+        effects.clear();
+        figures.clear();
+    }
+    let explained_cost = if drift { re_cost } else { final_cost };
+    let left = if drift {
+        Vec::new()
+    } else {
+        structured_left(plant, &data, &dx::augmentation(&search.selected), crit)
+    };
+    let verdict;
+    if !within(explained_cost) && explained_cost > 0.5 * base_cost.max(1e-12)
+        || (!within(explained_cost) && effects.is_empty())
+        || (!left.is_empty() && !within(explained_cost))
+    {
+        let after_aug = dx::augmentation(&search.selected);
+        let res_after = dx::residuals(plant, &after_aug, &data.validate);
+        let loc = dx::locate(&data.validate, &res_after, &data.scale);
+        let regs = dx::regime_shares(&data.validate, &res_after, &data.scale);
+        let s = data.eval(plant, &after_aug, true);
+        let per_dof: Vec<f64> = (0..4)
+            .map(|j| s.sse[j] / s.n[j].max(1.0) / data.scale[j])
+            .collect();
+        let noise_dof: Vec<f64> = (0..4)
+            .map(|j| {
+                data.validate
+                    .iter()
+                    .map(|r| r.std[j].iter().map(|x| x * x).sum::<f64>())
+                    .sum::<f64>()
+                    / data
+                        .validate
+                        .iter()
+                        .map(|r| r.std[j].len() as f64)
+                        .sum::<f64>()
+                    / data.scale[j]
+            })
+            .collect();
+        let mut dofs: Vec<Dof> = (0..4)
+            .filter(|&j| per_dof[j] > crit.within_noise * noise_dof[j])
+            .map(|j| DOFS[j])
+            .collect();
+        for d in &left {
+            if !dofs.contains(d) {
+                dofs.push(*d);
+            }
+        }
+        let top = regs
+            .iter()
+            .filter(|r| r.share_of_time > 0.05)
+            .max_by(|a, b| {
+                (a.share_of_error / a.share_of_time)
+                    .total_cmp(&(b.share_of_error / b.share_of_time))
+            });
+        let mut ev = format!(
+            "After the effects above the held-out error cost is {explained_cost:.4}, {:.1} times the noise floor, and no effect of the table lowers it significantly",
+            explained_cost / data.noise_cost
+        );
+        if let Some(m) = loc.first() {
+            let _ = write!(
+                ev,
+                "; most of it is in {} {} ({} of the error, windows {:?} s)",
+                m.run,
+                m.dof,
+                pct(m.share_of_error),
+                m.windows_s
+            );
+        }
+        if let Some(r) = top {
+            let _ = write!(
+                ev,
+                "; it concentrates {} ({} of the error in {} of the time)",
+                r.label,
+                pct(r.share_of_error),
+                pct(r.share_of_time)
+            );
+        }
+        ev.push('.');
+        let nm = dx::nmae_map(&s);
+        effects.push(Found {
+            name: "unexplained".into(),
+            dofs,
+            parameters: BTreeMap::new(),
+            evidence: ev,
+            validation_nmae_before: nm.clone(),
+            validation_nmae_after: nm,
+            validation_cost_before: explained_cost,
+            validation_cost_after: explained_cost,
+        });
+        verdict = if effects.len() == 1 {
+            "The model does not explain the held-out runs, re-estimating its parameters does not either, and no effect of the table does: the residual is structured and is reported as unexplained, with where it is.".to_string()
+        } else {
+            format!(
+                "{} explain part of the mismatch; a structured residual remains and is reported as unexplained.",
+                effects
+                    .iter()
+                    .filter(|e| e.name != "unexplained")
+                    .map(|e| e.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(" and ")
+            )
+        };
+    } else if drift {
+        verdict = format!(
+            "No missing physics, but the parameters drifted: re-estimating the model's own parameters on the training runs explains the held-out runs better than any left-out effect (error cost {re_cost:.4}, noise floor {:.4}; the CFD model: {base_cost:.4}). Use the re-estimated parameters.",
+            data.noise_cost
+        );
+    } else if effects.is_empty() {
+        verdict = format!(
+            "No missing physics: the model explains the held-out runs to within their noise (error cost {base_cost:.4} vs noise floor {:.4}) and no effect improves it significantly.",
+            data.noise_cost
+        );
+    } else {
+        verdict = format!(
+            "The model leaves out {}: adding {} lowers the held-out error cost from {base_cost:.4} to {final_cost:.4} (noise floor {:.4}); re-estimating its parameters instead reaches {re_cost:.4}.",
+            effects
+                .iter()
+                .map(|e| e.name.as_str())
+                .collect::<Vec<_>>()
+                .join(" and "),
+            if effects.len() > 1 { "them" } else { "it" },
+            data.noise_cost
+        );
+    }
+    if let Some(fig) = residual_overview(&data, &res_before, &mismatch)? {
+        figures.insert(0, fig);
+    }
+    let diagnosis = Diagnosis {
+        baseline: Baseline {
+            model: model.to_string(),
+            validation_nmae: dx::nmae_map(&base),
+            validation_cost: base_cost,
+            noise_cost: data.noise_cost,
+            reestimated: Reestimated {
+                parameters: reest,
+                validation_nmae: dx::nmae_map(&re_sums),
+                validation_cost: re_cost,
+                within_noise: within(re_cost),
+            },
+            parameters_reestimated: drift,
+        },
+        mismatch,
+        effects,
+        verdict,
+        regimes,
+        hypotheses: search.tested,
+        criteria: crit.clone(),
+        runs: Runs {
+            train: data.train.iter().map(|r| r.name.clone()).collect(),
+            validate: data.validate.iter().map(|r| r.name.clone()).collect(),
+            skipped,
+        },
+        diverged: Vec::new(),
+        untested: dx::untested(&data),
+        stability,
+        elapsed_s: start.elapsed().as_secs_f64(),
+    };
+    Ok((diagnosis, figures))
+}
+
+/// The DOFs whose held-out residual, after the effects in `aug`, is both well above its noise
+/// (`unexplained_noise_multiple` times the fused variance) and structured (its autocorrelation
+/// outside the 95 % band at more than a fifth of the lags up to 5 s, seed 000): what is left
+/// there is physics the model lacks, however much the named effects already explained.
+fn structured_left(plant: &Plant, data: &Data, aug: &Augmentation, crit: &Criteria) -> Vec<Dof> {
+    let res = dx::residuals(plant, aug, &data.validate);
+    (0..4)
+        .filter(|&j| {
+            let (mut sse, mut var, mut outside, mut runs) = (0.0, 0.0, 0.0, 0.0);
+            for (r, e) in data.validate.iter().zip(&res) {
+                let e: Vec<f64> = e[j].iter().copied().filter(|x| x.is_finite()).collect();
+                if e.len() < 20 {
+                    continue;
+                }
+                let dt = (r.t[r.t.len() - 1] - r.t[0]) / (r.t.len() - 1) as f64;
+                sse += e.iter().map(|x| x * x).sum::<f64>();
+                var += r.std[j].iter().map(|x| x * x).sum::<f64>();
+                outside += crate::validate::whiteness(&e, dt, (5.0 / dt).round() as usize).outside;
+                runs += 1.0;
+            }
+            runs > 0.0 && sse > crit.unexplained_noise_multiple * var && outside / runs > 0.2
+        })
+        .map(|j| DOFS[j])
+        .collect()
+}
+
+/// The model's parameters re-estimated on the training runs: equation error, least squares.
+fn reestimate(
+    vehicle: &crate::model::Vehicle,
+    fused: &[crate::fusion::run::FusedRun],
+    data: &Data,
+) -> anyhow::Result<Vec<crate::estimate::Estimate>> {
+    use crate::estimate::Estimator as _;
+    let train: Vec<crate::io::Response> = fused
+        .iter()
+        .filter(|r| data.train.iter().any(|t| t.name == r.meta.run))
+        .filter_map(|r| r.as_response(vehicle))
+        .collect();
+    let refs: Vec<&crate::io::Response> = train.iter().collect();
+    let problem = crate::estimate::Regression::build(vehicle, &refs, 1.0);
+    Ok(crate::estimate::ols::Ols
+        .fit(&problem, &Default::default())?
+        .parameters)
+}
+
+/// The CFD model's residual on the held-out run that carries most of it, every DOF.
+fn residual_overview(
+    data: &Data,
+    res: &[[Vec<f64>; 4]],
+    mismatch: &[Mismatch],
+) -> anyhow::Result<Option<Figure>> {
+    let Some(m) = mismatch.first() else {
+        return Ok(None);
+    };
+    let Some(i) = data.validate.iter().position(|r| r.name == m.run) else {
+        return Ok(None);
+    };
+    let run = &data.validate[i];
+    let zero = vec![0.0; run.t.len()];
+    let traces: Vec<crate::plot::Trace> = (0..4)
+        .map(|j| crate::plot::Trace {
+            label: DOFS[j].name(),
+            t: &run.t,
+            measured: &res[i][j],
+            simulated: &zero,
+        })
+        .collect();
+    let svg = crate::plot::curves(
+        &format!("{}: residual of the model (simulated - fused)", run.name),
+        "time (s)",
+        "residual (m/s, rad/s)",
+        &traces,
+        "zero",
+    )?;
+    Ok(Some(Figure {
+        caption: format!(
+            "Where the model misses on held-out run {}: the residual per DOF; the mismatch table lists its windows.",
+            run.name
+        ),
+        svg,
+    }))
+}
+
+/// For an effect: the residual before and after it in its DOF on the worst held-out run, and
+/// the residual binned along the quantity the effect depends on.
+fn evidence_figures(
+    plant: &Plant,
+    data: &Data,
+    h: &dx::Hypothesis,
+    before: &Augmentation,
+    after: &Augmentation,
+    dofs: &[Dof],
+) -> anyhow::Result<Vec<Figure>> {
+    use crate::plot::{Trace, curves};
+    let j = dofs
+        .first()
+        .and_then(|d| DOFS.iter().position(|x| x == d))
+        .unwrap_or(dx::main_dof(h));
+    let rb = dx::residuals(plant, before, &data.validate);
+    let ra = dx::residuals(plant, after, &data.validate);
+    let worst = (0..data.validate.len()).max_by(|&a, &b| {
+        let e = |r: &[Vec<f64>; 4]| {
+            r[j].iter()
+                .filter(|x| x.is_finite())
+                .map(|x| x * x)
+                .sum::<f64>()
+        };
+        e(&rb[a]).total_cmp(&e(&rb[b]))
+    });
+    let mut out = Vec::new();
+    if let Some(i) = worst {
+        let run = &data.validate[i];
+        let d = DOFS[j];
+        let tr = [Trace {
+            label: "before",
+            t: &run.t,
+            measured: &rb[i][j],
+            simulated: &ra[i][j],
+        }];
+        let svg = curves(
+            &format!("{}: {} residual before and after {}", run.name, d, h.name),
+            "time (s)",
+            &format!("residual {} ({})", d.velocity(), d.velocity_unit()),
+            &tr,
+            &format!("with {} (dashed)", h.name),
+        )?;
+        out.push(Figure { caption: format!("{}: the {} residual on held-out run {} without the effect (colour) and with it (dashed).", h.name, d, run.name), svg });
+    }
+    if let Some((label, x)) = evidence_axis(h.name, data, j) {
+        let bin = |res: &[[Vec<f64>; 4]]| binned(&x, res, j);
+        let (cx, yb) = bin(&rb);
+        let (_, ya) = bin(&ra);
+        if cx.len() >= 3 {
+            let tr = [Trace {
+                label: "before",
+                t: &cx,
+                measured: &yb,
+                simulated: &ya,
+            }];
+            let svg = curves(
+                &format!("{}: RMS {} residual against {}", h.name, DOFS[j], label),
+                &label,
+                "RMS residual",
+                &tr,
+                &format!("with {} (dashed)", h.name),
+            )?;
+            out.push(Figure { caption: format!("{}: the held-out residual grows with {} without the effect; with it, it stays flat.", h.name, label), svg });
+        }
+    }
+    Ok(out)
+}
+
+/// The quantity an effect's evidence is plotted against, per held-out run and sample.
+fn evidence_axis(name: &str, data: &Data, j: usize) -> Option<(String, Vec<Vec<f64>>)> {
+    let per = |f: &dyn Fn(&Run, usize) -> f64| {
+        data.validate
+            .iter()
+            .map(|r| (0..r.t.len()).map(|k| f(r, k)).collect())
+            .collect()
+    };
+    Some(match name {
+        "tether_drag" => (
+            "distance from the tether anchor (m)".into(),
+            per(&|r, k| {
+                r.anchor.map_or(f64::NAN, |a| {
+                    ((r.pos[0][k] - a[0]).powi(2)
+                        + (r.pos[1][k] - a[1]).powi(2)
+                        + (r.pos[2][k] - a[2]).powi(2))
+                    .sqrt()
+                })
+            }),
+        ),
+        "wall_effect" => (
+            "distance to the nearest wall (m)".into(),
+            per(&|r, k| {
+                r.pool.map_or(f64::NAN, |p| {
+                    [
+                        r.pos[0][k],
+                        p.length_m - r.pos[0][k],
+                        r.pos[1][k],
+                        p.width_m - r.pos[1][k],
+                    ]
+                    .into_iter()
+                    .fold(f64::INFINITY, f64::min)
+                })
+            }),
+        ),
+        "thruster_lag" | "sensor_delay" => (
+            "time since the last command step (s)".into(),
+            per(&|r, k| since_step(r, k)),
+        ),
+        "reverse_thrust_loss" | "thruster_deadband" => (
+            format!("command in {} ({})", DOFS[j], DOFS[j].force_unit()),
+            per(&|r, k| r.cmd[k][j]),
+        ),
+        "water_current" => ("heading (deg)".into(), per(&|r, k| r.psi[k].to_degrees())),
+        "coupled_drag" => (
+            "|u| |v| (m^2/s^2)".into(),
+            per(&|r, k| (r.vel[0][k] * r.vel[1][k]).abs()),
+        ),
+        "net_buoyancy" => ("depth (m)".into(), per(&|r, k| r.pos[2][k])),
+        _ => return None,
+    })
+}
+
+fn since_step(r: &Run, k: usize) -> f64 {
+    let scale: [f64; 4] =
+        std::array::from_fn(|q| r.cmd.iter().fold(1e-9f64, |a, c| a.max(c[q].abs())));
+    let mut i = k;
+    while i > 0 {
+        if (0..4).any(|q| (r.cmd[i][q] - r.cmd[i - 1][q]).abs() > 0.15 * scale[q]) {
+            return r.t[k] - r.t[i];
+        }
+        i -= 1;
+    }
+    r.t[k] - r.t[0]
+}
+
+/// RMS residual of DOF j in 12 bins of x between its 2nd and 98th percentiles.
+fn binned(x: &[Vec<f64>], res: &[[Vec<f64>; 4]], j: usize) -> (Vec<f64>, Vec<f64>) {
+    let mut all: Vec<f64> = x
+        .iter()
+        .flatten()
+        .copied()
+        .filter(|v| v.is_finite())
+        .collect();
+    if all.len() < 50 {
+        return (vec![], vec![]);
+    }
+    all.sort_by(f64::total_cmp);
+    let (lo, hi) = (all[all.len() / 50], all[all.len() * 49 / 50]);
+    if hi <= lo {
+        return (vec![], vec![]);
+    }
+    const N: usize = 12;
+    let mut sum = [0.0; N];
+    let mut cnt = [0.0; N];
+    for (xr, e) in x.iter().zip(res) {
+        for (xv, ev) in xr.iter().zip(&e[j]) {
+            if xv.is_finite() && ev.is_finite() && *xv >= lo && *xv <= hi {
+                let b = (((xv - lo) / (hi - lo)) * N as f64).min(N as f64 - 1.0) as usize;
+                sum[b] += ev * ev;
+                cnt[b] += 1.0;
+            }
+        }
+    }
+    (0..N)
+        .filter(|&b| cnt[b] >= 10.0)
+        .map(|b| {
+            (
+                lo + (b as f64 + 0.5) * (hi - lo) / N as f64,
+                (sum[b] / cnt[b]).sqrt(),
+            )
+        })
+        .unzip()
+}

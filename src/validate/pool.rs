@@ -1,0 +1,170 @@
+//! Validation on pool runs: a model simulated under a fused run's logged command, scored per
+//! DOF against the fused velocities, as the `validate` stage stores it (`scores.json` plus one
+//! simulation per model and run).
+
+use super::{Metrics, Whiteness};
+use crate::dof::Dof;
+use crate::fusion::run::{FusedRun, POOL_DOFS};
+use crate::model::stability::{Horizon, Stability};
+use crate::model::{Plant, Vec6};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// A model re-estimated on one pool run and scored on the others.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct CrossFit {
+    pub trained_on: String,
+    pub parameters: Vec<crate::estimate::Estimate>,
+    pub runs: Vec<RunScore>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct DofScore {
+    #[serde(flatten)]
+    pub metrics: Metrics,
+    pub whiteness: Whiteness,
+    /// Mean of the fused velocity's standard deviation: the floor no model can beat.
+    pub measurement_std: f64,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct RunScore {
+    pub run: String,
+    pub role: String,
+    pub dofs: BTreeMap<Dof, DofScore>,
+    /// The model left the range a vehicle can reach (diverged): its scores are not meaningful.
+    pub diverged: bool,
+    /// The model's local stability along the run and the simulation window it led to.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stability: Option<Stability>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct ModelScore {
+    pub model: String,
+    pub runs: Vec<RunScore>,
+    /// Mean normalised MAE per DOF over the runs of each role (cross-validation summary).
+    pub mean_nmae: BTreeMap<String, BTreeMap<Dof, f64>>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Scores {
+    pub models: Vec<ModelScore>,
+    #[serde(default)]
+    pub cross: Vec<CrossFit>,
+    #[serde(default)]
+    pub notes: Vec<String>,
+}
+
+/// A model's simulated velocities on one run (u, v, w, r), for plots and diagnosis.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Simulated {
+    pub model: String,
+    pub run: String,
+    pub t: Vec<f64>,
+    /// NaN where the simulation diverged (JSON `null`).
+    #[serde(deserialize_with = "crate::fsutil::series_or_nan")]
+    pub nu: BTreeMap<Dof, Vec<f64>>,
+}
+
+pub const SCORES: &str = "scores.json";
+
+pub fn load(dir: &Path) -> anyhow::Result<(Scores, Vec<Simulated>)> {
+    let scores: Scores = crate::fsutil::read_json(&dir.join(SCORES))?;
+    let mut sims = Vec::new();
+    for m in &scores.models {
+        for r in &m.runs {
+            sims.push(crate::fsutil::read_json(
+                &dir.join(sim_file(&m.model, &r.run)),
+            )?);
+        }
+    }
+    Ok((scores, sims))
+}
+
+pub fn sim_file(model: &str, run: &str) -> String {
+    format!("sim__{model}__{run}.json").replace(['/', '[', ']'], "_")
+}
+
+/// The model's response to a fused run's logged thrust, from the run's first fused state,
+/// re-anchored to the fused state every window where `horizon` asks for it (multiple
+/// shooting, see [`crate::model::stability`]), and the stability that chose the window.
+pub fn simulate_run(plant: &Plant, run: &FusedRun, horizon: Horizon) -> (Vec<Vec6>, Stability) {
+    let t = &run.fused.t;
+    let tau: Vec<Vec6> = run
+        .thrust
+        .iter()
+        .map(|c| [c[0], c[1], c[2], 0.0, 0.0, c[3]])
+        .collect();
+    // A window after the first starts from the recording's centred mean over five samples, so
+    // that one sample's noise is not carried through it.
+    let fused_at = |k: usize| -> Vec6 {
+        let mut nu = [0.0; 6];
+        let (a, b) = if k == 0 {
+            (0, 0)
+        } else {
+            (k.saturating_sub(2), (k + 2).min(t.len() - 1))
+        };
+        for (j, d) in POOL_DOFS.iter().enumerate() {
+            if let Some(v) = &run.fused.vel[j] {
+                nu[d.index()] = v[a..=b].iter().sum::<f64>() / (b - a + 1) as f64;
+            }
+        }
+        nu
+    };
+    let vel: Vec<[f64; 4]> = (0..t.len())
+        .map(|k| std::array::from_fn(|j| run.fused.vel[j].as_ref().map_or(0.0, |v| v[k])))
+        .collect();
+    let stability = crate::model::stability::along(plant, t, &vel, horizon);
+    let mut anchors = crate::model::stability::anchors(t, stability.horizon_s);
+    anchors.push(t.len());
+    let mut out = Vec::with_capacity(t.len());
+    for w in anchors.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        // Each window runs to the next anchor's time; its last sample is the next window's first.
+        let end = (b + 1).min(t.len());
+        let mut sim = plant.simulate(&t[a..end], &tau[a..end], fused_at(a), 0.01);
+        sim.truncate(b - a);
+        out.extend(sim);
+    }
+    (out, stability)
+}
+
+/// Scores of one simulation against one fused run, for the DOFs both have.
+pub fn score_run(vehicle_dofs: &[Dof], run: &FusedRun, sim: &[Vec6], max_lag_s: f64) -> RunScore {
+    let dt = if run.fused.t.len() > 1 {
+        (run.fused.t[run.fused.t.len() - 1] - run.fused.t[0]) / (run.fused.t.len() - 1) as f64
+    } else {
+        0.05
+    };
+    let diverged = sim
+        .iter()
+        .any(|nu| nu.iter().any(|x| !x.is_finite() || x.abs() > 50.0));
+    let mut dofs = BTreeMap::new();
+    for (j, d) in POOL_DOFS.iter().enumerate() {
+        let (Some(v), Some(s)) = (&run.fused.vel[j], &run.fused.std[j]) else {
+            continue;
+        };
+        if !vehicle_dofs.contains(d) {
+            continue;
+        }
+        let simd: Vec<f64> = sim.iter().map(|nu| nu[d.index()]).collect();
+        let e: Vec<f64> = simd.iter().zip(v).map(|(a, b)| a - b).collect();
+        dofs.insert(
+            *d,
+            DofScore {
+                metrics: super::metrics(v, &simd),
+                whiteness: super::whiteness(&e, dt, (max_lag_s / dt).round() as usize),
+                measurement_std: s.iter().sum::<f64>() / s.len().max(1) as f64,
+            },
+        );
+    }
+    RunScore {
+        run: run.meta.run.clone(),
+        role: run.meta.role.as_str().into(),
+        dofs,
+        diverged,
+        stability: None,
+    }
+}
