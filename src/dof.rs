@@ -1,4 +1,4 @@
-//! Degrees of freedom, their symbols and units (FORMATS.md conventions, SNAME notation).
+//! Degrees of freedom, their symbols and units (docs/formats.md conventions, SNAME notation).
 
 use serde::{Deserialize, Serialize};
 use std::fmt;

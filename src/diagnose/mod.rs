@@ -6,7 +6,7 @@
 //! 2. **Locate.** The CFD model's residual on the held-out runs: which run and DOF carries it,
 //!    in which time windows, and in which regimes (after command steps, reverse or small
 //!    commands, far from the tether anchor, near walls, ...), as shares of the error.
-//! 3. **Test hypotheses.** Every effect of FORMATS.md's table is a physically formed augmentation
+//! 3. **Test hypotheses.** Every effect of the table in docs/formats.md is a physically formed augmentation
 //!    of the model ([`crate::model::effects`]) with one or two parameters, fitted by output
 //!    error (the simulator driven by the logged thrust, the fused pose) on the training runs.
 //!    The winner is the one with the lowest held-out error after a penalty per parameter; it is
@@ -160,7 +160,7 @@ pub struct Hypothesis {
     regime: &'static str,
 }
 
-/// Every effect of FORMATS.md's table. Bounds are what a pool test can physically show: a few
+/// Every effect of the table in docs/formats.md. Bounds are what a pool test can physically show: a few
 /// tens of newtons of net buoyancy, thruster time constants up to 1.5 s, currents below 0.5 m/s.
 pub static HYPOTHESES: &[Hypothesis] = &[
     Hypothesis {
@@ -814,7 +814,7 @@ fn round2(x: f64) -> f64 {
     (x * 100.0).round() / 100.0
 }
 
-/// Per-DOF held-out normalised MAE as FORMATS.md writes it.
+/// Per-DOF held-out normalised MAE as docs/formats.md writes it.
 pub fn nmae_map(s: &Sums) -> BTreeMap<Dof, f64> {
     let v = s.nmae();
     DOFS.iter()

@@ -50,7 +50,7 @@ pub struct Runs {
     pub skipped: Vec<String>,
 }
 
-/// `diagnosis.json` (FORMATS.md), with the evidence behind it.
+/// `diagnosis.json` (docs/formats.md), with the evidence behind it.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Diagnosis {
     pub baseline: Baseline,
@@ -66,7 +66,7 @@ pub struct Diagnosis {
     /// Runs on which the model's simulation diverged: then nothing is diagnosed.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub diverged: Vec<String>,
-    /// Hypotheses that could not be tested, with what the runs lack (FORMATS.md).
+    /// Hypotheses that could not be tested, with what the runs lack (docs/formats.md).
     #[serde(default)]
     pub untested: Vec<Untested>,
     /// The model's local stability along each run, and the simulation window it led to.

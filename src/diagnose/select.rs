@@ -98,7 +98,7 @@ pub struct Untested {
     pub missing: String,
 }
 
-/// Every hypothesis some run lacks the data for, with what is missing and where (FORMATS.md:
+/// Every hypothesis some run lacks the data for, with what is missing and where (docs/formats.md:
 /// listed apart, never skipped silently).
 pub fn untested(data: &Data) -> Vec<Untested> {
     let all: Vec<&super::Run> = data.train.iter().chain(&data.validate).collect();

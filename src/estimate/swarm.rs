@@ -49,7 +49,7 @@ pub struct Problem<'a> {
 }
 
 impl<'a> Problem<'a> {
-    /// Bounds: every coefficient is negative (FORMATS.md sign convention); its magnitude is
+    /// Bounds: every coefficient is negative (docs/formats.md sign convention); its magnitude is
     /// bounded by a scale read from the data: added mass by 5 x the rigid-body mass of its DOF,
     /// linear drag by 3 x the smallest |force| / |speed| over samples moving at >= 5 % of the
     /// top speed, quadratic drag by 3 max|tau| / max|nu|^2.

@@ -1,4 +1,4 @@
-//! A navigation log's velocity channels (FORMATS.md `nav.csv`: body velocity over ground from a
+//! A navigation log's velocity channels (docs/formats.md `nav.csv`: body velocity over ground from a
 //! DVL or a vehicle's own navigation filter, 4-15 Hz, irregular, often already low-passed)
 //! smoothed onto the command's time base, with an uncertainty that stays honest when the log
 //! was filtered before it was written.

@@ -25,7 +25,7 @@ pub struct RunMeta {
     /// Fusion statistics without the sonar, when the run has one.
     pub stats_without_sonar: Option<Stats>,
     pub notes: Vec<String>,
-    /// What was done to the logs' timing (FORMATS.md: every repair said in the report).
+    /// What was done to the logs' timing (docs/formats.md: every repair said in the report).
     #[serde(default)]
     pub repairs: Vec<String>,
 }

@@ -1,4 +1,4 @@
-//! A free-running pool test folder (FORMATS.md): `run.yaml`, `thrust.csv` and whichever of
+//! A free-running pool test folder (docs/formats.md): `run.yaml`, `thrust.csv` and whichever of
 //! `uwb.csv`, `sonar.csv`, `imu.csv`, `depth.csv`, `nav.csv` were recorded. A sensor file may
 //! hold a subset of its columns (missing ones are NaN and named in the notes). Angles become
 //! radians and accelerations m/s^2 on import; the command log's receive-time bursts are
@@ -40,7 +40,7 @@ pub struct RunMeta {
     pub tether_anchor_m: Option<[f64; 3]>,
 }
 
-/// One run's logs, SI units (radians, m/s^2), pool and body frames as in FORMATS.md.
+/// One run's logs, SI units (radians, m/s^2), pool and body frames as in docs/formats.md.
 #[derive(Debug, Clone)]
 pub struct PoolRun {
     pub name: String,

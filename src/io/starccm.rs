@@ -1,5 +1,5 @@
 //! STAR-CCM+ DFBI exports: `"<monitor>: <quantity> (<unit>)"` headers, unit conversion,
-//! column mapping, repeated inner-iteration rows collapsed to the last (FORMATS.md).
+//! column mapping, repeated inner-iteration rows collapsed to the last (docs/formats.md).
 
 use super::response::{Response, Series, Source, differentiate};
 use crate::diag::InputError;

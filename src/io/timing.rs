@@ -1,4 +1,4 @@
-//! Real-log timing (FORMATS.md): logs written by receive time arrive in bursts (many rows
+//! Real-log timing (docs/formats.md): logs written by receive time arrive in bursts (many rows
 //! within a millisecond, then a stall) and start and stop at different times. The command log
 //! of a periodic controller gets a regular clock fitted to it; every log is cut to the span all
 //! of them cover. Each repair is returned as a sentence for the report.

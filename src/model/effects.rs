@@ -1,4 +1,4 @@
-//! Physics a CFD-identified model leaves out (FORMATS.md, "Names of left-out physics"), as
+//! Physics a CFD-identified model leaves out (docs/formats.md, "Left-out effects"), as
 //! augmentations of the base plant, and a simulator of the vehicle in a pool frame that
 //! carries what they need: position, heading and thruster state.
 //!
@@ -8,7 +8,7 @@
 use super::{Plant, Vec6};
 use serde::{Deserialize, Serialize};
 
-/// One left-out effect with its magnitude. Signs follow FORMATS.md's frames (z down).
+/// One left-out effect with its magnitude. Signs follow the frames of docs/formats.md (z down).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "name", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Effect {

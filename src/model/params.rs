@@ -15,7 +15,7 @@ pub struct Hydro {
 }
 
 impl Hydro {
-    /// Seed 001, Table 1 (FORMATS.md reference vehicle).
+    /// Seed 001, Table 1 (docs/formats.md reference vehicle).
     pub fn reference() -> Hydro {
         Hydro {
             added: [-16.04, -37.74, -83.60, 0.0, 0.0, -1.06],

@@ -57,7 +57,7 @@ pub struct Vehicle {
 }
 
 impl Vehicle {
-    /// The seed-001 open-frame ROV (FORMATS.md, reference vehicle).
+    /// The seed-001 open-frame ROV (docs/formats.md, reference vehicle).
     pub fn reference() -> Vehicle {
         Vehicle {
             name: "open-frame ROV (seed 001)".into(),

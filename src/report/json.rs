@@ -1,4 +1,4 @@
-//! `parameters.json` and `validation.json`, exactly in FORMATS.md's shape.
+//! `parameters.json` and `validation.json`, exactly in the shape docs/formats.md gives.
 
 use crate::estimate::result::FitResult;
 use crate::provenance::InputFile;
@@ -61,7 +61,7 @@ pub fn parameters(fits: &[FitResult]) -> Parameters {
     Parameters { parameters: out }
 }
 
-/// FORMATS.md's per-DOF metrics, plus the residual whiteness where it was measured (pool runs).
+/// docs/formats.md's per-DOF metrics, plus the residual whiteness where it was measured (pool runs).
 #[derive(Debug, Clone, Serialize)]
 pub struct DofMetrics {
     #[serde(flatten)]

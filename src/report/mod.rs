@@ -1,5 +1,5 @@
 //! The report: `index.html` for people, `parameters.json` and `validation.json` for tools
-//! (shapes fixed by FORMATS.md).
+//! (shapes fixed by docs/formats.md).
 
 pub mod compare;
 pub mod diagnose;
