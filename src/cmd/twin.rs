@@ -41,7 +41,7 @@ pub fn pool(
     } else {
         effects
             .iter()
-            .map(|e| crate::model::effects::Effect::from_arg(e))
+            .map(|e| crate::twin::world::Effect::from_arg(e))
             .collect::<Result<Vec<_>, _>>()
             .map_err(anyhow::Error::msg)?
     };
@@ -91,8 +91,8 @@ pub fn field(root: &Path, out: &Path, truth: &Path, seed: u64) -> anyhow::Result
 /// alone at two magnitudes, pairs of effects, and nothing, for each seed; prints every verdict
 /// and the confusion table (concealed vs named).
 pub fn check_diagnosis(seeds: &[u64]) -> anyhow::Result<ExitCode> {
-    use crate::model::effects::{Effect, NAMES};
     use crate::twin::scenario;
+    use crate::twin::world::{Effect, NAMES};
     let singles = [
         ("net_buoyancy", [6.0, -20.0]),
         ("thruster_lag", [0.2, 0.6]),

@@ -17,21 +17,26 @@
 //! so surge (m/s) and yaw (rad/s) weigh alike; the noise floor is the same sum over the fused
 //! velocities' own variances.
 
+pub mod effects;
 pub mod result;
 pub mod search;
 mod select;
 #[cfg(test)]
 mod tests;
 mod verdict;
+pub mod world;
 
 use crate::dof::Dof;
 use crate::fusion::run::FusedRun;
-use crate::model::effects::{Effect, Pool, State, WorldPlant};
-use crate::model::{Plant, Vec6};
+use crate::model::{Plant, Pool, Vec6};
+use effects::State;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
+use std::sync::Arc;
+use world::World;
 
+pub use effects::{Hypothesis, REGISTRY, hypothesis};
 pub use result::{Diagnosis, Figure};
 pub use select::{Criteria, Search, Tested, Untested, params_map, select, untested};
 pub use verdict::diagnose;
@@ -111,157 +116,23 @@ impl Run {
         })
     }
 
-    fn tether_length(&self, k: usize) -> Option<f64> {
-        let a = self.anchor?;
-        Some(
-            ((self.pos[0][k] - a[0]).powi(2)
-                + (self.pos[1][k] - a[1]).powi(2)
-                + (self.pos[2][k] - a[2]).powi(2))
-            .sqrt(),
-        )
+    /// Straight-line length from the tether's anchor at sample k, m.
+    pub fn tether_length(&self, k: usize) -> Option<f64> {
+        let pos = [self.pos[0][k], self.pos[1][k], self.pos[2][k]];
+        Some(crate::model::pool::tether_length(self.anchor?, pos))
     }
 
-    fn wall_distance(&self, k: usize) -> Option<f64> {
-        let p = self.pool?;
-        let (x, y) = (self.pos[0][k], self.pos[1][k]);
-        Some(
-            [x, p.length_m - x, y, p.width_m - y]
-                .into_iter()
-                .fold(f64::INFINITY, f64::min),
-        )
+    /// Distance to the nearest side wall at sample k, m.
+    pub fn wall_distance(&self, k: usize) -> Option<f64> {
+        Some(self.pool?.wall_distance(self.pos[0][k], self.pos[1][k]))
     }
 }
 
 /// What a hypothesis adds to the model: plant effects and a sensor time offset.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default)]
 pub struct Augmentation {
-    pub effects: Vec<Effect>,
+    pub terms: Vec<Arc<dyn effects::Term>>,
     pub delay_s: f64,
-}
-
-/// What an effect needs from the run's metadata.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Needs {
-    Nothing,
-    Anchor,
-    Pool,
-}
-
-/// An effect as a hypothesis: its parameters with physical bounds, and how it augments the model.
-pub struct Hypothesis {
-    pub name: &'static str,
-    /// (name, lower bound, upper bound).
-    pub params: &'static [(&'static str, f64, f64)],
-    needs: Needs,
-    build: fn(&[f64], &mut Augmentation),
-    /// The DOFs it acts on first (for its evidence plot), in DOFS indices.
-    main_dof: usize,
-    /// The regime its evidence quotes (an index into `REGIMES`).
-    regime: &'static str,
-}
-
-/// Every effect of the table in docs/formats.md. Bounds are what a pool test can physically show: a few
-/// tens of newtons of net buoyancy, thruster time constants up to 1.5 s, currents below 0.5 m/s.
-pub static HYPOTHESES: &[Hypothesis] = &[
-    Hypothesis {
-        name: "net_buoyancy",
-        params: &[("force_n", -60.0, 60.0)],
-        needs: Needs::Nothing,
-        build: |p, a| a.effects.push(Effect::NetBuoyancy { force_n: p[0] }),
-        main_dof: 2,
-        regime: "heave",
-    },
-    Hypothesis {
-        name: "thruster_lag",
-        params: &[("time_constant_s", 0.0, 1.5)],
-        needs: Needs::Nothing,
-        build: |p, a| {
-            a.effects.push(Effect::ThrusterLag {
-                time_constant_s: p[0],
-            })
-        },
-        main_dof: 0,
-        regime: "after_command_step",
-    },
-    Hypothesis {
-        name: "reverse_thrust_loss",
-        params: &[("loss", -0.5, 0.9)],
-        needs: Needs::Nothing,
-        build: |p, a| a.effects.push(Effect::ReverseThrustLoss { loss: p[0] }),
-        main_dof: 0,
-        regime: "reverse_command",
-    },
-    Hypothesis {
-        name: "thruster_deadband",
-        params: &[("force_n", 0.0, 30.0), ("moment_nm", 0.0, 3.0)],
-        needs: Needs::Nothing,
-        build: |p, a| {
-            a.effects.push(Effect::ThrusterDeadband {
-                force_n: p[0],
-                moment_nm: p[1],
-            })
-        },
-        main_dof: 0,
-        regime: "small_command",
-    },
-    Hypothesis {
-        name: "tether_drag",
-        params: &[("coefficient", 0.0, 6.0), ("slack_m", 0.0, 10.0)],
-        needs: Needs::Anchor,
-        build: |p, a| {
-            a.effects.push(Effect::TetherDrag {
-                coefficient: p[0],
-                slack_m: p[1],
-            })
-        },
-        main_dof: 0,
-        regime: "far_from_anchor",
-    },
-    Hypothesis {
-        name: "water_current",
-        params: &[("current_x_m_s", -0.5, 0.5), ("current_y_m_s", -0.5, 0.5)],
-        needs: Needs::Nothing,
-        build: |p, a| {
-            a.effects.push(Effect::WaterCurrent {
-                velocity_m_s: [p[0], p[1]],
-            })
-        },
-        main_dof: 0,
-        regime: "heading_pool_x",
-    },
-    Hypothesis {
-        name: "wall_effect",
-        params: &[("coefficient", 0.0, 1500.0), ("decay_m", 0.1, 3.0)],
-        needs: Needs::Pool,
-        build: |p, a| {
-            a.effects.push(Effect::WallEffect {
-                coefficient: p[0],
-                decay_m: p[1],
-            })
-        },
-        main_dof: 0,
-        regime: "near_wall",
-    },
-    Hypothesis {
-        name: "coupled_drag",
-        params: &[("coefficient", -100.0, 300.0)],
-        needs: Needs::Nothing,
-        build: |p, a| a.effects.push(Effect::CoupledDrag { coefficient: p[0] }),
-        main_dof: 1,
-        regime: "cross_flow",
-    },
-    Hypothesis {
-        name: "sensor_delay",
-        params: &[("delay_s", 0.0, 1.0)],
-        needs: Needs::Nothing,
-        build: |p, a| a.delay_s += p[0],
-        main_dof: 0,
-        regime: "after_command_step",
-    },
-];
-
-pub fn hypothesis(name: &str) -> Option<&'static Hypothesis> {
-    HYPOTHESES.iter().find(|h| h.name == name)
 }
 
 /// A set of effects with their parameter values.
@@ -270,7 +141,11 @@ pub type Selection = Vec<(&'static Hypothesis, Vec<f64>)>;
 pub fn augmentation(sel: &[(&'static Hypothesis, Vec<f64>)]) -> Augmentation {
     let mut a = Augmentation::default();
     for (h, p) in sel {
-        (h.build)(p, &mut a);
+        let term = (h.build)(p);
+        a.delay_s += term.delay_s();
+        if term.acts_on_plant() {
+            a.terms.push(term);
+        }
     }
     a
 }
@@ -299,8 +174,7 @@ fn simulate_checked(
     aug: &Augmentation,
     run: &Run,
 ) -> (Vec<[f64; 4]>, Option<usize>) {
-    let mut w = WorldPlant::new(plant.clone());
-    w.effects = aug.effects.clone();
+    let mut w = World::new(plant.clone(), aug.terms.clone());
     w.pool = run.pool;
     w.tether_anchor = run.anchor;
     // The pose is set from the recording at every sample; integrating it only matters to
@@ -506,6 +380,8 @@ pub struct Data {
     pub delta: [f64; 4],
     /// Noise floor of the normalised cost on the held-out runs (fused variances).
     pub noise_cost: f64,
+    /// The effects to test ([`effects::REGISTRY`] unless a caller chooses others).
+    pub effects: effects::Registry,
 }
 
 impl Data {
@@ -546,6 +422,7 @@ impl Data {
             (0.25 * scale[j].sqrt()).max(3.0 * s / n.max(1.0))
         });
         Ok(Data {
+            effects: REGISTRY,
             train,
             validate,
             scale,
@@ -829,13 +706,4 @@ pub fn residuals(plant: &Plant, aug: &Augmentation, runs: &[Run]) -> Vec<[Vec<f6
     runs.par_iter()
         .map(|r| residual(&simulate(plant, aug, r), r, aug.delay_s))
         .collect()
-}
-
-/// The effect's hypothesis and its main DOF index, for the evidence.
-pub fn main_dof(h: &Hypothesis) -> usize {
-    h.main_dof
-}
-
-pub fn evidence_regime(h: &Hypothesis) -> &'static str {
-    h.regime
 }

@@ -93,7 +93,7 @@ fn to_params(h: &Hypothesis, u: &[f64]) -> Vec<f64> {
     h.params
         .iter()
         .zip(u)
-        .map(|((_, lo, hi), x)| lo + x * (hi - lo))
+        .map(|(q, x)| q.lo + x * (q.hi - q.lo))
         .collect()
 }
 
@@ -101,7 +101,7 @@ fn to_unit(h: &Hypothesis, p: &[f64]) -> Vec<f64> {
     h.params
         .iter()
         .zip(p)
-        .map(|((_, lo, hi), x)| ((x - lo) / (hi - lo)).clamp(0.0, 1.0))
+        .map(|(q, x)| ((x - q.lo) / (q.hi - q.lo)).clamp(0.0, 1.0))
         .collect()
 }
 

@@ -1,7 +1,7 @@
 //! Choosing the effects: greedy forward selection on held-out runs (module docs, step 3),
 //! with a swap step for effects that only make sense together.
 
-use super::{Augmentation, Data, HYPOTHESES, Hypothesis, Needs, Selection, augmentation, search};
+use super::{Augmentation, Data, Hypothesis, Selection, augmentation, search};
 use crate::model::Plant;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -75,11 +75,11 @@ pub fn at_bound(h: &Hypothesis, p: &[f64]) -> Vec<String> {
         .iter()
         .zip(p)
         .enumerate()
-        .filter(|(j, ((_, lo, hi), v))| {
-            let tol = 0.01 * (hi - lo);
-            (hi - *v).abs() <= tol || ((*v - lo).abs() <= tol && !(*lo == 0.0 && *j > 0))
+        .filter(|(j, (q, v))| {
+            let tol = 0.01 * (q.hi - q.lo);
+            (q.hi - *v).abs() <= tol || ((*v - q.lo).abs() <= tol && !(q.lo == 0.0 && *j > 0))
         })
-        .map(|(_, ((n, _, _), _))| n.to_string())
+        .map(|(_, (q, _))| q.name.to_string())
         .collect()
 }
 
@@ -87,7 +87,7 @@ pub fn params_map(h: &Hypothesis, p: &[f64]) -> BTreeMap<String, f64> {
     h.params
         .iter()
         .zip(p)
-        .map(|((n, _, _), v)| (n.to_string(), *v))
+        .map(|(q, v)| (q.name.to_string(), *v))
         .collect()
 }
 
@@ -102,29 +102,18 @@ pub struct Untested {
 /// listed apart, never skipped silently).
 pub fn untested(data: &Data) -> Vec<Untested> {
     let all: Vec<&super::Run> = data.train.iter().chain(&data.validate).collect();
-    HYPOTHESES
+    data.effects
         .iter()
         .filter(|h| !applicable(h, data))
         .map(|h| {
-            let (what, lacking): (&str, Vec<&str>) = match h.needs {
-                Needs::Anchor => (
-                    "tether_anchor_m in run.yaml (where the tether enters the water)",
-                    all.iter()
-                        .filter(|r| r.anchor.is_none())
-                        .map(|r| r.name.as_str())
-                        .collect(),
-                ),
-                _ => (
-                    "pool: {length_m, width_m, depth_m} in run.yaml",
-                    all.iter()
-                        .filter(|r| r.pool.is_none())
-                        .map(|r| r.name.as_str())
-                        .collect(),
-                ),
-            };
+            let lacking: Vec<&str> = all
+                .iter()
+                .filter(|r| !h.needs.met_by(r))
+                .map(|r| r.name.as_str())
+                .collect();
             Untested {
                 name: h.name.to_string(),
-                missing: format!("{what} is missing in {}", lacking.join(", ")),
+                missing: format!("{} is missing in {}", h.needs.missing(), lacking.join(", ")),
             }
         })
         .collect()
@@ -132,11 +121,7 @@ pub fn untested(data: &Data) -> Vec<Untested> {
 
 fn applicable(h: &Hypothesis, data: &Data) -> bool {
     let all = || data.train.iter().chain(&data.validate);
-    match h.needs {
-        Needs::Nothing => true,
-        Needs::Anchor => all().all(|r| r.anchor.is_some()),
-        Needs::Pool => all().all(|r| r.pool.is_some()),
-    }
+    all().all(|r| h.needs.met_by(r))
 }
 
 /// Result of the greedy search.
@@ -171,8 +156,9 @@ fn untried<'a>(
     data: &'a Data,
     selected: &'a Selection,
 ) -> impl Iterator<Item = &'static Hypothesis> + 'a {
-    HYPOTHESES
+    data.effects
         .iter()
+        .copied()
         .filter(move |h| applicable(h, data) && !selected.iter().any(|(s, _)| s.name == h.name))
 }
 

@@ -1,7 +1,7 @@
 use super::*;
 use crate::diagnose::{Diagnosis, diagnose};
-use crate::model::effects::Effect;
 use crate::twin::scenario;
+use crate::twin::world::Effect;
 
 fn run_scenario(effects: &[Effect], seed: u64) -> (Search, Data) {
     let runs = scenario::runs(effects, seed).unwrap();
@@ -369,7 +369,7 @@ fn piloted_fast_runs(seed: u64) -> Vec<crate::fusion::run::FusedRun> {
                 crate::io::pool::Role::Train
             },
             description: String::new(),
-            pool: Some(crate::model::effects::Pool {
+            pool: Some(crate::model::Pool {
                 length_m: 400.0,
                 width_m: 40.0,
                 depth_m: 10.0,
@@ -464,5 +464,70 @@ fn an_effect_pushed_to_its_bound_is_refused() {
         d.effects.iter().any(|e| e.name == "unexplained"),
         "{}",
         d.verdict
+    );
+}
+
+/// An effect written here, outside the effects' own files: a constant sway force (a thruster
+/// mounted askew, a steady side current on the tether). Adding it to the effects the diagnosis
+/// tests is all it takes for the diagnosis to fit it, judge it and name it.
+#[derive(Debug)]
+struct SwayPush(f64);
+
+impl effects::Term for SwayPush {
+    fn add_force(&self, _env: &effects::Env, _s: &effects::State, f: &mut Vec6) {
+        f[1] += self.0;
+    }
+}
+
+static SWAY_PUSH: Hypothesis = Hypothesis {
+    name: "sway_push",
+    params: &[effects::Param {
+        name: "force_n",
+        lo: -30.0,
+        hi: 30.0,
+        unit: "N",
+    }],
+    needs: effects::Needs::Nothing,
+    build: |p| Arc::new(SwayPush(p[0])),
+    main_dof: 1,
+    regime: "small_command",
+    axis: effects::Axis {
+        label: |_| "time (s)".into(),
+        value: |r, k, _| r.t[k],
+    },
+};
+
+#[test]
+fn an_effect_added_to_the_registry_is_tested_and_found() {
+    // Effect-free twin runs whose logged sway command is 4 N short of what the vehicle got:
+    // to the model, an unexplained constant push of +4 N in sway.
+    let mut runs = scenario::runs(&[], 8).unwrap();
+    for r in &mut runs {
+        for c in &mut r.cmd {
+            c[1] -= 4.0;
+        }
+    }
+    let mut data = Data::new(runs).unwrap();
+    let mut with_push: Vec<&'static Hypothesis> = REGISTRY.to_vec();
+    with_push.push(&SWAY_PUSH);
+    data.effects = Box::leak(with_push.into_boxed_slice());
+    let plant = scenario::cfd_fit_plant(1).unwrap();
+    let s = select(&plant, &data, &Criteria::default(), &|_| {});
+    assert!(
+        s.tested.iter().any(|t| t.name == "sway_push"),
+        "not tested: {:?}",
+        s.tested.iter().map(|t| &t.name).collect::<Vec<_>>()
+    );
+    let (h, p) = s.selected.first().expect("an effect is named");
+    assert_eq!(
+        h.name,
+        "sway_push",
+        "named {:?}",
+        s.selected.iter().map(|(h, _)| h.name).collect::<Vec<_>>()
+    );
+    assert!(
+        (p[0] - 4.0).abs() < 0.8,
+        "sway push {:.2} N, concealed 4 N",
+        p[0]
     );
 }

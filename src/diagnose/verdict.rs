@@ -104,7 +104,7 @@ pub fn diagnose(
         let res_prefix = dx::residuals(plant, &aug_before, &data.validate);
         let regime = dx::regime_shares(&data.validate, &res_prefix, &data.scale)
             .into_iter()
-            .find(|r| r.regime == dx::evidence_regime(h));
+            .find(|r| r.regime == h.regime);
         let mut evidence = format!(
             "Fitted on the training runs: {}. On the held-out runs the error cost falls {} ({:.4} to {:.4}; noise floor {:.4})",
             fmt_params(&params),
@@ -403,7 +403,7 @@ fn evidence_figures(
     let j = dofs
         .first()
         .and_then(|d| DOFS.iter().position(|x| x == d))
-        .unwrap_or(dx::main_dof(h));
+        .unwrap_or(h.main_dof);
     let rb = dx::residuals(plant, before, &data.validate);
     let ra = dx::residuals(plant, after, &data.validate);
     let worst = (0..data.validate.len()).max_by(|&a, &b| {
@@ -434,94 +434,37 @@ fn evidence_figures(
         )?;
         out.push(Figure { caption: format!("{}: the {} residual on held-out run {} without the effect (colour) and with it (dashed).", h.name, d, run.name), svg });
     }
-    if let Some((label, x)) = evidence_axis(h.name, data, j) {
-        let bin = |res: &[[Vec<f64>; 4]]| binned(&x, res, j);
-        let (cx, yb) = bin(&rb);
-        let (_, ya) = bin(&ra);
-        if cx.len() >= 3 {
-            let tr = [Trace {
-                label: "before",
-                t: &cx,
-                measured: &yb,
-                simulated: &ya,
-            }];
-            let svg = curves(
-                &format!("{}: RMS {} residual against {}", h.name, DOFS[j], label),
-                &label,
-                "RMS residual",
-                &tr,
-                &format!("with {} (dashed)", h.name),
-            )?;
-            out.push(Figure { caption: format!("{}: the held-out residual grows with {} without the effect; with it, it stays flat.", h.name, label), svg });
-        }
+    let (label, x) = evidence_axis(h, data, j);
+    let bin = |res: &[[Vec<f64>; 4]]| binned(&x, res, j);
+    let (cx, yb) = bin(&rb);
+    let (_, ya) = bin(&ra);
+    if cx.len() >= 3 {
+        let tr = [Trace {
+            label: "before",
+            t: &cx,
+            measured: &yb,
+            simulated: &ya,
+        }];
+        let svg = curves(
+            &format!("{}: RMS {} residual against {}", h.name, DOFS[j], label),
+            &label,
+            "RMS residual",
+            &tr,
+            &format!("with {} (dashed)", h.name),
+        )?;
+        out.push(Figure { caption: format!("{}: the held-out residual grows with {} without the effect; with it, it stays flat.", h.name, label), svg });
     }
     Ok(out)
 }
 
 /// The quantity an effect's evidence is plotted against, per held-out run and sample.
-fn evidence_axis(name: &str, data: &Data, j: usize) -> Option<(String, Vec<Vec<f64>>)> {
-    let per = |f: &dyn Fn(&Run, usize) -> f64| {
-        data.validate
-            .iter()
-            .map(|r| (0..r.t.len()).map(|k| f(r, k)).collect())
-            .collect()
-    };
-    Some(match name {
-        "tether_drag" => (
-            "distance from the tether anchor (m)".into(),
-            per(&|r, k| {
-                r.anchor.map_or(f64::NAN, |a| {
-                    ((r.pos[0][k] - a[0]).powi(2)
-                        + (r.pos[1][k] - a[1]).powi(2)
-                        + (r.pos[2][k] - a[2]).powi(2))
-                    .sqrt()
-                })
-            }),
-        ),
-        "wall_effect" => (
-            "distance to the nearest wall (m)".into(),
-            per(&|r, k| {
-                r.pool.map_or(f64::NAN, |p| {
-                    [
-                        r.pos[0][k],
-                        p.length_m - r.pos[0][k],
-                        r.pos[1][k],
-                        p.width_m - r.pos[1][k],
-                    ]
-                    .into_iter()
-                    .fold(f64::INFINITY, f64::min)
-                })
-            }),
-        ),
-        "thruster_lag" | "sensor_delay" => (
-            "time since the last command step (s)".into(),
-            per(&|r, k| since_step(r, k)),
-        ),
-        "reverse_thrust_loss" | "thruster_deadband" => (
-            format!("command in {} ({})", DOFS[j], DOFS[j].force_unit()),
-            per(&|r, k| r.cmd[k][j]),
-        ),
-        "water_current" => ("heading (deg)".into(), per(&|r, k| r.psi[k].to_degrees())),
-        "coupled_drag" => (
-            "|u| |v| (m^2/s^2)".into(),
-            per(&|r, k| (r.vel[0][k] * r.vel[1][k]).abs()),
-        ),
-        "net_buoyancy" => ("depth (m)".into(), per(&|r, k| r.pos[2][k])),
-        _ => return None,
-    })
-}
-
-fn since_step(r: &Run, k: usize) -> f64 {
-    let scale: [f64; 4] =
-        std::array::from_fn(|q| r.cmd.iter().fold(1e-9f64, |a, c| a.max(c[q].abs())));
-    let mut i = k;
-    while i > 0 {
-        if (0..4).any(|q| (r.cmd[i][q] - r.cmd[i - 1][q]).abs() > 0.15 * scale[q]) {
-            return r.t[k] - r.t[i];
-        }
-        i -= 1;
-    }
-    r.t[k] - r.t[0]
+fn evidence_axis(h: &dx::Hypothesis, data: &Data, j: usize) -> (String, Vec<Vec<f64>>) {
+    let values = data
+        .validate
+        .iter()
+        .map(|r| (0..r.t.len()).map(|k| (h.axis.value)(r, k, j)).collect())
+        .collect();
+    ((h.axis.label)(j), values)
 }
 
 /// RMS residual of DOF j in 12 bins of x between its 2nd and 98th percentiles.

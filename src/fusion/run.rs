@@ -3,7 +3,7 @@
 
 use super::{Fused, Stats};
 use crate::io::pool::Role;
-use crate::model::effects::Pool;
+use crate::model::Pool;
 use crate::provenance::InputFile;
 use polars::prelude::*;
 use serde::{Deserialize, Serialize};

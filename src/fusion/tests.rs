@@ -1,8 +1,8 @@
 //! Fusion against the twin's true velocities.
 
 use super::*;
-use crate::model::effects::Effect;
 use crate::twin::pool as twin;
+use crate::twin::world::Effect;
 
 /// Writes one twin run to a scratch folder and loads it as the pipeline would.
 pub(crate) fn twin_run(

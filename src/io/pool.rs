@@ -6,7 +6,7 @@
 
 use super::csvlog::{self, Log};
 use crate::diag::InputError;
-use crate::model::effects::Pool;
+use crate::model::Pool;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 

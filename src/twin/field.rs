@@ -71,7 +71,7 @@ pub fn hydro() -> Hydro {
     }
 }
 
-pub const POOL: crate::model::effects::Pool = crate::model::effects::Pool {
+pub const POOL: crate::model::Pool = crate::model::Pool {
     length_m: 30.0,
     width_m: 15.0,
     depth_m: 5.0,

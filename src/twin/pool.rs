@@ -4,7 +4,8 @@
 //! optional left-out effects concealed in the plant. The effects and the true motion go to a
 //! truth folder outside `cases/`, never into the run's files.
 
-use crate::model::effects::{Effect, Pool, State, WorldPlant};
+use super::world::{Effect, State, WorldPlant};
+use crate::model::Pool;
 use crate::model::{Hydro, Plant, Vec6, Vehicle};
 use crate::rng::Rng;
 use serde::{Deserialize, Serialize};

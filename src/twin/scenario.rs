@@ -4,7 +4,7 @@
 use super::pool as twin;
 use crate::diagnose::Run;
 use crate::fusion::run::{FusedRun, RunMeta};
-use crate::model::effects::Effect;
+use crate::twin::world::Effect;
 use rayon::prelude::*;
 
 /// The fused runs of one generated scenario, as the `pool` stage would store them.

@@ -1,11 +1,13 @@
-//! Physics a CFD-identified model leaves out (docs/formats.md, "Left-out effects"), as
-//! augmentations of the base plant, and a simulator of the vehicle in a pool frame that
-//! carries what they need: position, heading and thruster state.
+//! The seed-001 twin's world: the reference plant plus the left-out effects it conceals in its
+//! pool runs (docs/formats.md, "Left-out effects"), simulated in the pool frame with what they
+//! need: position, heading and thruster state.
 //!
-//! The twin conceals these in its pool runs; the diagnosis fits them as hypotheses. Each is a
-//! physically formed term with one to three parameters, not a curve fitted to a residual.
+//! This is the twin's own code, written apart from the diagnosis's effect models
+//! (`crate::diagnose::effects`): the diagnosis must find these effects from the recordings,
+//! not from sharing their implementation.
 
-use super::{Plant, Vec6};
+use crate::model::pool::{Pool, tether_length};
+use crate::model::{Plant, Vec6};
 use serde::{Deserialize, Serialize};
 
 /// One left-out effect with its magnitude. Signs follow the frames of docs/formats.md (z down).
@@ -99,15 +101,6 @@ impl Effect {
             }
         })
     }
-}
-
-/// The pool: x along its length, y across, z down from the surface; the origin in a corner.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Pool {
-    pub length_m: f64,
-    pub width_m: f64,
-    pub depth_m: f64,
 }
 
 /// Position in the pool frame, heading, and the force the thrusters deliver.
@@ -218,11 +211,7 @@ impl WorldPlant {
                     slack_m,
                 } => {
                     let a = self.tether_anchor.unwrap_or([0.0, 0.0, 0.0]);
-                    let l = ((s.pos[0] - a[0]).powi(2)
-                        + (s.pos[1] - a[1]).powi(2)
-                        + (s.pos[2] - a[2]).powi(2))
-                    .sqrt()
-                        + slack_m;
+                    let l = tether_length(a, s.pos) + slack_m;
                     let (vw, speed) = ground();
                     let (bx, by) = to_body(
                         -coefficient * l * speed * vw[0],
@@ -242,15 +231,7 @@ impl WorldPlant {
                     decay_m,
                 } => {
                     if let Some(pool) = self.pool {
-                        let d = [
-                            s.pos[0],
-                            pool.length_m - s.pos[0],
-                            s.pos[1],
-                            pool.width_m - s.pos[1],
-                        ]
-                        .into_iter()
-                        .fold(f64::INFINITY, f64::min)
-                        .max(0.0);
+                        let d = pool.wall_distance(s.pos[0], s.pos[1]).max(0.0);
                         let (vw, speed) = ground();
                         let k = coefficient * (-d / decay_m).exp() * speed;
                         let (bx, by) = to_body(-k * vw[0], -k * vw[1]);

@@ -1,0 +1,184 @@
+//! The left-out effects the diagnosis can name, one file each (docs/formats.md, "Left-out
+//! effects"). An effect is a [`Hypothesis`]: its parameters with physical bounds and units, the
+//! force it adds to the model (a [`Term`]), what a run must have for it to be testable, the
+//! regime where it shows and the quantity its evidence is plotted against.
+//!
+//! Adding an effect is one new file with a `pub static EFFECT: Hypothesis` and one line in
+//! [`REGISTRY`]. These are the diagnosis's models; the twin conceals effects with code of its
+//! own (`crate::twin::world`), so that finding them on twin data is not reading back one's own
+//! implementation.
+
+mod coupled_drag;
+mod net_buoyancy;
+mod reverse_thrust_loss;
+mod sensor_delay;
+mod tether_drag;
+mod thruster_deadband;
+mod thruster_lag;
+mod wall_effect;
+mod water_current;
+
+use super::{DOFS, Run};
+use crate::model::{Plant, Pool, Vec6};
+use std::sync::Arc;
+
+/// A list of effects to test.
+pub type Registry = &'static [&'static Hypothesis];
+
+/// Every effect the diagnosis tests, in the order it tries them.
+pub static REGISTRY: Registry = &[
+    &net_buoyancy::EFFECT,
+    &thruster_lag::EFFECT,
+    &reverse_thrust_loss::EFFECT,
+    &thruster_deadband::EFFECT,
+    &tether_drag::EFFECT,
+    &water_current::EFFECT,
+    &wall_effect::EFFECT,
+    &coupled_drag::EFFECT,
+    &sensor_delay::EFFECT,
+];
+
+/// The effect of the registry called `name`.
+pub fn hypothesis(name: &str) -> Option<&'static Hypothesis> {
+    REGISTRY.iter().copied().find(|h| h.name == name)
+}
+
+/// One parameter of an effect and the range the search may take it over.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Param {
+    pub name: &'static str,
+    pub lo: f64,
+    pub hi: f64,
+    pub unit: &'static str,
+}
+
+/// What every run must have for an effect to be testable.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Needs {
+    Nothing,
+    /// `tether_anchor_m` in run.yaml.
+    Anchor,
+    /// `pool` dimensions in run.yaml.
+    Pool,
+}
+
+impl Needs {
+    pub fn met_by(self, r: &Run) -> bool {
+        match self {
+            Needs::Nothing => true,
+            Needs::Anchor => r.anchor.is_some(),
+            Needs::Pool => r.pool.is_some(),
+        }
+    }
+
+    /// What a run lacks when it does not meet the need.
+    pub fn missing(self) -> &'static str {
+        match self {
+            Needs::Nothing => "nothing",
+            Needs::Anchor => "tether_anchor_m in run.yaml (where the tether enters the water)",
+            Needs::Pool => "pool: {length_m, width_m, depth_m} in run.yaml",
+        }
+    }
+}
+
+/// The quantity an effect's evidence is plotted against, per run, sample and DOF (index into
+/// `DOFS`), with its axis label for that DOF.
+pub struct Axis {
+    pub label: fn(usize) -> String,
+    pub value: fn(&Run, usize, usize) -> f64,
+}
+
+/// An effect as a hypothesis of the diagnosis.
+pub struct Hypothesis {
+    pub name: &'static str,
+    pub params: &'static [Param],
+    pub needs: Needs,
+    /// The effect at parameter values `p` (one per [`Param`]).
+    pub build: fn(&[f64]) -> Arc<dyn Term>,
+    /// The DOF it acts on first (for its evidence plot), an index into `DOFS`.
+    pub main_dof: usize,
+    /// The regime its evidence quotes (a name in `REGIMES`).
+    pub regime: &'static str,
+    pub axis: Axis,
+}
+
+/// Where the simulated vehicle is and what it carries: the simulator's state.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct State {
+    pub nu: Vec6,
+    /// Position in the pool frame, m.
+    pub pos: [f64; 3],
+    /// Heading, rad.
+    pub psi: f64,
+    /// Delivered generalised force (differs from the command under thruster lag).
+    pub thrust: Vec6,
+}
+
+/// What an effect's force may read besides the state: the base plant and the run's geometry.
+pub struct Env<'a> {
+    pub plant: &'a Plant,
+    pub pool: Option<Pool>,
+    pub anchor: Option<[f64; 3]>,
+    /// cos and sin of the heading.
+    pub cos_psi: f64,
+    pub sin_psi: f64,
+}
+
+impl Env<'_> {
+    /// A pool-frame horizontal force in the body frame.
+    pub fn to_body(&self, fx: f64, fy: f64) -> (f64, f64) {
+        let (c, sn) = (self.cos_psi, self.sin_psi);
+        (c * fx + sn * fy, -sn * fx + c * fy)
+    }
+
+    /// Horizontal velocity over ground in the pool frame, and its magnitude.
+    pub fn ground(&self, s: &State) -> ([f64; 2], f64) {
+        let (c, sn) = (self.cos_psi, self.sin_psi);
+        let vw = [c * s.nu[0] - sn * s.nu[1], sn * s.nu[0] + c * s.nu[1]];
+        (vw, (vw[0] * vw[0] + vw[1] * vw[1]).sqrt())
+    }
+}
+
+/// An effect at its parameter values, as the simulator applies it. Every hook defaults to
+/// "does nothing", so an effect implements only the ones it acts through.
+pub trait Term: std::fmt::Debug + Send + Sync {
+    /// Changes the command into what the thrusters deliver in steady state.
+    fn shape_command(&self, _cmd: &mut Vec6) {}
+    /// Time constant of a first-order lag of the delivered force, s.
+    fn lag_s(&self) -> Option<f64> {
+        None
+    }
+    /// Adds the effect's generalised force (body frame) at state `s`.
+    fn add_force(&self, _env: &Env, _s: &State, _f: &mut Vec6) {}
+    /// Whether [`Term::add_force`] reads the position or heading.
+    fn needs_pose(&self) -> bool {
+        false
+    }
+    /// Time by which the recording lags the command log, s (a sensor effect, not a force).
+    fn delay_s(&self) -> f64 {
+        0.0
+    }
+    /// False for an effect that changes only how the recording is read (a sensor delay).
+    fn acts_on_plant(&self) -> bool {
+        true
+    }
+}
+
+/// Time since the last step of any command (a change over 15 % of its largest), s.
+pub fn since_step(r: &Run, k: usize) -> f64 {
+    let scale: [f64; 4] =
+        std::array::from_fn(|q| r.cmd.iter().fold(1e-9f64, |a, c| a.max(c[q].abs())));
+    let mut i = k;
+    while i > 0 {
+        if (0..4).any(|q| (r.cmd[i][q] - r.cmd[i - 1][q]).abs() > 0.15 * scale[q]) {
+            return r.t[k] - r.t[i];
+        }
+        i -= 1;
+    }
+    r.t[k] - r.t[0]
+}
+
+/// Linear plus quadratic drag of the base plant in DOF `i` at velocity `x`.
+pub fn drag(p: &Plant, i: usize, x: f64) -> f64 {
+    (p.hydro.lin[i] + p.hydro.quad[i] * x.abs()) * x
+}

@@ -1,0 +1,40 @@
+//! `reverse_thrust_loss`: a negative (reverse) surge, sway or heave command delivers only
+//! `1 - loss` of itself (a propeller designed for forward thrust); negative loss: reverse is
+//! stronger.
+
+use super::{Axis, DOFS, Hypothesis, Needs, Param, Term};
+use crate::model::Vec6;
+use std::sync::Arc;
+
+pub static EFFECT: Hypothesis = Hypothesis {
+    name: "reverse_thrust_loss",
+    params: &[Param {
+        name: "loss",
+        lo: -0.5,
+        hi: 0.9,
+        unit: "",
+    }],
+    needs: Needs::Nothing,
+    build: |p| Arc::new(ReverseThrustLoss { loss: p[0] }),
+    main_dof: 0,
+    regime: "reverse_command",
+    axis: Axis {
+        label: |j| format!("command in {} ({})", DOFS[j], DOFS[j].force_unit()),
+        value: |r, k, j| r.cmd[k][j],
+    },
+};
+
+#[derive(Debug)]
+struct ReverseThrustLoss {
+    loss: f64,
+}
+
+impl Term for ReverseThrustLoss {
+    fn shape_command(&self, cmd: &mut Vec6) {
+        for f in cmd.iter_mut().take(3) {
+            if *f < 0.0 {
+                *f *= 1.0 - self.loss;
+            }
+        }
+    }
+}

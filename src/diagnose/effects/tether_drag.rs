@@ -1,0 +1,60 @@
+//! `tether_drag`: drag of the umbilical, `-c L |v| v` on the horizontal velocity over ground,
+//! with L the tether in the water (anchor to vehicle, plus slack) and c in N s^2/m^3.
+
+use super::{Axis, Env, Hypothesis, Needs, Param, State, Term};
+use crate::model::Vec6;
+use crate::model::pool::tether_length;
+use std::sync::Arc;
+
+pub static EFFECT: Hypothesis = Hypothesis {
+    name: "tether_drag",
+    params: &[
+        Param {
+            name: "coefficient",
+            lo: 0.0,
+            hi: 6.0,
+            unit: "N s^2/m^3",
+        },
+        Param {
+            name: "slack_m",
+            lo: 0.0,
+            hi: 10.0,
+            unit: "m",
+        },
+    ],
+    needs: Needs::Anchor,
+    build: |p| {
+        Arc::new(TetherDrag {
+            coefficient: p[0],
+            slack_m: p[1],
+        })
+    },
+    main_dof: 0,
+    regime: "far_from_anchor",
+    axis: Axis {
+        label: |_| "distance from the tether anchor (m)".into(),
+        value: |r, k, _| r.tether_length(k).unwrap_or(f64::NAN),
+    },
+};
+
+#[derive(Debug)]
+struct TetherDrag {
+    coefficient: f64,
+    slack_m: f64,
+}
+
+impl Term for TetherDrag {
+    fn needs_pose(&self) -> bool {
+        true
+    }
+
+    fn add_force(&self, env: &Env, s: &State, f: &mut Vec6) {
+        let a = env.anchor.unwrap_or([0.0, 0.0, 0.0]);
+        let l = tether_length(a, s.pos) + self.slack_m;
+        let (vw, speed) = env.ground(s);
+        let c = self.coefficient;
+        let (bx, by) = env.to_body(-c * l * speed * vw[0], -c * l * speed * vw[1]);
+        f[0] += bx;
+        f[1] += by;
+    }
+}

@@ -1,0 +1,38 @@
+//! `thruster_lag`: the delivered force and moment follow the command through a first-order lag
+//! with one time constant for every DOF.
+
+use super::{Axis, Hypothesis, Needs, Param, Term, since_step};
+use std::sync::Arc;
+
+pub static EFFECT: Hypothesis = Hypothesis {
+    name: "thruster_lag",
+    params: &[Param {
+        name: "time_constant_s",
+        lo: 0.0,
+        hi: 1.5,
+        unit: "s",
+    }],
+    needs: Needs::Nothing,
+    build: |p| {
+        Arc::new(ThrusterLag {
+            time_constant_s: p[0],
+        })
+    },
+    main_dof: 0,
+    regime: "after_command_step",
+    axis: Axis {
+        label: |_| "time since the last command step (s)".into(),
+        value: |r, k, _| since_step(r, k),
+    },
+};
+
+#[derive(Debug)]
+struct ThrusterLag {
+    time_constant_s: f64,
+}
+
+impl Term for ThrusterLag {
+    fn lag_s(&self) -> Option<f64> {
+        Some(self.time_constant_s)
+    }
+}

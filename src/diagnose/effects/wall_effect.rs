@@ -1,0 +1,60 @@
+//! `wall_effect`: extra horizontal drag near the side walls, `-c exp(-d / decay) |v| v` on the
+//! velocity over ground, d the distance to the nearest wall.
+
+use super::{Axis, Env, Hypothesis, Needs, Param, State, Term};
+use crate::model::Vec6;
+use std::sync::Arc;
+
+pub static EFFECT: Hypothesis = Hypothesis {
+    name: "wall_effect",
+    params: &[
+        Param {
+            name: "coefficient",
+            lo: 0.0,
+            hi: 1500.0,
+            unit: "N s^2/m^2",
+        },
+        Param {
+            name: "decay_m",
+            lo: 0.1,
+            hi: 3.0,
+            unit: "m",
+        },
+    ],
+    needs: Needs::Pool,
+    build: |p| {
+        Arc::new(WallEffect {
+            coefficient: p[0],
+            decay_m: p[1],
+        })
+    },
+    main_dof: 0,
+    regime: "near_wall",
+    axis: Axis {
+        label: |_| "distance to the nearest wall (m)".into(),
+        value: |r, k, _| r.wall_distance(k).unwrap_or(f64::NAN),
+    },
+};
+
+#[derive(Debug)]
+struct WallEffect {
+    coefficient: f64,
+    decay_m: f64,
+}
+
+impl Term for WallEffect {
+    fn needs_pose(&self) -> bool {
+        true
+    }
+
+    fn add_force(&self, env: &Env, s: &State, f: &mut Vec6) {
+        if let Some(pool) = env.pool {
+            let d = pool.wall_distance(s.pos[0], s.pos[1]).max(0.0);
+            let (vw, speed) = env.ground(s);
+            let k = self.coefficient * (-d / self.decay_m).exp() * speed;
+            let (bx, by) = env.to_body(-k * vw[0], -k * vw[1]);
+            f[0] += bx;
+            f[1] += by;
+        }
+    }
+}

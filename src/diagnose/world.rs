@@ -1,0 +1,133 @@
+//! The model the diagnosis simulates: the base plant plus the effects under test
+//! ([`super::effects`]), in the pool frame, with the thruster state a lag needs.
+
+use super::effects::{Env, State, Term};
+use crate::model::{Plant, Pool, Vec6};
+use std::sync::Arc;
+
+/// Base plant plus effects, in a pool.
+#[derive(Debug, Clone)]
+pub struct World {
+    pub plant: Plant,
+    pub terms: Vec<Arc<dyn Term>>,
+    pub pool: Option<Pool>,
+    pub tether_anchor: Option<[f64; 3]>,
+    /// Whether position and heading are integrated. A caller that sets them from a recording
+    /// at every sample, with no effect that depends on them, turns this off and saves the
+    /// trigonometry; the velocities are the same to the bit.
+    pub track_pose: bool,
+}
+
+impl World {
+    pub fn new(plant: Plant, terms: Vec<Arc<dyn Term>>) -> World {
+        World {
+            plant,
+            terms,
+            pool: None,
+            tether_anchor: None,
+            track_pose: true,
+        }
+    }
+
+    /// Whether any effect depends on the vehicle's position or heading.
+    pub fn effects_need_pose(&self) -> bool {
+        self.terms.iter().any(|t| t.needs_pose())
+    }
+
+    fn lag(&self) -> Option<f64> {
+        self.terms
+            .iter()
+            .find_map(|t| t.lag_s().filter(|&tc| tc > 0.0))
+    }
+
+    /// The force the thrusters would deliver in steady state for a command.
+    pub fn shape_command(&self, cmd: &Vec6) -> Vec6 {
+        let mut out = *cmd;
+        for t in &self.terms {
+            t.shape_command(&mut out);
+        }
+        out
+    }
+
+    /// Forces of the effects on the vehicle, body frame, with the heading's cosine and sine.
+    fn extra_force_at(&self, s: &State, cos_psi: f64, sin_psi: f64) -> Vec6 {
+        let mut f = [0.0; 6];
+        if self.terms.is_empty() {
+            return f;
+        }
+        let env = Env {
+            plant: &self.plant,
+            pool: self.pool,
+            anchor: self.tether_anchor,
+            cos_psi,
+            sin_psi,
+        };
+        for t in &self.terms {
+            t.add_force(&env, s, &mut f);
+        }
+        f
+    }
+
+    fn deriv(&self, s: &State, cmd: &Vec6) -> State {
+        let target = self.shape_command(cmd);
+        let (thrust, thrust_dot) = match self.lag() {
+            Some(tc) => (
+                s.thrust,
+                std::array::from_fn(|i| (target[i] - s.thrust[i]) / tc),
+            ),
+            None => (target, [0.0; 6]),
+        };
+        if !self.track_pose {
+            // No effect reads the pose (the caller checked): heading unused, pose held.
+            let extra = self.extra_force_at(s, 0.0, 0.0);
+            let tau: Vec6 = std::array::from_fn(|i| thrust[i] + extra[i]);
+            return State {
+                nu: self.plant.accel(&s.nu, &tau),
+                pos: [0.0; 3],
+                psi: 0.0,
+                thrust: thrust_dot,
+            };
+        }
+        let (c, sn) = (s.psi.cos(), s.psi.sin());
+        let extra = self.extra_force_at(s, c, sn);
+        let tau: Vec6 = std::array::from_fn(|i| thrust[i] + extra[i]);
+        State {
+            nu: self.plant.accel(&s.nu, &tau),
+            pos: [
+                c * s.nu[0] - sn * s.nu[1],
+                sn * s.nu[0] + c * s.nu[1],
+                s.nu[2],
+            ],
+            psi: s.nu[5],
+            thrust: thrust_dot,
+        }
+    }
+
+    /// One RK4 step of length `h` with the command held.
+    pub fn step(&self, s: &State, cmd: &Vec6, h: f64) -> State {
+        let add = |a: &State, k: &State, w: f64| State {
+            nu: std::array::from_fn(|i| a.nu[i] + w * k.nu[i]),
+            pos: std::array::from_fn(|i| a.pos[i] + w * k.pos[i]),
+            psi: a.psi + w * k.psi,
+            thrust: std::array::from_fn(|i| a.thrust[i] + w * k.thrust[i]),
+        };
+        let k1 = self.deriv(s, cmd);
+        let k2 = self.deriv(&add(s, &k1, h / 2.0), cmd);
+        let k3 = self.deriv(&add(s, &k2, h / 2.0), cmd);
+        let k4 = self.deriv(&add(s, &k3, h), cmd);
+        let mut out = *s;
+        for i in 0..6 {
+            out.nu[i] += h / 6.0 * (k1.nu[i] + 2.0 * k2.nu[i] + 2.0 * k3.nu[i] + k4.nu[i]);
+            out.thrust[i] +=
+                h / 6.0 * (k1.thrust[i] + 2.0 * k2.thrust[i] + 2.0 * k3.thrust[i] + k4.thrust[i]);
+        }
+        for i in 0..3 {
+            out.pos[i] += h / 6.0 * (k1.pos[i] + 2.0 * k2.pos[i] + 2.0 * k3.pos[i] + k4.pos[i]);
+        }
+        out.psi += h / 6.0 * (k1.psi + 2.0 * k2.psi + 2.0 * k3.psi + k4.psi);
+        if self.lag().is_none() {
+            out.thrust = self.shape_command(cmd);
+        }
+        out
+    }
+}
