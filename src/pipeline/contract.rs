@@ -93,8 +93,43 @@ pub struct Kind {
     /// Folder of the project its results are copied to (the report), if any.
     pub publishes_to: Option<&'static str>,
     /// Parses the stage's `settings` (unknown keys rejected).
-    pub parse:
-        fn(serde_yaml_ng::Value) -> Result<std::sync::Arc<dyn StageImpl>, serde_yaml_ng::Error>,
+    pub parse: ParseSettings,
+}
+
+/// How a kind parses its `settings`.
+pub type ParseSettings =
+    fn(serde_yaml_ng::Value) -> Result<std::sync::Arc<dyn StageImpl>, serde_yaml_ng::Error>;
+
+impl Kind {
+    /// A single-instance kind producing `produces` that reads nothing (`from` empty), keyed on
+    /// the whole vehicle; a kind states only where it differs:
+    /// `Kind { fan_out: true, ..Kind::new("pool", Artifact::PoolRuns, parse_as::<Settings>) }`.
+    pub const fn new(name: &'static str, produces: Artifact, parse: ParseSettings) -> Kind {
+        Kind {
+            name,
+            version: 1,
+            fan_out: false,
+            reads_files: false,
+            input_filter: None,
+            produces,
+            consumes: &[],
+            requires: &[],
+            requires_one_of: &[],
+            uses_vehicle: VehicleUse::All,
+            publishes_to: None,
+            parse,
+        }
+    }
+}
+
+/// Parses settings into `S`, unknown keys rejected by `S`'s `deny_unknown_fields`.
+pub fn parse_as<S>(
+    v: serde_yaml_ng::Value,
+) -> Result<std::sync::Arc<dyn StageImpl>, serde_yaml_ng::Error>
+where
+    S: StageImpl + serde::de::DeserializeOwned + 'static,
+{
+    Ok(std::sync::Arc::new(serde_yaml_ng::from_value::<S>(v)?))
 }
 
 /// A finished upstream instance whose artifacts a stage reads.

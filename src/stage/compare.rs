@@ -12,18 +12,9 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 
 pub static KIND: Kind = Kind {
-    name: "compare",
-    version: 1,
-    fan_out: false,
-    reads_files: false,
-    input_filter: None,
-    produces: Artifact::Comparison,
     consumes: &[Artifact::Responses, Artifact::PoolRuns],
     requires: &[Artifact::Responses],
-    requires_one_of: &[],
-    uses_vehicle: super::VehicleUse::All,
-    publishes_to: None,
-    parse: parse_settings,
+    ..Kind::new("compare", Artifact::Comparison, parse_settings)
 };
 
 fn parse_settings(v: serde_yaml_ng::Value) -> Result<Arc<dyn StageImpl>, serde_yaml_ng::Error> {

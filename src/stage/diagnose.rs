@@ -2,25 +2,15 @@
 //! missing structure, where the mismatch is, which left-out effect explains it (fitted by output
 //! error on the training runs, chosen and proven on the held-out runs). See [`crate::diagnose`].
 
-use super::{Artifact, Kind, RunCtx, StageImpl};
+use super::{Artifact, Kind, RunCtx, StageImpl, parse_as};
 use crate::diagnose::result::{FIGURES, RESULT};
 use crate::diagnose::{Criteria, DOFS, diagnose};
 use serde::{Deserialize, Serialize};
-use std::sync::Arc;
 
 pub static KIND: Kind = Kind {
-    name: "diagnose",
-    version: 1,
-    fan_out: false,
-    reads_files: false,
-    input_filter: None,
-    produces: Artifact::Diagnosis,
     consumes: &[Artifact::Model, Artifact::PoolRuns],
     requires: &[Artifact::Model, Artifact::PoolRuns],
-    requires_one_of: &[],
-    uses_vehicle: super::VehicleUse::All,
-    publishes_to: None,
-    parse: |v| Ok(Arc::new(serde_yaml_ng::from_value::<Settings>(v)?)),
+    ..Kind::new("diagnose", Artifact::Diagnosis, parse_as::<Settings>)
 };
 
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]

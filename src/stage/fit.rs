@@ -10,18 +10,9 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 
 pub static KIND: Kind = Kind {
-    name: "fit",
-    version: 1,
-    fan_out: false,
-    reads_files: false,
-    input_filter: None,
-    produces: Artifact::Model,
     consumes: &[Artifact::Responses, Artifact::PoolRuns],
-    requires: &[],
     requires_one_of: &[Artifact::Responses, Artifact::PoolRuns],
-    uses_vehicle: super::VehicleUse::All,
-    publishes_to: None,
-    parse: parse_settings,
+    ..Kind::new("fit", Artifact::Model, parse_settings)
 };
 
 fn parse_settings(v: serde_yaml_ng::Value) -> Result<Arc<dyn StageImpl>, serde_yaml_ng::Error> {

@@ -11,7 +11,7 @@ pub mod starccm;
 pub mod validate;
 
 pub use crate::pipeline::contract::{
-    Artifact, Kind, Registry, RunCtx, StageImpl, Upstream, VehicleUse,
+    Artifact, Kind, Registry, RunCtx, StageImpl, Upstream, VehicleUse, parse_as,
 };
 
 pub const KINDS: Registry = &[

@@ -2,7 +2,7 @@
 //! its solver) when its inputs have no results yet, or reuses the results a run of exactly
 //! these inputs left in the folder, and turns the body's motion into a response table.
 
-use super::{Artifact, Kind, RunCtx, StageImpl};
+use super::{Artifact, Kind, RunCtx, StageImpl, parse_as};
 use crate::diag::InputError;
 use crate::dof::Dof;
 use crate::io::Response;
@@ -13,21 +13,12 @@ use crate::provenance::InputFile;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::Path;
-use std::sync::Arc;
 
 pub static KIND: Kind = Kind {
-    name: "openfoam",
-    version: 1,
     fan_out: true,
-    reads_files: false,
     input_filter: Some(openfoam::is_case_input),
-    produces: Artifact::Responses,
-    consumes: &[],
-    requires: &[],
-    requires_one_of: &[],
     uses_vehicle: super::VehicleUse::Dofs,
-    publishes_to: None,
-    parse: |v| Ok(Arc::new(serde_yaml_ng::from_value::<Settings>(v)?)),
+    ..Kind::new("openfoam", Artifact::Responses, parse_as::<Settings>)
 };
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

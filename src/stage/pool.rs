@@ -1,25 +1,15 @@
 //! `kind: pool` — imports one pool test folder and fuses its sensors into body-frame velocities
 //! with uncertainties (one instance per run folder).
 
-use super::{Artifact, Kind, RunCtx, StageImpl};
+use super::{Artifact, Kind, RunCtx, StageImpl, parse_as};
 use crate::fusion::{self, run};
 use crate::io::pool;
 use serde::{Deserialize, Serialize};
-use std::sync::Arc;
 
 pub static KIND: Kind = Kind {
-    name: "pool",
-    version: 1,
     fan_out: true,
-    reads_files: false,
-    input_filter: None,
-    produces: Artifact::PoolRuns,
-    consumes: &[],
-    requires: &[],
-    requires_one_of: &[],
     uses_vehicle: super::VehicleUse::Dofs,
-    publishes_to: None,
-    parse: |v| Ok(Arc::new(serde_yaml_ng::from_value::<Settings>(v)?)),
+    ..Kind::new("pool", Artifact::PoolRuns, parse_as::<Settings>)
 };
 
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]

@@ -1,6 +1,6 @@
 //! `kind: report` — validates every model on every CFD response it reads and writes the report.
 
-use super::{Artifact, Kind, RunCtx, StageImpl};
+use super::{Artifact, Kind, RunCtx, StageImpl, parse_as};
 use crate::dof::Dof;
 use crate::io::Response;
 use crate::io::response;
@@ -11,15 +11,9 @@ use crate::report::json::{self, DofMetrics, ModelScore, RunScore, Validation};
 use crate::validate;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
-use std::sync::Arc;
 
 pub static KIND: Kind = Kind {
-    name: "report",
-    version: 1,
-    fan_out: false,
     reads_files: true,
-    input_filter: None,
-    produces: Artifact::Report,
     consumes: &[
         Artifact::Model,
         Artifact::Responses,
@@ -29,10 +23,8 @@ pub static KIND: Kind = Kind {
         Artifact::Diagnosis,
     ],
     requires: &[Artifact::Model],
-    requires_one_of: &[],
-    uses_vehicle: super::VehicleUse::All,
     publishes_to: Some("reports"),
-    parse: |v| Ok(Arc::new(serde_yaml_ng::from_value::<Settings>(v)?)),
+    ..Kind::new("report", Artifact::Report, parse_as::<Settings>)
 };
 
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]

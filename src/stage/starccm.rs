@@ -1,26 +1,16 @@
 //! `kind: starccm` — imports one STAR-CCM+ DFBI export into a response table (one instance per file).
 
-use super::{Artifact, Kind, RunCtx, StageImpl};
+use super::{Artifact, Kind, RunCtx, StageImpl, parse_as};
 use crate::dof::Dof;
 use crate::io::response::{META, ResponseMeta, TABLE};
 use crate::io::starccm::{self, ColumnMap, ImportOptions};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
-use std::sync::Arc;
 
 pub static KIND: Kind = Kind {
-    name: "starccm",
-    version: 1,
     fan_out: true,
-    reads_files: false,
-    input_filter: None,
-    produces: Artifact::Responses,
-    consumes: &[],
-    requires: &[],
-    requires_one_of: &[],
     uses_vehicle: super::VehicleUse::Dofs,
-    publishes_to: None,
-    parse: |v| Ok(Arc::new(serde_yaml_ng::from_value::<Settings>(v)?)),
+    ..Kind::new("starccm", Artifact::Responses, parse_as::<Settings>)
 };
 
 /// Applied force for exports without a force column, for the files a glob matches.

@@ -2,7 +2,7 @@
 //! from the run's fused initial state, and scores it per DOF: MAE, normalised MAE (seed 003),
 //! RMSE as % of the run's peak speed (seed 001) and the residual's whiteness (seed 000).
 
-use super::{Artifact, Kind, RunCtx, StageImpl};
+use super::{Artifact, Kind, RunCtx, StageImpl, parse_as};
 use crate::dof::Dof;
 use crate::fusion::run::POOL_DOFS;
 use crate::model::Plant;
@@ -12,21 +12,11 @@ use crate::validate::pool::{
 };
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
-use std::sync::Arc;
 
 pub static KIND: Kind = Kind {
-    name: "validate",
-    version: 1,
-    fan_out: false,
-    reads_files: false,
-    input_filter: None,
-    produces: Artifact::Validation,
     consumes: &[Artifact::Model, Artifact::PoolRuns],
     requires: &[Artifact::Model, Artifact::PoolRuns],
-    requires_one_of: &[],
-    uses_vehicle: super::VehicleUse::All,
-    publishes_to: None,
-    parse: |v| Ok(Arc::new(serde_yaml_ng::from_value::<Settings>(v)?)),
+    ..Kind::new("validate", Artifact::Validation, parse_as::<Settings>)
 };
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
