@@ -3,7 +3,8 @@
 //! compute bound and against the same algorithm in Python (bench/qpso_compare.py).
 
 use crate::estimate::Regression;
-use crate::estimate::swarm::{Norm, Problem, Qpso, Solver};
+use crate::estimate::swarm::qpso::Qpso;
+use crate::estimate::swarm::{Norm, Problem, Solver};
 use crate::model::{Hydro, Vehicle};
 use crate::rng::Rng;
 use rayon::prelude::*;

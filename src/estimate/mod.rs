@@ -2,6 +2,7 @@
 
 pub mod comparison;
 mod kernels;
+pub mod method;
 pub mod ols;
 pub mod output_error;
 pub mod refine;
@@ -11,6 +12,7 @@ pub mod rls;
 pub mod swarm;
 pub mod tls;
 
+pub use method::Method;
 pub use regression::Regression;
 
 use serde::{Deserialize, Serialize};
@@ -123,38 +125,59 @@ impl Default for Options<'_> {
     }
 }
 
-/// An estimator for the equation-error problem. Adding one is a new file and a line in `REGISTRY`.
+/// An estimator for the equation-error problem, with the settings of its own that a `fit`
+/// stage may give it. Adding one is a new file (its settings struct, its validation, its fit)
+/// and a line in [`REGISTRY`].
 pub trait Estimator: Sync {
     fn name(&self) -> &'static str;
     /// Whether its answer depends on a random seed (then part of the key and provenance).
     fn stochastic(&self) -> bool {
         false
     }
+    /// Reads and checks the method's own settings (the keys of a fit's settings that are not
+    /// common to every method), returning them with defaults filled in: the form the cache key
+    /// and the provenance record. Unknown keys are errors.
+    fn settings(
+        &self,
+        own: serde_json::Map<String, serde_json::Value>,
+    ) -> Result<serde_json::Value, String> {
+        own_settings::<NoSettings>(own)
+    }
+    /// Puts the method's settings (as [`Estimator::settings`] returned them) into `opts`.
+    fn apply(&self, _settings: &serde_json::Value, _opts: &mut Options) {}
+    /// What tells two configurations of the method apart in a table, if anything (a norm).
+    fn detail(&self, _settings: &serde_json::Value) -> Option<String> {
+        None
+    }
     fn fit(&self, problem: &Regression, opts: &Options) -> Result<Fit, EstimateError>;
 }
 
-macro_rules! population_method {
-    ($ty:ident, $name:literal, $make:expr) => {
-        pub struct $ty;
-        impl Estimator for $ty {
-            fn name(&self) -> &'static str {
-                $name
-            }
-            fn stochastic(&self) -> bool {
-                true
-            }
-            fn fit(&self, problem: &Regression, opts: &Options) -> Result<Fit, EstimateError> {
-                swarm::execute($name, &|| Box::new($make), problem, &opts.rigid_mass, opts)
-            }
-        }
-    };
+/// Parses a method's own settings into `S` (whose serde attributes reject unknown keys and
+/// fill defaults) and back to JSON.
+pub fn own_settings<S>(
+    own: serde_json::Map<String, serde_json::Value>,
+) -> Result<serde_json::Value, String>
+where
+    S: serde::de::DeserializeOwned + Serialize,
+{
+    let s: S = serde_json::from_value(serde_json::Value::Object(own)).map_err(|e| e.to_string())?;
+    Ok(serde_json::to_value(s).expect("settings serialise"))
 }
 
-population_method!(Qpso, "qpso", swarm::Qpso);
-population_method!(Pso, "pso", swarm::Pso::new());
-population_method!(Ga, "ga", swarm::Ga);
+/// The settings of a method that has none of its own.
+#[derive(Debug, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NoSettings {}
 
-pub const REGISTRY: &[&dyn Estimator] = &[&ols::Ols, &tls::Tls, &rls::Rls, &Qpso, &Pso, &Ga];
+/// Every estimator `pipeline.yaml` can name.
+pub const REGISTRY: &[&dyn Estimator] = &[
+    &ols::Ols,
+    &tls::Tls,
+    &rls::Rls,
+    &swarm::qpso::ESTIMATOR,
+    &swarm::pso::ESTIMATOR,
+    &swarm::ga::ESTIMATOR,
+];
 
 pub fn by_name(name: &str) -> Option<&'static dyn Estimator> {
     REGISTRY.iter().copied().find(|e| e.name() == name)

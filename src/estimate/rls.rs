@@ -7,12 +7,46 @@ use nalgebra::{DMatrix, DVector};
 
 pub struct Rls;
 
+/// The settings of `method: rls`.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RlsSettings {
+    /// Forgetting factor (seed 000 eq. 19), in (0, 1]; 1 keeps every row equally.
+    pub forgetting: f64,
+}
+
+impl Default for RlsSettings {
+    fn default() -> Self {
+        RlsSettings { forgetting: 1.0 }
+    }
+}
+
 /// Trace points kept along the data.
 const TRACE_POINTS: usize = 200;
 
 impl Estimator for Rls {
     fn name(&self) -> &'static str {
         "rls"
+    }
+
+    fn settings(
+        &self,
+        own: serde_json::Map<String, serde_json::Value>,
+    ) -> Result<serde_json::Value, String> {
+        let v = super::own_settings::<RlsSettings>(own)?;
+        let f = v["forgetting"].as_f64().unwrap_or(f64::NAN);
+        if !(f > 0.0 && f <= 1.0) {
+            return Err(format!(
+                "forgetting = {f} is outside (0, 1]: 1 keeps every row, 0.99 forgets over ~100 rows"
+            ));
+        }
+        Ok(v)
+    }
+
+    fn apply(&self, settings: &serde_json::Value, opts: &mut Options) {
+        opts.forgetting = settings["forgetting"]
+            .as_f64()
+            .expect("checked when parsed");
     }
 
     fn fit(&self, problem: &Regression, opts: &Options) -> Result<Fit, EstimateError> {

@@ -2,31 +2,19 @@
 //! Table 2 does: parameters, error against a known truth (when the cases come from a twin),
 //! validation error on the pool runs, run time and objective evaluations.
 
-use super::{Artifact, Kind, RunCtx, StageImpl, fit};
+use super::{Artifact, Kind, RunCtx, StageImpl, fit, parse_as};
+use crate::estimate::Regression;
 use crate::estimate::comparison::{Comparison, RESULT, Row};
-use crate::estimate::{self, Regression};
 use crate::io::response;
 use crate::model::{ParamLayout, Plant};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
-use std::sync::Arc;
 
 pub static KIND: Kind = Kind {
     consumes: &[Artifact::Responses, Artifact::PoolRuns],
     requires: &[Artifact::Responses],
-    ..Kind::new("compare", Artifact::Comparison, parse_settings)
+    ..Kind::new("compare", Artifact::Comparison, parse_as::<Settings>)
 };
-
-fn parse_settings(v: serde_yaml_ng::Value) -> Result<Arc<dyn StageImpl>, serde_yaml_ng::Error> {
-    let s: Settings = serde_yaml_ng::from_value(v)?;
-    for m in &s.methods {
-        if estimate::by_name(&m.method).is_none() {
-            let names: &'static [&'static str] = Box::leak(estimate::names().into_boxed_slice());
-            return Err(serde::de::Error::unknown_variant(&m.method, names));
-        }
-    }
-    Ok(Arc::new(s))
-}
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -39,31 +27,13 @@ pub struct Settings {
 
 impl Default for Settings {
     fn default() -> Settings {
-        let m = |name: &str| fit::Settings {
-            method: name.into(),
-            ..fit::Settings::default()
-        };
         Settings {
-            methods: ["ols", "tls", "rls", "qpso", "pso", "ga"]
-                .iter()
-                .map(|n| m(n))
+            methods: crate::estimate::names()
+                .into_iter()
+                .map(fit::Settings::of_method)
                 .collect(),
             truth: BTreeMap::new(),
         }
-    }
-}
-
-fn label(s: &fit::Settings) -> String {
-    let stochastic = estimate::by_name(&s.method).is_some_and(|e| e.stochastic());
-    let obj = if s.objective == crate::estimate::result::Objective::OutputError {
-        ", output error"
-    } else {
-        ""
-    };
-    if stochastic {
-        format!("{} ({:?}{obj})", s.method, s.norm).to_lowercase()
-    } else {
-        s.method.clone()
     }
 }
 
@@ -97,28 +67,19 @@ impl StageImpl for Settings {
         let mut samples = 0;
         for (i, m) in self.methods.iter().enumerate() {
             ctx.progress
-                .set_message(format!("{} ({}/{})", label(m), i + 1, self.methods.len()));
-            let problem = Regression::build(ctx.vehicle, &refs, m.skip_start_s);
+                .set_message(format!("{} ({}/{})", m.label(), i + 1, self.methods.len()));
+            let problem = Regression::build(ctx.vehicle, &refs, m.common.skip_start_s);
             samples = problem.rows();
-            let est = estimate::by_name(&m.method).expect("checked when parsed");
-            let opts = estimate::Options {
-                rigid_mass: ctx.vehicle.rigid_mass(),
-                seed: m.seed,
-                population: m.population.max(2),
-                iterations: m.iterations.max(1),
-                restarts: m.restarts.max(1),
-                norm: m.norm,
-                forgetting: m.forgetting,
-                progress: None,
-                output_error: (m.objective == crate::estimate::result::Objective::OutputError)
-                    .then_some((ctx.vehicle, &refs[..])),
-                max_seconds: m.max_seconds,
-            };
+            let opts = m.options(
+                ctx.vehicle.rigid_mass(),
+                None,
+                Some((ctx.vehicle, &refs[..])),
+            );
             let start = std::time::Instant::now();
-            let fit = est.fit(&problem, &opts);
+            let fit = m.method.estimator.fit(&problem, &opts);
             let seconds = start.elapsed().as_secs_f64();
             let mut row = Row {
-                label: label(m),
+                label: m.label(),
                 settings: m.settings(),
                 parameters: vec![],
                 error_pct: BTreeMap::new(),

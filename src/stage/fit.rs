@@ -1,53 +1,38 @@
 //! `kind: fit` — identifies the hydrodynamic parameters from every CFD response it reads.
 
-use super::{Artifact, Kind, RunCtx, StageImpl};
+use super::{Artifact, Kind, RunCtx, StageImpl, parse_as};
 use crate::dof::Dof;
 use crate::estimate::result::{CaseRef, Expected, FitResult, Objective, RESULT, RunRef};
 use crate::estimate::{self, Fit, Regression};
 use crate::io::response;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
-use std::sync::Arc;
 
 pub static KIND: Kind = Kind {
     consumes: &[Artifact::Responses, Artifact::PoolRuns],
     requires_one_of: &[Artifact::Responses, Artifact::PoolRuns],
-    ..Kind::new("fit", Artifact::Model, parse_settings)
+    ..Kind::new("fit", Artifact::Model, parse_as::<Settings>)
 };
 
-fn parse_settings(v: serde_yaml_ng::Value) -> Result<Arc<dyn StageImpl>, serde_yaml_ng::Error> {
-    let s: Settings = serde_yaml_ng::from_value(v)?;
-    if estimate::by_name(&s.method).is_none() {
-        let names: &'static [&'static str] = Box::leak(estimate::names().into_boxed_slice());
-        return Err(serde::de::Error::unknown_variant(&s.method, names));
-    }
-    Ok(Arc::new(s))
+/// A fit's settings: the method with its own settings (resolved when parsed), and the
+/// settings every method shares. Written flat in `pipeline.yaml` (`method: qpso`,
+/// `population: 60`, `skip_start_s: 0.2`); a key neither the method nor the fit reads is an
+/// error.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Settings {
+    pub method: estimate::Method,
+    pub common: Common,
 }
 
+/// The settings of a fit that do not depend on its method.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
-pub struct Settings {
+pub struct Common {
     pub method: String,
     pub objective: Objective,
     /// Samples before this time in each case are left out: the start-up transient of the
     /// fluid-body coupling (impulsive start, pressure waves) is not vehicle dynamics.
     pub skip_start_s: f64,
-    /// Seed of the stochastic methods (qpso, pso, ga); part of the cache key and provenance.
-    pub seed: u64,
-    /// Population and iterations of qpso, pso and ga (seed 001 does not state its own).
-    pub population: usize,
-    pub iterations: usize,
-    /// Independent seeded runs of qpso, pso and ga: their spread is the reported interval.
-    pub restarts: usize,
-    /// Norm of the equation error for qpso, pso and ga: l1 (seed 001 eq. 14) or l2.
-    pub norm: crate::estimate::swarm::Norm,
-    /// Forgetting factor of rls (seed 000 eq. 19); 1 keeps every row equally.
-    pub forgetting: f64,
-    /// Wall-clock limit for qpso, pso and ga, s; the best so far is kept and the report says
-    /// the search was cut short. Not part of the numbers' identity: leave it unset for
-    /// reproducible results.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub max_seconds: Option<f64>,
     /// The body this fit identifies, when it is not the pipeline's vehicle (a CFD test body
     /// such as the OpenFOAM cylinder). A case that states its own mass overrides `mass_kg`.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -69,19 +54,12 @@ pub struct Settings {
     pub added_mass_window_s: Option<f64>,
 }
 
-impl Default for Settings {
+impl Default for Common {
     fn default() -> Self {
-        Settings {
+        Common {
             method: "ols".into(),
             objective: Objective::EquationError,
             skip_start_s: 0.0,
-            seed: 1,
-            population: 40,
-            iterations: 2000,
-            restarts: 5,
-            norm: crate::estimate::swarm::Norm::L2,
-            forgetting: 1.0,
-            max_seconds: None,
             vehicle: None,
             expected: BTreeMap::new(),
             reference_length_m: None,
@@ -90,34 +68,128 @@ impl Default for Settings {
     }
 }
 
+impl Settings {
+    /// Method `name` with its default settings and the default common ones.
+    pub fn of_method(name: &str) -> Settings {
+        Settings {
+            method: estimate::Method::parse(name, Default::default()).expect("a registered method"),
+            common: Common {
+                method: name.into(),
+                ..Common::default()
+            },
+        }
+    }
+
+    /// The options an estimator runs with: the method's settings over the fit's context.
+    pub fn options<'a>(
+        &self,
+        rigid_mass: [f64; 6],
+        progress: Option<&'a (dyn Fn(f64) + Sync)>,
+        output_error: Option<(&'a crate::model::Vehicle, &'a [&'a crate::io::Response])>,
+    ) -> estimate::Options<'a> {
+        self.method.options(estimate::Options {
+            rigid_mass,
+            progress,
+            output_error: output_error.filter(|_| self.common.objective == Objective::OutputError),
+            ..Default::default()
+        })
+    }
+
+    /// `ols`, `qpso (l1, output error)`: how tables name this configuration.
+    pub fn label(&self) -> String {
+        self.method
+            .label(self.common.objective == Objective::OutputError)
+    }
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings::of_method("ols")
+    }
+}
+
+const COMMON_KEYS: [&str; 7] = [
+    "method",
+    "objective",
+    "skip_start_s",
+    "vehicle",
+    "expected",
+    "reference_length_m",
+    "added_mass_window_s",
+];
+
+/// A method's "unknown field" error, with every key the fit reads as the expected ones (so
+/// a misspelled common key is suggested too) and what the method itself reads.
+fn unknown_key(e: &str, method: &str) -> String {
+    let Some(rest) = e.strip_prefix("unknown field `") else {
+        return format!("{e} (settings of method {method})");
+    };
+    let key = rest.split('`').next().unwrap_or_default();
+    let own: Vec<&str> = e
+        .split("expected")
+        .nth(1)
+        .map_or(vec![], |s| s.split('`').skip(1).step_by(2).collect());
+    let all: Vec<String> = own
+        .iter()
+        .chain(COMMON_KEYS.iter())
+        .map(|k| format!("`{k}`"))
+        .collect();
+    let reads = if own.is_empty() {
+        "no settings of its own".to_string()
+    } else {
+        own.join(", ")
+    };
+    format!(
+        "unknown field `{key}`, expected one of {} (method {method} reads {reads})",
+        all.join(", ")
+    )
+}
+
+impl<'de> Deserialize<'de> for Settings {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Settings, D::Error> {
+        use serde::de::Error;
+        let mut all = serde_json::Map::<String, serde_json::Value>::deserialize(d)?;
+        let mut common = serde_json::Map::new();
+        for k in COMMON_KEYS {
+            if let Some(v) = all.remove(k) {
+                common.insert(k.to_string(), v);
+            }
+        }
+        let common: Common =
+            serde_json::from_value(serde_json::Value::Object(common)).map_err(D::Error::custom)?;
+        let known = estimate::by_name(&common.method).is_some();
+        let method = estimate::Method::parse(&common.method, all).map_err(|e| {
+            if known {
+                D::Error::custom(unknown_key(&e, &common.method))
+            } else {
+                D::Error::custom(e)
+            }
+        })?;
+        Ok(Settings { method, common })
+    }
+}
+
+impl Serialize for Settings {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut v = serde_json::to_value(&self.common).map_err(serde::ser::Error::custom)?;
+        let obj = v.as_object_mut().expect("settings are a map");
+        if let Some(own) = self.method.settings.as_object() {
+            obj.extend(own.clone());
+        }
+        v.serialize(s)
+    }
+}
+
 impl StageImpl for Settings {
     /// Only the settings the chosen method reads, so tuning the swarm does not rerun a
     /// least-squares fit (and a deterministic method shows no seed).
     fn settings(&self) -> serde_json::Value {
-        let mut v = serde_json::to_value(self).expect("settings serialise");
-        let obj = v.as_object_mut().expect("settings are a map");
-        let stochastic = estimate::by_name(&self.method).is_some_and(|e| e.stochastic());
-        if !stochastic {
-            for k in [
-                "seed",
-                "population",
-                "iterations",
-                "restarts",
-                "norm",
-                "max_seconds",
-            ] {
-                obj.remove(k);
-            }
-        }
-        if self.method != "rls" {
-            obj.remove("forgetting");
-        }
-        v
+        serde_json::to_value(self).expect("settings serialise")
     }
 
     fn run(&self, ctx: &RunCtx) -> anyhow::Result<()> {
         let start = std::time::Instant::now();
-        let vehicle = self.vehicle.as_ref().unwrap_or(ctx.vehicle);
+        let vehicle = self.common.vehicle.as_ref().unwrap_or(ctx.vehicle);
         let mut cases = Vec::new();
         let mut responses = Vec::new();
         for up in ctx.upstream_of(Artifact::Responses) {
@@ -135,7 +207,7 @@ impl StageImpl for Settings {
         notes.extend(ctx.failed_notes());
         let refs: Vec<_> = responses.iter().chain(&pool_responses).collect();
         // Cases that state their own body mass (OpenFOAM) are regressed with it.
-        let mut cfd = Regression::build(vehicle, &[], self.skip_start_s);
+        let mut cfd = Regression::build(vehicle, &[], self.common.skip_start_s);
         let mut masses = Vec::new();
         for (c, r) in cases.iter().zip(&responses) {
             let mut v = vehicle.clone();
@@ -143,46 +215,42 @@ impl StageImpl for Settings {
                 v.mass_kg = m;
             }
             masses.push(v.mass_kg);
-            cfd.append(Regression::build(&v, &[r], self.skip_start_s));
+            cfd.append(Regression::build(&v, &[r], self.common.skip_start_s));
         }
         let pool_refs: Vec<_> = pool_responses.iter().collect();
-        let pool = Regression::build(vehicle, &pool_refs, self.skip_start_s);
+        let pool = Regression::build(vehicle, &pool_refs, self.common.skip_start_s);
         if !pool_refs.is_empty() {
             masses.push(vehicle.mass_kg);
         }
         let problem = combine(cfd, pool, &mut notes);
         let one_mass = masses.windows(2).all(|w| w[0] == w[1]);
         anyhow::ensure!(
-            one_mass || self.objective == Objective::EquationError,
+            one_mass || self.common.objective == Objective::EquationError,
             "the output error simulates one body: these cases state different body masses ({masses:?} kg); use objective: equation_error"
         );
         let mut sim_vehicle = vehicle.clone();
         if let Some(m) = masses.first() {
             sim_vehicle.mass_kg = *m;
         }
-        let estimator = estimate::by_name(&self.method).expect("checked when parsed");
-        ctx.progress
-            .set_message(format!("{} on {} samples", self.method, problem.rows()));
+        let estimator = self.method.estimator;
+        ctx.progress.set_message(format!(
+            "{} on {} samples",
+            self.method.name(),
+            problem.rows()
+        ));
         let bar = ctx.progress;
         let report = move |f: f64| bar.set_message(format!("{:.0} %", 100.0 * f));
-        let opts = estimate::Options {
-            rigid_mass: sim_vehicle.rigid_mass(),
-            seed: self.seed,
-            population: self.population.max(2),
-            iterations: self.iterations.max(1),
-            restarts: self.restarts.max(1),
-            norm: self.norm,
-            forgetting: self.forgetting,
-            progress: Some(&report),
-            output_error: (self.objective == Objective::OutputError)
-                .then_some((&sim_vehicle, &refs[..])),
-            max_seconds: self.max_seconds,
-        };
-        let (mut fit, one_step) = match self.added_mass_window_s {
+        let opts = self.options(
+            sim_vehicle.rigid_mass(),
+            Some(&report),
+            Some((&sim_vehicle, &refs[..])),
+        );
+        let (mut fit, one_step) = match self.common.added_mass_window_s {
             None => (estimator.fit(&problem, &opts)?, None),
             Some(window) => {
                 anyhow::ensure!(
-                    self.method == "ols" && self.objective == Objective::EquationError,
+                    self.method.name() == "ols"
+                        && self.common.objective == Objective::EquationError,
                     "added_mass_window_s is a two-step least-squares fit: use method: ols, objective: equation_error"
                 );
                 anyhow::ensure!(window > 0.0, "added_mass_window_s must be positive");
@@ -190,7 +258,7 @@ impl StageImpl for Settings {
                     pool_refs.is_empty(),
                     "added_mass_window_s is for CFD runs from rest; remove the pool stage from this fit's `from`"
                 );
-                let mut early = Regression::build(vehicle, &[], self.skip_start_s);
+                let mut early = Regression::build(vehicle, &[], self.common.skip_start_s);
                 for (c, r) in cases.iter().zip(&responses) {
                     let mut v = vehicle.clone();
                     if let Some(m) = c.mass_kg {
@@ -198,8 +266,8 @@ impl StageImpl for Settings {
                     }
                     early.append(Regression::build(
                         &v,
-                        &[&truncate(r, self.skip_start_s + window)],
-                        self.skip_start_s,
+                        &[&truncate(r, self.common.skip_start_s + window)],
+                        self.common.skip_start_s,
                     ));
                 }
                 let one = estimator.fit(&problem, &opts).ok().map(|f| f.parameters);
@@ -209,8 +277,8 @@ impl StageImpl for Settings {
         estimate::check_signs(&problem.layout, &mut fit.parameters);
         let result = FitResult {
             stage: ctx.stage.to_string(),
-            method: self.method.clone(),
-            objective: self.objective,
+            method: self.method.name().to_string(),
+            objective: self.common.objective,
             settings: self.settings(),
             structure: vehicle.structure,
             dofs: vehicle.dofs.clone(),
@@ -220,8 +288,8 @@ impl StageImpl for Settings {
             runs,
             notes,
             elapsed_s: start.elapsed().as_secs_f64(),
-            vehicle: self.vehicle.clone(),
-            expected: self.expected.clone(),
+            vehicle: self.common.vehicle.clone(),
+            expected: self.common.expected.clone(),
             one_step,
         };
         super::write_json(&ctx.out.join(RESULT), &result)

@@ -126,3 +126,28 @@ fn inputs_outside_the_project() {
     let e = err(&OK.replace("cases/*.csv", "../other/*.csv"));
     assert!(e.contains("is outside the project"), "{e}");
 }
+
+#[test]
+fn each_method_reads_only_its_own_settings() {
+    let e = err(&OK.replace("method: ols", "method: ols\n      population: 60"));
+    assert!(e.contains("unknown field `population`"), "{e}");
+    assert!(e.contains("method ols reads no settings of its own"), "{e}");
+    let e = err(&OK.replace("method: ols", "method: qpso\n      populaton: 60"));
+    assert!(e.contains("did you mean `population`?"), "{e}");
+    let e = err(&OK.replace("method: ols", "method: rls\n      forgetting: 1.5"));
+    assert!(e.contains("outside (0, 1]"), "{e}");
+    let s = parse(
+        "pipeline.yaml",
+        &OK.replace("method: ols", "method: qpso\n      population: 60"),
+        crate::stage::KINDS,
+    )
+    .unwrap();
+    let fit = s.stages.iter().find(|st| st.name == "fit").unwrap();
+    let settings = fit.imp.settings();
+    assert_eq!(settings["population"], 60);
+    assert_eq!(
+        settings["iterations"], 2000,
+        "defaults filled in: {settings}"
+    );
+    assert!(settings.get("forgetting").is_none(), "{settings}");
+}

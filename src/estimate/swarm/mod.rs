@@ -3,8 +3,7 @@
 //! that performs one iteration, and an `Executor` that owns the seed, the iteration limit,
 //! restarts and progress.
 //!
-//! QPSO follows seed 001 section 3.5: mbest, the learning-tendency point
-//! p_d = phi p_i + (1 - phi) p_g, and x = p_d ± beta |mbest - x| ln(1/u).
+//! One file per method ([`qpso`], [`pso`], [`ga`]): its solver and its registry entry.
 
 // Numeric kernels index several arrays with one loop variable; iterators would hide that.
 #![allow(clippy::needless_range_loop)]
@@ -15,6 +14,10 @@ use super::{Estimate, EstimateError, Fit, Options, Regression};
 use crate::rng::Rng;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
+
+pub mod ga;
+pub mod pso;
+pub mod qpso;
 
 /// Which norm of the equation error is minimised: seed 001 eq. 14 is L1 (sum |tau - tau_id| / sqrt K).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize, Default)]
@@ -341,153 +344,6 @@ pub trait Solver {
     fn step(&mut self, problem: &Problem, swarm: &mut Swarm, rng: &mut Rng, progress: f64);
 }
 
-/// Quantum-behaved PSO (seed 001 section 3.5), beta decreasing linearly from 1.0 to 0.5.
-pub struct Qpso;
-
-impl Solver for Qpso {
-    fn init(&mut self, problem: &Problem, rng: &mut Rng, population: usize) -> Swarm {
-        Swarm::new(problem, population, rng)
-    }
-
-    fn step(&mut self, problem: &Problem, s: &mut Swarm, rng: &mut Rng, progress: f64) {
-        let beta = 1.0 - 0.5 * progress;
-        let n = s.x.len();
-        let dim = problem.dim();
-        let mbest: Vec<f64> = (0..dim)
-            .map(|j| s.best.iter().map(|p| p[j]).sum::<f64>() / n as f64)
-            .collect();
-        let pg = s.best[s.g].clone();
-        for i in 0..n {
-            for j in 0..dim {
-                let phi = rng.uniform();
-                let pd = phi * s.best[i][j] + (1.0 - phi) * pg[j];
-                let u = rng.uniform_open();
-                let step = beta * (mbest[j] - s.x[i][j]).abs() * (1.0 / u).ln();
-                s.x[i][j] = if rng.uniform() < 0.5 {
-                    pd + step
-                } else {
-                    pd - step
-                };
-            }
-            let mut xi = std::mem::take(&mut s.x[i]);
-            problem.clamp(&mut xi);
-            s.x[i] = xi;
-        }
-        let cost = problem.cost_all(&s.x);
-        s.absorb(&cost);
-    }
-}
-
-/// Standard PSO (global best): inertia falling from 0.9 to 0.4, cognitive and social weights
-/// 1.49618 (Clerc's constriction values), velocities limited to a fifth of the box and
-/// stopped at a bound (absorbing walls), so particles do not pile up on the box's faces.
-pub struct Pso {
-    v: Vec<Vec<f64>>,
-}
-
-impl Pso {
-    pub fn new() -> Pso {
-        Pso { v: Vec::new() }
-    }
-}
-
-impl Default for Pso {
-    fn default() -> Self {
-        Pso::new()
-    }
-}
-
-impl Solver for Pso {
-    fn init(&mut self, problem: &Problem, rng: &mut Rng, population: usize) -> Swarm {
-        let s = Swarm::new(problem, population, rng);
-        self.v = (0..population)
-            .map(|_| {
-                (0..problem.dim())
-                    .map(|j| 0.1 * (problem.hi[j] - problem.lo[j]) * (2.0 * rng.uniform() - 1.0))
-                    .collect()
-            })
-            .collect();
-        s
-    }
-
-    fn step(&mut self, problem: &Problem, s: &mut Swarm, rng: &mut Rng, progress: f64) {
-        const C: f64 = 1.49618;
-        let w = 0.9 - 0.5 * progress;
-        let pg = s.best[s.g].clone();
-        for i in 0..s.x.len() {
-            for j in 0..problem.dim() {
-                let vmax = 0.2 * (problem.hi[j] - problem.lo[j]);
-                let v = w * self.v[i][j]
-                    + C * rng.uniform() * (s.best[i][j] - s.x[i][j])
-                    + C * rng.uniform() * (pg[j] - s.x[i][j]);
-                self.v[i][j] = v.clamp(-vmax, vmax);
-                s.x[i][j] += self.v[i][j];
-                if s.x[i][j] < problem.lo[j] || s.x[i][j] > problem.hi[j] {
-                    self.v[i][j] = 0.0;
-                }
-            }
-            let mut xi = std::mem::take(&mut s.x[i]);
-            problem.clamp(&mut xi);
-            s.x[i] = xi;
-        }
-        let cost = problem.cost_all(&s.x);
-        s.absorb(&cost);
-    }
-}
-
-/// Real-coded GA: tournament selection (size 3), blend crossover (BLX-0.5, rate 0.9),
-/// Gaussian mutation (rate 1/dim, 10 % of the box shrinking geometrically to 0.01 %), two elites.
-pub struct Ga;
-
-impl Solver for Ga {
-    fn init(&mut self, problem: &Problem, rng: &mut Rng, population: usize) -> Swarm {
-        Swarm::new(problem, population, rng)
-    }
-
-    fn step(&mut self, problem: &Problem, s: &mut Swarm, rng: &mut Rng, progress: f64) {
-        let n = s.x.len();
-        let dim = problem.dim();
-        // The current generation is `best` (a GA keeps no memory beyond its population).
-        let mut order: Vec<usize> = (0..n).collect();
-        order.sort_by(|a, b| s.best_cost[*a].total_cmp(&s.best_cost[*b]));
-        let pick = |rng: &mut Rng| {
-            (0..3)
-                .map(|_| rng.below(n))
-                .min_by(|a, b| s.best_cost[*a].total_cmp(&s.best_cost[*b]))
-                .unwrap_or(0)
-        };
-        let sigma = 0.1 * 1e-3f64.powf(progress);
-        let mut next: Vec<Vec<f64>> = order.iter().take(2).map(|&i| s.best[i].clone()).collect();
-        while next.len() < n {
-            let (a, b) = (pick(rng), pick(rng));
-            let mut child: Vec<f64> = (0..dim)
-                .map(|j| {
-                    let (x, y) = (s.best[a][j], s.best[b][j]);
-                    if rng.uniform() < 0.9 {
-                        let (lo, hi) = (x.min(y), x.max(y));
-                        let d = hi - lo;
-                        lo - 0.5 * d + 2.0 * d * rng.uniform()
-                    } else {
-                        x
-                    }
-                })
-                .collect();
-            for (j, c) in child.iter_mut().enumerate() {
-                if rng.uniform() < 1.0 / dim as f64 {
-                    *c += sigma * (problem.hi[j] - problem.lo[j]) * rng.normal();
-                }
-            }
-            problem.clamp(&mut child);
-            next.push(child);
-        }
-        let cost = problem.cost_all(&next);
-        s.x = next.clone();
-        s.best = next;
-        s.best_cost = cost;
-        s.g = argmin(&s.best_cost);
-    }
-}
-
 /// Runs a solver: `restarts` independent seeded runs (the spread of their answers is the
 /// reported interval), each `iterations` long.
 pub fn execute(
@@ -674,5 +530,84 @@ mod tests {
                 );
             }
         }
+    }
+}
+
+/// A population method as the registry holds it: one of the solvers, run by [`execute`].
+pub struct Population {
+    pub name: &'static str,
+    pub make: fn() -> Box<dyn Solver>,
+}
+
+/// The settings every population method reads.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PopulationSettings {
+    /// Seed of the random draws; part of the cache key and provenance.
+    pub seed: u64,
+    /// Population and iterations (seed 001 does not state its own).
+    pub population: usize,
+    pub iterations: usize,
+    /// Independent seeded runs: their spread is the reported interval.
+    pub restarts: usize,
+    /// Norm of the equation error: l1 (seed 001 eq. 14) or l2.
+    pub norm: Norm,
+    /// Wall-clock limit, s; the best so far is kept and the report says the search was cut
+    /// short. Not part of the numbers' identity: leave it unset for reproducible results.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_seconds: Option<f64>,
+}
+
+impl Default for PopulationSettings {
+    fn default() -> Self {
+        PopulationSettings {
+            seed: 1,
+            population: 40,
+            iterations: 2000,
+            restarts: 5,
+            norm: Norm::L2,
+            max_seconds: None,
+        }
+    }
+}
+
+impl PopulationSettings {
+    fn of(settings: &serde_json::Value) -> PopulationSettings {
+        serde_json::from_value(settings.clone()).expect("checked when parsed")
+    }
+}
+
+impl super::Estimator for Population {
+    fn name(&self) -> &'static str {
+        self.name
+    }
+
+    fn stochastic(&self) -> bool {
+        true
+    }
+
+    fn settings(
+        &self,
+        own: serde_json::Map<String, serde_json::Value>,
+    ) -> Result<serde_json::Value, String> {
+        super::own_settings::<PopulationSettings>(own)
+    }
+
+    fn apply(&self, settings: &serde_json::Value, opts: &mut Options) {
+        let s = PopulationSettings::of(settings);
+        opts.seed = s.seed;
+        opts.population = s.population.max(2);
+        opts.iterations = s.iterations.max(1);
+        opts.restarts = s.restarts.max(1);
+        opts.norm = s.norm;
+        opts.max_seconds = s.max_seconds;
+    }
+
+    fn detail(&self, settings: &serde_json::Value) -> Option<String> {
+        Some(format!("{:?}", PopulationSettings::of(settings).norm))
+    }
+
+    fn fit(&self, problem: &Regression, opts: &Options) -> Result<Fit, EstimateError> {
+        execute(self.name, &self.make, problem, &opts.rigid_mass, opts)
     }
 }
