@@ -1,6 +1,7 @@
 //! Estimators of the hydrodynamic parameters, behind one registry so `pipeline.yaml` can name them.
 
 pub mod comparison;
+pub mod identify;
 mod kernels;
 pub mod method;
 pub mod ols;
@@ -9,8 +10,10 @@ pub mod refine;
 pub mod regression;
 pub mod result;
 pub mod rls;
+pub mod sources;
 pub mod swarm;
 pub mod tls;
+pub mod two_step;
 
 pub use method::Method;
 pub use regression::Regression;

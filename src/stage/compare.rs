@@ -3,8 +3,8 @@
 //! validation error on the pool runs, run time and objective evaluations.
 
 use super::{Artifact, Kind, RunCtx, StageImpl, fit, parse_as};
-use crate::estimate::Regression;
 use crate::estimate::comparison::{Comparison, RESULT, Row};
+use crate::estimate::identify;
 use crate::io::response;
 use crate::model::{ParamLayout, Plant};
 use serde::{Deserialize, Serialize};
@@ -44,9 +44,11 @@ impl StageImpl for Settings {
     }
 
     fn run(&self, ctx: &RunCtx) -> anyhow::Result<()> {
-        let mut responses = Vec::new();
+        let (mut responses, mut masses) = (Vec::new(), Vec::new());
         for up in ctx.upstream_of(Artifact::Responses) {
-            responses.push(response::load(&up.dir)?.1);
+            let (meta, r) = response::load(&up.dir)?;
+            responses.push(r);
+            masses.push(meta.body_mass_kg);
         }
         let runs: Vec<crate::fusion::run::FusedRun> = ctx
             .upstream_of(Artifact::PoolRuns)
@@ -62,21 +64,32 @@ impl StageImpl for Settings {
         } else {
             runs.iter().collect()
         };
-        let refs: Vec<_> = responses.iter().collect();
         let mut rows = Vec::new();
         let mut samples = 0;
         for (i, m) in self.methods.iter().enumerate() {
             ctx.progress
                 .set_message(format!("{} ({}/{})", m.label(), i + 1, self.methods.len()));
-            let problem = Regression::build(ctx.vehicle, &refs, m.common.skip_start_s);
-            samples = problem.rows();
-            let opts = m.options(
-                ctx.vehicle.rigid_mass(),
-                None,
-                Some((ctx.vehicle, &refs[..])),
-            );
+            let data = identify::Data {
+                vehicle: ctx.vehicle,
+                cases: responses
+                    .iter()
+                    .zip(&masses)
+                    .map(|(r, m)| (r, *m))
+                    .collect(),
+                pool: vec![],
+                skip_start_s: m.common.skip_start_s,
+            };
+            let req = identify::Request {
+                method: &m.method,
+                objective: m.common.objective,
+                added_mass_window_s: None,
+                progress: None,
+            };
             let start = std::time::Instant::now();
-            let fit = m.method.estimator.fit(&problem, &opts);
+            let fit = identify::identify(&data, &req).map(|id| {
+                samples = id.rows;
+                id.fit
+            });
             let seconds = start.elapsed().as_secs_f64();
             let mut row = Row {
                 label: m.label(),

@@ -1,9 +1,9 @@
 //! `kind: fit` — identifies the hydrodynamic parameters from every CFD response it reads.
 
 use super::{Artifact, Kind, RunCtx, StageImpl, parse_as};
-use crate::dof::Dof;
+use crate::estimate::identify;
 use crate::estimate::result::{CaseRef, Expected, FitResult, Objective, RESULT, RunRef};
-use crate::estimate::{self, Fit, Regression};
+use crate::estimate::{self};
 use crate::io::response;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -78,21 +78,6 @@ impl Settings {
                 ..Common::default()
             },
         }
-    }
-
-    /// The options an estimator runs with: the method's settings over the fit's context.
-    pub fn options<'a>(
-        &self,
-        rigid_mass: [f64; 6],
-        progress: Option<&'a (dyn Fn(f64) + Sync)>,
-        output_error: Option<(&'a crate::model::Vehicle, &'a [&'a crate::io::Response])>,
-    ) -> estimate::Options<'a> {
-        self.method.options(estimate::Options {
-            rigid_mass,
-            progress,
-            output_error: output_error.filter(|_| self.common.objective == Objective::OutputError),
-            ..Default::default()
-        })
     }
 
     /// `ols`, `qpso (l1, output error)`: how tables name this configuration.
@@ -205,76 +190,30 @@ impl StageImpl for Settings {
         }
         let (runs, pool_responses, mut notes) = training_runs(ctx, vehicle)?;
         notes.extend(ctx.failed_notes());
-        let refs: Vec<_> = responses.iter().chain(&pool_responses).collect();
-        // Cases that state their own body mass (OpenFOAM) are regressed with it.
-        let mut cfd = Regression::build(vehicle, &[], self.common.skip_start_s);
-        let mut masses = Vec::new();
-        for (c, r) in cases.iter().zip(&responses) {
-            let mut v = vehicle.clone();
-            if let Some(m) = c.mass_kg {
-                v.mass_kg = m;
-            }
-            masses.push(v.mass_kg);
-            cfd.append(Regression::build(&v, &[r], self.common.skip_start_s));
-        }
-        let pool_refs: Vec<_> = pool_responses.iter().collect();
-        let pool = Regression::build(vehicle, &pool_refs, self.common.skip_start_s);
-        if !pool_refs.is_empty() {
-            masses.push(vehicle.mass_kg);
-        }
-        let problem = combine(cfd, pool, &mut notes);
-        let one_mass = masses.windows(2).all(|w| w[0] == w[1]);
-        anyhow::ensure!(
-            one_mass || self.common.objective == Objective::EquationError,
-            "the output error simulates one body: these cases state different body masses ({masses:?} kg); use objective: equation_error"
-        );
-        let mut sim_vehicle = vehicle.clone();
-        if let Some(m) = masses.first() {
-            sim_vehicle.mass_kg = *m;
-        }
-        let estimator = self.method.estimator;
-        ctx.progress.set_message(format!(
-            "{} on {} samples",
-            self.method.name(),
-            problem.rows()
-        ));
+        let data = identify::Data {
+            vehicle,
+            cases: responses
+                .iter()
+                .zip(&cases)
+                .map(|(r, c)| (r, c.mass_kg))
+                .collect(),
+            pool: pool_responses.iter().collect(),
+            skip_start_s: self.common.skip_start_s,
+        };
+        ctx.progress
+            .set_message(format!("fitting with {}", self.method.name()));
         let bar = ctx.progress;
         let report = move |f: f64| bar.set_message(format!("{:.0} %", 100.0 * f));
-        let opts = self.options(
-            sim_vehicle.rigid_mass(),
-            Some(&report),
-            Some((&sim_vehicle, &refs[..])),
-        );
-        let (mut fit, one_step) = match self.common.added_mass_window_s {
-            None => (estimator.fit(&problem, &opts)?, None),
-            Some(window) => {
-                anyhow::ensure!(
-                    self.method.name() == "ols"
-                        && self.common.objective == Objective::EquationError,
-                    "added_mass_window_s is a two-step least-squares fit: use method: ols, objective: equation_error"
-                );
-                anyhow::ensure!(window > 0.0, "added_mass_window_s must be positive");
-                anyhow::ensure!(
-                    pool_refs.is_empty(),
-                    "added_mass_window_s is for CFD runs from rest; remove the pool stage from this fit's `from`"
-                );
-                let mut early = Regression::build(vehicle, &[], self.common.skip_start_s);
-                for (c, r) in cases.iter().zip(&responses) {
-                    let mut v = vehicle.clone();
-                    if let Some(m) = c.mass_kg {
-                        v.mass_kg = m;
-                    }
-                    early.append(Regression::build(
-                        &v,
-                        &[&truncate(r, self.common.skip_start_s + window)],
-                        self.common.skip_start_s,
-                    ));
-                }
-                let one = estimator.fit(&problem, &opts).ok().map(|f| f.parameters);
-                (two_step(&early, &problem)?, one)
-            }
-        };
-        estimate::check_signs(&problem.layout, &mut fit.parameters);
+        let id = identify::identify(
+            &data,
+            &identify::Request {
+                method: &self.method,
+                objective: self.common.objective,
+                added_mass_window_s: self.common.added_mass_window_s,
+                progress: Some(&report),
+            },
+        )?;
+        notes.extend(id.notes);
         let result = FitResult {
             stage: ctx.stage.to_string(),
             method: self.method.name().to_string(),
@@ -282,15 +221,15 @@ impl StageImpl for Settings {
             settings: self.settings(),
             structure: vehicle.structure,
             dofs: vehicle.dofs.clone(),
-            constant_force: problem.layout.constant.clone(),
-            fit,
+            constant_force: id.constant_force,
+            fit: id.fit,
             cases,
             runs,
             notes,
             elapsed_s: start.elapsed().as_secs_f64(),
             vehicle: self.common.vehicle.clone(),
             expected: self.common.expected.clone(),
-            one_step,
+            one_step: id.one_step,
         };
         super::write_json(&ctx.out.join(RESULT), &result)
     }
@@ -342,165 +281,4 @@ fn training_runs(
         );
     }
     Ok((refs, responses, notes))
-}
-
-/// One problem from CFD rows and pool rows. When both are there each source's rows are divided
-/// by that source's own residual level per DOF (from a least-squares fit on it alone), so the
-/// noisier source cannot swamp the other: then a residual of 1 means "as good as that source's
-/// own fit" in either.
-fn combine(mut cfd: Regression, mut pool: Regression, notes: &mut Vec<String>) -> Regression {
-    if cfd.rows() == 0 {
-        return pool;
-    }
-    if pool.rows() == 0 {
-        return cfd;
-    }
-    for (name, reg) in [("CFD", &mut cfd), ("pool", &mut pool)] {
-        let sigma = source_sigma(reg);
-        let levels: Vec<String> = sigma.iter().map(|(d, s)| format!("{d} {s:.3}")).collect();
-        notes.push(format!(
-            "{name} rows weighted by their own residual level ({})",
-            levels.join(", ")
-        ));
-        reg.scale_rows(&sigma);
-    }
-    cfd.append(pool);
-    cfd
-}
-
-/// Residual standard deviation per DOF of an unweighted least-squares fit on `reg` alone;
-/// the RMS of its targets where that fit is not possible.
-fn source_sigma(reg: &Regression) -> BTreeMap<Dof, f64> {
-    let ones: BTreeMap<Dof, f64> = reg.row_dof.iter().map(|d| (*d, 1.0)).collect();
-    match estimate::ols::solve(reg, &ones) {
-        Ok(theta) => estimate::ols::residual_sigma(reg, &theta),
-        Err(_) => {
-            let mut acc: BTreeMap<Dof, (f64, usize)> = BTreeMap::new();
-            for (y, d) in reg.y.iter().zip(&reg.row_dof) {
-                let e = acc.entry(*d).or_default();
-                e.0 += y * y;
-                e.1 += 1;
-            }
-            acc.into_iter()
-                .map(|(d, (s, n))| (d, (s / n as f64).sqrt().max(1e-9)))
-                .collect()
-        }
-    }
-}
-
-/// The samples of a response up to `t_end`.
-fn truncate(r: &crate::io::Response, t_end: f64) -> crate::io::Response {
-    let n = r.t.iter().take_while(|t| **t <= t_end).count();
-    let mut out = r.clone();
-    out.t.truncate(n);
-    for s in out.dofs.values_mut() {
-        s.force.truncate(n);
-        s.velocity.truncate(n);
-        s.accel.truncate(n);
-    }
-    out
-}
-
-/// Least squares over the columns `cols` of `reg`, with the other parameters held at `held`:
-/// values, standard errors and the condition number of that sub-problem.
-fn subset_lstsq(
-    reg: &Regression,
-    cols: &[usize],
-    held: &[f64],
-) -> anyhow::Result<(Vec<f64>, Vec<f64>, f64)> {
-    use nalgebra::{DMatrix, DVector};
-    let (n, c) = (reg.rows(), cols.len());
-    anyhow::ensure!(
-        n > c,
-        "{n} equation rows cannot determine {c} parameters: lengthen the window"
-    );
-    let a = DMatrix::from_fn(n, c, |i, j| reg.row(i)[cols[j]]);
-    let b = DVector::from_fn(n, |i, _| {
-        reg.y[i]
-            - (0..reg.cols())
-                .filter(|j| !cols.contains(j))
-                .map(|j| reg.row(i)[j] * held[j])
-                .sum::<f64>()
-    });
-    let svd = a.clone().svd(true, true);
-    let (smax, smin) = (svd.singular_values.max(), svd.singular_values.min());
-    let x = svd
-        .solve(&b, 1e-12 * smax)
-        .map_err(|e| anyhow::anyhow!("least squares: {e}"))?;
-    let res = &b - &a * &x;
-    let s2 = res.norm_squared() / (n - c) as f64;
-    let cov = (a.transpose() * &a)
-        .try_inverse()
-        .unwrap_or_else(|| DMatrix::from_element(c, c, f64::INFINITY));
-    Ok((
-        x.iter().copied().collect(),
-        (0..c).map(|j| (s2 * cov[(j, j)]).sqrt()).collect(),
-        smax / smin.max(f64::MIN_POSITIVE),
-    ))
-}
-
-/// Added mass from the acceleration window (drag neglected there), then the drag from every
-/// sample with that added mass held.
-fn two_step(early: &Regression, all: &Regression) -> anyhow::Result<Fit> {
-    use crate::model::params::Group;
-    let layout = &all.layout;
-    let p = layout.len();
-    let added: Vec<usize> = (0..p)
-        .filter(|&j| layout.slot(j).0 == Group::AddedMass)
-        .collect();
-    let drag: Vec<usize> = (0..p)
-        .filter(|&j| layout.slot(j).0 != Group::AddedMass)
-        .collect();
-    // Step 1: drag held at zero over the window.
-    let (am, am_se, k1) = subset_lstsq(early, &added, &vec![0.0; p])?;
-    let mut theta = vec![0.0; p];
-    let mut se = vec![0.0; p];
-    for (k, &j) in added.iter().enumerate() {
-        theta[j] = am[k];
-        se[j] = am_se[k];
-    }
-    let (dr, dr_se, k2) = subset_lstsq(all, &drag, &theta)?;
-    for (k, &j) in drag.iter().enumerate() {
-        theta[j] = dr[k];
-        se[j] = dr_se[k];
-    }
-    let mut sigma: BTreeMap<String, (f64, usize)> = BTreeMap::new();
-    for i in 0..all.rows() {
-        let r = all.y[i]
-            - all
-                .row(i)
-                .iter()
-                .zip(&theta)
-                .map(|(a, t)| a * t)
-                .sum::<f64>();
-        let e = sigma.entry(all.row_dof[i].name().to_string()).or_default();
-        e.0 += r * r;
-        e.1 += 1;
-    }
-    let condition_number = k1.max(k2);
-    Ok(Fit {
-        parameters: (0..p)
-            .map(|j| estimate::Estimate {
-                name: layout.name(j),
-                value: theta[j],
-                unit: layout.unit(j).to_string(),
-                stderr: se[j],
-                interval: None,
-                identifiable: se[j].is_finite()
-                    && se[j] < 0.5 * theta[j].abs()
-                    && condition_number < 1e8,
-                note: None,
-            })
-            .collect(),
-        residual_sigma: sigma
-            .into_iter()
-            .map(|(d, (ss, n))| (d, (ss / n.max(1) as f64).sqrt()))
-            .collect(),
-        samples: all.rows(),
-        condition_number,
-        evaluations: None,
-        objective_value: None,
-        stopped_early: None,
-        trace: None,
-    })
 }

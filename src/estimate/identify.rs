@@ -1,0 +1,126 @@
+//! One identification, as `fit` and `compare` both run it: the problem from CFD cases (each
+//! with the body mass it states, if any) and pool runs (each source weighted by its own
+//! residual level), the method with its settings, the objective, and the optional two-step
+//! added-mass window.
+
+use super::result::Objective;
+use super::sources::combine;
+use super::two_step::{truncate, two_step};
+use super::{Estimate, Fit, Method, Options, Regression};
+use crate::io::Response;
+use crate::model::Vehicle;
+
+/// What is identified from.
+pub struct Data<'a> {
+    pub vehicle: &'a Vehicle,
+    /// CFD responses, with the body mass a case states (an OpenFOAM case) when it does.
+    pub cases: Vec<(&'a Response, Option<f64>)>,
+    /// Pool runs as responses (logged command, fused velocity and its derivative).
+    pub pool: Vec<&'a Response>,
+    /// Samples before this time in each response are left out.
+    pub skip_start_s: f64,
+}
+
+/// How it is identified.
+pub struct Request<'a> {
+    pub method: &'a Method,
+    pub objective: Objective,
+    /// Two-step least squares: the added mass from this window after `skip_start_s`.
+    pub added_mass_window_s: Option<f64>,
+    pub progress: Option<&'a (dyn Fn(f64) + Sync)>,
+}
+
+/// The identified parameters and what the identification did besides.
+pub struct Identified {
+    pub fit: Fit,
+    /// With an added-mass window: what the one-step fit over whole runs gives, for contrast.
+    pub one_step: Option<Vec<Estimate>>,
+    /// The problem's layout (which DOFs carry a constant force).
+    pub constant_force: Vec<crate::dof::Dof>,
+    pub rows: usize,
+    pub notes: Vec<String>,
+}
+
+impl Data<'_> {
+    /// The vehicle with the body mass of case-stated masses, when they are one.
+    fn with_mass(&self, mass: Option<f64>) -> Vehicle {
+        let mut v = self.vehicle.clone();
+        if let Some(m) = mass {
+            v.mass_kg = m;
+        }
+        v
+    }
+}
+
+/// Identifies the model of `data.vehicle` as `req` asks.
+pub fn identify(data: &Data, req: &Request) -> anyhow::Result<Identified> {
+    let mut notes = Vec::new();
+    // Cases that state their own body mass (OpenFOAM) are regressed with it.
+    let mut cfd = Regression::build(data.vehicle, &[], data.skip_start_s);
+    let mut masses = Vec::new();
+    for (r, mass) in &data.cases {
+        let v = data.with_mass(*mass);
+        masses.push(v.mass_kg);
+        cfd.append(Regression::build(&v, &[r], data.skip_start_s));
+    }
+    let pool = Regression::build(data.vehicle, &data.pool, data.skip_start_s);
+    if !data.pool.is_empty() {
+        masses.push(data.vehicle.mass_kg);
+    }
+    let problem = combine(cfd, pool, &mut notes);
+    let one_mass = masses.windows(2).all(|w| w[0] == w[1]);
+    anyhow::ensure!(
+        one_mass || req.objective == Objective::EquationError,
+        "the output error simulates one body: these cases state different body masses ({masses:?} kg); use objective: equation_error"
+    );
+    let mut sim_vehicle = data.vehicle.clone();
+    if let Some(m) = masses.first() {
+        sim_vehicle.mass_kg = *m;
+    }
+    let refs: Vec<&Response> = data
+        .cases
+        .iter()
+        .map(|(r, _)| *r)
+        .chain(data.pool.iter().copied())
+        .collect();
+    let opts = req.method.options(Options {
+        rigid_mass: sim_vehicle.rigid_mass(),
+        progress: req.progress,
+        output_error: (req.objective == Objective::OutputError)
+            .then_some((&sim_vehicle, &refs[..])),
+        ..Default::default()
+    });
+    let estimator = req.method.estimator;
+    let (mut fit, one_step) = match req.added_mass_window_s {
+        None => (estimator.fit(&problem, &opts)?, None),
+        Some(window) => {
+            anyhow::ensure!(
+                req.method.name() == "ols" && req.objective == Objective::EquationError,
+                "added_mass_window_s is a two-step least-squares fit: use method: ols, objective: equation_error"
+            );
+            anyhow::ensure!(window > 0.0, "added_mass_window_s must be positive");
+            anyhow::ensure!(
+                data.pool.is_empty(),
+                "added_mass_window_s is for CFD runs from rest; remove the pool stage from this fit's `from`"
+            );
+            let mut early = Regression::build(data.vehicle, &[], data.skip_start_s);
+            for (r, mass) in &data.cases {
+                early.append(Regression::build(
+                    &data.with_mass(*mass),
+                    &[&truncate(r, data.skip_start_s + window)],
+                    data.skip_start_s,
+                ));
+            }
+            let one = estimator.fit(&problem, &opts).ok().map(|f| f.parameters);
+            (two_step(&early, &problem)?, one)
+        }
+    };
+    super::check_signs(&problem.layout, &mut fit.parameters);
+    Ok(Identified {
+        fit,
+        one_step,
+        constant_force: problem.layout.constant.clone(),
+        rows: problem.rows(),
+        notes,
+    })
+}
