@@ -1,6 +1,7 @@
 //! The report: `index.html` for people, `parameters.json` and `validation.json` for tools
 //! (shapes fixed by docs/formats.md).
 
+pub mod build;
 pub mod compare;
 pub mod diagnose;
 pub mod html;

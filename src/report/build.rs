@@ -1,0 +1,266 @@
+//! The whole report from the artifacts of the stages it reads: every model scored on every
+//! CFD case it may be scored on, the sections of the HTML page, and the published JSON files.
+
+use super::html;
+use super::json::{self, DofMetrics, ModelScore, RunScore, Validation};
+use crate::diagnose::{Diagnosis, Figure};
+use crate::dof::Dof;
+use crate::estimate::comparison::Comparison;
+use crate::estimate::result::FitResult;
+use crate::fusion::run::FusedRun;
+use crate::io::Response;
+use crate::model::{Plant, Vec6, Vehicle};
+use crate::plot as plots;
+use crate::validate;
+use crate::validate::pool::{Scores, Simulated};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// A CFD case as the report reads it.
+pub struct Case {
+    pub id: String,
+    pub name: String,
+    pub response: Response,
+    pub notes: Vec<String>,
+    /// The body mass the case states (OpenFOAM), which replaces the vehicle's.
+    pub mass: Option<f64>,
+    pub openfoam: Option<crate::openfoam::RunInfo>,
+    pub track: Option<crate::openfoam::Track>,
+}
+
+/// Everything the report is made from.
+pub struct Inputs<'a> {
+    /// The project folder (the twin's truth files are read from it).
+    pub root: &'a Path,
+    pub vehicle: &'a Vehicle,
+    pub fits: Vec<FitResult>,
+    pub cases: Vec<Case>,
+    pub pool_runs: Vec<FusedRun>,
+    pub pool_scores: Option<(Scores, Vec<Simulated>)>,
+    pub comparison: Option<Comparison>,
+    pub diagnosis: Option<(Diagnosis, Vec<Figure>)>,
+    /// The twin's truth files among the stage's inputs, if any.
+    pub truth_files: Vec<String>,
+    /// Upstream instances that failed, one line each.
+    pub failed: Vec<String>,
+}
+
+/// The published files (name, contents), `index.html` first.
+pub fn build(inp: &Inputs) -> anyhow::Result<Vec<(&'static str, Vec<u8>)>> {
+    let mut models = Vec::new();
+    let mut first_sims: Vec<Option<Vec<Vec6>>> = vec![None; inp.cases.len()];
+    let mut body_html = String::new();
+    for f in &inp.fits {
+        let (score, html) = score_model(inp, f, &mut first_sims)?;
+        models.push(score);
+        body_html += &html;
+    }
+    let accuracy = super::pool::fusion_accuracy(inp.root, &inp.truth_files, &inp.pool_runs)?;
+    let compare_html = inp
+        .comparison
+        .as_ref()
+        .map_or(String::new(), crate::report::compare::section);
+    let diagnosis_html = inp.diagnosis.as_ref().map_or(String::new(), |(d, figs)| {
+        crate::report::diagnose::section(d, figs)
+    });
+    let pool_html = compare_html
+        + &diagnosis_html
+        + &crate::report::pool::section(
+            &inp.pool_runs,
+            inp.pool_scores.as_ref().map(|(s, _)| s),
+            inp.pool_scores.as_ref().map_or(&[][..], |(_, v)| v),
+            &accuracy,
+        )?;
+    let plotted: Vec<(&Case, &Vec<Vec6>)> = inp
+        .cases
+        .iter()
+        .zip(&first_sims)
+        .filter_map(|(c, s)| Some((c, s.as_ref()?)))
+        .collect();
+    let svgs = velocity_plots(&plotted)?;
+    let parameters = json::parameters(&inp.fits);
+    let validation = Validation { models };
+    let page = html::Page {
+        vehicle: inp.vehicle,
+        fits: &inp.fits,
+        parameters: &parameters,
+        validation: &validation,
+        plots: svgs,
+        notes: inp
+            .cases
+            .iter()
+            .map(|c| (c.name.clone(), c.notes.clone()))
+            .chain(
+                inp.pool_runs
+                    .iter()
+                    .map(|r| (r.meta.run.clone(), r.meta.notes.clone())),
+            )
+            .collect(),
+        pool_html,
+        body_html,
+        failed: inp.failed.clone(),
+    };
+    let fusion: Vec<serde_json::Value> = inp
+            .pool_runs
+            .iter()
+            .map(|r| serde_json::json!({"run": r.meta.run, "role": r.meta.role, "sensors": r.meta.sensors, "stats": r.meta.stats, "accuracy_against_truth": accuracy.iter().find(|a| a.run == r.meta.run)}))
+            .collect();
+    let mut files = vec![
+        ("index.html", page.render().into_bytes()),
+        ("parameters.json", json_bytes(&parameters)?),
+        ("validation.json", json_bytes(&validation)?),
+        (
+            "fusion.json",
+            json_bytes(&serde_json::json!({ "runs": fusion }))?,
+        ),
+    ];
+    if let Some((d, _)) = &inp.diagnosis {
+        files.push(("diagnosis.json", json_bytes(d)?));
+    }
+    Ok(files)
+}
+
+/// Model `f` scored on every CFD case it may be scored on (its own body's) and on the pool
+/// runs the validate stage scored it on, with the OpenFOAM section of its own cases; the first
+/// simulation of each case by a model of the vehicle goes to `first_sims`, for the plots.
+fn score_model(
+    inp: &Inputs,
+    f: &FitResult,
+    first_sims: &mut [Option<Vec<Vec6>>],
+) -> anyhow::Result<(ModelScore, String)> {
+    let hydro = f.hydro();
+    let vehicle = f.vehicle.as_ref().unwrap_or(inp.vehicle);
+    let mut runs = Vec::new();
+    let mut own_cases = Vec::new();
+    for (ci, c) in inp.cases.iter().enumerate() {
+        let trained = f.cases.iter().any(|x| x.id == c.id);
+        // A model of another body (the OpenFOAM cylinder) is scored on its own cases only,
+        // and the vehicle's models are not scored on cases of other bodies.
+        if (f.vehicle.is_some() && !trained) || (f.vehicle.is_none() && c.mass.is_some()) {
+            continue;
+        }
+        let mut v = vehicle.clone();
+        if let Some(m) = c.mass {
+            v.mass_kg = m;
+        }
+        let plant = Plant::new(&v, hydro);
+        let sim = c.response.simulate(&plant);
+        let role = if trained { "train" } else { "validate" };
+        let scores = validate::score(&c.response, &sim);
+        if f.vehicle.is_some() {
+            own_cases.push((
+                ci,
+                scores.first().map_or(f64::NAN, |(_, m)| m.nmae),
+                sim.iter().map(|nu| nu[0]).collect::<Vec<f64>>(),
+            ));
+        }
+        let dofs = scores
+            .into_iter()
+            .map(|(d, metrics)| {
+                (
+                    d.name().to_string(),
+                    DofMetrics {
+                        metrics,
+                        residual_acf_outside_band: None,
+                    },
+                )
+            })
+            .collect();
+        runs.push(RunScore {
+            run: c.name.clone(),
+            role: role.into(),
+            dofs,
+        });
+        if first_sims[ci].is_none() && f.vehicle.is_none() {
+            first_sims[ci] = Some(sim);
+        }
+    }
+    let of_cases: Vec<crate::report::openfoam::Case> = own_cases
+        .into_iter()
+        .filter_map(|(ci, nmae, simulated)| {
+            let c = &inp.cases[ci];
+            let s = c.response.dofs.get(&Dof::Surge)?;
+            Some(crate::report::openfoam::Case {
+                name: &c.name,
+                info: c.openfoam.as_ref()?,
+                t: &c.response.t,
+                velocity: &s.velocity,
+                accel: &s.accel,
+                simulated,
+                nmae,
+                track: c.track.as_ref(),
+            })
+        })
+        .collect();
+    let html = if of_cases.is_empty() {
+        String::new()
+    } else {
+        crate::report::openfoam::section(f, &of_cases)?
+    };
+    if let Some(ms) = inp
+        .pool_scores
+        .as_ref()
+        .and_then(|(s, _)| s.models.iter().find(|m| m.model == f.stage))
+    {
+        for r in &ms.runs {
+            let dofs = r
+                .dofs
+                .iter()
+                .map(|(d, s)| {
+                    (
+                        d.name().to_string(),
+                        DofMetrics {
+                            metrics: s.metrics,
+                            residual_acf_outside_band: Some(s.whiteness.outside),
+                        },
+                    )
+                })
+                .collect();
+            runs.push(RunScore {
+                run: r.run.clone(),
+                role: r.role.clone(),
+                dofs,
+            });
+        }
+    }
+    Ok((
+        ModelScore {
+            model: f.stage.clone(),
+            runs,
+        },
+        html,
+    ))
+}
+
+/// `value` as the published JSON files write it (pretty-printed).
+fn json_bytes<T: serde::Serialize>(value: &T) -> anyhow::Result<Vec<u8>> {
+    Ok(serde_json::to_string_pretty(value)?.into_bytes())
+}
+
+/// One plot per DOF with every case that moves in it, against the first model's simulation.
+fn velocity_plots(plotted: &[(&Case, &Vec<Vec6>)]) -> anyhow::Result<Vec<(String, String)>> {
+    let mut by_dof: BTreeMap<Dof, Vec<(&Case, Vec<f64>)>> = BTreeMap::new();
+    for (c, sim) in plotted {
+        for d in c.response.dofs.keys() {
+            by_dof
+                .entry(*d)
+                .or_default()
+                .push((c, sim.iter().map(|nu| nu[d.index()]).collect()));
+        }
+    }
+    by_dof
+        .into_iter()
+        .map(|(d, list)| {
+            let traces: Vec<plots::Trace> = list
+                .iter()
+                .map(|(c, s)| plots::Trace {
+                    label: &c.name,
+                    t: &c.response.t,
+                    measured: &c.response.dofs[&d].velocity,
+                    simulated: s,
+                })
+                .collect();
+            Ok((d.name().to_string(), plots::velocity(d, &traces)?))
+        })
+        .collect()
+}
