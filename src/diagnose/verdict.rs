@@ -19,27 +19,7 @@ pub fn diagnose(
     progress: &(dyn Fn(&str) + Sync),
 ) -> anyhow::Result<(Diagnosis, Vec<Figure>)> {
     let start = std::time::Instant::now();
-    let mut skipped = Vec::new();
-    let runs: Vec<Run> = fused
-        .iter()
-        .filter_map(|r| {
-            let run = Run::from_fused(r);
-            if run.is_none() {
-                skipped.push(format!("{}: not every DOF was fused", r.meta.run));
-            }
-            run
-        })
-        .collect();
-    let mut runs = runs;
-    let mut stability = BTreeMap::new();
-    for r in &mut runs {
-        let vel: Vec<[f64; 4]> = (0..r.t.len())
-            .map(|k| std::array::from_fn(|j| r.vel[j][k]))
-            .collect();
-        let s = crate::model::stability::along(plant, &r.t, &vel, crit.horizon_s);
-        r.horizon_s = s.horizon_s;
-        stability.insert(r.name.clone(), s);
-    }
+    let (runs, skipped, stability) = prepare_runs(plant, fused, crit);
     let data = Data::new(runs)?;
     let diverged: Vec<String> = data
         .train
@@ -81,10 +61,124 @@ pub fn diagnose(
 
     // 3. Hypotheses, greedily.
     let search = dx::select(plant, &data, crit, progress);
+    let (mut effects, mut figures) = named_effects(plant, &data, &search.selected)?;
+    let final_cost = *search.costs.last().unwrap_or(&base_cost);
+    let within = |c: f64| c <= crit.within_noise * data.noise_cost;
+    // Drift wins when re-estimating the model's own parameters explains the held-out runs
+    // better than the effects did (and the CFD model itself is not already within noise).
+    let drift = re_cost < final_cost && !within(base_cost) && re_cost < 0.5 * base_cost;
+    if drift {
+        effects.clear();
+        figures.clear();
+    }
+    let explained_cost = if drift { re_cost } else { final_cost };
+    let left = if drift {
+        Vec::new()
+    } else {
+        structured_left(plant, &data, &dx::augmentation(&search.selected), crit)
+    };
+    let unexplained = !within(explained_cost) && explained_cost > 0.5 * base_cost.max(1e-12)
+        || (!within(explained_cost) && effects.is_empty())
+        || (!left.is_empty() && !within(explained_cost));
+    if unexplained {
+        effects.push(unexplained_residual(
+            plant,
+            &data,
+            &search.selected,
+            explained_cost,
+            &left,
+            crit,
+        ));
+    }
+    let costs = Costs {
+        base: base_cost,
+        after_effects: final_cost,
+        reestimated: re_cost,
+        noise: data.noise_cost,
+    };
+    let verdict = verdict_sentence(&effects, unexplained, drift, &costs);
+    if let Some(fig) = residual_overview(&data, &res_before, &mismatch)? {
+        figures.insert(0, fig);
+    }
+    let diagnosis = Diagnosis {
+        baseline: Baseline {
+            model: model.to_string(),
+            validation_nmae: dx::nmae_map(&base),
+            validation_cost: base_cost,
+            noise_cost: data.noise_cost,
+            reestimated: Reestimated {
+                parameters: reest,
+                validation_nmae: dx::nmae_map(&re_sums),
+                validation_cost: re_cost,
+                within_noise: within(re_cost),
+            },
+            parameters_reestimated: drift,
+        },
+        mismatch,
+        effects,
+        verdict,
+        regimes,
+        hypotheses: search.tested,
+        criteria: crit.clone(),
+        runs: Runs {
+            train: data.train.iter().map(|r| r.name.clone()).collect(),
+            validate: data.validate.iter().map(|r| r.name.clone()).collect(),
+            skipped,
+        },
+        diverged: Vec::new(),
+        untested: dx::untested(&data),
+        stability,
+        elapsed_s: start.elapsed().as_secs_f64(),
+    };
+    Ok((diagnosis, figures))
+}
+
+/// The fused runs the diagnosis can use (every DOF fused), each with the simulation window
+/// its local stability asks for; the runs left out, and the stability along each run.
+fn prepare_runs(
+    plant: &Plant,
+    fused: &[crate::fusion::run::FusedRun],
+    crit: &Criteria,
+) -> (
+    Vec<Run>,
+    Vec<String>,
+    BTreeMap<String, crate::model::stability::Stability>,
+) {
+    let mut skipped = Vec::new();
+    let runs: Vec<Run> = fused
+        .iter()
+        .filter_map(|r| {
+            let run = Run::from_fused(r);
+            if run.is_none() {
+                skipped.push(format!("{}: not every DOF was fused", r.meta.run));
+            }
+            run
+        })
+        .collect();
+    let mut runs = runs;
+    let mut stability = BTreeMap::new();
+    for r in &mut runs {
+        let vel: Vec<[f64; 4]> = (0..r.t.len())
+            .map(|k| std::array::from_fn(|j| r.vel[j][k]))
+            .collect();
+        let s = crate::model::stability::along(plant, &r.t, &vel, crit.horizon_s);
+        r.horizon_s = s.horizon_s;
+        stability.insert(r.name.clone(), s);
+    }
+    (runs, skipped, stability)
+}
+
+/// Each effect kept by the search, with its held-out gain, its evidence sentence and figures
+/// (judged on top of the effects kept before it).
+fn named_effects(
+    plant: &Plant,
+    data: &Data,
+    selected: &dx::Selection,
+) -> anyhow::Result<(Vec<Found>, Vec<Figure>)> {
     let mut effects = Vec::new();
     let mut prefix: dx::Selection = Vec::new();
     let mut figures = Vec::new();
-    for (h, p) in &search.selected {
+    for (h, p) in selected {
         let aug_before = dx::augmentation(&prefix);
         prefix.push((*h, p.clone()));
         let aug_after = dx::augmentation(&prefix);
@@ -125,7 +219,7 @@ pub fn diagnose(
         evidence.push('.');
         figures.extend(evidence_figures(
             plant,
-            &data,
+            data,
             h,
             &aug_before,
             &aug_after,
@@ -142,100 +236,106 @@ pub fn diagnose(
             validation_cost_after: ca,
         });
     }
-    let final_cost = *search.costs.last().unwrap_or(&base_cost);
-    let within = |c: f64| c <= crit.within_noise * data.noise_cost;
-    // Drift wins when re-estimating the model's own parameters explains the held-out runs
-    // better than the effects did (and the CFD model itself is not already within noise).
-    let drift = re_cost < final_cost && !within(base_cost) && re_cost < 0.5 * base_cost;
-    if drift {
-        effects.clear();
-        figures.clear();
-    }
-    let explained_cost = if drift { re_cost } else { final_cost };
-    let left = if drift {
-        Vec::new()
-    } else {
-        structured_left(plant, &data, &dx::augmentation(&search.selected), crit)
-    };
-    let verdict;
-    if !within(explained_cost) && explained_cost > 0.5 * base_cost.max(1e-12)
-        || (!within(explained_cost) && effects.is_empty())
-        || (!left.is_empty() && !within(explained_cost))
-    {
-        let after_aug = dx::augmentation(&search.selected);
-        let res_after = dx::residuals(plant, &after_aug, &data.validate);
-        let loc = dx::locate(&data.validate, &res_after, &data.scale);
-        let regs = dx::regime_shares(&data.validate, &res_after, &data.scale);
-        let s = data.eval(plant, &after_aug, true);
-        let per_dof: Vec<f64> = (0..4)
-            .map(|j| s.sse[j] / s.n[j].max(1.0) / data.scale[j])
-            .collect();
-        let noise_dof: Vec<f64> = (0..4)
-            .map(|j| {
-                data.validate
+    Ok((effects, figures))
+}
+
+/// The structured residual no effect explains, as an `unexplained` entry: its DOFs, where it
+/// is and the regime it concentrates in.
+fn unexplained_residual(
+    plant: &Plant,
+    data: &Data,
+    selected: &dx::Selection,
+    explained_cost: f64,
+    left: &[Dof],
+    crit: &Criteria,
+) -> Found {
+    let after_aug = dx::augmentation(selected);
+    let res_after = dx::residuals(plant, &after_aug, &data.validate);
+    let loc = dx::locate(&data.validate, &res_after, &data.scale);
+    let regs = dx::regime_shares(&data.validate, &res_after, &data.scale);
+    let s = data.eval(plant, &after_aug, true);
+    let per_dof: Vec<f64> = (0..4)
+        .map(|j| s.sse[j] / s.n[j].max(1.0) / data.scale[j])
+        .collect();
+    let noise_dof: Vec<f64> = (0..4)
+        .map(|j| {
+            data.validate
+                .iter()
+                .map(|r| r.std[j].iter().map(|x| x * x).sum::<f64>())
+                .sum::<f64>()
+                / data
+                    .validate
                     .iter()
-                    .map(|r| r.std[j].iter().map(|x| x * x).sum::<f64>())
+                    .map(|r| r.std[j].len() as f64)
                     .sum::<f64>()
-                    / data
-                        .validate
-                        .iter()
-                        .map(|r| r.std[j].len() as f64)
-                        .sum::<f64>()
-                    / data.scale[j]
-            })
-            .collect();
-        let mut dofs: Vec<Dof> = (0..4)
-            .filter(|&j| per_dof[j] > crit.within_noise * noise_dof[j])
-            .map(|j| DOFS[j])
-            .collect();
-        for d in &left {
-            if !dofs.contains(d) {
-                dofs.push(*d);
-            }
+                / data.scale[j]
+        })
+        .collect();
+    let mut dofs: Vec<Dof> = (0..4)
+        .filter(|&j| per_dof[j] > crit.within_noise * noise_dof[j])
+        .map(|j| DOFS[j])
+        .collect();
+    for d in left {
+        if !dofs.contains(d) {
+            dofs.push(*d);
         }
-        let top = regs
-            .iter()
-            .filter(|r| r.share_of_time > 0.05)
-            .max_by(|a, b| {
-                (a.share_of_error / a.share_of_time)
-                    .total_cmp(&(b.share_of_error / b.share_of_time))
-            });
-        let mut ev = format!(
-            "After the effects above the held-out error cost is {explained_cost:.4}, {:.1} times the noise floor, and no effect of the table lowers it significantly",
-            explained_cost / data.noise_cost
-        );
-        if let Some(m) = loc.first() {
-            let _ = write!(
-                ev,
-                "; most of it is in {} {} ({} of the error, windows {:?} s)",
-                m.run,
-                m.dof,
-                pct(m.share_of_error),
-                m.windows_s
-            );
-        }
-        if let Some(r) = top {
-            let _ = write!(
-                ev,
-                "; it concentrates {} ({} of the error in {} of the time)",
-                r.label,
-                pct(r.share_of_error),
-                pct(r.share_of_time)
-            );
-        }
-        ev.push('.');
-        let nm = dx::nmae_map(&s);
-        effects.push(Found {
-            name: "unexplained".into(),
-            dofs,
-            parameters: BTreeMap::new(),
-            evidence: ev,
-            validation_nmae_before: nm.clone(),
-            validation_nmae_after: nm,
-            validation_cost_before: explained_cost,
-            validation_cost_after: explained_cost,
+    }
+    let top = regs
+        .iter()
+        .filter(|r| r.share_of_time > 0.05)
+        .max_by(|a, b| {
+            (a.share_of_error / a.share_of_time).total_cmp(&(b.share_of_error / b.share_of_time))
         });
-        verdict = if effects.len() == 1 {
+    let mut ev = format!(
+        "After the effects above the held-out error cost is {explained_cost:.4}, {:.1} times the noise floor, and no effect of the table lowers it significantly",
+        explained_cost / data.noise_cost
+    );
+    if let Some(m) = loc.first() {
+        let _ = write!(
+            ev,
+            "; most of it is in {} {} ({} of the error, windows {:?} s)",
+            m.run,
+            m.dof,
+            pct(m.share_of_error),
+            m.windows_s
+        );
+    }
+    if let Some(r) = top {
+        let _ = write!(
+            ev,
+            "; it concentrates {} ({} of the error in {} of the time)",
+            r.label,
+            pct(r.share_of_error),
+            pct(r.share_of_time)
+        );
+    }
+    ev.push('.');
+    let nm = dx::nmae_map(&s);
+    Found {
+        name: "unexplained".into(),
+        dofs,
+        parameters: BTreeMap::new(),
+        evidence: ev,
+        validation_nmae_before: nm.clone(),
+        validation_nmae_after: nm,
+        validation_cost_before: explained_cost,
+        validation_cost_after: explained_cost,
+    }
+}
+
+/// The held-out error costs the verdict quotes.
+struct Costs {
+    base: f64,
+    after_effects: f64,
+    reestimated: f64,
+    noise: f64,
+}
+
+/// The one-sentence verdict.
+fn verdict_sentence(effects: &[Found], unexplained: bool, drift: bool, c: &Costs) -> String {
+    let (base_cost, final_cost, re_cost) = (c.base, c.after_effects, c.reestimated);
+    if unexplained {
+        if effects.len() == 1 {
             "The model does not explain the held-out runs, re-estimating its parameters does not either, and no effect of the table does: the residual is structured and is reported as unexplained, with where it is.".to_string()
         } else {
             format!(
@@ -247,19 +347,19 @@ pub fn diagnose(
                     .collect::<Vec<_>>()
                     .join(" and ")
             )
-        };
+        }
     } else if drift {
-        verdict = format!(
+        format!(
             "No missing physics, but the parameters drifted: re-estimating the model's own parameters on the training runs explains the held-out runs better than any left-out effect (error cost {re_cost:.4}, noise floor {:.4}; the CFD model: {base_cost:.4}). Use the re-estimated parameters.",
-            data.noise_cost
-        );
+            c.noise
+        )
     } else if effects.is_empty() {
-        verdict = format!(
+        format!(
             "No missing physics: the model explains the held-out runs to within their noise (error cost {base_cost:.4} vs noise floor {:.4}) and no effect improves it significantly.",
-            data.noise_cost
-        );
+            c.noise
+        )
     } else {
-        verdict = format!(
+        format!(
             "The model leaves out {}: adding {} lowers the held-out error cost from {base_cost:.4} to {final_cost:.4} (noise floor {:.4}); re-estimating its parameters instead reaches {re_cost:.4}.",
             effects
                 .iter()
@@ -267,43 +367,9 @@ pub fn diagnose(
                 .collect::<Vec<_>>()
                 .join(" and "),
             if effects.len() > 1 { "them" } else { "it" },
-            data.noise_cost
-        );
+            c.noise
+        )
     }
-    if let Some(fig) = residual_overview(&data, &res_before, &mismatch)? {
-        figures.insert(0, fig);
-    }
-    let diagnosis = Diagnosis {
-        baseline: Baseline {
-            model: model.to_string(),
-            validation_nmae: dx::nmae_map(&base),
-            validation_cost: base_cost,
-            noise_cost: data.noise_cost,
-            reestimated: Reestimated {
-                parameters: reest,
-                validation_nmae: dx::nmae_map(&re_sums),
-                validation_cost: re_cost,
-                within_noise: within(re_cost),
-            },
-            parameters_reestimated: drift,
-        },
-        mismatch,
-        effects,
-        verdict,
-        regimes,
-        hypotheses: search.tested,
-        criteria: crit.clone(),
-        runs: Runs {
-            train: data.train.iter().map(|r| r.name.clone()).collect(),
-            validate: data.validate.iter().map(|r| r.name.clone()).collect(),
-            skipped,
-        },
-        diverged: Vec::new(),
-        untested: dx::untested(&data),
-        stability,
-        elapsed_s: start.elapsed().as_secs_f64(),
-    };
-    Ok((diagnosis, figures))
 }
 
 /// The DOFs whose held-out residual, after the effects in `aug`, is both well above its noise
