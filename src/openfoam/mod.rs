@@ -340,6 +340,92 @@ pub fn result_files(solver: &str) -> Vec<String> {
     ]
 }
 
+/// Where a case's results come from in this build. A fresh run's scratch folder lives as
+/// long as this value.
+pub struct Results {
+    pub dir: PathBuf,
+    pub stamp: Stamp,
+    /// True when this build ran the solver.
+    pub ran: bool,
+    pub notes: Vec<String>,
+    _scratch: Option<tempfile::TempDir>,
+}
+
+/// The case's results: those left in the case when its stamp names exactly these inputs;
+/// otherwise a fresh run in a scratch copy when the solver is installed; otherwise results
+/// run by hand (without a stamp), with a note; otherwise an error that says how to install
+/// OpenFOAM. `files` are the case's inputs relative to it, `identity` their hash.
+pub fn obtain_results(
+    case_dir: &Path,
+    case_rel: &str,
+    files: &[String],
+    setup: &CaseSetup,
+    identity: &str,
+    message: &dyn Fn(String),
+) -> anyhow::Result<Results> {
+    let solver = setup.application.clone();
+    let stamp: Option<Stamp> = std::fs::read_to_string(case_dir.join(STAMP))
+        .ok()
+        .and_then(|t| serde_json::from_str(&t).ok());
+    let has_results = case_dir.join(format!("log.{solver}")).exists();
+    let mut notes = Vec::new();
+    let (dir, stamp, ran, scratch) = if stamp.as_ref().is_some_and(|s| s.inputs == identity)
+        && has_results
+    {
+        (case_dir.to_path_buf(), stamp.expect("checked"), false, None)
+    } else if solver_available(&solver) {
+        let scratch = tempfile::Builder::new()
+            .prefix("hydrofit-openfoam-")
+            .tempdir()?;
+        let end = setup.end_time_s;
+        message(format!("{solver}: meshing"));
+        let label = solver.clone();
+        let progress = move |t: f64| {
+            message(format!(
+                "{label} t = {t:.2} / {end} s ({:.0} %)",
+                100.0 * t / end.max(1e-12)
+            ))
+        };
+        let stamp = run(case_dir, files, scratch.path(), setup, &progress, identity)
+            .map_err(|e| anyhow::anyhow!("case {case_rel}: {e}"))?;
+        (scratch.path().to_path_buf(), stamp, true, Some(scratch))
+    } else if has_results && stamp.is_none() {
+        notes.push(format!("results in {case_rel} were not produced by hydrofit (no {}): used as they are, unverified against the case's inputs", STAMP));
+        (
+            case_dir.to_path_buf(),
+            Stamp {
+                inputs: identity.to_string(),
+                solver: solver.clone(),
+                openfoam: String::new(),
+                steps: 0,
+                execution_time_s: None,
+                clock_time_s: None,
+            },
+            false,
+            None,
+        )
+    } else {
+        let what = if has_results {
+            "the case's inputs changed since its results were produced"
+        } else {
+            "the case has never been run"
+        };
+        return Err(InputError::file(
+            case_rel,
+            format!("{what}, and {solver} (OpenFOAM) is not installed here"),
+            INSTALL_HINT,
+        )
+        .into());
+    };
+    Ok(Results {
+        dir,
+        stamp,
+        ran,
+        notes,
+        _scratch: scratch,
+    })
+}
+
 /// Runs blockMesh and the solver on a copy of the case's inputs in `scratch`, streaming the
 /// simulated time to `progress`. Returns the stamp of the run.
 pub fn run(

@@ -3,12 +3,11 @@
 //! these inputs left in the folder, and turns the body's motion into a response table.
 
 use super::{Artifact, Kind, RunCtx, StageImpl, parse_as};
-use crate::diag::InputError;
 use crate::dof::Dof;
 use crate::io::Response;
 use crate::io::response::{META, ResponseMeta, TABLE};
 use crate::io::response::{Series, Source, differentiate};
-use crate::openfoam::{self, Stamp, Track};
+use crate::openfoam::{self, Track};
 use crate::provenance::InputFile;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -67,70 +66,17 @@ impl StageImpl for Settings {
         let setup = openfoam::read_setup(&case_dir, &case_rel)?;
         let solver = setup.application.clone();
 
-        let stamp: Option<Stamp> = std::fs::read_to_string(case_dir.join(openfoam::STAMP))
-            .ok()
-            .and_then(|t| serde_json::from_str(&t).ok());
-        let has_results = case_dir.join(format!("log.{solver}")).exists();
-        let mut notes = Vec::new();
-        let (source_dir, stamp, ran, _scratch) = if stamp
-            .as_ref()
-            .is_some_and(|s| s.inputs == identity)
-            && has_results
-        {
-            (case_dir.clone(), stamp.expect("checked"), false, None)
-        } else if openfoam::solver_available(&solver) {
-            let scratch = tempfile::Builder::new()
-                .prefix("hydrofit-openfoam-")
-                .tempdir()?;
-            let end = setup.end_time_s;
-            let bar = ctx.progress;
-            bar.set_message(format!("{solver}: meshing"));
-            let label = solver.clone();
-            let progress = move |t: f64| {
-                bar.set_message(format!(
-                    "{label} t = {t:.2} / {end} s ({:.0} %)",
-                    100.0 * t / end.max(1e-12)
-                ))
-            };
-            let files: Vec<String> = local.iter().map(|(p, _)| p.clone()).collect();
-            let stamp = openfoam::run(
-                &case_dir,
-                &files,
-                scratch.path(),
-                &setup,
-                &progress,
-                &identity,
-            )
-            .map_err(|e| anyhow::anyhow!("case {case_rel}: {e}"))?;
-            (scratch.path().to_path_buf(), stamp, true, Some(scratch))
-        } else if has_results && stamp.is_none() {
-            notes.push(format!("results in {case_rel} were not produced by hydrofit (no {}): used as they are, unverified against the case's inputs", openfoam::STAMP));
-            (
-                case_dir.clone(),
-                Stamp {
-                    inputs: identity.clone(),
-                    solver: solver.clone(),
-                    openfoam: String::new(),
-                    steps: 0,
-                    execution_time_s: None,
-                    clock_time_s: None,
-                },
-                false,
-                None,
-            )
-        } else {
-            let what = if has_results {
-                "the case's inputs changed since its results were produced"
-            } else {
-                "the case has never been run"
-            };
-            return Err(InputError::file(
-                &case_rel,
-                format!("{what}, and {solver} (OpenFOAM) is not installed here"),
-                openfoam::INSTALL_HINT,
-            )
-            .into());
-        };
+        let bar = ctx.progress;
+        let message = move |m: String| bar.set_message(m);
+        let files: Vec<String> = local.iter().map(|(p, _)| p.clone()).collect();
+        let results =
+            openfoam::obtain_results(&case_dir, &case_rel, &files, &setup, &identity, &message)?;
+        let (source_dir, stamp, ran, notes) = (
+            results.dir.clone(),
+            results.stamp.clone(),
+            results.ran,
+            results.notes.clone(),
+        );
 
         let (track, log, _) = openfoam::read_track(&source_dir, &solver)
             .map_err(|e| anyhow::anyhow!("case {case_rel}: {e}"))?;
