@@ -105,33 +105,14 @@ impl StageImpl for Settings {
             match fit {
                 Err(e) => row.error = Some(e.to_string()),
                 Ok(fit) => {
-                    for p in &fit.parameters {
-                        if let Some(t) = self.truth.get(&p.name) {
-                            row.error_pct
-                                .insert(p.name.clone(), 100.0 * (p.value - t) / t.abs());
-                        }
-                    }
+                    row.error_pct = relative_errors_pct(&fit.parameters, &self.truth);
                     row.max_abs_error_pct =
                         row.error_pct.values().map(|e| e.abs()).reduce(f64::max);
                     let theta: Vec<f64> = fit.parameters.iter().map(|p| p.value).collect();
                     let plant =
                         Plant::new(ctx.vehicle, ParamLayout::of(ctx.vehicle).to_hydro(&theta));
-                    let nmae: Vec<f64> = held_out
-                        .iter()
-                        .flat_map(|r| {
-                            let s = crate::validate::pool::score_run(
-                                &ctx.vehicle.dofs,
-                                r,
-                                &crate::validate::pool::simulate_run(&plant, r, Default::default())
-                                    .0,
-                                1.0,
-                            );
-                            s.dofs.values().map(|d| d.metrics.nmae).collect::<Vec<_>>()
-                        })
-                        .filter(|x| x.is_finite())
-                        .collect();
                     row.pool_nmae =
-                        (!nmae.is_empty()).then(|| nmae.iter().sum::<f64>() / nmae.len() as f64);
+                        crate::validate::pool::mean_nmae(&plant, &held_out, &ctx.vehicle.dofs);
                     row.evaluations = fit.evaluations;
                     row.parameters = fit.parameters;
                 }
@@ -146,4 +127,18 @@ impl StageImpl for Settings {
         };
         super::write_json(&ctx.out.join(RESULT), &result)
     }
+}
+
+/// Error of each estimate against the known value, % of that value's magnitude.
+fn relative_errors_pct(
+    params: &[crate::estimate::Estimate],
+    truth: &BTreeMap<String, f64>,
+) -> BTreeMap<String, f64> {
+    params
+        .iter()
+        .filter_map(|p| {
+            let t = truth.get(&p.name)?;
+            Some((p.name.clone(), 100.0 * (p.value - t) / t.abs()))
+        })
+        .collect()
 }

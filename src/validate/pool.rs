@@ -168,3 +168,17 @@ pub fn score_run(vehicle_dofs: &[Dof], run: &FusedRun, sim: &[Vec6], max_lag_s: 
         stability: None,
     }
 }
+
+/// Mean normalised MAE of `plant` over the DOFs and runs (whole-run simulations), where it is
+/// finite; None when there is none.
+pub fn mean_nmae(plant: &Plant, runs: &[&FusedRun], dofs: &[Dof]) -> Option<f64> {
+    let nmae: Vec<f64> = runs
+        .iter()
+        .flat_map(|r| {
+            let s = score_run(dofs, r, &simulate_run(plant, r, Default::default()).0, 1.0);
+            s.dofs.values().map(|d| d.metrics.nmae).collect::<Vec<_>>()
+        })
+        .filter(|x| x.is_finite())
+        .collect();
+    (!nmae.is_empty()).then(|| nmae.iter().sum::<f64>() / nmae.len() as f64)
+}
