@@ -1,0 +1,248 @@
+//! Where the mismatch is: the residual's share in each regime of the runs (after a command
+//! step, near a wall, ...) and its worst windows per run and DOF.
+
+use super::{DOFS, Run};
+use crate::dof::Dof;
+use serde::{Deserialize, Serialize};
+
+/// A regime of the runs: a condition per sample and DOF.
+pub struct Regime {
+    pub name: &'static str,
+    pub label: &'static str,
+}
+
+pub static REGIMES: &[Regime] = &[
+    Regime {
+        name: "after_command_step",
+        label: "within 1.5 s after a command step",
+    },
+    Regime {
+        name: "reverse_command",
+        label: "reverse command in the DOF",
+    },
+    Regime {
+        name: "small_command",
+        label: "small command in the DOF (< 15 % of its largest)",
+    },
+    Regime {
+        name: "far_from_anchor",
+        label: "far from the tether anchor (beyond the median length)",
+    },
+    Regime {
+        name: "near_wall",
+        label: "within 2 m of a wall",
+    },
+    Regime {
+        name: "deep",
+        label: "deeper than the run's median depth",
+    },
+    Regime {
+        name: "heading_pool_x",
+        label: "heading within 90 degrees of pool +x",
+    },
+    Regime {
+        name: "cross_flow",
+        label: "moving in surge and sway at once (|u||v| above its median)",
+    },
+    Regime {
+        name: "heave",
+        label: "heave DOF",
+    },
+];
+
+/// Whether sample k of a run, DOF j, is in the regime; None when the run cannot tell.
+fn in_regime(name: &str, run: &Run, k: usize, j: usize, med: &RunMedians) -> Option<bool> {
+    let c = &run.cmd;
+    Some(match name {
+        "after_command_step" => {
+            let lo = run.t[k] - 1.5;
+            let mut i = k;
+            let mut hit = false;
+            while i > 0 && run.t[i - 1] >= lo {
+                if (0..4).any(|q| (c[i][q] - c[i - 1][q]).abs() > 0.15 * med.cmd_max[q]) {
+                    hit = true;
+                    break;
+                }
+                i -= 1;
+            }
+            hit
+        }
+        "reverse_command" => c[k][j] < 0.0,
+        "small_command" => c[k][j].abs() < 0.15 * med.cmd_max[j],
+        "far_from_anchor" => run.tether_length(k)? > med.tether?,
+        "near_wall" => run.wall_distance(k)? < 2.0,
+        "deep" => run.pos[2][k] > med.depth,
+        "heading_pool_x" => run.psi[k].cos() > 0.0,
+        "cross_flow" => (run.vel[0][k] * run.vel[1][k]).abs() > med.cross,
+        "heave" => j == 2,
+        _ => return None,
+    })
+}
+
+struct RunMedians {
+    cmd_max: [f64; 4],
+    tether: Option<f64>,
+    depth: f64,
+    cross: f64,
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.retain(|x| x.is_finite());
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn medians(run: &Run) -> RunMedians {
+    let n = run.t.len();
+    RunMedians {
+        cmd_max: std::array::from_fn(|q| run.cmd.iter().fold(1e-9f64, |a, c| a.max(c[q].abs()))),
+        tether: run
+            .anchor
+            .map(|_| median((0..n).filter_map(|k| run.tether_length(k)).collect())),
+        depth: median(run.pos[2].clone()),
+        cross: median(
+            (0..n)
+                .map(|k| (run.vel[0][k] * run.vel[1][k]).abs())
+                .collect(),
+        ),
+    }
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct RegimeShare {
+    pub regime: String,
+    pub label: String,
+    pub share_of_error: f64,
+    pub share_of_time: f64,
+}
+
+/// Share of the normalised squared residual, and of the samples, in each regime (over DOFs).
+pub fn regime_shares(
+    runs: &[Run],
+    residuals: &[[Vec<f64>; 4]],
+    scale: &[f64; 4],
+) -> Vec<RegimeShare> {
+    REGIMES
+        .iter()
+        .filter_map(|g| {
+            let (mut err_in, mut err_all, mut n_in, mut n_all) = (0.0, 0.0, 0.0, 0.0);
+            for (run, e) in runs.iter().zip(residuals) {
+                let med = medians(run);
+                for j in 0..4 {
+                    for (k, x) in e[j].iter().enumerate() {
+                        if !x.is_finite() {
+                            continue;
+                        }
+                        let inside = in_regime(g.name, run, k, j, &med)?;
+                        let w = x * x / scale[j];
+                        err_all += w;
+                        n_all += 1.0;
+                        if inside {
+                            err_in += w;
+                            n_in += 1.0;
+                        }
+                    }
+                }
+            }
+            (n_all > 0.0 && err_all > 0.0).then(|| RegimeShare {
+                regime: g.name.into(),
+                label: g.label.into(),
+                share_of_error: err_in / err_all,
+                share_of_time: n_in / n_all,
+            })
+        })
+        .collect()
+}
+
+/// Where a residual is: per run and DOF, the share of the error and its worst windows.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Mismatch {
+    pub run: String,
+    pub dof: Dof,
+    pub windows_s: Vec<[f64; 2]>,
+    pub share_of_error: f64,
+}
+
+/// Windows where the 1-s moving mean of the squared residual exceeds twice its run mean (and
+/// the noise), merged across gaps under 1 s, the five with the most error.
+pub fn locate(runs: &[Run], residuals: &[[Vec<f64>; 4]], scale: &[f64; 4]) -> Vec<Mismatch> {
+    let mut total = 0.0;
+    let mut parts = Vec::new();
+    for (run, e) in runs.iter().zip(residuals) {
+        for j in 0..4 {
+            let sq: Vec<f64> = e[j]
+                .iter()
+                .map(|x| if x.is_finite() { x * x } else { 0.0 })
+                .collect();
+            let energy: f64 = sq.iter().sum::<f64>() / scale[j];
+            total += energy;
+            let n = sq.len();
+            let dt = if n > 1 {
+                (run.t[n - 1] - run.t[0]) / (n - 1) as f64
+            } else {
+                0.05
+            };
+            let half = ((0.5 / dt).round() as usize).max(1);
+            let mut pre = vec![0.0; n + 1];
+            for k in 0..n {
+                pre[k + 1] = pre[k] + sq[k];
+            }
+            let mean = pre[n] / n.max(1) as f64;
+            let noise = run.std[j].iter().map(|s| s * s).sum::<f64>() / n.max(1) as f64;
+            let thr = (2.0 * mean).max(4.0 * noise);
+            let mut windows: Vec<(f64, f64, f64)> = Vec::new();
+            let mut k = 0;
+            while k < n {
+                let mov = |k: usize| {
+                    let (a, b) = (k.saturating_sub(half), (k + half + 1).min(n));
+                    (pre[b] - pre[a]) / (b - a) as f64
+                };
+                if mov(k) > thr {
+                    let start = k;
+                    while k < n && mov(k) > thr {
+                        k += 1;
+                    }
+                    let (t0, t1) = (run.t[start], run.t[k - 1]);
+                    let en = (pre[k] - pre[start]) / scale[j];
+                    match windows.last_mut() {
+                        Some(w) if t0 - w.1 < 1.0 => {
+                            w.1 = t1;
+                            w.2 += en;
+                        }
+                        _ => windows.push((t0, t1, en)),
+                    }
+                } else {
+                    k += 1;
+                }
+            }
+            windows.retain(|w| w.1 - w.0 >= 0.5);
+            windows.sort_by(|a, b| b.2.total_cmp(&a.2));
+            windows.truncate(5);
+            windows.sort_by(|a, b| a.0.total_cmp(&b.0));
+            parts.push((
+                run.name.clone(),
+                DOFS[j],
+                windows.iter().map(|w| [round2(w.0), round2(w.1)]).collect(),
+                energy,
+            ));
+        }
+    }
+    let mut out: Vec<Mismatch> = parts
+        .into_iter()
+        .map(|(run, dof, windows_s, e)| Mismatch {
+            run,
+            dof,
+            windows_s,
+            share_of_error: if total > 0.0 { e / total } else { 0.0 },
+        })
+        .collect();
+    out.sort_by(|a, b| b.share_of_error.total_cmp(&a.share_of_error));
+    out
+}
+
+fn round2(x: f64) -> f64 {
+    (x * 100.0).round() / 100.0
+}
