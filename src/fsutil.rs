@@ -54,9 +54,13 @@ pub fn read_json<T: for<'de> serde::Deserialize<'de>>(path: &Path) -> anyhow::Re
 
 /// Writes a JSON artifact atomically (pretty, so a person can read a cached object).
 pub fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> anyhow::Result<()> {
-    let text = serde_json::to_string_pretty(value)?;
-    write_atomic(path, text.as_bytes())?;
+    write_atomic(path, &json_bytes(value)?)?;
     Ok(())
+}
+
+/// `value` as every JSON artifact and published file is written (pretty-printed).
+pub fn json_bytes<T: serde::Serialize>(value: &T) -> anyhow::Result<Vec<u8>> {
+    Ok(serde_json::to_string_pretty(value)?.into_bytes())
 }
 
 /// JSON has no NaN: serde_json writes it as `null`; read `null` back as NaN.

@@ -2,6 +2,7 @@
 //! ([`super::effects`]), in the pool frame, with the thruster state a lag needs.
 
 use super::effects::{Env, State, Term};
+use crate::model::motion::rk4;
 use crate::model::{Plant, Pool, Vec6};
 use std::sync::Arc;
 
@@ -105,26 +106,7 @@ impl World {
 
     /// One RK4 step of length `h` with the command held.
     pub fn step(&self, s: &State, cmd: &Vec6, h: f64) -> State {
-        let add = |a: &State, k: &State, w: f64| State {
-            nu: std::array::from_fn(|i| a.nu[i] + w * k.nu[i]),
-            pos: std::array::from_fn(|i| a.pos[i] + w * k.pos[i]),
-            psi: a.psi + w * k.psi,
-            thrust: std::array::from_fn(|i| a.thrust[i] + w * k.thrust[i]),
-        };
-        let k1 = self.deriv(s, cmd);
-        let k2 = self.deriv(&add(s, &k1, h / 2.0), cmd);
-        let k3 = self.deriv(&add(s, &k2, h / 2.0), cmd);
-        let k4 = self.deriv(&add(s, &k3, h), cmd);
-        let mut out = *s;
-        for i in 0..6 {
-            out.nu[i] += h / 6.0 * (k1.nu[i] + 2.0 * k2.nu[i] + 2.0 * k3.nu[i] + k4.nu[i]);
-            out.thrust[i] +=
-                h / 6.0 * (k1.thrust[i] + 2.0 * k2.thrust[i] + 2.0 * k3.thrust[i] + k4.thrust[i]);
-        }
-        for i in 0..3 {
-            out.pos[i] += h / 6.0 * (k1.pos[i] + 2.0 * k2.pos[i] + 2.0 * k3.pos[i] + k4.pos[i]);
-        }
-        out.psi += h / 6.0 * (k1.psi + 2.0 * k2.psi + 2.0 * k3.psi + k4.psi);
+        let mut out = rk4(s, h, |x| self.deriv(x, cmd));
         if self.lag().is_none() {
             out.thrust = self.shape_command(cmd);
         }

@@ -7,6 +7,7 @@ use crate::diagnose::{Diagnosis, Figure};
 use crate::dof::Dof;
 use crate::estimate::comparison::Comparison;
 use crate::estimate::result::FitResult;
+use crate::fsutil::json_bytes;
 use crate::fusion::run::FusedRun;
 use crate::io::Response;
 use crate::model::{Plant, Vec6, Vehicle};
@@ -230,11 +231,6 @@ fn score_model(
         },
         html,
     ))
-}
-
-/// `value` as the published JSON files write it (pretty-printed).
-fn json_bytes<T: serde::Serialize>(value: &T) -> anyhow::Result<Vec<u8>> {
-    Ok(serde_json::to_string_pretty(value)?.into_bytes())
 }
 
 /// One plot per DOF with every case that moves in it, against the first model's simulation.

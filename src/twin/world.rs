@@ -6,6 +6,8 @@
 //! (`crate::diagnose::effects`): the diagnosis must find these effects from the recordings,
 //! not from sharing their implementation.
 
+pub use crate::model::motion::State;
+use crate::model::motion::rk4;
 use crate::model::pool::{Pool, tether_length};
 use crate::model::{Plant, Vec6};
 use serde::{Deserialize, Serialize};
@@ -101,16 +103,6 @@ impl Effect {
             }
         })
     }
-}
-
-/// Position in the pool frame, heading, and the force the thrusters deliver.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct State {
-    pub nu: Vec6,
-    pub pos: [f64; 3],
-    pub psi: f64,
-    /// Delivered generalised force (differs from the command under thruster lag).
-    pub thrust: Vec6,
 }
 
 /// Base plant plus effects, in a pool.
@@ -292,26 +284,7 @@ impl WorldPlant {
 
     /// One RK4 step of length `h` with the command held.
     pub fn step(&self, s: &State, cmd: &Vec6, h: f64) -> State {
-        let add = |a: &State, k: &State, w: f64| State {
-            nu: std::array::from_fn(|i| a.nu[i] + w * k.nu[i]),
-            pos: std::array::from_fn(|i| a.pos[i] + w * k.pos[i]),
-            psi: a.psi + w * k.psi,
-            thrust: std::array::from_fn(|i| a.thrust[i] + w * k.thrust[i]),
-        };
-        let k1 = self.deriv(s, cmd);
-        let k2 = self.deriv(&add(s, &k1, h / 2.0), cmd);
-        let k3 = self.deriv(&add(s, &k2, h / 2.0), cmd);
-        let k4 = self.deriv(&add(s, &k3, h), cmd);
-        let mut out = *s;
-        for i in 0..6 {
-            out.nu[i] += h / 6.0 * (k1.nu[i] + 2.0 * k2.nu[i] + 2.0 * k3.nu[i] + k4.nu[i]);
-            out.thrust[i] +=
-                h / 6.0 * (k1.thrust[i] + 2.0 * k2.thrust[i] + 2.0 * k3.thrust[i] + k4.thrust[i]);
-        }
-        for i in 0..3 {
-            out.pos[i] += h / 6.0 * (k1.pos[i] + 2.0 * k2.pos[i] + 2.0 * k3.pos[i] + k4.pos[i]);
-        }
-        out.psi += h / 6.0 * (k1.psi + 2.0 * k2.psi + 2.0 * k3.psi + k4.psi);
+        let mut out = rk4(s, h, |x| self.deriv(x, cmd));
         if self.lag().is_none() {
             out.thrust = self.shape_command(cmd);
         }

@@ -19,6 +19,7 @@ mod wall_effect;
 mod water_current;
 
 use super::{DOFS, Run};
+pub use crate::model::motion::State;
 use crate::model::{Plant, Pool, Vec6};
 use std::sync::Arc;
 
@@ -88,6 +89,18 @@ pub struct Axis {
     pub value: fn(&Run, usize, usize) -> f64,
 }
 
+/// The axis of effects that act after command steps (a lag, a delay).
+pub const SINCE_STEP: Axis = Axis {
+    label: |_| "time since the last command step (s)".into(),
+    value: |r, k, _| since_step(r, k),
+};
+
+/// The axis of effects that depend on the command's size or sign in the DOF.
+pub const COMMAND: Axis = Axis {
+    label: |j| format!("command in {} ({})", DOFS[j], DOFS[j].force_unit()),
+    value: |r, k, j| r.cmd[k][j],
+};
+
 /// An effect as a hypothesis of the diagnosis.
 pub struct Hypothesis {
     pub name: &'static str,
@@ -100,18 +113,6 @@ pub struct Hypothesis {
     /// The regime its evidence quotes (a name in `REGIMES`).
     pub regime: &'static str,
     pub axis: Axis,
-}
-
-/// Where the simulated vehicle is and what it carries: the simulator's state.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct State {
-    pub nu: Vec6,
-    /// Position in the pool frame, m.
-    pub pos: [f64; 3],
-    /// Heading, rad.
-    pub psi: f64,
-    /// Delivered generalised force (differs from the command under thruster lag).
-    pub thrust: Vec6,
 }
 
 /// What an effect's force may read besides the state: the base plant and the run's geometry.

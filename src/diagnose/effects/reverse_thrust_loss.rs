@@ -2,7 +2,7 @@
 //! `1 - loss` of itself (a propeller designed for forward thrust); negative loss: reverse is
 //! stronger.
 
-use super::{Axis, DOFS, Hypothesis, Needs, Param, Term};
+use super::{COMMAND, Hypothesis, Needs, Param, Term};
 use crate::model::Vec6;
 use std::sync::Arc;
 
@@ -18,10 +18,7 @@ pub static EFFECT: Hypothesis = Hypothesis {
     build: |p| Arc::new(ReverseThrustLoss { loss: p[0] }),
     main_dof: 0,
     regime: "reverse_command",
-    axis: Axis {
-        label: |j| format!("command in {} ({})", DOFS[j], DOFS[j].force_unit()),
-        value: |r, k, j| r.cmd[k][j],
-    },
+    axis: COMMAND,
 };
 
 #[derive(Debug)]

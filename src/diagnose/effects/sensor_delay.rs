@@ -2,7 +2,7 @@
 //! time; the recording at t + d is what the vehicle did at t. Changes how the recording is
 //! read, not the plant.
 
-use super::{Axis, Hypothesis, Needs, Param, Term, since_step};
+use super::{Hypothesis, Needs, Param, SINCE_STEP, Term};
 use std::sync::Arc;
 
 pub static EFFECT: Hypothesis = Hypothesis {
@@ -17,10 +17,7 @@ pub static EFFECT: Hypothesis = Hypothesis {
     build: |p| Arc::new(SensorDelay { delay_s: p[0] }),
     main_dof: 0,
     regime: "after_command_step",
-    axis: Axis {
-        label: |_| "time since the last command step (s)".into(),
-        value: |r, k, _| since_step(r, k),
-    },
+    axis: SINCE_STEP,
 };
 
 #[derive(Debug)]

@@ -1,7 +1,7 @@
 //! `thruster_deadband`: commands smaller than a threshold deliver nothing (N for the forces,
 //! N m for the moments).
 
-use super::{Axis, DOFS, Hypothesis, Needs, Param, Term};
+use super::{COMMAND, Hypothesis, Needs, Param, Term};
 use crate::model::Vec6;
 use std::sync::Arc;
 
@@ -30,10 +30,7 @@ pub static EFFECT: Hypothesis = Hypothesis {
     },
     main_dof: 0,
     regime: "small_command",
-    axis: Axis {
-        label: |j| format!("command in {} ({})", DOFS[j], DOFS[j].force_unit()),
-        value: |r, k, j| r.cmd[k][j],
-    },
+    axis: COMMAND,
 };
 
 #[derive(Debug)]

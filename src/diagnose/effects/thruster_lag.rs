@@ -1,7 +1,7 @@
 //! `thruster_lag`: the delivered force and moment follow the command through a first-order lag
 //! with one time constant for every DOF.
 
-use super::{Axis, Hypothesis, Needs, Param, Term, since_step};
+use super::{Hypothesis, Needs, Param, SINCE_STEP, Term};
 use std::sync::Arc;
 
 pub static EFFECT: Hypothesis = Hypothesis {
@@ -20,10 +20,7 @@ pub static EFFECT: Hypothesis = Hypothesis {
     },
     main_dof: 0,
     regime: "after_command_step",
-    axis: Axis {
-        label: |_| "time since the last command step (s)".into(),
-        value: |r, k, _| since_step(r, k),
-    },
+    axis: SINCE_STEP,
 };
 
 #[derive(Debug)]
