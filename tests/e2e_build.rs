@@ -93,6 +93,63 @@ fn parameters_json_has_the_contract_shape_and_recovers_the_truth() {
     }
 }
 
+/// The twin conceals a thruster lag in the motor's speed (thrust quadratic in it) and tether
+/// drag on the cable paid out; the diagnosis fits a first-order lag on the force and drag on
+/// the straight-line distance plus slack. It must name both, with what its forms can say of
+/// them, and leave what its forms cannot say as unexplained rather than as a third name.
+#[test]
+fn the_shipped_diagnosis_names_the_concealed_lag_and_tether() {
+    let p = project();
+    let dir = p.path();
+    ok(dir, &["build"]);
+    let truth: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(manifest_dir().join("truth/pool/mixed.json")).unwrap(),
+    )
+    .unwrap();
+    let hidden = |name: &str, key: &str| {
+        truth["effects"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|e| e["name"] == name)
+            .and_then(|e| e[key].as_f64())
+            .unwrap()
+    };
+    let d = json(dir, "reports/diagnosis.json");
+    let effects = d["effects"].as_array().unwrap();
+    let names: Vec<&str> = effects
+        .iter()
+        .map(|e| e["name"].as_str().unwrap())
+        .collect();
+    assert!(
+        names.starts_with(&["thruster_lag", "tether_drag"])
+            && names[2..].iter().all(|n| *n == "unexplained"),
+        "{names:?}: {}",
+        d["verdict"]
+    );
+    let param = |i: usize, k: &str| effects[i]["parameters"][k].as_f64().unwrap();
+    // A step from rest delivers 63 % after 1.6 motor time constants, a small step after one.
+    let tau = hidden("thruster_lag", "time_constant_s");
+    let lag = param(0, "time_constant_s");
+    assert!(
+        (0.9 * tau..1.75 * tau).contains(&lag),
+        "lag {lag} vs motor {tau}"
+    );
+    // Only the drag per unit |v| v at the distances the runs go compares: c (d + s) against
+    // the twin's c (horizontal run + depth + slack), at 11 m from the anchor, 1.5 m deep.
+    let (run, depth) = (11.0f64, 1.5f64);
+    let want =
+        hidden("tether_drag", "coefficient") * (run + depth + hidden("tether_drag", "slack_m"));
+    let got = param(1, "coefficient") * (run.hypot(depth) + param(1, "slack_m"));
+    assert!(
+        (got - want).abs() < 0.25 * want,
+        "tether drag at 11 m: {got} vs {want}"
+    );
+    let before = effects[0]["validation_cost_before"].as_f64().unwrap();
+    let after = effects[1]["validation_cost_after"].as_f64().unwrap();
+    assert!(after < 0.1 * before, "held-out cost {before} -> {after}");
+}
+
 #[test]
 fn a_new_case_reruns_only_its_import_and_what_depends_on_it() {
     let p = project();

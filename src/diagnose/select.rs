@@ -1,6 +1,7 @@
 //! Choosing the effects: greedy forward selection on held-out runs (module docs, step 3),
 //! with a swap step for effects that only make sense together.
 
+use super::effects::Limits;
 use super::{Augmentation, Data, Hypothesis, Selection, augmentation, search};
 use crate::model::Plant;
 use rayon::prelude::*;
@@ -67,19 +68,23 @@ pub struct Tested {
     pub at_bound: Vec<String>,
 }
 
-/// The parameters of `h` at `p` that sit on a search bound (within 1 % of the range). A lower
-/// bound of zero on a secondary parameter (a tether's slack, a deadband's moment) is a value
-/// physics allows, not a limit of the search.
+/// The parameters of `h` at `p` that sit on a search bound (within 1 % of the range). A
+/// physical bound (a tether's zero slack, a fraction's 0 or 1) is a value physics allows, not
+/// a limit of the search ([`Limits`]).
 pub fn at_bound(h: &Hypothesis, p: &[f64]) -> Vec<String> {
     h.params
         .iter()
         .zip(p)
-        .enumerate()
-        .filter(|(j, (q, v))| {
+        .filter(|(q, v)| {
             let tol = 0.01 * (q.hi - q.lo);
-            (q.hi - *v).abs() <= tol || ((*v - q.lo).abs() <= tol && !(q.lo == 0.0 && *j > 0))
+            let (lo_searched, hi_searched) = match q.limits {
+                Limits::Search => (true, true),
+                Limits::PhysicalFloor => (false, true),
+                Limits::Physical => (false, false),
+            };
+            (hi_searched && (q.hi - **v).abs() <= tol) || (lo_searched && (**v - q.lo).abs() <= tol)
         })
-        .map(|(_, (q, _))| q.name.to_string())
+        .map(|(q, _)| q.name.to_string())
         .collect()
 }
 

@@ -280,17 +280,73 @@ fn at(truth: &Truth, t: f64) -> (State, Vec6) {
     )
 }
 
+/// How late the position, attitude and depth sensors report: a transport delay and a
+/// first-order low-pass, s (the twin's form of `sensor_delay`).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Latency {
+    pub delay_s: f64,
+    pub filter_s: f64,
+}
+
+impl Latency {
+    fn of(effects: &[Effect]) -> Latency {
+        effects
+            .iter()
+            .find_map(|e| match e {
+                Effect::SensorDelay { delay_s, filter_s } => Some(Latency {
+                    delay_s: *delay_s,
+                    filter_s: *filter_s,
+                }),
+                _ => None,
+            })
+            .unwrap_or_default()
+    }
+}
+
+/// The truth as a sensor with a first-order low-pass of time constant `tau` sees it.
+fn low_pass(truth: &Truth, tau: f64) -> Truth {
+    let a = 1.0 - (-STEP / tau).exp();
+    let mut states = Vec::with_capacity(truth.states.len());
+    let mut accel = Vec::with_capacity(truth.accel.len());
+    let (mut s, mut acc) = (truth.states[0], truth.accel[0]);
+    for (x, y) in truth.states.iter().zip(&truth.accel) {
+        for j in 0..6 {
+            s.nu[j] += a * (x.nu[j] - s.nu[j]);
+            acc[j] += a * (y[j] - acc[j]);
+        }
+        for j in 0..3 {
+            s.pos[j] += a * (x.pos[j] - s.pos[j]);
+        }
+        s.psi += a * (x.psi - s.psi);
+        states.push(s);
+        accel.push(acc);
+    }
+    Truth {
+        t: truth.t.clone(),
+        states,
+        accel,
+        cmd: truth.cmd.clone(),
+    }
+}
+
 /// The files of one run folder, rendered: (file name, contents).
 pub fn render(
     spec: &RunSpec,
     truth: &Truth,
     sensors: &Sensors,
-    delay: f64,
+    latency: Latency,
     seed: u64,
 ) -> Vec<(&'static str, String)> {
     let mut rng = Rng::derive(seed, &format!("pool/{}/sensors", spec.name));
     let end = *truth.t.last().unwrap();
-    let seen = |t: f64| at(truth, t - delay);
+    let filtered;
+    let sensed = if latency.filter_s > 0.0 {
+        filtered = low_pass(truth, latency.filter_s);
+        &filtered
+    } else {
+        truth
+    };
+    let seen = |t: f64| at(sensed, t - latency.delay_s);
     let mut files = Vec::new();
 
     let mut run_yaml = format!(
@@ -454,16 +510,7 @@ pub fn write_runs(
     seed: u64,
 ) -> anyhow::Result<Vec<PathBuf>> {
     let w = world(effects);
-    let delay = effects
-        .iter()
-        .find_map(|e| {
-            if let Effect::SensorDelay { delay_s } = e {
-                Some(*delay_s)
-            } else {
-                None
-            }
-        })
-        .unwrap_or(0.0);
+    let latency = Latency::of(effects);
     std::fs::create_dir_all(truth_dir)?;
     let mut written = Vec::new();
     for spec in runs {
@@ -472,7 +519,7 @@ pub fn write_runs(
             seed,
             &format!("pool/{}/errors", spec.name),
         ));
-        let mut files = render(spec, &truth, &sensors, delay, seed);
+        let mut files = render(spec, &truth, &sensors, latency, seed);
         files.retain(|(name, _)| spec.sonar || *name != "sonar.csv");
         let record = TruthRecord {
             run: spec.name.clone(),

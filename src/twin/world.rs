@@ -3,12 +3,17 @@
 //! need: position, heading and thruster state.
 //!
 //! This is the twin's own code, written apart from the diagnosis's effect models
-//! (`crate::diagnose::effects`): the diagnosis must find these effects from the recordings,
-//! not from sharing their implementation.
+//! (`crate::diagnose::effects`), and with other functional forms: the thrusters' lag is in the
+//! motor's speed with thrust quadratic in it, reverse thrust fades in smoothly, the dead zone
+//! is an offset, the tether's length is the cable paid out, the current varies along the pool,
+//! the wall's drag falls off algebraically, coupled drag is quadratic drag on the resultant
+//! speed, and late sensors are also low-passed. The diagnosis fits its own simpler forms, so it
+//! can only find these effects by what they do to the recordings; tests compare its parameters
+//! with the equivalents these forms imply (`src/diagnose/tests.rs`).
 
 pub use crate::model::motion::State;
 use crate::model::motion::rk4;
-use crate::model::pool::{Pool, tether_length};
+use crate::model::pool::Pool;
 use crate::model::{Plant, Vec6};
 use serde::{Deserialize, Serialize};
 
@@ -18,23 +23,35 @@ use serde::{Deserialize, Serialize};
 pub enum Effect {
     /// Weight minus buoyancy, N, along pool z (positive: the vehicle sinks).
     NetBuoyancy { force_n: f64 },
-    /// First-order lag between commanded and delivered force and moment, s.
+    /// Time constant of the thrusters' motor speed, s: the speed n follows the command's
+    /// sqrt(|T|) sign(T) through a first-order lag and the delivered force is n |n| (Fossen
+    /// 2011, sec. 6.7: thrust quadratic in propeller speed). A step from rest takes about
+    /// 1.6 time constants to deliver 63 %.
     ThrusterLag { time_constant_s: f64 },
-    /// Fraction of a negative (reverse) surge, sway or heave command that is lost.
+    /// Fraction of a reverse (negative) surge, sway or heave command that is lost, faded in
+    /// over a few newtons around zero as the propeller's flow reverses:
+    /// efficiency 1 - loss / (1 + exp(T / 2 N)).
     ReverseThrustLoss { loss: f64 },
-    /// Commands smaller than this deliver nothing (N for forces, N m for the yaw moment).
+    /// A dead zone (N for forces, N m for the yaw moment): nothing below it, and above it the
+    /// command less the dead zone (static friction of the seals), with a knee rounded over a
+    /// tenth of the zone (a softplus).
     ThrusterDeadband { force_n: f64, moment_nm: f64 },
     /// Drag of the umbilical: -c L |v| v on the horizontal velocity in the pool frame, with L
-    /// the length of tether in the water (anchor to vehicle, plus slack), c in N s^2/m^3.
+    /// the cable paid out (horizontal run from the anchor, plus depth below it, plus slack), c
+    /// in N s^2/m^3.
     TetherDrag { coefficient: f64, slack_m: f64 },
-    /// A uniform current in the pool frame, m/s: drag acts on the velocity relative to the water.
+    /// A current in the pool frame, m/s, at the pool's middle; it varies by +-30 % along the
+    /// pool's length (one sine over the length). Drag acts on the velocity relative to it.
     WaterCurrent { velocity_m_s: [f64; 2] },
-    /// Extra drag near the side walls: -c exp(-d / decay) |v| v, d the distance to the nearest wall.
+    /// Extra drag near the side walls: -c |v| v / (1 + (d / decay)^2), d the distance to the
+    /// nearest wall (an image flow's algebraic fall-off).
     WallEffect { coefficient: f64, decay_m: f64 },
-    /// Cross-flow drag between surge and sway: X += -c |v| u, Y += -c |u| v, c in N s^2/m^2.
+    /// Quadratic drag on the resultant horizontal speed beyond what the per-axis drag holds:
+    /// X += -c (|V| - |u|) u, Y += -c (|V| - |v|) v, |V| = sqrt(u^2 + v^2), c in N s^2/m^2.
     CoupledDrag { coefficient: f64 },
-    /// Position, attitude and depth sensors lag the thrust log by this time, s.
-    SensorDelay { delay_s: f64 },
+    /// Position, attitude and depth sensors report late by `delay_s` and through a first-order
+    /// low-pass of time constant `filter_s` (their total latency is about the sum).
+    SensorDelay { delay_s: f64, filter_s: f64 },
 }
 
 pub const NAMES: [&str; 9] = [
@@ -92,7 +109,10 @@ impl Effect {
                 decay_m: 0.8,
             },
             "coupled_drag" => Effect::CoupledDrag { coefficient: x },
-            "sensor_delay" => Effect::SensorDelay { delay_s: x },
+            "sensor_delay" => Effect::SensorDelay {
+                delay_s: x,
+                filter_s: 0.5 * x,
+            },
             _ => {
                 let hint = crate::diag::nearest(name, NAMES)
                     .map_or(String::new(), |s| format!(" (did you mean `{s}`?)"));
@@ -120,6 +140,27 @@ pub struct WorldPlant {
 
 fn drag(p: &Plant, i: usize, x: f64) -> f64 {
     (p.hydro.lin[i] + p.hydro.quad[i] * x.abs()) * x
+}
+
+/// Cable paid out from an anchor at the surface to the vehicle: the horizontal run plus the
+/// depth below the anchor (the cable hangs down and trails behind), m, without slack.
+fn paid_out(anchor: [f64; 3], pos: [f64; 3]) -> f64 {
+    (pos[0] - anchor[0]).hypot(pos[1] - anchor[1]) + (pos[2] - anchor[2]).abs()
+}
+
+/// Width of the fade between forward and reverse propeller efficiency, N.
+const REVERSE_FADE_N: f64 = 2.0;
+/// Amplitude of the current's variation along the pool (fraction of its value at the middle).
+const CURRENT_VARIATION: f64 = 0.3;
+
+/// ln(1 + e^z) without overflow.
+fn softplus(z: f64) -> f64 {
+    z.max(0.0) + (-z.abs()).exp().ln_1p()
+}
+
+/// Signed propeller speed, in sqrt(N), that delivers `force` in steady state.
+fn speed_for(force: f64) -> f64 {
+    force.signum() * force.abs().sqrt()
 }
 
 impl WorldPlant {
@@ -160,16 +201,15 @@ impl WorldPlant {
                 Effect::ThrusterDeadband { force_n, moment_nm } => {
                     for (i, f) in out.iter_mut().enumerate() {
                         let d = if i < 3 { *force_n } else { *moment_nm };
-                        if f.abs() < d {
-                            *f = 0.0;
+                        if d > 0.0 {
+                            let knee = |x: f64| 0.1 * d * softplus((x - d) / (0.1 * d));
+                            *f = f.signum() * (knee(f.abs()) - knee(0.0));
                         }
                     }
                 }
                 Effect::ReverseThrustLoss { loss } => {
                     for f in out.iter_mut().take(3) {
-                        if *f < 0.0 {
-                            *f *= 1.0 - loss;
-                        }
+                        *f *= 1.0 - loss / (1.0 + (*f / REVERSE_FADE_N).exp());
                     }
                 }
                 _ => {}
@@ -203,7 +243,7 @@ impl WorldPlant {
                     slack_m,
                 } => {
                     let a = self.tether_anchor.unwrap_or([0.0, 0.0, 0.0]);
-                    let l = tether_length(a, s.pos) + slack_m;
+                    let l = paid_out(a, s.pos) + slack_m;
                     let (vw, speed) = ground();
                     let (bx, by) = to_body(
                         -coefficient * l * speed * vw[0],
@@ -213,7 +253,11 @@ impl WorldPlant {
                     f[1] += by;
                 }
                 Effect::WaterCurrent { velocity_m_s: cw } => {
-                    let (cu, cv) = to_body(cw[0], cw[1]);
+                    let scale = self.pool.map_or(1.0, |pool| {
+                        let along = (s.pos[0] - pool.length_m / 2.0) / pool.length_m;
+                        1.0 + CURRENT_VARIATION * (std::f64::consts::TAU * along).sin()
+                    });
+                    let (cu, cv) = to_body(scale * cw[0], scale * cw[1]);
                     let p = &self.plant;
                     f[0] += drag(p, 0, s.nu[0] - cu) - drag(p, 0, s.nu[0]);
                     f[1] += drag(p, 1, s.nu[1] - cv) - drag(p, 1, s.nu[1]);
@@ -225,15 +269,16 @@ impl WorldPlant {
                     if let Some(pool) = self.pool {
                         let d = pool.wall_distance(s.pos[0], s.pos[1]).max(0.0);
                         let (vw, speed) = ground();
-                        let k = coefficient * (-d / decay_m).exp() * speed;
+                        let k = coefficient / (1.0 + (d / decay_m).powi(2)) * speed;
                         let (bx, by) = to_body(-k * vw[0], -k * vw[1]);
                         f[0] += bx;
                         f[1] += by;
                     }
                 }
                 Effect::CoupledDrag { coefficient } => {
-                    f[0] -= coefficient * s.nu[1].abs() * s.nu[0];
-                    f[1] -= coefficient * s.nu[0].abs() * s.nu[1];
+                    let speed = s.nu[0].hypot(s.nu[1]);
+                    f[0] -= coefficient * (speed - s.nu[0].abs()) * s.nu[0];
+                    f[1] -= coefficient * (speed - s.nu[1].abs()) * s.nu[1];
                 }
                 _ => {}
             }
@@ -243,10 +288,11 @@ impl WorldPlant {
 
     fn deriv(&self, s: &State, cmd: &Vec6) -> State {
         let target = self.shape_command(cmd);
+        // With a lag, the state's `thrust` holds the motors' signed speeds, in sqrt(N).
         let (thrust, thrust_dot) = match self.lag() {
             Some(tc) => (
-                s.thrust,
-                std::array::from_fn(|i| (target[i] - s.thrust[i]) / tc),
+                std::array::from_fn(|i| s.thrust[i] * s.thrust[i].abs()),
+                std::array::from_fn(|i| (speed_for(target[i]) - s.thrust[i]) / tc),
             ),
             None => (target, [0.0; 6]),
         };
@@ -280,6 +326,14 @@ impl WorldPlant {
     /// The body-frame acceleration at a state under a command (what an IMU would sense, less gravity).
     pub fn accel(&self, s: &State, cmd: &Vec6) -> Vec6 {
         self.deriv(s, cmd).nu
+    }
+
+    /// The force and moment the thrusters deliver in a state (body frame).
+    pub fn delivered(&self, s: &State, cmd: &Vec6) -> Vec6 {
+        match self.lag() {
+            Some(_) => std::array::from_fn(|i| s.thrust[i] * s.thrust[i].abs()),
+            None => self.shape_command(cmd),
+        }
     }
 
     /// One RK4 step of length `h` with the command held.
@@ -338,18 +392,16 @@ mod tests {
 
     #[test]
     fn lag_and_buoyancy_have_their_closed_forms() {
-        // A first-order lag delivers 1 - e^-1 of a step after one time constant.
+        // The motor's speed reaches 1 - e^-1 of its step after one time constant, so the
+        // force, quadratic in it, reaches (1 - e^-1)^2 of a step from rest.
         let w = world(vec![Effect::ThrusterLag {
             time_constant_s: 0.5,
         }]);
         let t: Vec<f64> = (0..=50).map(|k| k as f64 * 0.01).collect();
-        let s = w.simulate(
-            &t,
-            &vec![[10.0, 0.0, 0.0, 0.0, 0.0, 0.0]; t.len()],
-            State::default(),
-            0.01,
-        );
-        assert!((s[50].thrust[0] - 10.0 * (1.0 - (-1.0f64).exp())).abs() < 1e-6);
+        let cmd = [10.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+        let s = w.simulate(&t, &vec![cmd; t.len()], State::default(), 0.01);
+        let delivered = w.delivered(&s[50], &cmd)[0];
+        assert!((delivered - 10.0 * (1.0 - (-1.0f64).exp()).powi(2)).abs() < 1e-6);
         // Net buoyancy alone: heave settles where drag balances it.
         let w = world(vec![Effect::NetBuoyancy { force_n: 5.0 }]);
         let t: Vec<f64> = (0..3000).map(|k| k as f64 * 0.02).collect();

@@ -1,7 +1,7 @@
 //! `coupled_drag`: cross-flow drag between surge and sway, `X += -c |v| u`, `Y += -c |u| v`,
 //! c in N s^2/m^2.
 
-use super::{Axis, Env, Hypothesis, Needs, Param, State, Term};
+use super::{Axis, Env, Hypothesis, Limits, Needs, Param, State, Term};
 use crate::model::Vec6;
 use std::sync::Arc;
 
@@ -12,6 +12,7 @@ pub static EFFECT: Hypothesis = Hypothesis {
         lo: -100.0,
         hi: 300.0,
         unit: "N s^2/m^2",
+        limits: Limits::Search,
     }],
     needs: Needs::Nothing,
     build: |p| Arc::new(CoupledDrag { coefficient: p[0] }),

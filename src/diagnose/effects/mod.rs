@@ -51,6 +51,20 @@ pub struct Param {
     pub lo: f64,
     pub hi: f64,
     pub unit: &'static str,
+    pub limits: Limits,
+}
+
+/// Which of a parameter's bounds are physics rather than the search's reach. A fit that ends on
+/// a search bound wants more than the effect can give and is not a finding; one that ends on a
+/// physical bound (no slack, a dead zone that offsets by all of itself) is a value like others.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Limits {
+    /// Both bounds are the search's.
+    Search,
+    /// The lower bound is physical (zero slack, no moment dead zone), the upper the search's.
+    PhysicalFloor,
+    /// Both bounds are physical (a fraction between none and all).
+    Physical,
 }
 
 /// What every run must have for an effect to be testable.

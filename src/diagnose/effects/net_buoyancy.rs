@@ -1,7 +1,7 @@
 //! `net_buoyancy`: weight minus buoyancy, a constant force along pool z that the CFD set to
 //! zero (positive: the vehicle sinks). Taken along body z: pool runs are level.
 
-use super::{Axis, Env, Hypothesis, Needs, Param, State, Term};
+use super::{Axis, Env, Hypothesis, Limits, Needs, Param, State, Term};
 use crate::model::Vec6;
 use std::sync::Arc;
 
@@ -12,6 +12,7 @@ pub static EFFECT: Hypothesis = Hypothesis {
         lo: -60.0,
         hi: 60.0,
         unit: "N",
+        limits: Limits::Search,
     }],
     needs: Needs::Nothing,
     build: |p| Arc::new(NetBuoyancy { force_n: p[0] }),

@@ -2,7 +2,7 @@
 //! `1 - loss` of itself (a propeller designed for forward thrust); negative loss: reverse is
 //! stronger.
 
-use super::{COMMAND, Hypothesis, Needs, Param, Term};
+use super::{COMMAND, Hypothesis, Limits, Needs, Param, Term};
 use crate::model::Vec6;
 use std::sync::Arc;
 
@@ -13,6 +13,7 @@ pub static EFFECT: Hypothesis = Hypothesis {
         lo: -0.5,
         hi: 0.9,
         unit: "",
+        limits: Limits::Search,
     }],
     needs: Needs::Nothing,
     build: |p| Arc::new(ReverseThrustLoss { loss: p[0] }),

@@ -2,7 +2,7 @@
 //! time; the recording at t + d is what the vehicle did at t. Changes how the recording is
 //! read, not the plant.
 
-use super::{Hypothesis, Needs, Param, SINCE_STEP, Term};
+use super::{Hypothesis, Limits, Needs, Param, SINCE_STEP, Term};
 use std::sync::Arc;
 
 pub static EFFECT: Hypothesis = Hypothesis {
@@ -12,6 +12,7 @@ pub static EFFECT: Hypothesis = Hypothesis {
         lo: 0.0,
         hi: 1.0,
         unit: "s",
+        limits: Limits::Search,
     }],
     needs: Needs::Nothing,
     build: |p| Arc::new(SensorDelay { delay_s: p[0] }),

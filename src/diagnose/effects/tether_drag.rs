@@ -1,7 +1,7 @@
 //! `tether_drag`: drag of the umbilical, `-c L |v| v` on the horizontal velocity over ground,
 //! with L the tether in the water (anchor to vehicle, plus slack) and c in N s^2/m^3.
 
-use super::{Axis, Env, Hypothesis, Needs, Param, State, Term};
+use super::{Axis, Env, Hypothesis, Limits, Needs, Param, State, Term};
 use crate::model::Vec6;
 use crate::model::pool::tether_length;
 use std::sync::Arc;
@@ -14,12 +14,14 @@ pub static EFFECT: Hypothesis = Hypothesis {
             lo: 0.0,
             hi: 6.0,
             unit: "N s^2/m^3",
+            limits: Limits::Search,
         },
         Param {
             name: "slack_m",
             lo: 0.0,
-            hi: 10.0,
+            hi: 30.0,
             unit: "m",
+            limits: Limits::PhysicalFloor,
         },
     ],
     needs: Needs::Anchor,

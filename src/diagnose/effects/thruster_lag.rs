@@ -1,7 +1,7 @@
 //! `thruster_lag`: the delivered force and moment follow the command through a first-order lag
 //! with one time constant for every DOF.
 
-use super::{Hypothesis, Needs, Param, SINCE_STEP, Term};
+use super::{Hypothesis, Limits, Needs, Param, SINCE_STEP, Term};
 use std::sync::Arc;
 
 pub static EFFECT: Hypothesis = Hypothesis {
@@ -11,6 +11,7 @@ pub static EFFECT: Hypothesis = Hypothesis {
         lo: 0.0,
         hi: 1.5,
         unit: "s",
+        limits: Limits::Search,
     }],
     needs: Needs::Nothing,
     build: |p| {

@@ -1,7 +1,7 @@
 //! `wall_effect`: extra horizontal drag near the side walls, `-c exp(-d / decay) |v| v` on the
 //! velocity over ground, d the distance to the nearest wall.
 
-use super::{Axis, Env, Hypothesis, Needs, Param, State, Term};
+use super::{Axis, Env, Hypothesis, Limits, Needs, Param, State, Term};
 use crate::model::Vec6;
 use std::sync::Arc;
 
@@ -13,12 +13,14 @@ pub static EFFECT: Hypothesis = Hypothesis {
             lo: 0.0,
             hi: 1500.0,
             unit: "N s^2/m^2",
+            limits: Limits::Search,
         },
         Param {
             name: "decay_m",
             lo: 0.1,
             hi: 3.0,
             unit: "m",
+            limits: Limits::Search,
         },
     ],
     needs: Needs::Pool,

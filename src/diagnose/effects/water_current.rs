@@ -1,7 +1,7 @@
 //! `water_current`: a uniform, steady horizontal current in the pool frame; the base plant's
 //! drag acts on the velocity relative to the water.
 
-use super::{Axis, Env, Hypothesis, Needs, Param, State, Term, drag};
+use super::{Axis, Env, Hypothesis, Limits, Needs, Param, State, Term, drag};
 use crate::model::Vec6;
 use std::sync::Arc;
 
@@ -13,12 +13,14 @@ pub static EFFECT: Hypothesis = Hypothesis {
             lo: -0.5,
             hi: 0.5,
             unit: "m/s",
+            limits: Limits::Search,
         },
         Param {
             name: "current_y_m_s",
             lo: -0.5,
             hi: 0.5,
             unit: "m/s",
+            limits: Limits::Search,
         },
     ],
     needs: Needs::Nothing,
