@@ -179,55 +179,8 @@ pub fn locate(runs: &[Run], residuals: &[[Vec<f64>; 4]], scale: &[f64; 4]) -> Ve
                 .collect();
             let energy: f64 = sq.iter().sum::<f64>() / scale[j];
             total += energy;
-            let n = sq.len();
-            let dt = if n > 1 {
-                (run.t[n - 1] - run.t[0]) / (n - 1) as f64
-            } else {
-                0.05
-            };
-            let half = ((0.5 / dt).round() as usize).max(1);
-            let mut pre = vec![0.0; n + 1];
-            for k in 0..n {
-                pre[k + 1] = pre[k] + sq[k];
-            }
-            let mean = pre[n] / n.max(1) as f64;
-            let noise = run.std[j].iter().map(|s| s * s).sum::<f64>() / n.max(1) as f64;
-            let thr = (2.0 * mean).max(4.0 * noise);
-            let mut windows: Vec<(f64, f64, f64)> = Vec::new();
-            let mut k = 0;
-            while k < n {
-                let mov = |k: usize| {
-                    let (a, b) = (k.saturating_sub(half), (k + half + 1).min(n));
-                    (pre[b] - pre[a]) / (b - a) as f64
-                };
-                if mov(k) > thr {
-                    let start = k;
-                    while k < n && mov(k) > thr {
-                        k += 1;
-                    }
-                    let (t0, t1) = (run.t[start], run.t[k - 1]);
-                    let en = (pre[k] - pre[start]) / scale[j];
-                    match windows.last_mut() {
-                        Some(w) if t0 - w.1 < 1.0 => {
-                            w.1 = t1;
-                            w.2 += en;
-                        }
-                        _ => windows.push((t0, t1, en)),
-                    }
-                } else {
-                    k += 1;
-                }
-            }
-            windows.retain(|w| w.1 - w.0 >= 0.5);
-            windows.sort_by(|a, b| b.2.total_cmp(&a.2));
-            windows.truncate(5);
-            windows.sort_by(|a, b| a.0.total_cmp(&b.0));
-            parts.push((
-                run.name.clone(),
-                DOFS[j],
-                windows.iter().map(|w| [round2(w.0), round2(w.1)]).collect(),
-                energy,
-            ));
+            let windows = error_windows(run, j, &sq, scale[j]);
+            parts.push((run.name.clone(), DOFS[j], windows, energy));
         }
     }
     let mut out: Vec<Mismatch> = parts
@@ -241,6 +194,56 @@ pub fn locate(runs: &[Run], residuals: &[[Vec<f64>; 4]], scale: &[f64; 4]) -> Ve
         .collect();
     out.sort_by(|a, b| b.share_of_error.total_cmp(&a.share_of_error));
     out
+}
+
+/// The (at most five, largest) windows of DOF `j` of a run where the squared residual `sq`,
+/// averaged over a second, stays above twice its mean and four times the fused variance;
+/// windows less than 1 s apart merge and those shorter than 0.5 s are dropped. In time order.
+fn error_windows(run: &Run, j: usize, sq: &[f64], scale: f64) -> Vec<[f64; 2]> {
+    let n = sq.len();
+    let dt = if n > 1 {
+        (run.t[n - 1] - run.t[0]) / (n - 1) as f64
+    } else {
+        0.05
+    };
+    let half = ((0.5 / dt).round() as usize).max(1);
+    let mut pre = vec![0.0; n + 1];
+    for k in 0..n {
+        pre[k + 1] = pre[k] + sq[k];
+    }
+    let mean = pre[n] / n.max(1) as f64;
+    let noise = run.std[j].iter().map(|s| s * s).sum::<f64>() / n.max(1) as f64;
+    let thr = (2.0 * mean).max(4.0 * noise);
+    let mov = |k: usize| {
+        let (a, b) = (k.saturating_sub(half), (k + half + 1).min(n));
+        (pre[b] - pre[a]) / (b - a) as f64
+    };
+    let mut windows: Vec<(f64, f64, f64)> = Vec::new();
+    let mut k = 0;
+    while k < n {
+        if mov(k) > thr {
+            let start = k;
+            while k < n && mov(k) > thr {
+                k += 1;
+            }
+            let (t0, t1) = (run.t[start], run.t[k - 1]);
+            let en = (pre[k] - pre[start]) / scale;
+            match windows.last_mut() {
+                Some(w) if t0 - w.1 < 1.0 => {
+                    w.1 = t1;
+                    w.2 += en;
+                }
+                _ => windows.push((t0, t1, en)),
+            }
+        } else {
+            k += 1;
+        }
+    }
+    windows.retain(|w| w.1 - w.0 >= 0.5);
+    windows.sort_by(|a, b| b.2.total_cmp(&a.2));
+    windows.truncate(5);
+    windows.sort_by(|a, b| a.0.total_cmp(&b.0));
+    windows.iter().map(|w| [round2(w.0), round2(w.1)]).collect()
 }
 
 fn round2(x: f64) -> f64 {

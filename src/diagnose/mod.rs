@@ -169,44 +169,72 @@ pub fn divergence(plant: &Plant, run: &Run) -> Option<f64> {
         .map(|k| run.t[k])
 }
 
-/// [`simulate`], and the sample after which it diverged.
-fn simulate_checked(
-    plant: &Plant,
-    aug: &Augmentation,
-    run: &Run,
-) -> (Vec<[f64; 4]>, Option<usize>) {
+/// A run's recording read `delay` seconds late (a sensor delay), each sample's shifted time
+/// located once for every series; without a delay, the samples themselves.
+struct Shifted {
+    delay: f64,
+    loc: Vec<(usize, Option<f64>)>,
+}
+
+impl Shifted {
+    fn new(t: &[f64], delay: f64) -> Shifted {
+        let loc = if delay == 0.0 {
+            Vec::new()
+        } else {
+            t.iter()
+                .map(|&tk| crate::fusion::locate(t, tk + delay))
+                .collect()
+        };
+        Shifted { delay, loc }
+    }
+
+    fn at(&self, series: &[f64], k: usize) -> f64 {
+        if self.delay == 0.0 {
+            series[k]
+        } else {
+            crate::fusion::interp_at(series, self.loc[k])
+        }
+    }
+}
+
+/// The diagnosis's world for a run: the plant with the augmentation's terms, in the run's pool.
+fn world_for(plant: &Plant, aug: &Augmentation, run: &Run) -> World {
     let mut w = World::new(plant.clone(), aug.terms.clone());
     w.pool = run.pool;
     w.tether_anchor = run.anchor;
     // The pose is set from the recording at every sample; integrating it only matters to
     // effects that read it within a step.
     w.track_pose = w.effects_need_pose();
-    let d = aug.delay_s;
+    w
+}
+
+/// The fused velocities at sample `k` as the centred mean over five samples: a window started
+/// from one noisy sample would carry that sample's noise through it (and a time shift that
+/// interpolates between samples would look like an improvement).
+fn anchor_velocity(run: &Run, rec: &Shifted, k: usize, s: &mut State) {
+    let n = run.t.len();
+    let (a, b) = (k.saturating_sub(2), (k + 2).min(n - 1));
+    for (j, &i) in NU.iter().enumerate() {
+        s.nu[i] = (a..=b).map(|q| rec.at(&run.vel[j], q)).sum::<f64>() / (b - a + 1) as f64;
+    }
+}
+
+/// [`simulate`], and the sample after which it diverged.
+fn simulate_checked(
+    plant: &Plant,
+    aug: &Augmentation,
+    run: &Run,
+) -> (Vec<[f64; 4]>, Option<usize>) {
+    let w = world_for(plant, aug, run);
     let n = run.t.len();
     let cmd6 = |k: usize| -> Vec6 {
         let c = run.cmd[k];
         [c[0], c[1], c[2], 0.0, 0.0, c[3]]
     };
-    // Where each sample's shifted time falls, located once for every series (without a delay,
-    // the sample itself).
-    let loc: Vec<(usize, Option<f64>)> = if d == 0.0 {
-        Vec::new()
-    } else {
-        run.t
-            .iter()
-            .map(|&tk| crate::fusion::locate(&run.t, tk + d))
-            .collect()
-    };
-    let at = |series: &[f64], k: usize| {
-        if d == 0.0 {
-            series[k]
-        } else {
-            crate::fusion::interp_at(series, loc[k])
-        }
-    };
+    let rec = Shifted::new(&run.t, aug.delay_s);
     let mut s = State::default();
     for (j, &i) in NU.iter().enumerate() {
-        s.nu[i] = at(&run.vel[j], 0);
+        s.nu[i] = rec.at(&run.vel[j], 0);
     }
     s.thrust = w.shape_command(&cmd6(0));
     let mut out = Vec::with_capacity(n);
@@ -216,21 +244,15 @@ fn simulate_checked(
         if anchors.get(next_anchor) == Some(&k) {
             // Multiple shooting: the window starts again from the fused state (thruster
             // states carry over).
-            // The anchor is the recording's centred mean over five samples: a window started
-            // from one noisy sample would carry that sample's noise through it (and a time
-            // shift that interpolates between samples would look like an improvement).
-            let (a, b) = (k.saturating_sub(2), (k + 2).min(n - 1));
-            for (j, &i) in NU.iter().enumerate() {
-                s.nu[i] = (a..=b).map(|q| at(&run.vel[j], q)).sum::<f64>() / (b - a + 1) as f64;
-            }
+            anchor_velocity(run, &rec, k, &mut s);
             next_anchor += 1;
         }
         out.push([s.nu[0], s.nu[1], s.nu[2], s.nu[5]]);
         if k + 1 == n {
             break;
         }
-        s.pos = [at(&run.pos[0], k), at(&run.pos[1], k), at(&run.pos[2], k)];
-        s.psi = at(&run.psi, k);
+        s.pos = [0, 1, 2].map(|j| rec.at(&run.pos[j], k));
+        s.psi = rec.at(&run.psi, k);
         let span = run.t[k + 1] - run.t[k];
         let m = (span / STEP).ceil().max(1.0) as usize;
         let c = cmd6(k);
@@ -239,16 +261,8 @@ fn simulate_checked(
         }
         if s.nu.iter().any(|x| !x.is_finite() || x.abs() > 50.0) {
             // Diverged: hold the last finite state so the cost is large but finite.
-            let last = out[k];
-            out.extend(std::iter::repeat_n(
-                [
-                    last[0] + 50.0,
-                    last[1] + 50.0,
-                    last[2] + 50.0,
-                    last[3] + 50.0,
-                ],
-                n - k - 1,
-            ));
+            let last = out[k].map(|x| x + 50.0);
+            out.extend(std::iter::repeat_n(last, n - k - 1));
             return (out, Some(k));
         }
     }

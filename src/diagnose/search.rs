@@ -14,6 +14,42 @@ fn grid(k: usize) -> usize {
     }
 }
 
+/// A point and its cost.
+type Vertex = (Vec<f64>, f64);
+
+/// The starting simplex: `x0` and one step along each axis (back where a step forward would
+/// leave the unit box).
+fn initial_simplex(f: &dyn Fn(&[f64]) -> f64, x0: &[f64], step: f64) -> Vec<Vertex> {
+    let mut simplex: Vec<Vertex> = Vec::with_capacity(x0.len() + 1);
+    simplex.push((x0.to_vec(), f(x0)));
+    for i in 0..x0.len() {
+        let mut x = x0.to_vec();
+        x[i] = if x[i] + step <= 1.0 {
+            x[i] + step
+        } else {
+            x[i] - step
+        };
+        let x: Vec<f64> = x.into_iter().map(|v| v.clamp(0.0, 1.0)).collect();
+        let fx = f(&x);
+        simplex.push((x, fx));
+    }
+    simplex
+}
+
+/// Every vertex but the best moves halfway towards it.
+fn shrink(f: &dyn Fn(&[f64]) -> f64, simplex: &mut [Vertex]) {
+    let best = simplex[0].0.clone();
+    for s in simplex.iter_mut().skip(1) {
+        let x: Vec<f64> = best
+            .iter()
+            .zip(&s.0)
+            .map(|(b, v)| b + 0.5 * (v - b))
+            .collect();
+        let fx = f(&x);
+        *s = (x, fx);
+    }
+}
+
 /// Minimises `f` over the unit box [0, 1]^k from `x0` (Nelder-Mead, clamped), `iters` steps.
 pub fn nelder_mead(
     f: &dyn Fn(&[f64]) -> f64,
@@ -23,19 +59,7 @@ pub fn nelder_mead(
 ) -> (Vec<f64>, f64) {
     let k = x0.len();
     let clamp = |x: Vec<f64>| -> Vec<f64> { x.into_iter().map(|v| v.clamp(0.0, 1.0)).collect() };
-    let mut simplex: Vec<(Vec<f64>, f64)> = Vec::with_capacity(k + 1);
-    simplex.push((x0.to_vec(), f(x0)));
-    for i in 0..k {
-        let mut x = x0.to_vec();
-        x[i] = if x[i] + step <= 1.0 {
-            x[i] + step
-        } else {
-            x[i] - step
-        };
-        let x = clamp(x);
-        let fx = f(&x);
-        simplex.push((x, fx));
-    }
+    let mut simplex = initial_simplex(f, x0, step);
     for _ in 0..iters {
         simplex.sort_by(|a, b| a.1.total_cmp(&b.1));
         let spread = simplex
@@ -72,16 +96,7 @@ pub fn nelder_mead(
             if fc < worst.1 {
                 simplex[k] = (xc, fc);
             } else {
-                let best = simplex[0].0.clone();
-                for s in simplex.iter_mut().skip(1) {
-                    let x: Vec<f64> = best
-                        .iter()
-                        .zip(&s.0)
-                        .map(|(b, v)| b + 0.5 * (v - b))
-                        .collect();
-                    let fx = f(&x);
-                    *s = (x, fx);
-                }
+                shrink(f, &mut simplex);
             }
         }
     }

@@ -185,41 +185,9 @@ pub fn select(
             "round {round}: testing {} effects",
             candidates.len()
         ));
-        let fitted: Vec<(&'static Hypothesis, Vec<f64>, f64, f64)> = candidates
-            .par_iter()
-            .map(|h| {
-                let (p, train_cost) = search::fit_one(plant, data, &selected, h);
-                let mut sel = selected.clone();
-                sel.push((*h, p.clone()));
-                let val = data.cost(plant, &augmentation(&sel), true);
-                (*h, p, train_cost, val)
-            })
-            .collect();
-        let mut rows: Vec<Tested> = fitted
-            .iter()
-            .map(|(h, p, tc, vc)| {
-                let gain = (current - vc) / current;
-                let at_bound = at_bound(h, p);
-                Tested {
-                    round,
-                    name: h.name.into(),
-                    parameters: params_map(h, p),
-                    train_cost: *tc,
-                    validation_cost: *vc,
-                    gain,
-                    score: score(criteria, current, *vc, h.params.len() as f64),
-                    accepted: false,
-                    at_bound,
-                }
-            })
-            .collect();
-        let best = (0..rows.len())
-            .filter(|&i| {
-                corroborated(criteria, current_train, rows[i].train_cost)
-                    && rows[i].at_bound.is_empty()
-            })
-            .max_by(|&a, &b| rows[a].score.total_cmp(&rows[b].score));
-        let Some(b) = best else {
+        let fitted = fit_candidates(plant, data, &selected, &candidates);
+        let mut rows = tested_rows(&fitted, criteria, current, round);
+        let Some(b) = best_row(&rows, criteria, current_train) else {
             // Every candidate is refused (not corroborated on the training runs, or on a
             // bound): the round's rows still go to the report.
             tested.extend(rows);
@@ -230,24 +198,14 @@ pub fn select(
             tested.extend(rows);
             break;
         }
-        let before_round = selected.clone();
-        selected.push((*h, p.clone()));
         progress(&format!(
             "round {round}: {} kept, refining every kept effect together",
             h.name
         ));
-        if selected.len() > 1 {
-            selected = search::refine_all(plant, data, &selected);
-            // Refitted together, a kept effect pushed onto its bound is no longer a finding.
-            if let Some((hb, pb)) = selected
-                .iter()
-                .find(|(hb, pb)| !at_bound(hb, pb).is_empty())
-            {
-                rows[b].at_bound = at_bound(hb, pb)
-                    .into_iter()
-                    .map(|n| format!("{}.{n} (refitted with the others)", hb.name))
-                    .collect();
-                selected = before_round;
+        match keep(plant, data, &selected, (*h, p.clone())) {
+            Ok(kept) => selected = kept,
+            Err(on_bound) => {
+                rows[b].at_bound = on_bound;
                 tested.extend(rows);
                 break;
             }
@@ -268,13 +226,9 @@ pub fn select(
                 progress,
             )
         {
-            // The effect swapped out no longer counts as kept; the cost after this round is the swapped set's.
-            if let Some(t) = tested.iter_mut().find(|t| t.accepted && t.name == out) {
-                t.accepted = false;
-            }
             (current, current_train) = (row.validation_cost, row.train_cost);
             *costs.last_mut().expect("pushed above") = current;
-            tested.push(row);
+            record_swap(&mut tested, &out, row);
         }
     }
     Search {
@@ -282,6 +236,110 @@ pub fn select(
         tested,
         costs,
     }
+}
+
+/// The best-scoring row among those corroborated on the training runs and off their bounds.
+fn best_row(rows: &[Tested], criteria: &Criteria, current_train: f64) -> Option<usize> {
+    (0..rows.len())
+        .filter(|&i| {
+            corroborated(criteria, current_train, rows[i].train_cost) && rows[i].at_bound.is_empty()
+        })
+        .max_by(|&a, &b| rows[a].score.total_cmp(&rows[b].score))
+}
+
+/// The effect swapped out no longer counts as kept; its replacement's row is added.
+fn record_swap(tested: &mut Vec<Tested>, out: &str, row: Tested) {
+    if let Some(t) = tested.iter_mut().find(|t| t.accepted && t.name == out) {
+        t.accepted = false;
+    }
+    tested.push(row);
+}
+
+/// A candidate fitted on top of the kept effects: the effect, its parameters, its training
+/// cost and its held-out cost.
+type Fitted = (&'static Hypothesis, Vec<f64>, f64, f64);
+
+/// Each candidate fitted on top of the kept effects, in parallel.
+fn fit_candidates(
+    plant: &Plant,
+    data: &Data,
+    selected: &Selection,
+    candidates: &[&'static Hypothesis],
+) -> Vec<Fitted> {
+    candidates
+        .par_iter()
+        .map(|h| {
+            let (p, train_cost) = search::fit_one(plant, data, selected, h);
+            let mut sel = selected.clone();
+            sel.push((*h, p.clone()));
+            let val = data.cost(plant, &augmentation(&sel), true);
+            (*h, p, train_cost, val)
+        })
+        .collect()
+}
+
+/// The report's rows of one round: each candidate's parameters, costs, gain and score.
+fn tested_rows(fitted: &[Fitted], criteria: &Criteria, current: f64, round: usize) -> Vec<Tested> {
+    fitted
+        .iter()
+        .map(|(h, p, tc, vc)| Tested {
+            round,
+            name: h.name.into(),
+            parameters: params_map(h, p),
+            train_cost: *tc,
+            validation_cost: *vc,
+            gain: (current - vc) / current,
+            score: score(criteria, current, *vc, h.params.len() as f64),
+            accepted: false,
+            at_bound: at_bound(h, p),
+        })
+        .collect()
+}
+
+/// The kept effects with `new` added, refitted together when there are several; or, when the
+/// refit pushes a kept effect onto a search bound (no longer a finding), its parameters there.
+fn keep(
+    plant: &Plant,
+    data: &Data,
+    selected: &Selection,
+    new: (&'static Hypothesis, Vec<f64>),
+) -> Result<Selection, Vec<String>> {
+    let mut kept = selected.clone();
+    kept.push(new);
+    if kept.len() == 1 {
+        return Ok(kept);
+    }
+    let kept = search::refine_all(plant, data, &kept);
+    match kept.iter().find(|(hb, pb)| !at_bound(hb, pb).is_empty()) {
+        Some((hb, pb)) => Err(at_bound(hb, pb)
+            .into_iter()
+            .map(|n| format!("{}.{n} (refitted with the others)", hb.name))
+            .collect()),
+        None => Ok(kept),
+    }
+}
+
+/// Each (kept effect i, candidate h) of `options`: h fitted with the kept effects but i, kept
+/// when corroborated on the training runs and off its bounds, with its held-out cost.
+fn fit_replacements(
+    plant: &Plant,
+    data: &Data,
+    criteria: &Criteria,
+    selected: &Selection,
+    options: &[(usize, &'static Hypothesis)],
+    current_train: f64,
+) -> Vec<(usize, &'static Hypothesis, Vec<f64>, f64)> {
+    options
+        .par_iter()
+        .filter_map(|&(i, h)| {
+            let mut rest = selected.clone();
+            rest.remove(i);
+            let (p, train) = search::fit_one(plant, data, &rest, h);
+            rest.push((h, p.clone()));
+            (corroborated(criteria, current_train, train) && at_bound(h, &p).is_empty())
+                .then(|| (i, h, p, data.cost(plant, &augmentation(&rest), true)))
+        })
+        .collect()
 }
 
 /// A greedy pick can be wrong when two missing effects only make sense together (a current
@@ -305,17 +363,7 @@ fn swap(
         "round {round}: trying {} replacements of earlier effects",
         options.len()
     ));
-    let fitted: Vec<(usize, &'static Hypothesis, Vec<f64>, f64)> = options
-        .par_iter()
-        .filter_map(|&(i, h)| {
-            let mut rest = selected.clone();
-            rest.remove(i);
-            let (p, train) = search::fit_one(plant, data, &rest, h);
-            rest.push((h, p.clone()));
-            (corroborated(criteria, current_train, train) && at_bound(h, &p).is_empty())
-                .then(|| (i, h, p, data.cost(plant, &augmentation(&rest), true)))
-        })
-        .collect();
+    let fitted = fit_replacements(plant, data, criteria, selected, &options, current_train);
     // Parameters beyond those of the effect replaced.
     let extra = |i: usize, h: &Hypothesis| {
         (h.params.len() as f64 - selected[i].0.params.len() as f64).max(0.0)

@@ -21,21 +21,10 @@ pub fn diagnose(
     let start = std::time::Instant::now();
     let (runs, skipped, stability) = prepare_runs(plant, fused, crit);
     let data = Data::new(runs)?;
-    let diverged: Vec<String> = data
-        .train
-        .iter()
-        .chain(&data.validate)
-        .filter_map(|r| dx::divergence(plant, r).map(|t| format!("{} (at t = {t:.1} s)", r.name)))
-        .collect();
+    let diverged = diverged_runs(plant, &data);
     if !diverged.is_empty() {
-        let mut d = Diagnosis::unsound(
-            model,
-            &data,
-            diverged,
-            crit,
-            skipped,
-            start.elapsed().as_secs_f64(),
-        );
+        let elapsed = start.elapsed().as_secs_f64();
+        let mut d = Diagnosis::unsound(model, &data, diverged, crit, skipped, elapsed);
         d.stability = stability;
         return Ok((d, Vec::new()));
     }
@@ -44,75 +33,35 @@ pub fn diagnose(
     // 1. Drift: the same model structure, parameters re-estimated on the training runs.
     let base = data.eval(plant, &Augmentation::default(), true);
     let base_cost = base.cost(&data.scale);
-    let reest = reestimate(vehicle, fused, &data)?;
-    let re_plant = Plant::new(
-        vehicle,
-        ParamLayout::of(vehicle).to_hydro(&reest.iter().map(|p| p.value).collect::<Vec<_>>()),
-    );
-    let re_sums = data.eval(&re_plant, &Augmentation::default(), true);
-    let re_cost = re_sums.cost(&data.scale);
+    let drifted = Drifted::estimate(vehicle, fused, &data)?;
 
     // 2. Locate the CFD model's held-out residual.
     let res_before = dx::residuals(plant, &Augmentation::default(), &data.validate);
-    let mut mismatch = dx::locate(&data.validate, &res_before, &data.scale);
-    mismatch.retain(|m| m.share_of_error >= 0.02);
-    mismatch.truncate(8);
+    let mismatch = main_mismatches(&data, &res_before);
     let regimes = dx::regime_shares(&data.validate, &res_before, &data.scale);
 
-    // 3. Hypotheses, greedily.
+    // 3. Hypotheses, greedily; then what they leave.
     let search = dx::select(plant, &data, crit, progress);
-    let (mut effects, mut figures) = named_effects(plant, &data, &search.selected)?;
-    let final_cost = *search.costs.last().unwrap_or(&base_cost);
-    let within = |c: f64| c <= crit.within_noise * data.noise_cost;
-    // Drift wins when re-estimating the model's own parameters explains the held-out runs
-    // better than the effects did (and the CFD model itself is not already within noise).
-    let drift = re_cost < final_cost && !within(base_cost) && re_cost < 0.5 * base_cost;
-    if drift {
-        effects.clear();
-        figures.clear();
-    }
-    let explained_cost = if drift { re_cost } else { final_cost };
-    let left = if drift {
-        Vec::new()
-    } else {
-        structured_left(plant, &data, &dx::augmentation(&search.selected), crit)
-    };
-    let unexplained = !within(explained_cost) && explained_cost > 0.5 * base_cost.max(1e-12)
-        || (!within(explained_cost) && effects.is_empty())
-        || (!left.is_empty() && !within(explained_cost));
-    if unexplained {
-        effects.push(unexplained_residual(
-            plant,
-            &data,
-            &search.selected,
-            explained_cost,
-            &left,
-            crit,
-        ));
-    }
     let costs = Costs {
         base: base_cost,
-        after_effects: final_cost,
-        reestimated: re_cost,
+        after_effects: *search.costs.last().unwrap_or(&base_cost),
+        reestimated: drifted.cost,
         noise: data.noise_cost,
     };
-    let verdict = verdict_sentence(&effects, unexplained, drift, &costs);
+    let (effects, mut figures, conclusion) = conclude(plant, &data, crit, &search, &costs)?;
+    let verdict = verdict_sentence(&effects, conclusion.unexplained, conclusion.drift, &costs);
     if let Some(fig) = residual_overview(&data, &res_before, &mismatch)? {
         figures.insert(0, fig);
     }
+    let within_noise = drifted.cost <= crit.within_noise * data.noise_cost;
     let diagnosis = Diagnosis {
         baseline: Baseline {
             model: model.to_string(),
             validation_nmae: dx::nmae_map(&base),
             validation_cost: base_cost,
             noise_cost: data.noise_cost,
-            reestimated: Reestimated {
-                parameters: reest,
-                validation_nmae: dx::nmae_map(&re_sums),
-                validation_cost: re_cost,
-                within_noise: within(re_cost),
-            },
-            parameters_reestimated: drift,
+            reestimated: drifted.into_record(within_noise),
+            parameters_reestimated: conclusion.drift,
         },
         mismatch,
         effects,
@@ -120,17 +69,131 @@ pub fn diagnose(
         regimes,
         hypotheses: search.tested,
         criteria: crit.clone(),
-        runs: Runs {
-            train: data.train.iter().map(|r| r.name.clone()).collect(),
-            validate: data.validate.iter().map(|r| r.name.clone()).collect(),
-            skipped,
-        },
+        runs: runs_record(&data, skipped),
         diverged: Vec::new(),
         untested: dx::untested(&data),
         stability,
         elapsed_s: start.elapsed().as_secs_f64(),
     };
     Ok((diagnosis, figures))
+}
+
+/// The runs the diagnosis trained and validated on, and those it left out.
+fn runs_record(data: &Data, skipped: Vec<String>) -> Runs {
+    Runs {
+        train: data.train.iter().map(|r| r.name.clone()).collect(),
+        validate: data.validate.iter().map(|r| r.name.clone()).collect(),
+        skipped,
+    }
+}
+
+/// The runs on which the model's simulation diverges, with the time it does.
+fn diverged_runs(plant: &Plant, data: &Data) -> Vec<String> {
+    data.train
+        .iter()
+        .chain(&data.validate)
+        .filter_map(|r| dx::divergence(plant, r).map(|t| format!("{} (at t = {t:.1} s)", r.name)))
+        .collect()
+}
+
+/// The model's own parameters re-estimated on the training runs (drift), and how that model
+/// does on the held-out runs.
+struct Drifted {
+    parameters: Vec<crate::estimate::Estimate>,
+    sums: dx::Sums,
+    cost: f64,
+}
+
+impl Drifted {
+    fn estimate(
+        vehicle: &crate::model::Vehicle,
+        fused: &[crate::fusion::run::FusedRun],
+        data: &Data,
+    ) -> anyhow::Result<Drifted> {
+        let parameters = reestimate(vehicle, fused, data)?;
+        let values: Vec<f64> = parameters.iter().map(|p| p.value).collect();
+        let plant = Plant::new(vehicle, ParamLayout::of(vehicle).to_hydro(&values));
+        let sums = data.eval(&plant, &Augmentation::default(), true);
+        let cost = sums.cost(&data.scale);
+        Ok(Drifted {
+            parameters,
+            sums,
+            cost,
+        })
+    }
+
+    /// The report's record of the re-estimated model.
+    fn into_record(self, within_noise: bool) -> Reestimated {
+        Reestimated {
+            parameters: self.parameters,
+            validation_nmae: dx::nmae_map(&self.sums),
+            validation_cost: self.cost,
+            within_noise,
+        }
+    }
+}
+
+/// Where the model's held-out residual is: the (at most eight) runs and DOFs holding at least
+/// 2 % of it, largest first.
+fn main_mismatches(data: &Data, residuals: &[[Vec<f64>; 4]]) -> Vec<Mismatch> {
+    let mut mismatch = dx::locate(&data.validate, residuals, &data.scale);
+    mismatch.retain(|m| m.share_of_error >= 0.02);
+    mismatch.truncate(8);
+    mismatch
+}
+
+/// What the diagnosis concludes beyond the named effects.
+struct Conclusion {
+    /// Re-estimating the model's parameters explains the held-out runs better than effects.
+    drift: bool,
+    /// A structured residual well above the noise remains.
+    unexplained: bool,
+}
+
+/// The named effects and their figures, or none when drift explains better, plus an
+/// `unexplained` entry when a structured residual well above the noise remains.
+fn conclude(
+    plant: &Plant,
+    data: &Data,
+    crit: &Criteria,
+    search: &dx::Search,
+    costs: &Costs,
+) -> anyhow::Result<(Vec<Found>, Vec<Figure>, Conclusion)> {
+    let (mut effects, mut figures) = named_effects(plant, data, &search.selected)?;
+    let within = |c: f64| c <= crit.within_noise * data.noise_cost;
+    // Drift wins when re-estimating the model's own parameters explains the held-out runs
+    // better than the effects did (and the CFD model itself is not already within noise).
+    let drift = costs.reestimated < costs.after_effects
+        && !within(costs.base)
+        && costs.reestimated < 0.5 * costs.base;
+    if drift {
+        effects.clear();
+        figures.clear();
+    }
+    let explained_cost = if drift {
+        costs.reestimated
+    } else {
+        costs.after_effects
+    };
+    let left = if drift {
+        Vec::new()
+    } else {
+        structured_left(plant, data, &dx::augmentation(&search.selected), crit)
+    };
+    let unexplained = !within(explained_cost) && explained_cost > 0.5 * costs.base.max(1e-12)
+        || (!within(explained_cost) && effects.is_empty())
+        || (!left.is_empty() && !within(explained_cost));
+    if unexplained {
+        effects.push(unexplained_residual(
+            plant,
+            data,
+            &search.selected,
+            explained_cost,
+            &left,
+            crit,
+        ));
+    }
+    Ok((effects, figures, Conclusion { drift, unexplained }))
 }
 
 /// The fused runs the diagnosis can use (every DOF fused), each with the simulation window
@@ -186,11 +249,7 @@ fn named_effects(
             data.eval(plant, &aug_before, true),
             data.eval(plant, &aug_after, true),
         );
-        let (nb, na) = (sb.nmae(), sa.nmae());
-        let dofs: Vec<Dof> = (0..4)
-            .filter(|&j| nb[j] - na[j] > 0.1 * nb[j] && nb[j] - na[j] > 0.003)
-            .map(|j| DOFS[j])
-            .collect();
+        let dofs = improved_dofs(&sb.nmae(), &sa.nmae());
         let (cb, ca) = (sb.cost(&data.scale), sa.cost(&data.scale));
         let params = dx::params_map(h, p);
         // The regime is read off the residual this effect was chosen to explain (after the
@@ -199,24 +258,7 @@ fn named_effects(
         let regime = dx::regime_shares(&data.validate, &res_prefix, &data.scale)
             .into_iter()
             .find(|r| r.regime == h.regime);
-        let mut evidence = format!(
-            "Fitted on the training runs: {}. On the held-out runs the error cost falls {} ({:.4} to {:.4}; noise floor {:.4})",
-            fmt_params(&params),
-            pct((cb - ca) / cb),
-            cb,
-            ca,
-            data.noise_cost
-        );
-        if let Some(r) = regime {
-            let _ = write!(
-                evidence,
-                "; the residual it explains has {} of its error {} ({} of the time)",
-                pct(r.share_of_error),
-                r.label,
-                pct(r.share_of_time)
-            );
-        }
-        evidence.push('.');
+        let evidence = found_evidence(&params, (cb, ca), data.noise_cost, regime.as_ref());
         figures.extend(evidence_figures(
             plant,
             data,
@@ -239,6 +281,43 @@ fn named_effects(
     Ok((effects, figures))
 }
 
+/// The DOFs whose held-out NMAE an effect lowers by over a tenth (and by over 0.003).
+fn improved_dofs(before: &[f64], after: &[f64]) -> Vec<Dof> {
+    (0..4)
+        .filter(|&j| before[j] - after[j] > 0.1 * before[j] && before[j] - after[j] > 0.003)
+        .map(|j| DOFS[j])
+        .collect()
+}
+
+/// The evidence sentence of a named effect: its fitted parameters, the held-out cost before
+/// and after it, and the regime of the residual it explains.
+fn found_evidence(
+    params: &BTreeMap<String, f64>,
+    (cb, ca): (f64, f64),
+    noise_cost: f64,
+    regime: Option<&dx::RegimeShare>,
+) -> String {
+    let mut evidence = format!(
+        "Fitted on the training runs: {}. On the held-out runs the error cost falls {} ({:.4} to {:.4}; noise floor {:.4})",
+        fmt_params(params),
+        pct((cb - ca) / cb),
+        cb,
+        ca,
+        noise_cost
+    );
+    if let Some(r) = regime {
+        let _ = write!(
+            evidence,
+            "; the residual it explains has {} of its error {} ({} of the time)",
+            pct(r.share_of_error),
+            r.label,
+            pct(r.share_of_time)
+        );
+    }
+    evidence.push('.');
+    evidence
+}
+
 /// The structured residual no effect explains, as an `unexplained` entry: its DOFs, where it
 /// is and the regime it concentrates in.
 fn unexplained_residual(
@@ -254,6 +333,30 @@ fn unexplained_residual(
     let loc = dx::locate(&data.validate, &res_after, &data.scale);
     let regs = dx::regime_shares(&data.validate, &res_after, &data.scale);
     let s = data.eval(plant, &after_aug, true);
+    let dofs = unexplained_dofs(data, &s, left, crit);
+    let top = regs
+        .iter()
+        .filter(|r| r.share_of_time > 0.05)
+        .max_by(|a, b| {
+            (a.share_of_error / a.share_of_time).total_cmp(&(b.share_of_error / b.share_of_time))
+        });
+    let ev = unexplained_evidence(explained_cost, data.noise_cost, loc.first(), top);
+    let nm = dx::nmae_map(&s);
+    Found {
+        name: "unexplained".into(),
+        dofs,
+        parameters: BTreeMap::new(),
+        evidence: ev,
+        validation_nmae_before: nm.clone(),
+        validation_nmae_after: nm,
+        validation_cost_before: explained_cost,
+        validation_cost_after: explained_cost,
+    }
+}
+
+/// The DOFs whose held-out residual after the effects is above the noise, and those found
+/// structured (`left`).
+fn unexplained_dofs(data: &Data, s: &dx::Sums, left: &[Dof], crit: &Criteria) -> Vec<Dof> {
     let per_dof: Vec<f64> = (0..4)
         .map(|j| s.sse[j] / s.n[j].max(1.0) / data.scale[j])
         .collect();
@@ -280,17 +383,22 @@ fn unexplained_residual(
             dofs.push(*d);
         }
     }
-    let top = regs
-        .iter()
-        .filter(|r| r.share_of_time > 0.05)
-        .max_by(|a, b| {
-            (a.share_of_error / a.share_of_time).total_cmp(&(b.share_of_error / b.share_of_time))
-        });
+    dofs
+}
+
+/// The evidence sentence of the `unexplained` entry: its size against the noise floor, where
+/// most of it is, and the regime it concentrates in.
+fn unexplained_evidence(
+    explained_cost: f64,
+    noise_cost: f64,
+    worst: Option<&Mismatch>,
+    top: Option<&dx::RegimeShare>,
+) -> String {
     let mut ev = format!(
         "After the effects above the held-out error cost is {explained_cost:.4}, {:.1} times the noise floor, and no effect of the table lowers it significantly",
-        explained_cost / data.noise_cost
+        explained_cost / noise_cost
     );
-    if let Some(m) = loc.first() {
+    if let Some(m) = worst {
         let _ = write!(
             ev,
             "; most of it is in {} {} ({} of the error, windows {:?} s)",
@@ -310,17 +418,7 @@ fn unexplained_residual(
         );
     }
     ev.push('.');
-    let nm = dx::nmae_map(&s);
-    Found {
-        name: "unexplained".into(),
-        dofs,
-        parameters: BTreeMap::new(),
-        evidence: ev,
-        validation_nmae_before: nm.clone(),
-        validation_nmae_after: nm,
-        validation_cost_before: explained_cost,
-        validation_cost_after: explained_cost,
-    }
+    ev
 }
 
 /// The held-out error costs the verdict quotes.
@@ -455,6 +553,52 @@ fn residual_overview(
     }))
 }
 
+/// The residual in DOF `j` over time, before and after effect `h`, on the held-out run where
+/// it was largest before.
+fn worst_run_figure(
+    data: &Data,
+    h: &dx::Hypothesis,
+    j: usize,
+    rb: &[[Vec<f64>; 4]],
+    ra: &[[Vec<f64>; 4]],
+) -> anyhow::Result<Option<Figure>> {
+    use crate::plot::{Trace, curves};
+    let worst = (0..data.validate.len()).max_by(|&a, &b| {
+        let e = |r: &[Vec<f64>; 4]| {
+            r[j].iter()
+                .filter(|x| x.is_finite())
+                .map(|x| x * x)
+                .sum::<f64>()
+        };
+        e(&rb[a]).total_cmp(&e(&rb[b]))
+    });
+    let Some(i) = worst else {
+        return Ok(None);
+    };
+    let run = &data.validate[i];
+    let d = DOFS[j];
+    let tr = [Trace {
+        label: "before",
+        t: &run.t,
+        measured: &rb[i][j],
+        simulated: &ra[i][j],
+    }];
+    let svg = curves(
+        &format!("{}: {} residual before and after {}", run.name, d, h.name),
+        "time (s)",
+        &format!("residual {} ({})", d.velocity(), d.velocity_unit()),
+        &tr,
+        &format!("with {} (dashed)", h.name),
+    )?;
+    Ok(Some(Figure {
+        caption: format!(
+            "{}: the {} residual on held-out run {} without the effect (colour) and with it (dashed).",
+            h.name, d, run.name
+        ),
+        svg,
+    }))
+}
+
 /// For an effect: the residual before and after it in its DOF on the worst held-out run, and
 /// the residual binned along the quantity the effect depends on.
 fn evidence_figures(
@@ -472,33 +616,9 @@ fn evidence_figures(
         .unwrap_or(h.main_dof);
     let rb = dx::residuals(plant, before, &data.validate);
     let ra = dx::residuals(plant, after, &data.validate);
-    let worst = (0..data.validate.len()).max_by(|&a, &b| {
-        let e = |r: &[Vec<f64>; 4]| {
-            r[j].iter()
-                .filter(|x| x.is_finite())
-                .map(|x| x * x)
-                .sum::<f64>()
-        };
-        e(&rb[a]).total_cmp(&e(&rb[b]))
-    });
     let mut out = Vec::new();
-    if let Some(i) = worst {
-        let run = &data.validate[i];
-        let d = DOFS[j];
-        let tr = [Trace {
-            label: "before",
-            t: &run.t,
-            measured: &rb[i][j],
-            simulated: &ra[i][j],
-        }];
-        let svg = curves(
-            &format!("{}: {} residual before and after {}", run.name, d, h.name),
-            "time (s)",
-            &format!("residual {} ({})", d.velocity(), d.velocity_unit()),
-            &tr,
-            &format!("with {} (dashed)", h.name),
-        )?;
-        out.push(Figure { caption: format!("{}: the {} residual on held-out run {} without the effect (colour) and with it (dashed).", h.name, d, run.name), svg });
+    if let Some(fig) = worst_run_figure(data, h, j, &rb, &ra)? {
+        out.push(fig);
     }
     let (label, x) = evidence_axis(h, data, j);
     let bin = |res: &[[Vec<f64>; 4]]| binned(&x, res, j);
