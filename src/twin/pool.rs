@@ -347,8 +347,25 @@ pub fn render(
         truth
     };
     let seen = |t: f64| at(sensed, t - latency.delay_s);
-    let mut files = Vec::new();
+    // The sensors draw their noise from one stream, in this order.
+    let mut files = vec![
+        ("run.yaml", run_yaml(spec)),
+        ("thrust.csv", thrust_csv(truth)),
+        ("uwb.csv", uwb_csv(&seen, end, sensors, &mut rng)),
+    ];
+    if spec.sonar {
+        files.push(("sonar.csv", sonar_csv(&seen, end, sensors, &mut rng)));
+    }
+    files.push(("imu.csv", imu_csv(&seen, end, sensors, &mut rng)));
+    files.push(("depth.csv", depth_csv(&seen, end, sensors, &mut rng)));
+    files
+}
 
+/// What a sensor sees at time t: the (late, filtered) state and body acceleration.
+type Seen<'a> = dyn Fn(f64) -> (State, Vec6) + 'a;
+
+/// `run.yaml`: role, description, the pool and the tether's anchor.
+fn run_yaml(spec: &RunSpec) -> String {
     let mut run_yaml = format!(
         "role: {}\ndescription: \"{:?} manoeuvre of the reference vehicle, {:.0} s (synthetic: hydrofit twin pool)\"\n",
         spec.role, spec.manoeuvre, spec.duration_s
@@ -363,8 +380,11 @@ pub fn render(
         TETHER_ANCHOR[1],
         TETHER_ANCHOR[2]
     );
-    files.push(("run.yaml", run_yaml));
+    run_yaml
+}
 
+/// `thrust.csv`: the logged command at 20 Hz.
+fn thrust_csv(truth: &Truth) -> String {
     let mut thrust = String::from("t,X_N,Y_N,Z_N,N_Nm\n");
     for (k, c) in truth.cmd.iter().enumerate() {
         let _ = writeln!(
@@ -377,8 +397,11 @@ pub fn render(
             c[5]
         );
     }
-    files.push(("thrust.csv", thrust));
+    thrust
+}
 
+/// `uwb.csv`: position fixes at ~10 Hz with noise, multipath jumps and dropouts.
+fn uwb_csv(seen: &Seen, end: f64, sensors: &Sensors, rng: &mut Rng) -> String {
     let mut uwb = String::from("t,x_m,y_m,z_m\n");
     let mut t = 0.05;
     while t <= end {
@@ -400,34 +423,38 @@ pub fn render(
         }
         t += 0.1 + 0.004 * (rng.uniform() - 0.5);
     }
-    files.push(("uwb.csv", uwb));
+    uwb
+}
 
-    if spec.sonar {
-        let mut sonar = String::from("t,x_m,y_m\n");
-        for k in 0.. {
-            let t = 0.1 + 0.2 * k as f64;
-            if t > end {
-                break;
-            }
-            let (s, _) = seen(t);
-            let (dx, dy) = (s.pos[0] - SONAR_AT[0], s.pos[1] - SONAR_AT[1]);
-            let range = (dx * dx + dy * dy).sqrt();
-            let bearing = dy.atan2(dx).to_degrees();
-            if bearing.abs() <= SONAR_HALF_FOV_DEG
-                && (SONAR_RANGE_M.0..=SONAR_RANGE_M.1).contains(&range)
-            {
-                let sigma = sensors.sonar_sigma_m * (1.0 + range / 10.0);
-                let _ = writeln!(
-                    sonar,
-                    "{t:.1},{:.3},{:.3}",
-                    s.pos[0] + sigma * rng.normal(),
-                    s.pos[1] + sigma * rng.normal()
-                );
-            }
+/// `sonar.csv`: fixes of a sonar at one end, at 5 Hz, inside its field of view and range.
+fn sonar_csv(seen: &Seen, end: f64, sensors: &Sensors, rng: &mut Rng) -> String {
+    let mut sonar = String::from("t,x_m,y_m\n");
+    for k in 0.. {
+        let t = 0.1 + 0.2 * k as f64;
+        if t > end {
+            break;
         }
-        files.push(("sonar.csv", sonar));
+        let (s, _) = seen(t);
+        let (dx, dy) = (s.pos[0] - SONAR_AT[0], s.pos[1] - SONAR_AT[1]);
+        let range = (dx * dx + dy * dy).sqrt();
+        let bearing = dy.atan2(dx).to_degrees();
+        if bearing.abs() <= SONAR_HALF_FOV_DEG
+            && (SONAR_RANGE_M.0..=SONAR_RANGE_M.1).contains(&range)
+        {
+            let sigma = sensors.sonar_sigma_m * (1.0 + range / 10.0);
+            let _ = writeln!(
+                sonar,
+                "{t:.1},{:.3},{:.3}",
+                s.pos[0] + sigma * rng.normal(),
+                s.pos[1] + sigma * rng.normal()
+            );
+        }
     }
+    sonar
+}
 
+/// `imu.csv`: attitude, rates and specific force at 50 Hz, with gyro and accelerometer biases.
+fn imu_csv(seen: &Seen, end: f64, sensors: &Sensors, rng: &mut Rng) -> String {
     let mut imu = String::from("t,roll_deg,pitch_deg,yaw_deg,p_dps,q_dps,r_dps,ax_g,ay_g,az_g\n");
     for k in 0.. {
         let t = 0.02 * k as f64;
@@ -451,8 +478,11 @@ pub fn render(
             f[2] / G + sensors.accel_bias_g[2] + sensors.accel_sigma_g * rng.normal(),
         );
     }
-    files.push(("imu.csv", imu));
+    imu
+}
 
+/// `depth.csv`: the depth gauge at 10 Hz.
+fn depth_csv(seen: &Seen, end: f64, sensors: &Sensors, rng: &mut Rng) -> String {
     let mut depth = String::from("t,depth_m\n");
     for k in 0.. {
         let t = 0.05 + 0.1 * k as f64;
@@ -465,8 +495,7 @@ pub fn render(
             seen(t).0.pos[2] + sensors.depth_sigma_m * rng.normal()
         );
     }
-    files.push(("depth.csv", depth));
-    files
+    depth
 }
 
 /// What the truth folder records of a run: never read by the pipeline's fusion or fit.
