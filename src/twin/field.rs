@@ -360,16 +360,35 @@ fn bursty(send: &[f64], rng: &mut Rng) -> Vec<f64> {
 pub fn render(h: &Hidden, spec: &RunSpec, truth: &Truth, seed: u64) -> Vec<(&'static str, String)> {
     let mut rng = Rng::derive(seed, &format!("field/{}/sensors", spec.name));
     let end = *truth.t.last().expect("a run has samples");
-    let mut files = Vec::new();
-    files.push((
-        "run.yaml",
-        format!(
-            "role: {}\ndescription: \"{:?} flight of a tethered 30 kg ROV under closed-loop control, {:.0} s (synthetic: hydrofit twin field)\"\npool: {{length_m: {}, width_m: {}, depth_m: {}}}\ntether_anchor_m: [{}, {}, {}]\n",
-            spec.role, spec.flight, spec.duration_s, POOL.length_m, POOL.width_m, POOL.depth_m, ANCHOR[0], ANCHOR[1], ANCHOR[2]
-        ),
-    ));
+    let mut files = vec![("run.yaml", run_yaml(spec))];
     // The command log starts before the navigation log and stops after it.
     let recv = bursty(&truth.cmd_t, &mut rng);
+    files.push(("thrust.csv", thrust_csv(&recv, truth)));
+    // The sensors draw their noise from one stream, in this order.
+    files.push(("nav.csv", nav_csv(h, truth, end, &mut rng)));
+    files.push(("depth.csv", depth_csv(truth, end, &mut rng)));
+    files.push(("uwb.csv", uwb_csv(truth, end, &mut rng)));
+    files
+}
+
+/// `run.yaml`: role, description, the pool and the tether's anchor.
+fn run_yaml(spec: &RunSpec) -> String {
+    format!(
+        "role: {}\ndescription: \"{:?} flight of a tethered 30 kg ROV under closed-loop control, {:.0} s (synthetic: hydrofit twin field)\"\npool: {{length_m: {}, width_m: {}, depth_m: {}}}\ntether_anchor_m: [{}, {}, {}]\n",
+        spec.role,
+        spec.flight,
+        spec.duration_s,
+        POOL.length_m,
+        POOL.width_m,
+        POOL.depth_m,
+        ANCHOR[0],
+        ANCHOR[1],
+        ANCHOR[2]
+    )
+}
+
+/// `thrust.csv`: the controller's commands by their receive times.
+fn thrust_csv(recv: &[f64], truth: &Truth) -> String {
     let mut thrust = String::from("t,X_N,Y_N,Z_N,N_Nm\n");
     for (t, c) in recv.iter().zip(&truth.cmd) {
         let _ = writeln!(
@@ -378,10 +397,13 @@ pub fn render(h: &Hidden, spec: &RunSpec, truth: &Truth, seed: u64) -> Vec<(&'st
             t, c[0], c[1], c[2], c[3]
         );
     }
-    files.push(("thrust.csv", thrust));
+    thrust
+}
 
-    // Navigation filter: DVL velocity (1 cm/s noise) at 8 Hz through an exponential low-pass,
-    // written at an irregular 5-7 Hz, `nav_latency_s` late; AHRS heading with 0.4 deg noise.
+/// `nav.csv`: the navigation filter's output. DVL velocity (1 cm/s noise) at 8 Hz through an
+/// exponential low-pass, written at an irregular 5-7 Hz, `nav_latency_s` late; AHRS heading
+/// with 0.4 deg noise.
+fn nav_csv(h: &Hidden, truth: &Truth, end: f64, rng: &mut Rng) -> String {
     let mut nav = String::from("t,u_m_s,v_m_s,w_m_s,roll_deg,pitch_deg,yaw_deg\n");
     let mut filt = [0.0f64; 3];
     let (mut t_dvl, mut t_out) = (0.6, 0.6 + 0.2 * rng.uniform());
@@ -409,8 +431,11 @@ pub fn render(h: &Hidden, spec: &RunSpec, truth: &Truth, seed: u64) -> Vec<(&'st
         );
         t_out += 1.0 / (5.0 + 2.0 * rng.uniform());
     }
-    files.push(("nav.csv", nav));
+    nav
+}
 
+/// `depth.csv`: the depth sensor at 10 Hz, 1 cm noise.
+fn depth_csv(truth: &Truth, end: f64, rng: &mut Rng) -> String {
     let mut depth = String::from("t,depth_m\n");
     let mut t = 0.4;
     while t < end - 0.3 {
@@ -418,8 +443,11 @@ pub fn render(h: &Hidden, spec: &RunSpec, truth: &Truth, seed: u64) -> Vec<(&'st
         let _ = writeln!(depth, "{:.3},{:.4}", t, p[2] + 0.01 * rng.normal());
         t += 0.1;
     }
-    files.push(("depth.csv", depth));
+    depth
+}
 
+/// `uwb.csv`: horizontal UWB fixes at 10 Hz, 5 cm noise, 2 % jumps of 1.5 m.
+fn uwb_csv(truth: &Truth, end: f64, rng: &mut Rng) -> String {
     let mut uwb = String::from("t,x_m,y_m\n");
     let mut t = 0.5;
     while t < end - 0.4 {
@@ -434,8 +462,7 @@ pub fn render(h: &Hidden, spec: &RunSpec, truth: &Truth, seed: u64) -> Vec<(&'st
         );
         t += 0.1;
     }
-    files.push(("uwb.csv", uwb));
-    files
+    uwb
 }
 
 /// True motion on the controller's clock: `t,u,v,w,r,x_m,y_m,z_m,psi_rad`.
