@@ -1,8 +1,10 @@
 //! SVG plots drawn with plotters, embedded in the HTML (no files, no network).
 
 use crate::dof::Dof;
+use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::{FontStyle, register_font};
+use std::ops::Range;
 use std::sync::Once;
 
 /// DejaVu Sans (fonts-dejavu-core, Bitstream Vera licence; see assets/fonts): plotters'
@@ -82,22 +84,7 @@ pub fn curves(
     dashed: &str,
 ) -> anyhow::Result<String> {
     ensure_font();
-    let finite = |v: &&f64| v.is_finite();
-    let xmax = traces
-        .iter()
-        .flat_map(|tr| tr.t.iter().filter(finite))
-        .fold(f64::MIN, |a, b| a.max(*b));
-    let xmin = traces
-        .iter()
-        .flat_map(|tr| tr.t.iter().filter(finite))
-        .fold(f64::MAX, |a, b| a.min(*b))
-        .min(0.0);
-    let xmax = if xmax > xmin { xmax } else { xmin + 1e-3 };
-    let (lo, hi) = traces
-        .iter()
-        .flat_map(|tr| tr.measured.iter().chain(tr.simulated).filter(finite))
-        .fold((0.0f64, 0.0f64), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
-    let pad = 0.05 * (hi - lo).max(1e-6);
+    let (x_range, y_range) = curves_ranges(traces);
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (WIDTH, HEIGHT)).into_drawing_area();
@@ -108,7 +95,7 @@ pub fn curves(
             .margin(12)
             .x_label_area_size(40)
             .y_label_area_size(64)
-            .build_cartesian_2d(xmin..xmax, (lo - pad)..(hi + pad))?;
+            .build_cartesian_2d(x_range, y_range)?;
         chart
             .configure_mesh()
             .x_desc(x_desc)
@@ -136,6 +123,29 @@ pub fn curves(
     Ok(svg)
 }
 
+/// The axes of `curves`: x over the traces' finite abscissae (starting at 0 or below), y over
+/// every finite measured and simulated value and 0, padded by 5 % of its span.
+fn curves_ranges(traces: &[Trace]) -> (Range<f64>, Range<f64>) {
+    let finite = |v: &&f64| v.is_finite();
+    let xmax = traces
+        .iter()
+        .flat_map(|tr| tr.t.iter().filter(finite))
+        .fold(f64::MIN, |a, b| a.max(*b));
+    let xmin = traces
+        .iter()
+        .flat_map(|tr| tr.t.iter().filter(finite))
+        .fold(f64::MAX, |a, b| a.min(*b))
+        .min(0.0);
+    let xmax = if xmax > xmin { xmax } else { xmin + 1e-3 };
+    let (lo, hi) = traces
+        .iter()
+        .flat_map(|tr| tr.measured.iter().chain(tr.simulated).filter(finite))
+        .fold((0.0f64, 0.0f64), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
+    let pad = 0.05 * (hi - lo).max(1e-6);
+    (xmin..xmax, (lo - pad)..(hi + pad))
+}
+
+/// The legend column: each trace's colour and label, then the dashed line and what it is.
 fn draw_legend<DB: DrawingBackend>(
     area: &DrawingArea<DB, plotters::coord::Shift>,
     traces: &[Trace],
@@ -173,12 +183,14 @@ pub struct PoolTrace<'a> {
     pub simulated: &'a [f64],
 }
 
+/// The height of one DOF's panel in a pool-run plot (velocity above, error beneath).
+const POOL_PANEL: u32 = 300;
+
 /// A pool run, one panel per DOF: measured velocity (blue, ±2σ band) against the model
 /// (dashed black), and beneath it the error model − measured with the band around zero.
 pub fn pool_run(run: &str, model: &str, traces: &[PoolTrace]) -> anyhow::Result<String> {
     ensure_font();
-    const PANEL: u32 = 300;
-    let height = PANEL * traces.len().max(1) as u32 + 30;
+    let height = POOL_PANEL * traces.len().max(1) as u32 + 30;
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (WIDTH, height)).into_drawing_area();
@@ -190,104 +202,135 @@ pub fn pool_run(run: &str, model: &str, traces: &[PoolTrace]) -> anyhow::Result<
             ("sans-serif", 16).into_font(),
         ))?;
         let panels = body.split_evenly((traces.len().max(1), 1));
-        let blue = PALETTE[0];
         for (tr, area) in traces.iter().zip(panels) {
-            let (top, bottom) = area.split_vertically(PANEL * 62 / 100);
+            let (top, bottom) = area.split_vertically(POOL_PANEL * 62 / 100);
             let tmax = tr.t.last().copied().unwrap_or(1.0).max(1e-3);
-            let finite = |v: &&f64| v.is_finite();
-            let (lo, hi) = tr
-                .measured
-                .iter()
-                .chain(tr.simulated)
-                .filter(finite)
-                .fold((0.0f64, 0.0f64), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
-            let pad = 0.08 * (hi - lo).max(1e-6);
-            let unit = tr.dof.velocity_unit();
-            let mut chart = ChartBuilder::on(&top)
-                .margin_left(12)
-                .margin_right(20)
-                .margin_top(6)
-                .x_label_area_size(0)
-                .y_label_area_size(64)
-                .build_cartesian_2d(0f64..tmax, (lo - pad)..(hi + pad))?;
-            chart
-                .configure_mesh()
-                .y_desc(format!("{} ({unit})", tr.dof.velocity()))
-                .y_labels(6)
-                .light_line_style(TRANSPARENT)
-                .label_style(("sans-serif", 12))
-                .draw()?;
-            let band: Vec<(f64, f64)> = thin(tr.t, tr.measured)
-                .zip(thin(tr.t, tr.std))
-                .map(|((t, m), (_, s))| (t, m + 2.0 * s))
-                .chain(
-                    thin(tr.t, tr.measured)
-                        .zip(thin(tr.t, tr.std))
-                        .map(|((t, m), (_, s))| (t, m - 2.0 * s))
-                        .collect::<Vec<_>>()
-                        .into_iter()
-                        .rev(),
-                )
-                .collect();
-            chart.draw_series(std::iter::once(Polygon::new(band, blue.mix(0.25).filled())))?;
-            chart.draw_series(LineSeries::new(
-                thin(tr.t, tr.measured),
-                blue.stroke_width(2),
-            ))?;
-            chart.draw_series(DashedLineSeries::new(
-                thin(tr.t, tr.simulated).filter(|p| p.1.is_finite()),
-                6,
-                4,
-                BLACK.stroke_width(1),
-            ))?;
-            let err: Vec<f64> = tr
-                .simulated
-                .iter()
-                .zip(tr.measured)
-                .map(|(s, m)| s - m)
-                .collect();
-            let emax = err
-                .iter()
-                .chain(tr.std.iter().map(|s| s * 2.0).collect::<Vec<_>>().iter())
-                .filter(finite)
-                .fold(0.0f64, |a, b| a.max(b.abs()))
-                .max(1e-6)
-                * 1.1;
-            let mut echart = ChartBuilder::on(&bottom)
-                .margin_left(12)
-                .margin_right(20)
-                .margin_bottom(4)
-                .x_label_area_size(34)
-                .y_label_area_size(64)
-                .build_cartesian_2d(0f64..tmax, -emax..emax)?;
-            echart
-                .configure_mesh()
-                .x_desc("time (s)")
-                .y_desc("error")
-                .y_labels(3)
-                .light_line_style(TRANSPARENT)
-                .label_style(("sans-serif", 12))
-                .draw()?;
-            let zero_band: Vec<(f64, f64)> = thin(tr.t, tr.std)
-                .map(|(t, s)| (t, 2.0 * s))
-                .chain(
-                    thin(tr.t, tr.std)
-                        .map(|(t, s)| (t, -2.0 * s))
-                        .collect::<Vec<_>>()
-                        .into_iter()
-                        .rev(),
-                )
-                .collect();
-            echart.draw_series(std::iter::once(Polygon::new(
-                zero_band,
-                blue.mix(0.2).filled(),
-            )))?;
-            echart.draw_series(LineSeries::new(
-                thin(tr.t, &err).filter(|p| p.1.is_finite()),
-                PALETTE[3].stroke_width(1),
-            ))?;
+            velocity_panel(&top, tr, tmax)?;
+            error_panel(&bottom, tr, tmax)?;
         }
         root.present()?;
     }
     Ok(svg)
+}
+
+/// A drawing area of an SVG plot.
+type SvgArea<'a> = DrawingArea<SVGBackend<'a>, Shift>;
+
+/// The upper part of a pool-run panel: the fused velocity (blue) in its ±2σ band and the
+/// model's simulation (dashed black), over 0..`tmax` s.
+fn velocity_panel(area: &SvgArea, tr: &PoolTrace, tmax: f64) -> anyhow::Result<()> {
+    let blue = PALETTE[0];
+    let finite = |v: &&f64| v.is_finite();
+    let (lo, hi) = tr
+        .measured
+        .iter()
+        .chain(tr.simulated)
+        .filter(finite)
+        .fold((0.0f64, 0.0f64), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
+    let pad = 0.08 * (hi - lo).max(1e-6);
+    let unit = tr.dof.velocity_unit();
+    let mut chart = ChartBuilder::on(area)
+        .margin_left(12)
+        .margin_right(20)
+        .margin_top(6)
+        .x_label_area_size(0)
+        .y_label_area_size(64)
+        .build_cartesian_2d(0f64..tmax, (lo - pad)..(hi + pad))?;
+    chart
+        .configure_mesh()
+        .y_desc(format!("{} ({unit})", tr.dof.velocity()))
+        .y_labels(6)
+        .light_line_style(TRANSPARENT)
+        .label_style(("sans-serif", 12))
+        .draw()?;
+    chart.draw_series(std::iter::once(Polygon::new(
+        measured_band(tr),
+        blue.mix(0.25).filled(),
+    )))?;
+    chart.draw_series(LineSeries::new(
+        thin(tr.t, tr.measured),
+        blue.stroke_width(2),
+    ))?;
+    chart.draw_series(DashedLineSeries::new(
+        thin(tr.t, tr.simulated).filter(|p| p.1.is_finite()),
+        6,
+        4,
+        BLACK.stroke_width(1),
+    ))?;
+    Ok(())
+}
+
+/// The outline of the ±2σ band around the measured velocity: its upper edge forwards in time,
+/// then its lower edge backwards.
+fn measured_band(tr: &PoolTrace) -> Vec<(f64, f64)> {
+    thin(tr.t, tr.measured)
+        .zip(thin(tr.t, tr.std))
+        .map(|((t, m), (_, s))| (t, m + 2.0 * s))
+        .chain(
+            thin(tr.t, tr.measured)
+                .zip(thin(tr.t, tr.std))
+                .map(|((t, m), (_, s))| (t, m - 2.0 * s))
+                .collect::<Vec<_>>()
+                .into_iter()
+                .rev(),
+        )
+        .collect()
+}
+
+/// The lower part of a pool-run panel: the error model − measured (red) inside the ±2σ band
+/// around zero, over 0..`tmax` s.
+fn error_panel(area: &SvgArea, tr: &PoolTrace, tmax: f64) -> anyhow::Result<()> {
+    let finite = |v: &&f64| v.is_finite();
+    let err: Vec<f64> = tr
+        .simulated
+        .iter()
+        .zip(tr.measured)
+        .map(|(s, m)| s - m)
+        .collect();
+    let emax = err
+        .iter()
+        .chain(tr.std.iter().map(|s| s * 2.0).collect::<Vec<_>>().iter())
+        .filter(finite)
+        .fold(0.0f64, |a, b| a.max(b.abs()))
+        .max(1e-6)
+        * 1.1;
+    let mut echart = ChartBuilder::on(area)
+        .margin_left(12)
+        .margin_right(20)
+        .margin_bottom(4)
+        .x_label_area_size(34)
+        .y_label_area_size(64)
+        .build_cartesian_2d(0f64..tmax, -emax..emax)?;
+    echart
+        .configure_mesh()
+        .x_desc("time (s)")
+        .y_desc("error")
+        .y_labels(3)
+        .light_line_style(TRANSPARENT)
+        .label_style(("sans-serif", 12))
+        .draw()?;
+    echart.draw_series(std::iter::once(Polygon::new(
+        zero_band(tr),
+        PALETTE[0].mix(0.2).filled(),
+    )))?;
+    echart.draw_series(LineSeries::new(
+        thin(tr.t, &err).filter(|p| p.1.is_finite()),
+        PALETTE[3].stroke_width(1),
+    ))?;
+    Ok(())
+}
+
+/// The outline of the ±2σ band around zero: its upper edge forwards in time, then its lower
+/// edge backwards.
+fn zero_band(tr: &PoolTrace) -> Vec<(f64, f64)> {
+    thin(tr.t, tr.std)
+        .map(|(t, s)| (t, 2.0 * s))
+        .chain(
+            thin(tr.t, tr.std)
+                .map(|(t, s)| (t, -2.0 * s))
+                .collect::<Vec<_>>()
+                .into_iter()
+                .rev(),
+        )
+        .collect()
 }

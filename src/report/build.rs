@@ -10,9 +10,10 @@ use crate::estimate::result::FitResult;
 use crate::fsutil::json_bytes;
 use crate::fusion::run::FusedRun;
 use crate::io::Response;
-use crate::model::{Plant, Vec6, Vehicle};
+use crate::model::{Hydro, Plant, Vec6, Vehicle};
 use crate::plot as plots;
 use crate::validate;
+use crate::validate::Metrics;
 use crate::validate::pool::{Scores, Simulated};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -57,21 +58,7 @@ pub fn build(inp: &Inputs) -> anyhow::Result<Vec<(&'static str, Vec<u8>)>> {
         body_html += &html;
     }
     let accuracy = super::pool::fusion_accuracy(inp.root, &inp.truth_files, &inp.pool_runs)?;
-    let compare_html = inp
-        .comparison
-        .as_ref()
-        .map_or(String::new(), crate::report::compare::section);
-    let diagnosis_html = inp.diagnosis.as_ref().map_or(String::new(), |(d, figs)| {
-        crate::report::diagnose::section(d, figs)
-    });
-    let pool_html = compare_html
-        + &diagnosis_html
-        + &crate::report::pool::section(
-            &inp.pool_runs,
-            inp.pool_scores.as_ref().map(|(s, _)| s),
-            inp.pool_scores.as_ref().map_or(&[][..], |(_, v)| v),
-            &accuracy,
-        )?;
+    let pool_html = pool_html(inp, &accuracy)?;
     let plotted: Vec<(&Case, &Vec<Vec6>)> = inp
         .cases
         .iter()
@@ -87,38 +74,71 @@ pub fn build(inp: &Inputs) -> anyhow::Result<Vec<(&'static str, Vec<u8>)>> {
         parameters: &parameters,
         validation: &validation,
         plots: svgs,
-        notes: inp
-            .cases
-            .iter()
-            .map(|c| (c.name.clone(), c.notes.clone()))
-            .chain(
-                inp.pool_runs
-                    .iter()
-                    .map(|r| (r.meta.run.clone(), r.meta.notes.clone())),
-            )
-            .collect(),
+        notes: import_notes(inp),
         pool_html,
         body_html,
         failed: inp.failed.clone(),
     };
-    let fusion: Vec<serde_json::Value> = inp
-            .pool_runs
-            .iter()
-            .map(|r| serde_json::json!({"run": r.meta.run, "role": r.meta.role, "sensors": r.meta.sensors, "stats": r.meta.stats, "accuracy_against_truth": accuracy.iter().find(|a| a.run == r.meta.run)}))
-            .collect();
     let mut files = vec![
         ("index.html", page.render().into_bytes()),
         ("parameters.json", json_bytes(&parameters)?),
         ("validation.json", json_bytes(&validation)?),
-        (
-            "fusion.json",
-            json_bytes(&serde_json::json!({ "runs": fusion }))?,
-        ),
+        ("fusion.json", json_bytes(&fusion_json(inp, &accuracy))?),
     ];
     if let Some((d, _)) = &inp.diagnosis {
         files.push(("diagnosis.json", json_bytes(d)?));
     }
     Ok(files)
+}
+
+/// The sections after the CFD ones: the comparison of methods, the diagnosis and the pool runs.
+fn pool_html(inp: &Inputs, accuracy: &[super::pool::FusionAccuracy]) -> anyhow::Result<String> {
+    let compare_html = inp
+        .comparison
+        .as_ref()
+        .map_or(String::new(), crate::report::compare::section);
+    let diagnosis_html = inp.diagnosis.as_ref().map_or(String::new(), |(d, figs)| {
+        crate::report::diagnose::section(d, figs)
+    });
+    Ok(compare_html
+        + &diagnosis_html
+        + &crate::report::pool::section(
+            &inp.pool_runs,
+            inp.pool_scores.as_ref().map(|(s, _)| s),
+            inp.pool_scores.as_ref().map_or(&[][..], |(_, v)| v),
+            accuracy,
+        )?)
+}
+
+/// The import notes of every CFD case, then of every pool run.
+fn import_notes(inp: &Inputs) -> Vec<(String, Vec<String>)> {
+    inp.cases
+        .iter()
+        .map(|c| (c.name.clone(), c.notes.clone()))
+        .chain(
+            inp.pool_runs
+                .iter()
+                .map(|r| (r.meta.run.clone(), r.meta.notes.clone())),
+        )
+        .collect()
+}
+
+/// `fusion.json`: how each pool run was fused and, where a truth exists, how accurately.
+fn fusion_json(inp: &Inputs, accuracy: &[super::pool::FusionAccuracy]) -> serde_json::Value {
+    let fusion: Vec<serde_json::Value> = inp
+            .pool_runs
+            .iter()
+            .map(|r| serde_json::json!({"run": r.meta.run, "role": r.meta.role, "sensors": r.meta.sensors, "stats": r.meta.stats, "accuracy_against_truth": accuracy.iter().find(|a| a.run == r.meta.run)}))
+            .collect();
+    serde_json::json!({ "runs": fusion })
+}
+
+/// A case a model of a body other than the vehicle was scored on: its index in the inputs,
+/// the model's NMAE in its first DOF, and the model's surge velocity.
+struct OwnCase {
+    index: usize,
+    nmae: f64,
+    surge: Vec<f64>,
 }
 
 /// Model `f` scored on every CFD case it may be scored on (its own body's) and on the pool
@@ -129,6 +149,25 @@ fn score_model(
     f: &FitResult,
     first_sims: &mut [Option<Vec<Vec6>>],
 ) -> anyhow::Result<(ModelScore, String)> {
+    let (mut runs, own_cases) = case_scores(inp, f, first_sims);
+    let html = openfoam_section(inp, f, own_cases)?;
+    runs.extend(pool_scores(inp, f));
+    Ok((
+        ModelScore {
+            model: f.stage.clone(),
+            runs,
+        },
+        html,
+    ))
+}
+
+/// Model `f` scored on each CFD case it may be scored on, and those of its own body's cases;
+/// the first simulation of each case by a model of the vehicle goes to `first_sims`.
+fn case_scores(
+    inp: &Inputs,
+    f: &FitResult,
+    first_sims: &mut [Option<Vec<Vec6>>],
+) -> (Vec<RunScore>, Vec<OwnCase>) {
     let hydro = f.hydro();
     let vehicle = f.vehicle.as_ref().unwrap_or(inp.vehicle);
     let mut runs = Vec::new();
@@ -140,46 +179,65 @@ fn score_model(
         if (f.vehicle.is_some() && !trained) || (f.vehicle.is_none() && c.mass.is_some()) {
             continue;
         }
-        let mut v = vehicle.clone();
-        if let Some(m) = c.mass {
-            v.mass_kg = m;
-        }
-        let plant = Plant::new(&v, hydro);
-        let sim = c.response.simulate(&plant);
+        let sim = simulate(vehicle, hydro, c);
         let role = if trained { "train" } else { "validate" };
         let scores = validate::score(&c.response, &sim);
         if f.vehicle.is_some() {
-            own_cases.push((
-                ci,
-                scores.first().map_or(f64::NAN, |(_, m)| m.nmae),
-                sim.iter().map(|nu| nu[0]).collect::<Vec<f64>>(),
-            ));
+            own_cases.push(OwnCase {
+                index: ci,
+                nmae: scores.first().map_or(f64::NAN, |(_, m)| m.nmae),
+                surge: sim.iter().map(|nu| nu[0]).collect::<Vec<f64>>(),
+            });
         }
-        let dofs = scores
-            .into_iter()
-            .map(|(d, metrics)| {
-                (
-                    d.name().to_string(),
-                    DofMetrics {
-                        metrics,
-                        residual_acf_outside_band: None,
-                    },
-                )
-            })
-            .collect();
-        runs.push(RunScore {
-            run: c.name.clone(),
-            role: role.into(),
-            dofs,
-        });
+        runs.push(case_score(c, role, scores));
         if first_sims[ci].is_none() && f.vehicle.is_none() {
             first_sims[ci] = Some(sim);
         }
     }
+    (runs, own_cases)
+}
+
+/// Case `c` simulated with `hydro` on `vehicle`, with the mass the case states if it states one.
+fn simulate(vehicle: &Vehicle, hydro: Hydro, c: &Case) -> Vec<Vec6> {
+    let mut v = vehicle.clone();
+    if let Some(m) = c.mass {
+        v.mass_kg = m;
+    }
+    let plant = Plant::new(&v, hydro);
+    c.response.simulate(&plant)
+}
+
+/// The score of CFD case `c` in `validation.json`: its role and its metrics per DOF.
+fn case_score(c: &Case, role: &str, scores: Vec<(Dof, Metrics)>) -> RunScore {
+    let dofs = scores
+        .into_iter()
+        .map(|(d, metrics)| {
+            (
+                d.name().to_string(),
+                DofMetrics {
+                    metrics,
+                    residual_acf_outside_band: None,
+                },
+            )
+        })
+        .collect();
+    RunScore {
+        run: c.name.clone(),
+        role: role.into(),
+        dofs,
+    }
+}
+
+/// The OpenFOAM section of model `f` on its own body's cases (empty when it has none).
+fn openfoam_section(
+    inp: &Inputs,
+    f: &FitResult,
+    own_cases: Vec<OwnCase>,
+) -> anyhow::Result<String> {
     let of_cases: Vec<crate::report::openfoam::Case> = own_cases
         .into_iter()
-        .filter_map(|(ci, nmae, simulated)| {
-            let c = &inp.cases[ci];
+        .filter_map(|o| {
+            let c = &inp.cases[o.index];
             let s = c.response.dofs.get(&Dof::Surge)?;
             Some(crate::report::openfoam::Case {
                 name: &c.name,
@@ -187,23 +245,31 @@ fn score_model(
                 t: &c.response.t,
                 velocity: &s.velocity,
                 accel: &s.accel,
-                simulated,
-                nmae,
+                simulated: o.surge,
+                nmae: o.nmae,
                 track: c.track.as_ref(),
             })
         })
         .collect();
-    let html = if of_cases.is_empty() {
-        String::new()
+    if of_cases.is_empty() {
+        Ok(String::new())
     } else {
-        crate::report::openfoam::section(f, &of_cases)?
-    };
-    if let Some(ms) = inp
+        crate::report::openfoam::section(f, &of_cases)
+    }
+}
+
+/// Model `f`'s scores on the pool runs the validate stage scored it on, with residual whiteness.
+fn pool_scores(inp: &Inputs, f: &FitResult) -> Vec<RunScore> {
+    let Some(ms) = inp
         .pool_scores
         .as_ref()
         .and_then(|(s, _)| s.models.iter().find(|m| m.model == f.stage))
-    {
-        for r in &ms.runs {
+    else {
+        return Vec::new();
+    };
+    ms.runs
+        .iter()
+        .map(|r| {
             let dofs = r
                 .dofs
                 .iter()
@@ -217,20 +283,13 @@ fn score_model(
                     )
                 })
                 .collect();
-            runs.push(RunScore {
+            RunScore {
                 run: r.run.clone(),
                 role: r.role.clone(),
                 dofs,
-            });
-        }
-    }
-    Ok((
-        ModelScore {
-            model: f.stage.clone(),
-            runs,
-        },
-        html,
-    ))
+            }
+        })
+        .collect()
 }
 
 /// One plot per DOF with every case that moves in it, against the first model's simulation.

@@ -7,6 +7,7 @@ use crate::diagnose::{Diagnosis, Figure};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
+/// NMAE per DOF as `DOF value` pairs.
 fn nmae(m: &BTreeMap<crate::dof::Dof, f64>) -> String {
     m.iter()
         .map(|(d, v)| format!("{d} {v:.3}"))
@@ -14,8 +15,49 @@ fn nmae(m: &BTreeMap<crate::dof::Dof, f64>) -> String {
         .join(", ")
 }
 
+/// Fitted parameters as `name = value` pairs.
+fn parameters(p: &BTreeMap<String, f64>) -> String {
+    p.iter()
+        .map(|(k, v)| format!("{k} = {v:.3}"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// The diagnosis section: the verdict and criteria, then (unless the model diverged) what was
+/// not tested or refused, the errors before and after, the effects, where the model misses,
+/// the evidence figures and every hypothesis tested.
 pub fn section(d: &Diagnosis, figures: &[Figure]) -> String {
     let mut h = String::new();
+    intro(&mut h, d);
+    if !d.diverged.is_empty() {
+        let _ = writeln!(
+            h,
+            "<p class=\"warn\">The model diverges on: {}. Nothing was diagnosed.</p>",
+            esc(&d.diverged.join(", "))
+        );
+        return h;
+    }
+    untested(&mut h, d);
+    refused(&mut h, d);
+    cost_table(&mut h, d);
+    effects_table(&mut h, d);
+    reestimated_parameters(&mut h, d);
+    mismatch_table(&mut h, d);
+    regimes_table(&mut h, d);
+    for f in figures {
+        let _ = writeln!(
+            h,
+            "<figure>{}<figcaption>{}</figcaption></figure>",
+            f.svg,
+            esc(&f.caption)
+        );
+    }
+    hypotheses(&mut h, d);
+    h
+}
+
+/// The heading, the verdict, and how effects were fitted and judged.
+fn intro(h: &mut String, d: &Diagnosis) {
     let _ = writeln!(
         h,
         "<h2 id=\"diagnosis\">Why the pool runs and the model differ</h2>\n<p><b>{}</b></p>\n<p>Model diagnosed: <code>{}</code>. Effects are fitted on the training runs ({}) by output error and judged on the held-out runs ({}) only. Error cost: sum over DOFs of mean squared velocity error / mean squared velocity; noise floor {:.4} (the fused velocities' own variance). An effect is kept when it lowers the held-out cost by at least {:.0} % plus {:.0} % per parameter and by more than {:.1}× the noise floor. Took {:.1} s.</p>",
@@ -29,45 +71,51 @@ pub fn section(d: &Diagnosis, figures: &[Figure]) -> String {
         d.criteria.min_noise_multiple,
         d.elapsed_s
     );
-    if !d.diverged.is_empty() {
+}
+
+/// The hypotheses not tested, each with what the runs lack for it.
+fn untested(h: &mut String, d: &Diagnosis) {
+    if d.untested.is_empty() {
+        return;
+    }
+    h.push_str("<p>Not tested (the runs lack what these hypotheses need):</p><ul>\n");
+    for u in &d.untested {
         let _ = writeln!(
             h,
-            "<p class=\"warn\">The model diverges on: {}. Nothing was diagnosed.</p>",
-            esc(&d.diverged.join(", "))
+            "<li><code>{}</code>: {}</li>",
+            esc(&u.name),
+            esc(&u.missing)
         );
-        return h;
     }
-    if !d.untested.is_empty() {
-        h.push_str("<p>Not tested (the runs lack what these hypotheses need):</p><ul>\n");
-        for u in &d.untested {
-            let _ = writeln!(
-                h,
-                "<li><code>{}</code>: {}</li>",
-                esc(&u.name),
-                esc(&u.missing)
-            );
-        }
-        h.push_str("</ul>\n");
-    }
+    h.push_str("</ul>\n");
+}
+
+/// The hypotheses that helped only by pushing a parameter to its bound, which are not findings.
+fn refused(h: &mut String, d: &Diagnosis) {
     let refused: Vec<&crate::diagnose::Tested> = d
         .hypotheses
         .iter()
         .filter(|t| !t.at_bound.is_empty() && t.gain > 0.0)
         .collect();
-    if !refused.is_empty() {
-        h.push_str("<p>Not findings — pushed to the bound (the data want more than these effects can give):</p><ul>\n");
-        for t in refused {
-            let _ = writeln!(
-                h,
-                "<li><code>{}</code> (round {}): {} at its bound; held-out cost {:+.1} %</li>",
-                esc(&t.name),
-                t.round,
-                esc(&t.at_bound.join(", ")),
-                -100.0 * t.gain
-            );
-        }
-        h.push_str("</ul>\n");
+    if refused.is_empty() {
+        return;
     }
+    h.push_str("<p>Not findings — pushed to the bound (the data want more than these effects can give):</p><ul>\n");
+    for t in refused {
+        let _ = writeln!(
+            h,
+            "<li><code>{}</code> (round {}): {} at its bound; held-out cost {:+.1} %</li>",
+            esc(&t.name),
+            t.round,
+            esc(&t.at_bound.join(", ")),
+            -100.0 * t.gain
+        );
+    }
+    h.push_str("</ul>\n");
+}
+
+/// The held-out error of the model as fitted, re-estimated, and with each effect added.
+fn cost_table(h: &mut String, d: &Diagnosis) {
     h.push_str("<table><tr><th>model</th><th>held-out NMAE per DOF</th><th>error cost</th></tr>\n");
     let _ = writeln!(
         h,
@@ -96,42 +144,52 @@ pub fn section(d: &Diagnosis, figures: &[Figure]) -> String {
         );
     }
     h.push_str("</table>\n");
-    if !d.effects.is_empty() {
-        h.push_str("<table><tr><th>effect</th><th>DOFs</th><th>parameters</th><th>held-out NMAE before</th><th>after</th><th>evidence</th></tr>\n");
-        for e in &d.effects {
-            let _ = writeln!(
-                h,
-                "<tr><td><code>{}</code></td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
-                esc(&e.name),
-                e.dofs
-                    .iter()
-                    .map(|x| x.name())
-                    .collect::<Vec<_>>()
-                    .join(", "),
-                esc(&e
-                    .parameters
-                    .iter()
-                    .map(|(k, v)| format!("{k} = {v:.3}"))
-                    .collect::<Vec<_>>()
-                    .join(", ")),
-                nmae(&e.validation_nmae_before),
-                nmae(&e.validation_nmae_after),
-                esc(&e.evidence)
-            );
-        }
-        h.push_str("</table>\n");
+}
+
+/// The effects kept: DOFs, parameters, held-out error before and after, and the evidence.
+fn effects_table(h: &mut String, d: &Diagnosis) {
+    if d.effects.is_empty() {
+        return;
     }
-    if d.baseline.parameters_reestimated {
-        h.push_str("<p>Re-estimated parameters:</p><table><tr>");
-        for p in &d.baseline.reestimated.parameters {
-            let _ = write!(h, "<th>{}</th>", esc(&p.name));
-        }
-        h.push_str("</tr><tr>");
-        for p in &d.baseline.reestimated.parameters {
-            let _ = write!(h, "<td>{:.3} ± {:.3}</td>", p.value, p.stderr);
-        }
-        h.push_str("</tr></table>\n");
+    h.push_str("<table><tr><th>effect</th><th>DOFs</th><th>parameters</th><th>held-out NMAE before</th><th>after</th><th>evidence</th></tr>\n");
+    for e in &d.effects {
+        let _ = writeln!(
+            h,
+            "<tr><td><code>{}</code></td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            esc(&e.name),
+            e.dofs
+                .iter()
+                .map(|x| x.name())
+                .collect::<Vec<_>>()
+                .join(", "),
+            esc(&parameters(&e.parameters)),
+            nmae(&e.validation_nmae_before),
+            nmae(&e.validation_nmae_after),
+            esc(&e.evidence)
+        );
     }
+    h.push_str("</table>\n");
+}
+
+/// The model's parameters re-estimated on the training runs, when they were.
+fn reestimated_parameters(h: &mut String, d: &Diagnosis) {
+    if !d.baseline.parameters_reestimated {
+        return;
+    }
+    h.push_str("<p>Re-estimated parameters:</p><table><tr>");
+    for p in &d.baseline.reestimated.parameters {
+        let _ = write!(h, "<th>{}</th>", esc(&p.name));
+    }
+    h.push_str("</tr><tr>");
+    for p in &d.baseline.reestimated.parameters {
+        let _ = write!(h, "<td>{:.3} ± {:.3}</td>", p.value, p.stderr);
+    }
+    h.push_str("</tr></table>\n");
+}
+
+/// Where the model misses on the held-out runs: per run and DOF, the share of the error and
+/// the worst windows.
+fn mismatch_table(h: &mut String, d: &Diagnosis) {
     h.push_str("<h3>Where the model misses (held-out runs)</h3>\n<table><tr><th>run</th><th>DOF</th><th>share of the error</th><th>worst windows (s)</th></tr>\n");
     for m in &d.mismatch {
         let w = m
@@ -149,7 +207,12 @@ pub fn section(d: &Diagnosis, figures: &[Figure]) -> String {
             w
         );
     }
-    h.push_str("</table>\n<table><tr><th>regime</th><th>share of the error</th><th>share of the time</th><th>concentration</th></tr>\n");
+    h.push_str("</table>\n");
+}
+
+/// The error per regime of motion against the time spent in it.
+fn regimes_table(h: &mut String, d: &Diagnosis) {
+    h.push_str("<table><tr><th>regime</th><th>share of the error</th><th>share of the time</th><th>concentration</th></tr>\n");
     for r in &d.regimes {
         let _ = writeln!(
             h,
@@ -165,14 +228,10 @@ pub fn section(d: &Diagnosis, figures: &[Figure]) -> String {
         );
     }
     h.push_str("</table>\n");
-    for f in figures {
-        let _ = writeln!(
-            h,
-            "<figure>{}<figcaption>{}</figcaption></figure>",
-            f.svg,
-            esc(&f.caption)
-        );
-    }
+}
+
+/// Every hypothesis tested, round by round, with its costs, gain, score and whether it was kept.
+fn hypotheses(h: &mut String, d: &Diagnosis) {
     h.push_str("<details><summary>Every hypothesis tested</summary><table><tr><th>round</th><th>effect</th><th>parameters</th><th>training cost</th><th>held-out cost</th><th>gain</th><th>score (ln before/after − penalty)</th><th>kept</th></tr>\n");
     for t in &d.hypotheses {
         let _ = writeln!(
@@ -180,28 +239,27 @@ pub fn section(d: &Diagnosis, figures: &[Figure]) -> String {
             "<tr><td>{}</td><td><code>{}</code></td><td>{}</td><td>{:.4}</td><td>{:.4}</td><td>{:+.1} %</td><td>{:+.3}</td><td>{}</td></tr>",
             t.round,
             esc(&t.name),
-            esc(&t
-                .parameters
-                .iter()
-                .map(|(k, v)| format!("{k} = {v:.3}"))
-                .collect::<Vec<_>>()
-                .join(", ")),
+            esc(&parameters(&t.parameters)),
             t.train_cost,
             t.validation_cost,
             100.0 * t.gain,
             t.score,
-            if t.accepted {
-                "yes".to_string()
-            } else if !t.at_bound.is_empty() {
-                format!(
-                    "no: {} pushed to the bound (the data want more than this effect can give)",
-                    esc(&t.at_bound.join(", "))
-                )
-            } else {
-                String::new()
-            }
+            kept(t)
         );
     }
     h.push_str("</table></details>\n");
-    h
+}
+
+/// Whether a hypothesis was kept, and if not because of a bound, which parameters hit it.
+fn kept(t: &crate::diagnose::Tested) -> String {
+    if t.accepted {
+        "yes".to_string()
+    } else if !t.at_bound.is_empty() {
+        format!(
+            "no: {} pushed to the bound (the data want more than this effect can give)",
+            esc(&t.at_bound.join(", "))
+        )
+    } else {
+        String::new()
+    }
 }

@@ -1,6 +1,6 @@
 //! `index.html`: one self-contained page (inline CSS and SVG; a CSP forbids any fetch).
 
-use super::json::{Parameters, Validation};
+use super::json::{Parameter, Parameters, Validation};
 use crate::estimate::result::FitResult;
 use crate::model::Vehicle;
 use std::fmt::Write as _;
@@ -95,70 +95,17 @@ impl Page<'_> {
         h
     }
 
+    /// One table per fit: its heading and notes, then each parameter with its uncertainty.
     fn parameter_table(&self, h: &mut String) {
         for f in self.fits {
-            let _ = write!(
-                h,
-                "<h2 id=\"model-{s}\">Parameters — model <code>{s}</code></h2>\n<p>Method <code>{m}</code>, objective {o}, {n} equation rows from {c} CFD cases and {r} pool runs; regressor condition number {k}.</p>\n\
-                 <table><tr><th>parameter</th><th>value</th><th>± std. error</th><th>unit</th><th>rel. error</th><th>provenance</th></tr>\n",
-                s = esc(&f.stage),
-                m = esc(&f.method),
-                o = f.objective.label(),
-                n = f.fit.samples,
-                c = f.cases.len(),
-                r = f.runs.len(),
-                k = num(f.fit.condition_number),
-            );
-            if !f.notes.is_empty() {
-                let _ = writeln!(
-                    h,
-                    "<ul class=\"small\">{}</ul>",
-                    f.notes
-                        .iter()
-                        .map(|n| format!("<li>{}</li>", esc(n)))
-                        .collect::<String>()
-                );
-            }
-            if let Some(why) = &f.fit.stopped_early {
-                let _ = writeln!(
-                    h,
-                    "<p class=\"warn\">The search was cut short: {}. These values depend on the machine's speed, not only on the seed.</p>",
-                    esc(why)
-                );
-            }
-            if let Some(e) = f.fit.evaluations {
-                let _ = writeln!(
-                    h,
-                    "<p class=\"small\">{e} objective evaluations; ± is the standard deviation over seeded restarts, the interval their range (see parameters.json).</p>"
-                );
-            }
+            fit_heading(h, f);
             for p in self
                 .parameters
                 .parameters
                 .iter()
                 .filter(|p| p.model == f.stage)
             {
-                let rel = 100.0 * p.stderr / p.value.abs();
-                let flag = match (p.identifiable, &p.note) {
-                    (true, _) => String::new(),
-                    (false, Some(why)) => format!(
-                        " <span class=\"warn\">not identifiable: {}</span>",
-                        esc(why)
-                    ),
-                    (false, None) => {
-                        " <span class=\"warn\">not identifiable from these cases</span>".into()
-                    }
-                };
-                let _ = writeln!(
-                    h,
-                    "<tr><td><code>{n}</code>{flag}</td><td>{v}</td><td>{e}</td><td>{u}</td><td>{r:.2} %</td><td><a href=\"#prov-{s}-{n}\">inputs</a></td></tr>",
-                    n = esc(&p.name),
-                    v = num(p.value),
-                    e = num(p.stderr),
-                    u = esc(&p.unit),
-                    r = rel,
-                    s = esc(&f.stage),
-                );
+                parameter_row(h, f, p);
             }
             h.push_str("</table>\n");
         }
@@ -233,4 +180,68 @@ impl Page<'_> {
             h.push_str("</ul>\n");
         }
     }
+}
+
+/// The heading of fit `f`'s parameter table: method, objective, data and conditioning, its
+/// notes, whether the search was cut short, and the table's header row.
+fn fit_heading(h: &mut String, f: &FitResult) {
+    let _ = write!(
+        h,
+        "<h2 id=\"model-{s}\">Parameters — model <code>{s}</code></h2>\n<p>Method <code>{m}</code>, objective {o}, {n} equation rows from {c} CFD cases and {r} pool runs; regressor condition number {k}.</p>\n\
+         <table><tr><th>parameter</th><th>value</th><th>± std. error</th><th>unit</th><th>rel. error</th><th>provenance</th></tr>\n",
+        s = esc(&f.stage),
+        m = esc(&f.method),
+        o = f.objective.label(),
+        n = f.fit.samples,
+        c = f.cases.len(),
+        r = f.runs.len(),
+        k = num(f.fit.condition_number),
+    );
+    if !f.notes.is_empty() {
+        let _ = writeln!(
+            h,
+            "<ul class=\"small\">{}</ul>",
+            f.notes
+                .iter()
+                .map(|n| format!("<li>{}</li>", esc(n)))
+                .collect::<String>()
+        );
+    }
+    if let Some(why) = &f.fit.stopped_early {
+        let _ = writeln!(
+            h,
+            "<p class=\"warn\">The search was cut short: {}. These values depend on the machine's speed, not only on the seed.</p>",
+            esc(why)
+        );
+    }
+    if let Some(e) = f.fit.evaluations {
+        let _ = writeln!(
+            h,
+            "<p class=\"small\">{e} objective evaluations; ± is the standard deviation over seeded restarts, the interval their range (see parameters.json).</p>"
+        );
+    }
+}
+
+/// One parameter of fit `f`: value, standard error, unit, relative error, whether it is
+/// identifiable, and a link to its provenance.
+fn parameter_row(h: &mut String, f: &FitResult, p: &Parameter) {
+    let rel = 100.0 * p.stderr / p.value.abs();
+    let flag = match (p.identifiable, &p.note) {
+        (true, _) => String::new(),
+        (false, Some(why)) => format!(
+            " <span class=\"warn\">not identifiable: {}</span>",
+            esc(why)
+        ),
+        (false, None) => " <span class=\"warn\">not identifiable from these cases</span>".into(),
+    };
+    let _ = writeln!(
+        h,
+        "<tr><td><code>{n}</code>{flag}</td><td>{v}</td><td>{e}</td><td>{u}</td><td>{r:.2} %</td><td><a href=\"#prov-{s}-{n}\">inputs</a></td></tr>",
+        n = esc(&p.name),
+        v = num(p.value),
+        e = num(p.stderr),
+        u = esc(&p.unit),
+        r = rel,
+        s = esc(&f.stage),
+    );
 }

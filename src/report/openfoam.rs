@@ -82,6 +82,8 @@ pub fn drag_curve(c: &Case, f: &FitResult, length: f64) -> DragCurve {
     out
 }
 
+/// The OpenFOAM section of fit `f`: how each case ran, the identified parameters against their
+/// reference values, the velocities against the model, and the drag along each run.
 pub fn section(f: &FitResult, cases: &[Case]) -> anyhow::Result<String> {
     let mut h = String::new();
     let body = f
@@ -95,6 +97,32 @@ pub fn section(f: &FitResult, cases: &[Case]) -> anyhow::Result<String> {
         b = esc(&body)
     );
     h.push_str("<p>Each case was run by OpenFOAM (pimpleFoam, laminar, sixDoFRigidBodyMotion on a morphing mesh): a constant force pushes the body from rest in still water. Masses and forces are per metre of span.</p>\n");
+    runs_table(&mut h, cases);
+    if let Some(w) = f
+        .settings
+        .get("added_mass_window_s")
+        .and_then(|v| v.as_f64())
+    {
+        let _ = writeln!(
+            h,
+            "<p>Two-step fit: the added mass from the first {w} s of each case (after the start-up transient), while the body accelerates from rest and its drag is still small; then the linear and quadratic drag from every sample with that added mass held.</p>"
+        );
+    }
+    reference_table(&mut h, f);
+    velocity_figure(&mut h, cases)?;
+    if let Some(length) = f
+        .settings
+        .get("reference_length_m")
+        .and_then(|v| v.as_f64())
+    {
+        drag_figure(&mut h, f, cases, length)?;
+    }
+    Ok(h)
+}
+
+/// How each case ran (force, mass, steps, solver time, where its results came from, peak speed,
+/// the model's error), and the OpenFOAM build that ran them.
+fn runs_table(h: &mut String, cases: &[Case]) {
     h.push_str("<table><tr><th>case</th><th>force (N)</th><th>mass (kg)</th><th>end time (s)</th><th>steps</th><th>solver CPU (s)</th><th>wall (s)</th><th>results</th><th>peak speed (m/s)</th><th>model NMAE</th></tr>\n");
     for c in cases {
         let i = c.info;
@@ -129,18 +157,12 @@ pub fn section(f: &FitResult, cases: &[Case]) -> anyhow::Result<String> {
             esc(v)
         );
     }
+}
 
+/// The identified parameters against their reference values, with the one-step fit's values
+/// in a column of their own when there is one.
+fn reference_table(h: &mut String, f: &FitResult) {
     let one_step = f.one_step.as_deref();
-    if let Some(w) = f
-        .settings
-        .get("added_mass_window_s")
-        .and_then(|v| v.as_f64())
-    {
-        let _ = writeln!(
-            h,
-            "<p>Two-step fit: the added mass from the first {w} s of each case (after the start-up transient), while the body accelerates from rest and its drag is still small; then the linear and quadratic drag from every sample with that added mass held.</p>"
-        );
-    }
     let _ = writeln!(
         h,
         "<h3>Identified against reference values</h3>\n<table><tr><th>parameter</th><th>identified</th><th>± std. error</th><th>reference</th><th>difference</th><th>reference from</th>{}</tr>",
@@ -177,7 +199,10 @@ pub fn section(f: &FitResult, cases: &[Case]) -> anyhow::Result<String> {
         );
     }
     h.push_str("</table>\n");
+}
 
+/// The figure of each case's surge velocity against the identified model's.
+fn velocity_figure(h: &mut String, cases: &[Case]) -> anyhow::Result<()> {
     let traces: Vec<Trace> = cases
         .iter()
         .map(|c| Trace {
@@ -198,42 +223,42 @@ pub fn section(f: &FitResult, cases: &[Case]) -> anyhow::Result<String> {
         h,
         "<figure id=\"openfoam-velocity\">{svg}<figcaption>Velocity of each OpenFOAM case (colour) and of the identified constant-coefficient model under the same force (dashed).</figcaption></figure>"
     );
+    Ok(())
+}
 
-    if let Some(length) = f
-        .settings
-        .get("reference_length_m")
-        .and_then(|v| v.as_f64())
-    {
-        let curves: Vec<(&Case, DragCurve)> = cases
-            .iter()
-            .map(|c| (c, drag_curve(c, f, length)))
-            .filter(|(_, d)| !d.travel.is_empty())
-            .collect();
-        let traces: Vec<Trace> = curves
-            .iter()
-            .map(|(c, d)| Trace {
-                label: c.name,
-                t: &d.travel,
-                measured: &d.measured,
-                simulated: &d.model,
-            })
-            .collect();
-        if !traces.is_empty() {
-            let svg = plots::curves(
-                "drag coefficient against distance travelled",
-                "distance travelled / reference length",
-                "Cd",
-                &traces,
-                "constant-coefficient model",
-            )?;
-            let _ = writeln!(
-                h,
-                "<figure id=\"openfoam-drag\">{svg}<figcaption>Drag coefficient Cd = drag / (½ ρ u² L), L = {length} m, from the fluid force on the body less the added-mass reaction, at speeds above a fifth of each run's peak (colour); the identified model's Cd at the same speed (dashed).</figcaption></figure>"
-            );
-            h.push_str(&finding(&curves, f));
-        }
+/// The figure of the drag coefficient along each run against the model's, and what it says;
+/// nothing when no run is fast enough to show one.
+fn drag_figure(h: &mut String, f: &FitResult, cases: &[Case], length: f64) -> anyhow::Result<()> {
+    let curves: Vec<(&Case, DragCurve)> = cases
+        .iter()
+        .map(|c| (c, drag_curve(c, f, length)))
+        .filter(|(_, d)| !d.travel.is_empty())
+        .collect();
+    let traces: Vec<Trace> = curves
+        .iter()
+        .map(|(c, d)| Trace {
+            label: c.name,
+            t: &d.travel,
+            measured: &d.measured,
+            simulated: &d.model,
+        })
+        .collect();
+    if traces.is_empty() {
+        return Ok(());
     }
-    Ok(h)
+    let svg = plots::curves(
+        "drag coefficient against distance travelled",
+        "distance travelled / reference length",
+        "Cd",
+        &traces,
+        "constant-coefficient model",
+    )?;
+    let _ = writeln!(
+        h,
+        "<figure id=\"openfoam-drag\">{svg}<figcaption>Drag coefficient Cd = drag / (½ ρ u² L), L = {length} m, from the fluid force on the body less the added-mass reaction, at speeds above a fifth of each run's peak (colour); the identified model's Cd at the same speed (dashed).</figcaption></figure>"
+    );
+    h.push_str(&finding(&curves, f));
+    Ok(())
 }
 
 /// What the drag curves say about a constant-coefficient model, in numbers.

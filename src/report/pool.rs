@@ -8,7 +8,7 @@ use crate::fusion::run::POOL_DOFS;
 use crate::fusion::{Fused, interp};
 use crate::io::csvlog;
 use crate::plot::{self as plots, PoolTrace};
-use crate::validate::pool::{Scores, Simulated};
+use crate::validate::pool::{ModelScore, RunScore, Scores, Simulated};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -91,6 +91,26 @@ pub fn section(
     if runs.is_empty() {
         return Ok(h);
     }
+    fusion_table(&mut h, runs);
+    repairs(&mut h, runs);
+    accuracy_table(&mut h, accuracy);
+    let Some(scores) = scores else { return Ok(h) };
+    h.push_str("<h2 id=\"pool-validation\">Pool runs: the model against the recordings</h2>\n<p>Each model simulated (RK4, 0.01 s) under the run's logged thrust from the fused initial state; where the model is locally unstable along a run (a perturbation grows, as an open-frame vehicle's sway and yaw do at speed), the simulation is re-anchored to the fused state over windows short enough that an error at most doubles, since a pilot or autopilot kept the real vehicle on course. Residual whiteness (seed 000): share of autocorrelation lags up to 5 s outside the 95 % band ±1.96/√N — about 5 % for a model that explains everything but noise. σ̄ is the mean standard deviation of the fused velocity, the floor no model can beat.</p>\n");
+    for m in &scores.models {
+        model_table(&mut h, m);
+        stability(&mut h, m);
+        mean_nmae_summary(&mut h, m);
+    }
+    if !scores.cross.is_empty() {
+        cross_validation(&mut h, runs, scores);
+    }
+    run_figures(&mut h, runs, scores, sims)?;
+    Ok(h)
+}
+
+/// The fusion heading and its table: per run, the sensors used, the fixes kept and rejected,
+/// the gyro bias, the UWB noise and the DOFs the fusion knows.
+fn fusion_table(h: &mut String, runs: &[FusedRun]) {
     h.push_str("<h2 id=\"fusion\">Pool runs: sensor fusion</h2>\n<p>UWB, sonar, depth and IMU fused by a Kalman filter with a Rauch-Tung-Striebel smoother (heading with gyro bias; position and velocity driven by the accelerometers, UWB fixes screened by a median filter and a chi-square gate). Noise levels estimated from each log unless set.</p>\n");
     h.push_str("<table><tr><th>run</th><th>role</th><th>sensors</th><th>UWB fixes (multipath rejected)</th><th>sonar fixes</th><th>gyro bias (°/s)</th><th>UWB σ (m)</th><th>DOFs known</th></tr>\n");
     for r in runs {
@@ -117,153 +137,185 @@ pub fn section(
         );
     }
     h.push_str("</table>\n");
+}
+
+/// The list of timing repairs and navigation-log noise, for the runs that have any.
+fn repairs(h: &mut String, runs: &[FusedRun]) {
     let repaired: Vec<&FusedRun> = runs
         .iter()
         .filter(|r| !r.meta.repairs.is_empty() || !r.meta.stats.nav.is_empty())
         .collect();
-    if !repaired.is_empty() {
-        h.push_str("<h3 id=\"repairs\">Timing repairs and navigation-log noise</h3>\n<ul>\n");
-        for r in repaired {
-            for rep in &r.meta.repairs {
-                let _ = writeln!(
-                    h,
-                    "<li><code>{}</code>: {}</li>",
-                    esc(&r.meta.run),
-                    esc(rep)
-                );
-            }
-            for (ch, n) in &r.meta.stats.nav {
-                let _ = writeln!(
-                    h,
-                    "<li><code>{}</code> nav <code>{ch}</code>: noise σ {:.4} m/s (lag-1 estimate {:.4}); errors correlated over {:.1} samples{}</li>",
-                    esc(&r.meta.run),
-                    n.sigma,
-                    n.sigma_lag1,
-                    n.correlated_samples,
-                    if n.correlated_samples > 2.0 {
-                        " — the log was filtered before it was written, so its samples count for less"
-                    } else {
-                        ""
-                    }
-                );
-            }
-        }
-        h.push_str("</ul>\n");
+    if repaired.is_empty() {
+        return;
     }
-    if !accuracy.is_empty() {
-        h.push_str("<h3 id=\"fusion-accuracy\">Fusion accuracy against the twin's truth</h3>\n<p>These runs are synthetic: their true velocities are in the truth files named below (outside <code>cases/</code>, never read by the fusion). RMSE of the fused velocity, with and without the sonar; error/σ is the RMS of the error divided by the stated standard deviation (near 1 when the uncertainty is honest).</p>\n<table><tr><th>run</th><th>DOF</th><th>RMSE</th><th>RMSE without sonar</th><th>error/σ</th><th>truth</th></tr>\n");
-        for a in accuracy {
-            for (d, e) in &a.rmse {
-                let ns = a
-                    .rmse_without_sonar
-                    .as_ref()
-                    .and_then(|m| m.get(d))
-                    .map_or("no sonar in run".into(), |x| format!("{x:.4} {}", unit(*d)));
-                let _ = writeln!(
-                    h,
-                    "<tr><td>{}</td><td>{d}</td><td>{e:.4} {}</td><td>{ns}</td><td>{:.2}</td><td><code>{}</code></td></tr>",
-                    esc(&a.run),
-                    unit(*d),
-                    a.error_over_std[d],
-                    esc(&a.truth)
-                );
-            }
-        }
-        h.push_str("</table>\n");
-    }
-    let Some(scores) = scores else { return Ok(h) };
-    h.push_str("<h2 id=\"pool-validation\">Pool runs: the model against the recordings</h2>\n<p>Each model simulated (RK4, 0.01 s) under the run's logged thrust from the fused initial state; where the model is locally unstable along a run (a perturbation grows, as an open-frame vehicle's sway and yaw do at speed), the simulation is re-anchored to the fused state over windows short enough that an error at most doubles, since a pilot or autopilot kept the real vehicle on course. Residual whiteness (seed 000): share of autocorrelation lags up to 5 s outside the 95 % band ±1.96/√N — about 5 % for a model that explains everything but noise. σ̄ is the mean standard deviation of the fused velocity, the floor no model can beat.</p>\n");
-    for m in &scores.models {
-        let _ = writeln!(
-            h,
-            "<table><tr><th>model <code>{}</code>: run</th><th>role</th><th>DOF</th><th>MAE</th><th>NMAE</th><th>RMSE % of peak</th><th>residual ACF outside band</th><th>σ̄</th></tr>",
-            esc(&m.model)
-        );
-        for r in &m.runs {
-            for (d, s) in &r.dofs {
-                let flag = if r.diverged {
-                    " <span class=\"warn\">diverged</span>"
-                } else {
-                    ""
-                };
-                let _ = writeln!(
-                    h,
-                    "<tr><td>{}{flag}</td><td>{}</td><td>{d}</td><td>{:.4}</td><td>{:.3}</td><td>{:.2}</td><td>{:.0} %</td><td>{:.4}</td></tr>",
-                    esc(&r.run),
-                    r.role,
-                    s.metrics.mae,
-                    s.metrics.nmae,
-                    s.metrics.rmse_pct,
-                    100.0 * s.whiteness.outside,
-                    s.measurement_std
-                );
-            }
-        }
-        h.push_str("</table>\n");
-        let stab: String = m
-            .runs
-            .iter()
-            .filter_map(|r| {
-                r.stability.map(|s| {
-                    format!(
-                        "<li><code>{}</code>: {}</li>",
-                        esc(&r.run),
-                        esc(&crate::model::stability::describe(&s))
-                    )
-                })
-            })
-            .collect();
-        if !stab.is_empty() {
+    h.push_str("<h3 id=\"repairs\">Timing repairs and navigation-log noise</h3>\n<ul>\n");
+    for r in repaired {
+        for rep in &r.meta.repairs {
             let _ = writeln!(
                 h,
-                "<p>Local stability of model <code>{}</code> along each run (eigenvalues of the model linearised at the recorded velocity):</p><ul class=\"small\" id=\"stability-{}\">{stab}</ul>",
-                esc(&m.model),
-                esc(&m.model)
+                "<li><code>{}</code>: {}</li>",
+                esc(&r.meta.run),
+                esc(rep)
             );
         }
-        h.push_str("<p>Cross-validation summary, mean NMAE per DOF: ");
-        for (role, per) in &m.mean_nmae {
-            let v: Vec<String> = per.iter().map(|(d, x)| format!("{d} {x:.3}")).collect();
-            let _ = write!(h, "<b>{role}</b> runs: {}; ", v.join(", "));
+        for (ch, n) in &r.meta.stats.nav {
+            let _ = writeln!(
+                h,
+                "<li><code>{}</code> nav <code>{ch}</code>: noise σ {:.4} m/s (lag-1 estimate {:.4}); errors correlated over {:.1} samples{}</li>",
+                esc(&r.meta.run),
+                n.sigma,
+                n.sigma_lag1,
+                n.correlated_samples,
+                if n.correlated_samples > 2.0 {
+                    " — the log was filtered before it was written, so its samples count for less"
+                } else {
+                    ""
+                }
+            );
         }
-        h.push_str("</p>\n");
     }
-    if !scores.cross.is_empty() {
-        let names: Vec<&str> = runs.iter().map(|r| r.meta.run.as_str()).collect();
-        h.push_str("<h3 id=\"cross-validation\">Cross-validation across runs</h3>\n<p>The diagonal model re-estimated by least squares on one training run alone (equation error on the fused velocities and their derivative), then simulated on every other run: mean NMAE over the DOFs. Rows: the run it was fitted on; columns: the run it is scored on. A model that only fits its own run, or parameters that drift from run to run, show here.</p>\n<table><tr><th>fitted on \\ scored on</th>");
+    h.push_str("</ul>\n");
+}
+
+/// The fusion's accuracy against the twin's truth, per run and DOF (nothing without truth).
+fn accuracy_table(h: &mut String, accuracy: &[FusionAccuracy]) {
+    if accuracy.is_empty() {
+        return;
+    }
+    h.push_str("<h3 id=\"fusion-accuracy\">Fusion accuracy against the twin's truth</h3>\n<p>These runs are synthetic: their true velocities are in the truth files named below (outside <code>cases/</code>, never read by the fusion). RMSE of the fused velocity, with and without the sonar; error/σ is the RMS of the error divided by the stated standard deviation (near 1 when the uncertainty is honest).</p>\n<table><tr><th>run</th><th>DOF</th><th>RMSE</th><th>RMSE without sonar</th><th>error/σ</th><th>truth</th></tr>\n");
+    for a in accuracy {
+        for (d, e) in &a.rmse {
+            let ns = a
+                .rmse_without_sonar
+                .as_ref()
+                .and_then(|m| m.get(d))
+                .map_or("no sonar in run".into(), |x| format!("{x:.4} {}", unit(*d)));
+            let _ = writeln!(
+                h,
+                "<tr><td>{}</td><td>{d}</td><td>{e:.4} {}</td><td>{ns}</td><td>{:.2}</td><td><code>{}</code></td></tr>",
+                esc(&a.run),
+                unit(*d),
+                a.error_over_std[d],
+                esc(&a.truth)
+            );
+        }
+    }
+    h.push_str("</table>\n");
+}
+
+/// Model `m`'s scores on each pool run and DOF: errors, residual whiteness and the noise floor.
+fn model_table(h: &mut String, m: &ModelScore) {
+    let _ = writeln!(
+        h,
+        "<table><tr><th>model <code>{}</code>: run</th><th>role</th><th>DOF</th><th>MAE</th><th>NMAE</th><th>RMSE % of peak</th><th>residual ACF outside band</th><th>σ̄</th></tr>",
+        esc(&m.model)
+    );
+    for r in &m.runs {
+        for (d, s) in &r.dofs {
+            let flag = if r.diverged {
+                " <span class=\"warn\">diverged</span>"
+            } else {
+                ""
+            };
+            let _ = writeln!(
+                h,
+                "<tr><td>{}{flag}</td><td>{}</td><td>{d}</td><td>{:.4}</td><td>{:.3}</td><td>{:.2}</td><td>{:.0} %</td><td>{:.4}</td></tr>",
+                esc(&r.run),
+                r.role,
+                s.metrics.mae,
+                s.metrics.nmae,
+                s.metrics.rmse_pct,
+                100.0 * s.whiteness.outside,
+                s.measurement_std
+            );
+        }
+    }
+    h.push_str("</table>\n");
+}
+
+/// Model `m`'s local stability along each run, for the runs where it was assessed.
+fn stability(h: &mut String, m: &ModelScore) {
+    let stab: String = m
+        .runs
+        .iter()
+        .filter_map(|r| {
+            r.stability.map(|s| {
+                format!(
+                    "<li><code>{}</code>: {}</li>",
+                    esc(&r.run),
+                    esc(&crate::model::stability::describe(&s))
+                )
+            })
+        })
+        .collect();
+    if !stab.is_empty() {
+        let _ = writeln!(
+            h,
+            "<p>Local stability of model <code>{}</code> along each run (eigenvalues of the model linearised at the recorded velocity):</p><ul class=\"small\" id=\"stability-{}\">{stab}</ul>",
+            esc(&m.model),
+            esc(&m.model)
+        );
+    }
+}
+
+/// Model `m`'s mean NMAE per DOF, one entry per run role.
+fn mean_nmae_summary(h: &mut String, m: &ModelScore) {
+    h.push_str("<p>Cross-validation summary, mean NMAE per DOF: ");
+    for (role, per) in &m.mean_nmae {
+        let v: Vec<String> = per.iter().map(|(d, x)| format!("{d} {x:.3}")).collect();
+        let _ = write!(h, "<b>{role}</b> runs: {}; ", v.join(", "));
+    }
+    h.push_str("</p>\n");
+}
+
+/// The cross-validation matrix (fitted on one run, scored on each other) and its notes.
+fn cross_validation(h: &mut String, runs: &[FusedRun], scores: &Scores) {
+    let names: Vec<&str> = runs.iter().map(|r| r.meta.run.as_str()).collect();
+    h.push_str("<h3 id=\"cross-validation\">Cross-validation across runs</h3>\n<p>The diagonal model re-estimated by least squares on one training run alone (equation error on the fused velocities and their derivative), then simulated on every other run: mean NMAE over the DOFs. Rows: the run it was fitted on; columns: the run it is scored on. A model that only fits its own run, or parameters that drift from run to run, show here.</p>\n<table><tr><th>fitted on \\ scored on</th>");
+    for n in &names {
+        let _ = write!(h, "<th>{}</th>", esc(n));
+    }
+    h.push_str("</tr>\n");
+    for c in &scores.cross {
+        let _ = write!(h, "<tr><td>{}</td>", esc(&c.trained_on));
         for n in &names {
-            let _ = write!(h, "<th>{}</th>", esc(n));
+            let cell = c
+                .runs
+                .iter()
+                .find(|r| r.run == *n)
+                .map_or("–".to_string(), cross_cell);
+            let _ = write!(h, "<td>{cell}</td>");
         }
         h.push_str("</tr>\n");
-        for c in &scores.cross {
-            let _ = write!(h, "<tr><td>{}</td>", esc(&c.trained_on));
-            for n in &names {
-                let cell = c
-                    .runs
-                    .iter()
-                    .find(|r| r.run == *n)
-                    .map_or("–".to_string(), |r| {
-                        if r.diverged {
-                            "diverged".into()
-                        } else {
-                            let v: Vec<f64> = r
-                                .dofs
-                                .values()
-                                .map(|s| s.metrics.nmae)
-                                .filter(|x| x.is_finite())
-                                .collect();
-                            format!("{:.3}", v.iter().sum::<f64>() / v.len().max(1) as f64)
-                        }
-                    });
-                let _ = write!(h, "<td>{cell}</td>");
-            }
-            h.push_str("</tr>\n");
-        }
-        h.push_str("</table>\n");
-        for n in &scores.notes {
-            let _ = writeln!(h, "<p class=\"small\">{}</p>", esc(n));
-        }
     }
+    h.push_str("</table>\n");
+    for n in &scores.notes {
+        let _ = writeln!(h, "<p class=\"small\">{}</p>", esc(n));
+    }
+}
+
+/// One cell of the cross-validation matrix: the mean finite NMAE over the DOFs, or "diverged".
+fn cross_cell(r: &RunScore) -> String {
+    if r.diverged {
+        "diverged".into()
+    } else {
+        let v: Vec<f64> = r
+            .dofs
+            .values()
+            .map(|s| s.metrics.nmae)
+            .filter(|x| x.is_finite())
+            .collect();
+        format!("{:.3}", v.iter().sum::<f64>() / v.len().max(1) as f64)
+    }
+}
+
+/// One figure per run the first model was simulated on: its fused velocities against the model.
+fn run_figures(
+    h: &mut String,
+    runs: &[FusedRun],
+    scores: &Scores,
+    sims: &[Simulated],
+) -> anyhow::Result<()> {
     let first = scores
         .models
         .first()
@@ -276,25 +328,7 @@ pub fn section(
         else {
             continue;
         };
-        let traces: Vec<PoolTrace> = POOL_DOFS
-            .iter()
-            .enumerate()
-            .filter_map(|(j, d)| {
-                let (v, s, m) = (
-                    r.fused.vel[j].as_ref()?,
-                    r.fused.std[j].as_ref()?,
-                    sim.nu.get(d)?,
-                );
-                Some(PoolTrace {
-                    dof: *d,
-                    t: &r.fused.t,
-                    measured: v,
-                    std: s,
-                    simulated: m,
-                })
-            })
-            .collect();
-        let svg = plots::pool_run(&r.meta.run, &first, &traces)?;
+        let svg = plots::pool_run(&r.meta.run, &first, &traces(r, sim))?;
         let _ = writeln!(
             h,
             "<figure id=\"pool-{}\">{svg}<figcaption>Run <code>{}</code> ({}): per DOF, the fused velocity with its ±2σ band and model <code>{}</code> simulated under the logged thrust; beneath, the error (red) inside the ±2σ band.</figcaption></figure>",
@@ -304,5 +338,27 @@ pub fn section(
             esc(&first)
         );
     }
-    Ok(h)
+    Ok(())
+}
+
+/// The traces of run `r`'s figure: each DOF with a fused velocity, its σ and a simulation.
+fn traces<'a>(r: &'a FusedRun, sim: &'a Simulated) -> Vec<PoolTrace<'a>> {
+    POOL_DOFS
+        .iter()
+        .enumerate()
+        .filter_map(|(j, d)| {
+            let (v, s, m) = (
+                r.fused.vel[j].as_ref()?,
+                r.fused.std[j].as_ref()?,
+                sim.nu.get(d)?,
+            );
+            Some(PoolTrace {
+                dof: *d,
+                t: &r.fused.t,
+                measured: v,
+                std: s,
+                simulated: m,
+            })
+        })
+        .collect()
 }
