@@ -50,24 +50,52 @@ impl Data<'_> {
         }
         v
     }
+
+    /// One problem from the CFD cases and the pool runs (see [`combine`]), and the body mass
+    /// each source was regressed with. Cases that state their own body mass (OpenFOAM) are
+    /// regressed with it.
+    fn problem(&self, notes: &mut Vec<String>) -> (Regression, Vec<f64>) {
+        let mut cfd = Regression::build(self.vehicle, &[], self.skip_start_s);
+        let mut masses = Vec::new();
+        for (r, mass) in &self.cases {
+            let v = self.with_mass(*mass);
+            masses.push(v.mass_kg);
+            cfd.append(Regression::build(&v, &[r], self.skip_start_s));
+        }
+        let pool = Regression::build(self.vehicle, &self.pool, self.skip_start_s);
+        if !self.pool.is_empty() {
+            masses.push(self.vehicle.mass_kg);
+        }
+        (combine(cfd, pool, notes), masses)
+    }
+
+    /// The CFD cases' rows up to `window` after `skip_start_s`: the accelerations from rest.
+    fn early(&self, window: f64) -> Regression {
+        let mut early = Regression::build(self.vehicle, &[], self.skip_start_s);
+        for (r, mass) in &self.cases {
+            early.append(Regression::build(
+                &self.with_mass(*mass),
+                &[&truncate(r, self.skip_start_s + window)],
+                self.skip_start_s,
+            ));
+        }
+        early
+    }
+
+    /// Every response, the CFD cases first.
+    fn responses(&self) -> Vec<&Response> {
+        self.cases
+            .iter()
+            .map(|(r, _)| *r)
+            .chain(self.pool.iter().copied())
+            .collect()
+    }
 }
 
 /// Identifies the model of `data.vehicle` as `req` asks.
 pub fn identify(data: &Data, req: &Request) -> anyhow::Result<Identified> {
     let mut notes = Vec::new();
-    // Cases that state their own body mass (OpenFOAM) are regressed with it.
-    let mut cfd = Regression::build(data.vehicle, &[], data.skip_start_s);
-    let mut masses = Vec::new();
-    for (r, mass) in &data.cases {
-        let v = data.with_mass(*mass);
-        masses.push(v.mass_kg);
-        cfd.append(Regression::build(&v, &[r], data.skip_start_s));
-    }
-    let pool = Regression::build(data.vehicle, &data.pool, data.skip_start_s);
-    if !data.pool.is_empty() {
-        masses.push(data.vehicle.mass_kg);
-    }
-    let problem = combine(cfd, pool, &mut notes);
+    let (problem, masses) = data.problem(&mut notes);
     let one_mass = masses.windows(2).all(|w| w[0] == w[1]);
     anyhow::ensure!(
         one_mass || req.objective == Objective::EquationError,
@@ -77,12 +105,7 @@ pub fn identify(data: &Data, req: &Request) -> anyhow::Result<Identified> {
     if let Some(m) = masses.first() {
         sim_vehicle.mass_kg = *m;
     }
-    let refs: Vec<&Response> = data
-        .cases
-        .iter()
-        .map(|(r, _)| *r)
-        .chain(data.pool.iter().copied())
-        .collect();
+    let refs = data.responses();
     let opts = req.method.options(Options {
         rigid_mass: sim_vehicle.rigid_mass(),
         progress: req.progress,
@@ -90,30 +113,9 @@ pub fn identify(data: &Data, req: &Request) -> anyhow::Result<Identified> {
             .then_some((&sim_vehicle, &refs[..])),
         ..Default::default()
     });
-    let estimator = req.method.estimator;
     let (mut fit, one_step) = match req.added_mass_window_s {
-        None => (estimator.fit(&problem, &opts)?, None),
-        Some(window) => {
-            anyhow::ensure!(
-                req.method.name() == "ols" && req.objective == Objective::EquationError,
-                "added_mass_window_s is a two-step least-squares fit: use method: ols, objective: equation_error"
-            );
-            anyhow::ensure!(window > 0.0, "added_mass_window_s must be positive");
-            anyhow::ensure!(
-                data.pool.is_empty(),
-                "added_mass_window_s is for CFD runs from rest; remove the pool stage from this fit's `from`"
-            );
-            let mut early = Regression::build(data.vehicle, &[], data.skip_start_s);
-            for (r, mass) in &data.cases {
-                early.append(Regression::build(
-                    &data.with_mass(*mass),
-                    &[&truncate(r, data.skip_start_s + window)],
-                    data.skip_start_s,
-                ));
-            }
-            let one = estimator.fit(&problem, &opts).ok().map(|f| f.parameters);
-            (two_step(&early, &problem)?, one)
-        }
+        None => (req.method.estimator.fit(&problem, &opts)?, None),
+        Some(window) => two_step_fit(data, req, &problem, &opts, window)?,
     };
     super::check_signs(&problem.layout, &mut fit.parameters);
     Ok(Identified {
@@ -123,4 +125,32 @@ pub fn identify(data: &Data, req: &Request) -> anyhow::Result<Identified> {
         rows: problem.rows(),
         notes,
     })
+}
+
+/// Two-step least squares with the added mass from `window` (see [`two_step`]), and what the
+/// method's one-step fit of `problem` gives, for contrast.
+fn two_step_fit(
+    data: &Data,
+    req: &Request,
+    problem: &Regression,
+    opts: &Options,
+    window: f64,
+) -> anyhow::Result<(Fit, Option<Vec<Estimate>>)> {
+    anyhow::ensure!(
+        req.method.name() == "ols" && req.objective == Objective::EquationError,
+        "added_mass_window_s is a two-step least-squares fit: use method: ols, objective: equation_error"
+    );
+    anyhow::ensure!(window > 0.0, "added_mass_window_s must be positive");
+    anyhow::ensure!(
+        data.pool.is_empty(),
+        "added_mass_window_s is for CFD runs from rest; remove the pool stage from this fit's `from`"
+    );
+    let early = data.early(window);
+    let one = req
+        .method
+        .estimator
+        .fit(problem, opts)
+        .ok()
+        .map(|f| f.parameters);
+    Ok((two_step(&early, problem)?, one))
 }

@@ -30,60 +30,119 @@ pub fn output_error_lm(
     iterations: usize,
 ) -> Refined {
     let p = theta0.len();
-    let signs: Vec<Option<f64>> = (0..p).map(|j| layout.slot(j).0.physical_sign()).collect();
-    let keep_sign = |theta: &mut [f64]| {
-        for (x, s) in theta.iter_mut().zip(&signs) {
+    let theta = theta0.to_vec();
+    let r = oe.residuals(layout, &theta);
+    let cost = sum_sq(&r);
+    let cost_before = cost / r.len().max(1) as f64;
+    let mut lm = Lm {
+        oe,
+        layout,
+        signs: (0..p).map(|j| layout.slot(j).0.physical_sign()).collect(),
+        theta,
+        r,
+        cost,
+        lambda: 1e-3,
+    };
+    let mut a = DMatrix::<f64>::zeros(p, p);
+    for _ in 0..iterations {
+        let jac = jacobian(oe, layout, &lm.theta, &lm.r);
+        let g;
+        (a, g) = normal_equations(&jac, &lm.r);
+        if !lm.step(&a, &g) {
+            break;
+        }
+    }
+    let n = lm.r.len();
+    let stderr = standard_errors(&lm.r, lm.cost, a);
+    Refined {
+        theta: lm.theta,
+        stderr,
+        cost_before,
+        cost_after: lm.cost / n.max(1) as f64,
+    }
+}
+
+/// Levenberg-Marquardt's state: the coefficients, their residuals and cost, and the damping.
+struct Lm<'a, 'o> {
+    oe: &'a OutputError<'o>,
+    layout: &'a ParamLayout,
+    /// The physical sign of each coefficient, where it has one.
+    signs: Vec<Option<f64>>,
+    theta: Vec<f64>,
+    r: Vec<f64>,
+    cost: f64,
+    lambda: f64,
+}
+
+impl Lm<'_, '_> {
+    /// Sets to zero every coefficient past its physical sign.
+    fn keep_sign(&self, theta: &mut [f64]) {
+        for (x, s) in theta.iter_mut().zip(&self.signs) {
             if let Some(s) = s
                 && *x * s < 0.0
             {
                 *x = 0.0;
             }
         }
-    };
-    let sq = |r: &[f64]| r.iter().map(|x| x * x).sum::<f64>();
-    let mut theta = theta0.to_vec();
-    let mut r = oe.residuals(layout, &theta);
-    let mut cost = sq(&r);
-    let cost_before = cost / r.len().max(1) as f64;
-    let mut lambda = 1e-3;
-    let mut a = DMatrix::<f64>::zeros(p, p);
-    for _ in 0..iterations {
-        let jac = jacobian(oe, layout, &theta, &r);
-        a = DMatrix::from_fn(p, p, |i, j| {
-            jac[i].iter().zip(&jac[j]).map(|(x, y)| x * y).sum()
-        });
-        let g = DVector::from_fn(p, |i, _| jac[i].iter().zip(&r).map(|(x, y)| x * y).sum());
-        let mut improved = false;
+    }
+
+    /// Tries up to 8 steps on the normal equations `a`, `g`, the damping raised after each that
+    /// fails to lower the cost and lowered after the one that does, which is taken. Whether a
+    /// step was taken and lowered the cost by more than a relative 1e-7.
+    fn step(&mut self, a: &DMatrix<f64>, g: &DVector<f64>) -> bool {
+        let p = self.theta.len();
         for _ in 0..8 {
             let mut damped = a.clone();
             for i in 0..p {
-                damped[(i, i)] += lambda * a[(i, i)].max(1e-12);
+                damped[(i, i)] += self.lambda * a[(i, i)].max(1e-12);
             }
-            let Some(step) = damped.lu().solve(&(-&g)) else {
-                break;
+            let Some(step) = damped.lu().solve(&(-g)) else {
+                return false;
             };
-            let mut next: Vec<f64> = theta.iter().zip(step.iter()).map(|(x, d)| x + d).collect();
-            keep_sign(&mut next);
-            let rn = oe.residuals(layout, &next);
-            let cn = sq(&rn);
-            if cn.is_finite() && cn < cost {
-                let gain = (cost - cn) / cost;
-                (theta, r, cost) = (next, rn, cn);
-                lambda = (lambda / 3.0).max(1e-9);
-                improved = gain > 1e-7;
-                break;
+            let mut next: Vec<f64> = self
+                .theta
+                .iter()
+                .zip(step.iter())
+                .map(|(x, d)| x + d)
+                .collect();
+            self.keep_sign(&mut next);
+            let rn = self.oe.residuals(self.layout, &next);
+            let cn = sum_sq(&rn);
+            if cn.is_finite() && cn < self.cost {
+                let gain = (self.cost - cn) / self.cost;
+                (self.theta, self.r, self.cost) = (next, rn, cn);
+                self.lambda = (self.lambda / 3.0).max(1e-9);
+                return gain > 1e-7;
             }
-            lambda *= 4.0;
+            self.lambda *= 4.0;
         }
-        if !improved {
-            break;
-        }
+        false
     }
-    let n = r.len();
-    // The velocity errors of a simulation are correlated from sample to sample (a fused
-    // recording is smoothed, a model error persists), so n samples carry the information of
-    // fewer: the variance grows by the AR(1) long-run factor (1 + rho) / (1 - rho) of the
-    // residual's lag-1 autocorrelation.
+}
+
+/// Sum of squares.
+fn sum_sq(r: &[f64]) -> f64 {
+    r.iter().map(|x| x * x).sum::<f64>()
+}
+
+/// The Gauss-Newton normal equations from the Jacobian's columns `jac`: `J^T J` and `J^T r`.
+fn normal_equations(jac: &[Vec<f64>], r: &[f64]) -> (DMatrix<f64>, DVector<f64>) {
+    let p = jac.len();
+    let a = DMatrix::from_fn(p, p, |i, j| {
+        jac[i].iter().zip(&jac[j]).map(|(x, y)| x * y).sum()
+    });
+    let g = DVector::from_fn(p, |i, _| jac[i].iter().zip(r).map(|(x, y)| x * y).sum());
+    (a, g)
+}
+
+/// Standard errors from `J^T J` (`a`) and the residuals `r` whose sum of squares is `cost`.
+///
+/// The velocity errors of a simulation are correlated from sample to sample (a fused
+/// recording is smoothed, a model error persists), so n samples carry the information of
+/// fewer: the variance grows by the AR(1) long-run factor (1 + rho) / (1 - rho) of the
+/// residual's lag-1 autocorrelation.
+fn standard_errors(r: &[f64], cost: f64, a: DMatrix<f64>) -> Vec<f64> {
+    let (n, p) = (r.len(), a.nrows());
     let rho = {
         let (num, den) = r
             .windows(2)
@@ -95,15 +154,9 @@ pub fn output_error_lm(
         }
     };
     let s2 = cost / (n.saturating_sub(p)).max(1) as f64 * (1.0 + rho) / (1.0 - rho);
-    let stderr = match a.try_inverse() {
+    match a.try_inverse() {
         Some(inv) => (0..p).map(|j| (s2 * inv[(j, j)]).max(0.0).sqrt()).collect(),
         None => vec![f64::NAN; p],
-    };
-    Refined {
-        theta,
-        stderr,
-        cost_before,
-        cost_after: cost / n.max(1) as f64,
     }
 }
 

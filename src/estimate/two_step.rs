@@ -62,12 +62,8 @@ pub fn two_step(early: &Regression, all: &Regression) -> anyhow::Result<Fit> {
     use crate::model::params::Group;
     let layout = &all.layout;
     let p = layout.len();
-    let added: Vec<usize> = (0..p)
-        .filter(|&j| layout.slot(j).0 == Group::AddedMass)
-        .collect();
-    let drag: Vec<usize> = (0..p)
-        .filter(|&j| layout.slot(j).0 != Group::AddedMass)
-        .collect();
+    let (added, drag): (Vec<usize>, Vec<usize>) =
+        (0..p).partition(|&j| layout.slot(j).0 == Group::AddedMass);
     // Step 1: drag held at zero over the window.
     let (am, am_se, k1) = subset_lstsq(early, &added, &vec![0.0; p])?;
     let mut theta = vec![0.0; p];
@@ -80,19 +76,6 @@ pub fn two_step(early: &Regression, all: &Regression) -> anyhow::Result<Fit> {
     for (k, &j) in drag.iter().enumerate() {
         theta[j] = dr[k];
         se[j] = dr_se[k];
-    }
-    let mut sigma: BTreeMap<String, (f64, usize)> = BTreeMap::new();
-    for i in 0..all.rows() {
-        let r = all.y[i]
-            - all
-                .row(i)
-                .iter()
-                .zip(&theta)
-                .map(|(a, t)| a * t)
-                .sum::<f64>();
-        let e = sigma.entry(all.row_dof[i].name().to_string()).or_default();
-        e.0 += r * r;
-        e.1 += 1;
     }
     let condition_number = k1.max(k2);
     Ok(Fit {
@@ -109,10 +92,7 @@ pub fn two_step(early: &Regression, all: &Regression) -> anyhow::Result<Fit> {
                 note: None,
             })
             .collect(),
-        residual_sigma: sigma
-            .into_iter()
-            .map(|(d, (ss, n))| (d, (ss / n.max(1) as f64).sqrt()))
-            .collect(),
+        residual_sigma: residual_sigma(all, &theta),
         samples: all.rows(),
         condition_number,
         evaluations: None,
@@ -120,4 +100,25 @@ pub fn two_step(early: &Regression, all: &Regression) -> anyhow::Result<Fit> {
         stopped_early: None,
         trace: None,
     })
+}
+
+/// Residual standard deviation of `reg`'s rows at `theta`, per DOF.
+fn residual_sigma(reg: &Regression, theta: &[f64]) -> BTreeMap<String, f64> {
+    let mut sigma: BTreeMap<String, (f64, usize)> = BTreeMap::new();
+    for i in 0..reg.rows() {
+        let r = reg.y[i]
+            - reg
+                .row(i)
+                .iter()
+                .zip(theta)
+                .map(|(a, t)| a * t)
+                .sum::<f64>();
+        let e = sigma.entry(reg.row_dof[i].name().to_string()).or_default();
+        e.0 += r * r;
+        e.1 += 1;
+    }
+    sigma
+        .into_iter()
+        .map(|(d, (ss, n))| (d, (ss / n.max(1) as f64).sqrt()))
+        .collect()
 }

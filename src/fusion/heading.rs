@@ -38,87 +38,120 @@ impl<'a> HeadingInput<'a> {
     }
 }
 
-/// The heading filter with yaw noise `sy` and yaw-acceleration density `q_r`, and the log
-/// likelihood of its yaw innovations.
-fn heading_with(src: &HeadingInput, sy: f64, sg: f64, q_r: f64) -> (Heading, f64) {
-    let len = src.t.len();
-    let nan = vec![f64::NAN; len];
-    let (yaw, gyro) = (src.yaw.unwrap_or(&nan), src.gyro.unwrap_or(&nan));
-    let q_b = 1e-8;
-    let mut loglik = 0.0;
+/// Random-walk density of the gyro bias, (rad/s)^2 / s.
+const GYRO_BIAS_Q: f64 = 1e-8;
+
+/// The heading filter at the first sample: yaw and rate as measured (yaw barely known when
+/// not measured), bias within a few hundredths of a rad/s.
+fn initial(yaw0: f64, gyro0: f64, sy: f64) -> Filter<3> {
     let finite_or = |x: f64, d: f64| if x.is_finite() { x } else { d };
-    let x0 = Vector::<3>::new(finite_or(yaw[0], 0.0), finite_or(gyro[0], 0.0), 0.0);
-    let psi_var0 = if yaw[0].is_finite() { sy * sy } else { 10.0 };
-    let mut f = Filter::<3>::new(
+    let x0 = Vector::<3>::new(finite_or(yaw0, 0.0), finite_or(gyro0, 0.0), 0.0);
+    let psi_var0 = if yaw0.is_finite() { sy * sy } else { 10.0 };
+    Filter::<3>::new(
         x0,
         Mat::<3>::from_diagonal(&Vector::<3>::new(psi_var0, 0.1, 0.03f64.powi(2))),
+    )
+}
+
+/// A step of `dt`: constant rate driven by white yaw acceleration of density `q_r`, the bias a
+/// slow random walk.
+fn predict(f: &mut Filter<3>, dt: f64, q_r: f64) {
+    let a = white_accel(q_r, dt);
+    let fm = Mat::<3>::new(1.0, dt, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0);
+    let q = Mat::<3>::new(
+        a[0][0],
+        a[0][1],
+        0.0,
+        a[1][0],
+        a[1][1],
+        0.0,
+        0.0,
+        0.0,
+        GYRO_BIAS_Q * dt,
     );
+    f.predict(fm, Vector::<3>::zeros(), q);
+}
+
+/// Minus the log likelihood (less a constant) of a yaw measurement under the prediction.
+fn yaw_innovation_cost(f: &Filter<3>, yaw: f64, sy: f64) -> f64 {
+    let (x, p) = f.state();
+    let s = p[(0, 0)] + sy * sy;
+    let nu = wrap_pi(yaw - x[0]);
+    0.5 * (s.ln() + nu * nu / s)
+}
+
+/// A yaw measurement of noise `sy`, its innovation wrapped to (-pi, pi].
+fn update_yaw(f: &mut Filter<3>, yaw: f64, sy: f64) {
+    let h = SMatrix::<f64, 1, 3>::new(1.0, 0.0, 0.0);
     let wrap = |v: &mut SVector<f64, 1>| v[0] = wrap_pi(v[0]);
-    for k in 0..len {
-        if k > 0 {
-            let dt = src.t[k] - src.t[k - 1];
-            if dt <= 0.0 {
-                continue;
-            }
-            let a = white_accel(q_r, dt);
-            let fm = Mat::<3>::new(1.0, dt, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0);
-            let q = Mat::<3>::new(
-                a[0][0],
-                a[0][1],
-                0.0,
-                a[1][0],
-                a[1][1],
-                0.0,
-                0.0,
-                0.0,
-                q_b * dt,
-            );
-            f.predict(fm, Vector::<3>::zeros(), q);
-        }
-        if yaw[k].is_finite() {
-            let h = SMatrix::<f64, 1, 3>::new(1.0, 0.0, 0.0);
-            if k > 0 {
-                let (x, p) = f.state();
-                let s = p[(0, 0)] + sy * sy;
-                let nu = wrap_pi(yaw[k] - x[0]);
-                loglik -= 0.5 * (s.ln() + nu * nu / s);
-            }
-            f.update(
-                SVector::<f64, 1>::new(yaw[k]),
-                h,
-                SMatrix::<f64, 1, 1>::new(sy * sy),
-                f64::INFINITY,
-                wrap,
-            );
-        }
-        if gyro[k].is_finite() {
-            let h = SMatrix::<f64, 1, 3>::new(0.0, 1.0, 1.0);
-            f.update(
-                SVector::<f64, 1>::new(gyro[k]),
-                h,
-                SMatrix::<f64, 1, 1>::new(sg * sg),
-                f64::INFINITY,
-                |_| {},
-            );
-        }
-    }
+    f.update(
+        SVector::<f64, 1>::new(yaw),
+        h,
+        SMatrix::<f64, 1, 1>::new(sy * sy),
+        f64::INFINITY,
+        wrap,
+    );
+}
+
+/// A gyro measurement of noise `sg`: the rate plus the bias.
+fn update_gyro(f: &mut Filter<3>, gyro: f64, sg: f64) {
+    let h = SMatrix::<f64, 1, 3>::new(0.0, 1.0, 1.0);
+    f.update(
+        SVector::<f64, 1>::new(gyro),
+        h,
+        SMatrix::<f64, 1, 1>::new(sg * sg),
+        f64::INFINITY,
+        |_| {},
+    );
+}
+
+/// The smoothed heading at the times of the filter's steps, which are taken only at
+/// increasing times.
+fn smoothed(f: &Filter<3>, times: &[f64]) -> Heading {
     let sm = f.smooth();
-    // Steps are taken only at increasing times: keep the times of the steps.
-    let mut t = Vec::with_capacity(len);
-    for (k, &tk) in src.t.iter().enumerate() {
-        if k == 0 || tk > src.t[k - 1] {
+    let mut t = Vec::with_capacity(times.len());
+    for (k, &tk) in times.iter().enumerate() {
+        if k == 0 || tk > times[k - 1] {
             t.push(tk);
         }
     }
-    let hd = Heading {
+    Heading {
         t,
         psi: sm.iter().map(|(x, _)| x[0]).collect(),
         psi_var: sm.iter().map(|(_, p)| p[(0, 0)]).collect(),
         r: sm.iter().map(|(x, _)| x[1]).collect(),
         r_var: sm.iter().map(|(_, p)| p[(1, 1)]).collect(),
         bias: sm.last().map_or(0.0, |(x, _)| x[2]),
-    };
-    (hd, loglik)
+    }
+}
+
+/// The heading filter with yaw noise `sy` and yaw-acceleration density `q_r`, and the log
+/// likelihood of its yaw innovations.
+fn heading_with(src: &HeadingInput, sy: f64, sg: f64, q_r: f64) -> (Heading, f64) {
+    let len = src.t.len();
+    let nan = vec![f64::NAN; len];
+    let (yaw, gyro) = (src.yaw.unwrap_or(&nan), src.gyro.unwrap_or(&nan));
+    let mut loglik = 0.0;
+    let mut f = initial(yaw[0], gyro[0], sy);
+    for k in 0..len {
+        if k > 0 {
+            let dt = src.t[k] - src.t[k - 1];
+            if dt <= 0.0 {
+                continue;
+            }
+            predict(&mut f, dt, q_r);
+        }
+        if yaw[k].is_finite() {
+            if k > 0 {
+                loglik -= yaw_innovation_cost(&f, yaw[k], sy);
+            }
+            update_yaw(&mut f, yaw[k], sy);
+        }
+        if gyro[k].is_finite() {
+            update_gyro(&mut f, gyro[k], sg);
+        }
+    }
+    (smoothed(&f, src.t), loglik)
 }
 
 /// Yaw acceleration density of a thruster-driven ROV when a gyro measures the rate: a few

@@ -18,16 +18,17 @@
 mod heading;
 pub mod kalman;
 pub mod nav;
+mod position;
 pub mod run;
 
 mod numeric;
 use crate::io::csvlog::Log;
 use crate::io::pool::{G, PoolRun};
 use heading::{Heading, HeadingInput, heading};
-use kalman::{Filter, Mat, Update, Vector, white_accel};
-use nalgebra::{SMatrix, SVector};
-use numeric::{chi2_quantile, wrap_pi};
+use kalman::{Mat, Vector};
+use numeric::wrap_pi;
 pub use numeric::{interp, interp_at, locate};
+use position::{PositionFilter, Sensors};
 use serde::{Deserialize, Serialize};
 
 /// Sensor noise and rejection settings. A noise level left out (the default) is estimated from
@@ -57,11 +58,6 @@ pub struct Settings {
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub exclude: Vec<String>,
 }
-
-/// Neighbours each side for the UWB median screen (seed 003 uses median filters the same way).
-const MEDIAN_HALF_WINDOW: usize = 5;
-/// Probability kept by the chi-square gate on every position fix.
-const GATE_PROBABILITY: f64 = 0.999;
 
 /// The noise levels used, after estimation (SI: m, rad, rad/s, m/s^2).
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
@@ -172,42 +168,13 @@ pub struct Stats {
     pub notes: Vec<String>,
 }
 
-/// Marks UWB fixes that stray from the median of their neighbours (multipath).
-fn median_screen(uwb: &Log, half: usize, limit: f64) -> Vec<bool> {
-    let n = uwb.len();
-    (0..n)
-        .map(|k| {
-            let (a, b) = (k.saturating_sub(half), (k + half + 1).min(n));
-            (0..3).all(|c| {
-                let mut w: Vec<f64> = uwb.cols[c][a..b].to_vec();
-                w.sort_by(f64::total_cmp);
-                (uwb.cols[c][k] - w[w.len() / 2]).abs() <= limit * if c == 2 { 2.0 } else { 1.0 }
-            })
-        })
-        .collect()
-}
-
-#[derive(Clone, Copy)]
-enum Event {
-    Imu(usize),
-    Uwb(usize),
-    Sonar(usize),
-    Depth(usize),
-    Out(usize),
-}
-
 /// Fuses one run. Fails only when the thrust log is empty (the importer prevents that).
 pub fn fuse(run: &PoolRun, s: &Settings) -> Fused {
-    let use_ = |name: &str| !s.exclude.iter().any(|e| e == name);
-    let imu = run.imu.as_ref().filter(|_| use_("imu"));
-    let uwb = run.uwb.as_ref().filter(|_| use_("uwb"));
-    let sonar = run.sonar.as_ref().filter(|_| use_("sonar"));
-    let depth = run.depth.as_ref().filter(|_| use_("depth"));
+    let sensors = Sensors::of(run, s);
     let out_t = run.thrust.t.clone();
     let mut stats = Stats::default();
     let mut noise = s.noise(run);
-    let nav = run.nav.as_ref().filter(|_| use_("nav"));
-    let hd = HeadingInput::of(imu, nav).map(|src| {
+    let hd = HeadingInput::of(sensors.imu, sensors.nav).map(|src| {
         heading(
             &src,
             &mut noise,
@@ -217,169 +184,16 @@ pub fn fuse(run: &PoolRun, s: &Settings) -> Fused {
     });
     stats.gyro_bias_dps = hd.as_ref().map(|h| h.bias.to_degrees());
     stats.noise = noise.clone();
-
-    let mut events: Vec<(f64, u8, Event)> = Vec::new();
-    // Only an IMU with accelerometers drives the position filter.
-    let imu_accel = imu.filter(|l| (6..9).all(|c| l.has(c)));
-    if let Some(l) = imu_accel {
-        events.extend(l.t.iter().enumerate().map(|(k, &t)| (t, 0, Event::Imu(k))));
-    }
-    if let Some(l) = uwb {
-        events.extend(l.t.iter().enumerate().map(|(k, &t)| (t, 1, Event::Uwb(k))));
-    }
-    if let Some(l) = sonar {
-        events.extend(
-            l.t.iter()
-                .enumerate()
-                .map(|(k, &t)| (t, 1, Event::Sonar(k))),
-        );
-    }
-    if let Some(l) = depth {
-        events.extend(
-            l.t.iter()
-                .enumerate()
-                .map(|(k, &t)| (t, 1, Event::Depth(k))),
-        );
-    }
-    events.extend(
-        out_t
-            .iter()
-            .enumerate()
-            .map(|(k, &t)| (t, 2, Event::Out(k))),
-    );
-    events.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-
-    // Initial position: the first fixes there are.
-    let first = |l: Option<&Log>, c: usize| l.map(|l| l.cols[c][0]);
-    let x0 = Vector::<9>::from_column_slice(&[
-        first(sonar, 0).or(first(uwb, 0)).unwrap_or(0.0),
-        first(sonar, 1).or(first(uwb, 1)).unwrap_or(0.0),
-        first(depth, 0).or(first(uwb, 2)).unwrap_or(0.0),
-        0.0,
-        0.0,
-        0.0,
-        0.0,
-        0.0,
-        0.0,
-    ]);
-    let ab = 0.02 * G;
-    let p0 = Mat::<9>::from_diagonal(&Vector::<9>::from_column_slice(&[
-        1.0,
-        1.0,
-        1.0,
-        0.25,
-        0.25,
-        0.25,
-        ab * ab,
-        ab * ab,
-        ab * ab,
-    ]));
-    let mut kf = Filter::<9>::new(x0, p0);
-    let good_uwb = uwb.map_or(vec![], |l| {
-        median_screen(l, MEDIAN_HALF_WINDOW, s.uwb_outlier_m.unwrap_or(0.4))
-    });
-    let (gate3, gate2, gate1) = (
-        chi2_quantile(GATE_PROBABILITY, 3),
-        chi2_quantile(GATE_PROBABILITY, 2),
-        chi2_quantile(GATE_PROBABILITY, 1),
-    );
-    let mut out_step = vec![0usize; out_t.len()];
-    let mut last_t = events.first().map_or(0.0, |e| e.0);
-    let mut last_imu: Option<usize> = None;
-    let mut rejected_in_row = 0;
-    for (t, _, ev) in &events {
-        let dt = t - last_t;
-        if dt > 0.0 {
-            let (fm, u, q) = transition(
-                dt,
-                last_imu.and_then(|k| Some((imu_accel?, hd.as_ref()?, k))),
-                &noise,
-            );
-            kf.predict(fm, u, q);
-            last_t = *t;
-        }
-        match *ev {
-            Event::Imu(k) => last_imu = Some(k),
-            Event::Uwb(k) => {
-                let l = uwb.unwrap();
-                stats.uwb_fixes += 1;
-                if !good_uwb[k] {
-                    stats.uwb_rejected_median += 1;
-                    continue;
-                }
-                // A UWB log without heights gives the horizontal position only.
-                let z = SVector::<f64, 3>::new(
-                    l.cols[0][k],
-                    l.cols[1][k],
-                    if l.has(2) { l.cols[2][k] } else { 0.0 },
-                );
-                let mut h = SMatrix::<f64, 3, 9>::zeros();
-                h[(0, 0)] = 1.0;
-                h[(1, 1)] = 1.0;
-                h[(2, 2)] = 1.0;
-                let r = SMatrix::<f64, 3, 3>::from_diagonal(&SVector::<f64, 3>::from_iterator(
-                    noise.uwb_m.iter().map(|x| x * x),
-                ));
-                if !l.has(2) {
-                    h[(2, 2)] = 0.0;
-                }
-                // After a second of rejections the filter, not the fixes, is wrong: re-acquire.
-                let gate = if rejected_in_row >= 10 {
-                    f64::INFINITY
-                } else {
-                    gate3
-                };
-                match kf.update(z, h, r, gate, |_| {}) {
-                    Update::Accepted => rejected_in_row = 0,
-                    Update::Gated(_) => {
-                        rejected_in_row += 1;
-                        stats.uwb_rejected_gate += 1;
-                    }
-                }
-            }
-            Event::Sonar(k) => {
-                let l = sonar.unwrap();
-                let z = SVector::<f64, 2>::new(l.cols[0][k], l.cols[1][k]);
-                let mut h = SMatrix::<f64, 2, 9>::zeros();
-                h[(0, 0)] = 1.0;
-                h[(1, 1)] = 1.0;
-                let r = SMatrix::<f64, 2, 2>::identity() * noise.sonar_m.powi(2);
-                match kf.update(z, h, r, gate2, |_| {}) {
-                    Update::Accepted => stats.sonar_fixes += 1,
-                    Update::Gated(_) => stats.sonar_rejected_gate += 1,
-                }
-            }
-            Event::Depth(k) => {
-                let l = depth.unwrap();
-                let mut h = SMatrix::<f64, 1, 9>::zeros();
-                h[(0, 2)] = 1.0;
-                if kf.update(
-                    SVector::<f64, 1>::new(l.cols[0][k]),
-                    h,
-                    SMatrix::<f64, 1, 1>::new(noise.depth_m.powi(2)),
-                    gate1 * 4.0,
-                    |_| {},
-                ) == Update::Accepted
-                {
-                    stats.depth_fixes += 1;
-                }
-            }
-            Event::Out(k) => out_step[k] = kf.len() - 1,
-        }
-    }
-    let sm = kf.smooth();
-    let vertical = depth.is_some() || uwb.is_some_and(|l| l.has(2));
-    let mut fused = assemble(
-        run,
-        out_t,
-        &out_step,
-        &sm,
-        hd.as_ref(),
-        uwb.is_some() || sonar.is_some(),
-        vertical,
-        stats,
-    );
-    if let Some(nav) = nav {
+    let (sm, out_step) =
+        PositionFilter::new(&sensors, s, &noise, hd.as_ref()).run(&out_t, &mut stats);
+    let track = Track {
+        sm: &sm,
+        out_step: &out_step,
+        horizontal: sensors.horizontal(),
+        vertical: sensors.vertical(),
+    };
+    let mut fused = assemble(run, out_t, &track, hd.as_ref(), stats);
+    if let Some(nav) = sensors.nav {
         use_nav(&mut fused, nav, hd.as_ref());
     }
     fused
@@ -430,111 +244,51 @@ fn use_nav(fused: &mut Fused, nav: &Log, hd: Option<&Heading>) {
     }
 }
 
-/// Transition of the position filter over `dt`, driven by the IMU sample `k` when there is one.
-fn transition(
-    dt: f64,
-    imu: Option<(&Log, &Heading, usize)>,
-    n: &Noise,
-) -> (Mat<9>, Vector<9>, Mat<9>) {
-    let mut f = Mat::<9>::identity();
-    let mut u = Vector::<9>::zeros();
-    let mut q = Mat::<9>::zeros();
-    for i in 0..3 {
-        f[(i, i + 3)] = dt;
-    }
-    match imu {
-        Some((l, hd, k)) => {
-            let psi = interp(&hd.t, &hd.psi, l.t[k]);
-            let level = |x: f64| if x.is_finite() { x } else { 0.0 };
-            let (phi, theta) = (level(l.cols[0][k]), level(l.cols[1][k]));
-            let rot = nalgebra::Rotation3::from_euler_angles(phi, theta, psi);
-            let fb = nalgebra::Vector3::new(l.cols[6][k], l.cols[7][k], l.cols[8][k]);
-            let a = rot * fb + nalgebra::Vector3::new(0.0, 0.0, G);
-            let rm = rot.matrix();
-            for i in 0..3 {
-                u[i] = 0.5 * dt * dt * a[i];
-                u[i + 3] = dt * a[i];
-                for j in 0..3 {
-                    f[(i, 6 + j)] = -0.5 * dt * dt * rm[(i, j)];
-                    f[(i + 3, 6 + j)] = -dt * rm[(i, j)];
-                }
-            }
-            // White accelerometer noise of sigma per sample at the IMU's rate.
-            let imu_dt = if l.len() > 1 {
-                (l.t[l.len() - 1] - l.t[0]) / (l.len() - 1) as f64
-            } else {
-                0.02
-            };
-            let qa = n.accel_m_s2.powi(2) * imu_dt + 1e-4;
-            let w = white_accel(qa, dt);
-            for i in 0..3 {
-                q[(i, i)] = w[0][0];
-                q[(i, i + 3)] = w[0][1];
-                q[(i + 3, i)] = w[1][0];
-                q[(i + 3, i + 3)] = w[1][1];
-                q[(6 + i, 6 + i)] = (1e-4 * G).powi(2) * dt;
-            }
-        }
-        None => {
-            // No IMU: constant velocity driven by the accelerations a pool ROV reaches (~1 m/s^2).
-            let w = white_accel(1.0, dt);
-            for i in 0..3 {
-                q[(i, i)] = w[0][0];
-                q[(i, i + 3)] = w[0][1];
-                q[(i + 3, i)] = w[1][0];
-                q[(i + 3, i + 3)] = w[1][1];
-            }
-        }
-    }
-    (f, u, q)
+/// The smoothed position-filter states at the output times, and which of them the sensors
+/// fixed.
+struct Track<'a> {
+    sm: &'a [(Vector<9>, Mat<9>)],
+    /// The filter step of each output time.
+    out_step: &'a [usize],
+    horizontal: bool,
+    vertical: bool,
 }
 
-#[allow(clippy::too_many_arguments)]
+impl Track<'_> {
+    /// The smoothed state and covariance at output time `k`.
+    fn at(&self, k: usize) -> &(Vector<9>, Mat<9>) {
+        &self.sm[self.out_step[k]]
+    }
+
+    /// Position component `c` at every output time, NaN throughout unless `known`.
+    fn coordinate(&self, c: usize, known: bool) -> Vec<f64> {
+        (0..self.out_step.len())
+            .map(|k| if known { self.at(k).0[c] } else { f64::NAN })
+            .collect()
+    }
+}
+
+/// The fused run from the smoothed filters: position, heading and the body velocities the
+/// sensors give, with a note for each they do not.
 fn assemble(
     run: &PoolRun,
     t: Vec<f64>,
-    out_step: &[usize],
-    sm: &[(Vector<9>, Mat<9>)],
+    track: &Track,
     hd: Option<&Heading>,
-    horizontal: bool,
-    vertical: bool,
     mut stats: Stats,
 ) -> Fused {
-    let n = t.len();
-    let pick = |k: usize| &sm[out_step[k]];
-    let x: Vec<f64> = (0..n)
-        .map(|k| if horizontal { pick(k).0[0] } else { f64::NAN })
-        .collect();
-    let y: Vec<f64> = (0..n)
-        .map(|k| if horizontal { pick(k).0[1] } else { f64::NAN })
-        .collect();
-    let z: Vec<f64> = (0..n)
-        .map(|k| if vertical { pick(k).0[2] } else { f64::NAN })
-        .collect();
+    let x = track.coordinate(0, track.horizontal);
+    let y = track.coordinate(1, track.horizontal);
+    let z = track.coordinate(2, track.vertical);
     let psi: Vec<f64> = t
         .iter()
         .map(|&tk| hd.map_or(f64::NAN, |h| interp(&h.t, &h.psi, tk)))
         .collect();
     let mut vel: [Option<Vec<f64>>; 4] = [None, None, None, None];
     let mut std: [Option<Vec<f64>>; 4] = [None, None, None, None];
-    if let (Some(h), true) = (hd, horizontal) {
-        let (mut u, mut v, mut su, mut sv) =
-            (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-        for k in 0..n {
-            let (m, p) = pick(k);
-            let (c, s) = (psi[k].cos(), psi[k].sin());
-            let var_psi = interp(&h.t, &h.psi_var, t[k]);
-            u[k] = c * m[3] + s * m[4];
-            v[k] = -s * m[3] + c * m[4];
-            let quad =
-                |a: f64, b: f64| a * a * p[(3, 3)] + b * b * p[(4, 4)] + 2.0 * a * b * p[(3, 4)];
-            su[k] = (quad(c, s) + v[k] * v[k] * var_psi).sqrt();
-            sv[k] = (quad(-s, c) + u[k] * u[k] * var_psi).sqrt();
-        }
-        vel[0] = Some(u);
-        vel[1] = Some(v);
-        std[0] = Some(su);
-        std[1] = Some(sv);
+    if let (Some(h), true) = (hd, track.horizontal) {
+        let [u, v, su, sv] = surge_sway(&t, &psi, track, h);
+        (vel[0], vel[1], std[0], std[1]) = (Some(u), Some(v), Some(su), Some(sv));
     } else if hd.is_none() {
         stats.notes.push(format!("{}: no IMU heading, so surge, sway and yaw rate are unknown (the pool-frame track is kept)", run.name));
     } else {
@@ -543,9 +297,13 @@ fn assemble(
             run.name
         ));
     }
-    if vertical {
-        vel[2] = Some((0..n).map(|k| pick(k).0[5]).collect());
-        std[2] = Some((0..n).map(|k| pick(k).1[(5, 5)].max(0.0).sqrt()).collect());
+    if track.vertical {
+        vel[2] = Some((0..t.len()).map(|k| track.at(k).0[5]).collect());
+        std[2] = Some(
+            (0..t.len())
+                .map(|k| track.at(k).1[(5, 5)].max(0.0).sqrt())
+                .collect(),
+        );
     } else {
         stats.notes.push(format!(
             "{}: no depth or UWB, so heave is unknown",
@@ -553,12 +311,7 @@ fn assemble(
         ));
     }
     if let Some(h) = hd {
-        vel[3] = Some(t.iter().map(|&tk| interp(&h.t, &h.r, tk)).collect());
-        std[3] = Some(
-            t.iter()
-                .map(|&tk| interp(&h.t, &h.r_var, tk).max(0.0).sqrt())
-                .collect(),
-        );
+        (vel[3], std[3]) = yaw_rate(&t, h);
     }
     Fused {
         t,
@@ -570,6 +323,34 @@ fn assemble(
         psi,
         stats,
     }
+}
+
+/// Surge and sway: the pool-frame velocity rotated by the heading `psi`, with standard
+/// deviations that include the heading's variance. Returns [u, v, sd u, sd v].
+fn surge_sway(t: &[f64], psi: &[f64], track: &Track, h: &Heading) -> [Vec<f64>; 4] {
+    let n = t.len();
+    let (mut u, mut v, mut su, mut sv) = (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+    for k in 0..n {
+        let (m, p) = track.at(k);
+        let (c, s) = (psi[k].cos(), psi[k].sin());
+        let var_psi = interp(&h.t, &h.psi_var, t[k]);
+        u[k] = c * m[3] + s * m[4];
+        v[k] = -s * m[3] + c * m[4];
+        let quad = |a: f64, b: f64| a * a * p[(3, 3)] + b * b * p[(4, 4)] + 2.0 * a * b * p[(3, 4)];
+        su[k] = (quad(c, s) + v[k] * v[k] * var_psi).sqrt();
+        sv[k] = (quad(-s, c) + u[k] * u[k] * var_psi).sqrt();
+    }
+    [u, v, su, sv]
+}
+
+/// The smoothed yaw rate at times `t` and its standard deviation.
+fn yaw_rate(t: &[f64], h: &Heading) -> (Option<Vec<f64>>, Option<Vec<f64>>) {
+    let r = t.iter().map(|&tk| interp(&h.t, &h.r, tk)).collect();
+    let sd = t
+        .iter()
+        .map(|&tk| interp(&h.t, &h.r_var, tk).max(0.0).sqrt())
+        .collect();
+    (Some(r), Some(sd))
 }
 
 #[cfg(test)]

@@ -121,35 +121,73 @@ pub fn smooth_ml(t: &[f64], z: &[f64], out_t: &[f64], noise: Noise) -> (Smoothed
     (smooth_with(t, z, out_t, noise, best).0, best)
 }
 
-/// [`smooth`], and the log likelihood of the innovations.
-fn smooth_with(t: &[f64], z: &[f64], out_t: &[f64], noise: Noise, jerk: f64) -> (Smoothed, f64) {
-    let var = noise.sigma.powi(2);
-    let mut loglik = 0.0;
-    let mut updates = 0usize;
-    // Correlation per sample from the correlation length m = (1 + rho) / (1 - rho), and its
-    // time constant from the mean sample interval.
-    let m = noise.correlated_samples.max(1.0);
-    let rho = (m - 1.0) / (m + 1.0);
-    let finite: Vec<f64> = t
-        .iter()
-        .zip(z)
-        .filter(|(_, v)| v.is_finite())
-        .map(|(a, _)| *a)
-        .collect();
-    let mean_dt = if finite.len() > 1 {
-        (finite[finite.len() - 1] - finite[0]) / (finite.len() - 1) as f64
-    } else {
-        0.1
-    };
-    let tau_c = if rho > 1e-6 { -mean_dt / rho.ln() } else { 0.0 };
-    // A small white part keeps the update well conditioned.
-    let r = SMatrix::<f64, 1, 1>::new(1e-4 * var + 1e-12);
-    let first = z.iter().copied().find(|v| v.is_finite()).unwrap_or(0.0);
-    let mut f = Filter::<3>::new(
-        Vector::<3>::new(first, 0.0, 0.0),
-        Mat::<3>::from_diagonal(&Vector::<3>::new(var + 1e-6, 1.0, var)),
-    );
-    // Merge the measurement and output times: measurements first at equal times.
+/// One channel's filter model: the measurement variance, the correlation time of its errors
+/// (first-order Gauss-Markov, 0 when white) and the jerk density.
+struct Model {
+    var: f64,
+    tau_c: f64,
+    jerk: f64,
+}
+
+impl Model {
+    /// The model of channel `z` (times `t`, NaN rows skipped) with noise `noise`.
+    fn of(t: &[f64], z: &[f64], noise: Noise, jerk: f64) -> Model {
+        let var = noise.sigma.powi(2);
+        // Correlation per sample from the correlation length m = (1 + rho) / (1 - rho), and its
+        // time constant from the mean sample interval.
+        let m = noise.correlated_samples.max(1.0);
+        let rho = (m - 1.0) / (m + 1.0);
+        let finite: Vec<f64> = t
+            .iter()
+            .zip(z)
+            .filter(|(_, v)| v.is_finite())
+            .map(|(a, _)| *a)
+            .collect();
+        let mean_dt = if finite.len() > 1 {
+            (finite[finite.len() - 1] - finite[0]) / (finite.len() - 1) as f64
+        } else {
+            0.1
+        };
+        let tau_c = if rho > 1e-6 { -mean_dt / rho.ln() } else { 0.0 };
+        Model { var, tau_c, jerk }
+    }
+
+    /// The filter at the first finite sample of `z`, acceleration and error unknown.
+    fn initial(&self, z: &[f64]) -> Filter<3> {
+        let first = z.iter().copied().find(|v| v.is_finite()).unwrap_or(0.0);
+        Filter::<3>::new(
+            Vector::<3>::new(first, 0.0, 0.0),
+            Mat::<3>::from_diagonal(&Vector::<3>::new(self.var + 1e-6, 1.0, self.var)),
+        )
+    }
+
+    /// Transition and process noise over `dt`.
+    fn step(&self, dt: f64) -> (Mat<3>, Mat<3>) {
+        let q = white_accel(self.jerk, dt);
+        let a = if self.tau_c > 0.0 {
+            (-dt / self.tau_c).exp()
+        } else {
+            0.0
+        };
+        let fm = Mat::<3>::new(1.0, dt, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, a);
+        let qm = Mat::<3>::new(
+            q[0][0],
+            q[0][1],
+            0.0,
+            q[1][0],
+            q[1][1],
+            0.0,
+            0.0,
+            0.0,
+            self.var * (1.0 - a * a),
+        );
+        (fm, qm)
+    }
+}
+
+/// The measurement times (finite samples only, kind 0) and output times (kind 1) merged in
+/// time order, measurements first at equal times: (time, kind, index).
+fn merged_events(t: &[f64], z: &[f64], out_t: &[f64]) -> Vec<(f64, u8, usize)> {
     let mut events: Vec<(f64, u8, usize)> = t
         .iter()
         .enumerate()
@@ -158,39 +196,39 @@ fn smooth_with(t: &[f64], z: &[f64], out_t: &[f64], noise: Noise, jerk: f64) -> 
         .collect();
     events.extend(out_t.iter().enumerate().map(|(k, &tk)| (tk, 1, k)));
     events.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    events
+}
+
+/// Minus the log likelihood (less a constant) of measurement `z` under the filter's prediction.
+fn innovation_cost(f: &Filter<3>, h: &SMatrix<f64, 1, 3>, r: f64, z: f64) -> f64 {
+    let (x, p) = f.state();
+    let s = (h * p * h.transpose())[(0, 0)] + r;
+    let nu = z - (h * x)[(0, 0)];
+    0.5 * (s.ln() + nu * nu / s)
+}
+
+/// [`smooth`], and the log likelihood of the innovations.
+fn smooth_with(t: &[f64], z: &[f64], out_t: &[f64], noise: Noise, jerk: f64) -> (Smoothed, f64) {
+    let model = Model::of(t, z, noise, jerk);
+    let mut loglik = 0.0;
+    let mut updates = 0usize;
+    // A small white part keeps the update well conditioned.
+    let r = SMatrix::<f64, 1, 1>::new(1e-4 * model.var + 1e-12);
+    let mut f = model.initial(z);
+    let events = merged_events(t, z, out_t);
     let mut out_step = vec![0usize; out_t.len()];
     let mut last = events.first().map_or(0.0, |e| e.0);
     let h = SMatrix::<f64, 1, 3>::new(1.0, 0.0, 1.0);
     for (tk, kind, k) in events {
         let dt = tk - last;
         if dt > 0.0 {
-            let q = white_accel(jerk, dt);
-            let a = if tau_c > 0.0 {
-                (-dt / tau_c).exp()
-            } else {
-                0.0
-            };
-            let fm = Mat::<3>::new(1.0, dt, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, a);
-            let qm = Mat::<3>::new(
-                q[0][0],
-                q[0][1],
-                0.0,
-                q[1][0],
-                q[1][1],
-                0.0,
-                0.0,
-                0.0,
-                var * (1.0 - a * a),
-            );
+            let (fm, qm) = model.step(dt);
             f.predict(fm, Vector::<3>::zeros(), qm);
             last = tk;
         }
         if kind == 0 {
             if updates > 0 {
-                let (x, p) = f.state();
-                let s = (h * p * h.transpose())[(0, 0)] + r[(0, 0)];
-                let nu = z[k] - (h * x)[(0, 0)];
-                loglik -= 0.5 * (s.ln() + nu * nu / s);
+                loglik -= innovation_cost(&f, &h, r[(0, 0)], z[k]);
             }
             updates += 1;
             f.update(SVector::<f64, 1>::new(z[k]), h, r, f64::INFINITY, |_| {});
@@ -199,18 +237,20 @@ fn smooth_with(t: &[f64], z: &[f64], out_t: &[f64], noise: Noise, jerk: f64) -> 
         }
     }
     if out_t.is_empty() {
-        return (
-            Smoothed {
-                v: vec![],
-                std: vec![],
-                accel: vec![],
-                noise,
-            },
-            loglik,
-        );
+        let none = Smoothed {
+            v: vec![],
+            std: vec![],
+            accel: vec![],
+            noise,
+        };
+        return (none, loglik);
     }
-    let sm = f.smooth();
-    let out = Smoothed {
+    (at_outputs(&f.smooth(), &out_step, noise), loglik)
+}
+
+/// The smoothed channel at the output times, whose filter steps are `out_step`.
+fn at_outputs(sm: &[(Vector<3>, Mat<3>)], out_step: &[usize], noise: Noise) -> Smoothed {
+    Smoothed {
         v: out_step.iter().map(|&s| sm[s].0[0]).collect(),
         std: out_step
             .iter()
@@ -218,8 +258,7 @@ fn smooth_with(t: &[f64], z: &[f64], out_t: &[f64], noise: Noise, jerk: f64) -> 
             .collect(),
         accel: out_step.iter().map(|&s| sm[s].0[1]).collect(),
         noise,
-    };
-    (out, loglik)
+    }
 }
 
 #[cfg(test)]

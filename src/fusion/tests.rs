@@ -1,6 +1,6 @@
 //! Fusion against the twin's true velocities.
 
-use super::numeric::normal_quantile;
+use super::numeric::{chi2_quantile, normal_quantile};
 use super::*;
 use crate::twin::pool as twin;
 use crate::twin::world::Effect;

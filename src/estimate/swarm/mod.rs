@@ -10,14 +10,18 @@
 
 use super::kernels::{l1_block, quad_all};
 use super::output_error::OutputError;
-use super::{Estimate, EstimateError, Fit, Options, Regression};
+use super::{EstimateError, Fit, Options, Regression};
+use crate::model::params::Group;
 use crate::rng::Rng;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
+mod executor;
 pub mod ga;
 pub mod pso;
 pub mod qpso;
+
+pub use executor::execute;
 
 /// Which norm of the equation error is minimised: seed 001 eq. 14 is L1 (sum |tau - tau_id| / sqrt K).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize, Default)]
@@ -58,99 +62,16 @@ impl<'a> Problem<'a> {
     /// top speed, quadratic drag by 3 max|tau| / max|nu|^2.
     pub fn new(reg: &'a Regression, rigid_mass: &[f64; 6], norm: Norm) -> Problem<'a> {
         let p = reg.cols();
-        let mut fmax = [0.0f64; 6];
-        let mut vmax = [0.0f64; 6];
-        let mut scale = [0.0f64; 6];
-        let mut count = [0usize; 6];
-        for i in 0..reg.rows() {
-            let d = reg.row_dof[i].index();
-            fmax[d] = fmax[d].max(reg.y[i].abs());
-            scale[d] += reg.y[i] * reg.y[i];
-            count[d] += 1;
-            // The linear-drag column of this row is -nu: its magnitude is the speed.
-            for j in 0..p {
-                let (g, dof) = reg.layout.slot(j);
-                if dof.index() == d && g == crate::model::params::Group::LinearDrag {
-                    vmax[d] = vmax[d].max(reg.row(i)[j].abs());
-                }
-            }
-        }
-        let w: Vec<f64> = reg
-            .row_dof
-            .iter()
-            .map(|d| {
-                1.0 / (scale[d.index()] / count[d.index()].max(1) as f64)
-                    .sqrt()
-                    .max(1e-9)
-            })
-            .collect();
-        // Linear drag can be no larger than force / speed at any moving sample near steady
-        // state; the smallest such ratio (the slowest steady case) bounds it far tighter than
-        // max force / max speed.
-        let col = |g: crate::model::params::Group, d: usize| {
-            (0..p).find(|&j| reg.layout.slot(j) == (g, crate::dof::Dof::ALL[d]))
+        let scales = Scales::of(reg);
+        let w = scales.weights(reg);
+        let (lo, hi) = scales.bounds(reg, rigid_mass);
+        let (a, b, c) = if norm == Norm::L2 {
+            quadratic_form(reg, &w)
+        } else {
+            (vec![0.0; p * p], vec![0.0; p], 0.0)
         };
-        let mut amax = [0.0f64; 6];
-        for i in 0..reg.rows() {
-            let d = reg.row_dof[i].index();
-            if let Some(j) = col(crate::model::params::Group::AddedMass, d) {
-                amax[d] = amax[d].max(reg.row(i)[j].abs());
-            }
-        }
-        let mut lin_bound = [f64::INFINITY; 6];
-        for i in 0..reg.rows() {
-            let d = reg.row_dof[i].index();
-            let (Some(jl), Some(ja)) = (
-                col(crate::model::params::Group::LinearDrag, d),
-                col(crate::model::params::Group::AddedMass, d),
-            ) else {
-                continue;
-            };
-            let (v, a) = (reg.row(i)[jl].abs(), reg.row(i)[ja].abs());
-            // Steady samples only (acceleration under 2 % of its peak): there force = drag.
-            if v >= 0.05 * vmax[d] && v > 0.0 && a <= 0.02 * amax[d] {
-                lin_bound[d] = lin_bound[d].min(reg.y[i].abs() / v);
-            }
-        }
-        let mut lo = vec![0.0; p];
-        let mut hi = vec![0.0; p];
-        for j in 0..p {
-            let (g, dof) = reg.layout.slot(j);
-            let d = dof.index();
-            let v = vmax[d].max(1e-3);
-            lo[j] = -match g {
-                crate::model::params::Group::AddedMass => 5.0 * rigid_mass[d],
-                crate::model::params::Group::LinearDrag => 3.0 * lin_bound[d].min(fmax[d] / v),
-                crate::model::params::Group::QuadraticDrag => 3.0 * fmax[d] / (v * v),
-                // A constant force no larger than the largest force the rows need.
-                crate::model::params::Group::Constant => fmax[d],
-            };
-            if g == crate::model::params::Group::Constant {
-                hi[j] = fmax[d];
-            }
-        }
-        let (mut a, mut b, mut c) = (vec![0.0; p * p], vec![0.0; p], 0.0);
-        if norm == Norm::L2 {
-            for i in 0..reg.rows() {
-                let (row, wi) = (reg.row(i), w[i] * w[i]);
-                for r in 0..p {
-                    b[r] += wi * row[r] * reg.y[i];
-                    for s in 0..p {
-                        a[r * p + s] += wi * row[r] * row[s];
-                    }
-                }
-                c += wi * reg.y[i] * reg.y[i];
-            }
-        }
         let (wphi, wy) = if norm == Norm::L1 {
-            // The weights are positive, so |w (y - row . x)| = |(w row) . x - w y|.
-            let wphi = reg
-                .phi
-                .chunks(p.max(1))
-                .zip(&w)
-                .flat_map(|(row, wi)| row.iter().map(move |v| wi * v))
-                .collect();
-            (wphi, reg.y.iter().zip(&w).map(|(y, wi)| wi * y).collect())
+            weighted_rows(reg, &w)
         } else {
             (Vec::new(), Vec::new())
         };
@@ -299,6 +220,146 @@ impl<'a> Problem<'a> {
     }
 }
 
+/// Scales read from the rows, per DOF, that weight the rows and bound the coefficients.
+struct Scales {
+    /// Largest |force|.
+    fmax: [f64; 6],
+    /// Largest speed (the linear-drag column is -nu).
+    vmax: [f64; 6],
+    /// Sum of squared forces and the number of rows.
+    sum_sq: [f64; 6],
+    count: [usize; 6],
+}
+
+impl Scales {
+    fn of(reg: &Regression) -> Scales {
+        let p = reg.cols();
+        let mut s = Scales {
+            fmax: [0.0; 6],
+            vmax: [0.0; 6],
+            sum_sq: [0.0; 6],
+            count: [0; 6],
+        };
+        for i in 0..reg.rows() {
+            let d = reg.row_dof[i].index();
+            s.fmax[d] = s.fmax[d].max(reg.y[i].abs());
+            s.sum_sq[d] += reg.y[i] * reg.y[i];
+            s.count[d] += 1;
+            // The linear-drag column of this row is -nu: its magnitude is the speed.
+            for j in 0..p {
+                let (g, dof) = reg.layout.slot(j);
+                if dof.index() == d && g == Group::LinearDrag {
+                    s.vmax[d] = s.vmax[d].max(reg.row(i)[j].abs());
+                }
+            }
+        }
+        s
+    }
+
+    /// Row weights: 1 / the RMS force of the row's DOF, so newtons and newton-metres compare.
+    fn weights(&self, reg: &Regression) -> Vec<f64> {
+        reg.row_dof
+            .iter()
+            .map(|d| {
+                1.0 / (self.sum_sq[d.index()] / self.count[d.index()].max(1) as f64)
+                    .sqrt()
+                    .max(1e-9)
+            })
+            .collect()
+    }
+
+    /// Per DOF, the smallest force / speed over steady samples (acceleration under 2 % of its
+    /// peak) moving at >= 5 % of the top speed; infinite where there are none.
+    ///
+    /// Linear drag can be no larger than force / speed at any moving sample near steady
+    /// state; the smallest such ratio (the slowest steady case) bounds it far tighter than
+    /// max force / max speed.
+    fn linear_drag_bound(&self, reg: &Regression) -> [f64; 6] {
+        let mut amax = [0.0f64; 6];
+        for i in 0..reg.rows() {
+            let d = reg.row_dof[i].index();
+            if let Some(j) = column(reg, Group::AddedMass, d) {
+                amax[d] = amax[d].max(reg.row(i)[j].abs());
+            }
+        }
+        let mut lin_bound = [f64::INFINITY; 6];
+        for i in 0..reg.rows() {
+            let d = reg.row_dof[i].index();
+            let (Some(jl), Some(ja)) = (
+                column(reg, Group::LinearDrag, d),
+                column(reg, Group::AddedMass, d),
+            ) else {
+                continue;
+            };
+            let (v, a) = (reg.row(i)[jl].abs(), reg.row(i)[ja].abs());
+            // Steady samples only (acceleration under 2 % of its peak): there force = drag.
+            if v >= 0.05 * self.vmax[d] && v > 0.0 && a <= 0.02 * amax[d] {
+                lin_bound[d] = lin_bound[d].min(reg.y[i].abs() / v);
+            }
+        }
+        lin_bound
+    }
+
+    /// The search box (lo, hi): see [`Problem::new`].
+    fn bounds(&self, reg: &Regression, rigid_mass: &[f64; 6]) -> (Vec<f64>, Vec<f64>) {
+        let p = reg.cols();
+        let (fmax, lin_bound) = (&self.fmax, self.linear_drag_bound(reg));
+        let mut lo = vec![0.0; p];
+        let mut hi = vec![0.0; p];
+        for j in 0..p {
+            let (g, dof) = reg.layout.slot(j);
+            let d = dof.index();
+            let v = self.vmax[d].max(1e-3);
+            lo[j] = -match g {
+                Group::AddedMass => 5.0 * rigid_mass[d],
+                Group::LinearDrag => 3.0 * lin_bound[d].min(fmax[d] / v),
+                Group::QuadraticDrag => 3.0 * fmax[d] / (v * v),
+                // A constant force no larger than the largest force the rows need.
+                Group::Constant => fmax[d],
+            };
+            if g == Group::Constant {
+                hi[j] = fmax[d];
+            }
+        }
+        (lo, hi)
+    }
+}
+
+/// The column of group `g` in DOF `d`, if the layout has one.
+fn column(reg: &Regression, g: Group, d: usize) -> Option<usize> {
+    (0..reg.cols()).find(|&j| reg.layout.slot(j) == (g, crate::dof::Dof::ALL[d]))
+}
+
+/// The weighted L2 objective as a quadratic form (A, b, c): f = c - 2 b.theta + theta' A theta.
+fn quadratic_form(reg: &Regression, w: &[f64]) -> (Vec<f64>, Vec<f64>, f64) {
+    let p = reg.cols();
+    let (mut a, mut b, mut c) = (vec![0.0; p * p], vec![0.0; p], 0.0);
+    for i in 0..reg.rows() {
+        let (row, wi) = (reg.row(i), w[i] * w[i]);
+        for r in 0..p {
+            b[r] += wi * row[r] * reg.y[i];
+            for s in 0..p {
+                a[r * p + s] += wi * row[r] * row[s];
+            }
+        }
+        c += wi * reg.y[i] * reg.y[i];
+    }
+    (a, b, c)
+}
+
+/// The rows and targets multiplied by their weights, for the L1 objective.
+fn weighted_rows(reg: &Regression, w: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    let p = reg.cols();
+    // The weights are positive, so |w (y - row . x)| = |(w row) . x - w y|.
+    let wphi = reg
+        .phi
+        .chunks(p.max(1))
+        .zip(w)
+        .flat_map(|(row, wi)| row.iter().map(move |v| wi * v))
+        .collect();
+    (wphi, reg.y.iter().zip(w).map(|(y, wi)| wi * y).collect())
+}
+
 /// The state every population method keeps: positions, personal bests, the global best.
 pub struct Swarm {
     pub x: Vec<Vec<f64>>,
@@ -342,140 +403,6 @@ fn argmin(v: &[f64]) -> usize {
 pub trait Solver {
     fn init(&mut self, problem: &Problem, rng: &mut Rng, population: usize) -> Swarm;
     fn step(&mut self, problem: &Problem, swarm: &mut Swarm, rng: &mut Rng, progress: f64);
-}
-
-/// Runs a solver: `restarts` independent seeded runs (the spread of their answers is the
-/// reported interval), each `iterations` long.
-pub fn execute(
-    name: &str,
-    make: &dyn Fn() -> Box<dyn Solver>,
-    reg: &Regression,
-    rigid_mass: &[f64; 6],
-    opts: &Options,
-) -> Result<Fit, EstimateError> {
-    super::ols::check_excitation(reg)?;
-    let mut problem = Problem::new(reg, rigid_mass, opts.norm);
-    if let Some((vehicle, responses)) = opts.output_error {
-        problem = problem.with_output_error(OutputError::new(vehicle, responses));
-    }
-    let mut answers: Vec<(Vec<f64>, f64)> = Vec::new();
-    let started = std::time::Instant::now();
-    let mut stopped_early = None;
-    for r in 0..opts.restarts.max(1) {
-        let mut rng = Rng::derive(opts.seed, &format!("{name}/restart/{r}"));
-        let mut solver = make();
-        let mut swarm = solver.init(&problem, &mut rng, opts.population);
-        for it in 0..opts.iterations {
-            if crate::interrupt::requested() {
-                return Err(EstimateError::Interrupted);
-            }
-            if let Some(limit) = opts
-                .max_seconds
-                .filter(|l| started.elapsed().as_secs_f64() > *l)
-            {
-                stopped_early = Some(format!(
-                    "time limit of {limit} s reached in restart {} of {} after {it} of {} iterations",
-                    r + 1,
-                    opts.restarts.max(1),
-                    opts.iterations
-                ));
-                break;
-            }
-            solver.step(
-                &problem,
-                &mut swarm,
-                &mut rng,
-                it as f64 / opts.iterations.max(1) as f64,
-            );
-            if let Some(p) = opts.progress {
-                p((r * opts.iterations + it + 1) as f64
-                    / (opts.restarts.max(1) * opts.iterations) as f64);
-            }
-        }
-        answers.push((swarm.best[swarm.g].clone(), swarm.best_cost[swarm.g]));
-        if stopped_early.is_some() {
-            break;
-        }
-    }
-    answers.sort_by(|a, b| a.1.total_cmp(&b.1));
-    let mut best = answers[0].0.clone();
-    let p = best.len();
-    // Output error: a local least-squares refinement from the best answer gives the final
-    // values and, from its Jacobian, their standard errors.
-    let refined = opts.output_error.map(|(vehicle, responses)| {
-        let oe = OutputError::new(vehicle, responses);
-        let r = super::refine::output_error_lm(&oe, &reg.layout, &best, 30);
-        best = r.theta.clone();
-        r
-    });
-    let parameters = (0..p)
-        .map(|j| {
-            let vals: Vec<f64> = answers.iter().map(|a| a.0[j]).collect();
-            let (lo, hi) = vals
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| {
-                    (l.min(*v), h.max(*v))
-                });
-            let mean = vals.iter().sum::<f64>() / vals.len() as f64;
-            let sd = (vals.iter().map(|v| (v - mean).powi(2)).sum::<f64>()
-                / (vals.len().max(2) - 1) as f64)
-                .sqrt();
-            let at_bound = (best[j] - problem.lo[j]).abs() < 1e-6 * problem.lo[j].abs().max(1.0)
-                || best[j].abs() < 1e-9;
-            // One search run has no spread to judge a value by.
-            let single = vals.len() < 2;
-            let stderr = match &refined {
-                Some(r) => r.stderr[j],
-                None if single => f64::NAN,
-                None => sd,
-            };
-            let spread_ok = refined.is_some() || (!single && (hi - lo) < 0.5 * best[j].abs());
-            let note = if at_bound {
-                Some(
-                    "pinned to its search bound: the data (or the search) did not determine it"
-                        .to_string(),
-                )
-            } else if single && refined.is_none() {
-                Some(
-                    "one search run only (time limit): no spread across restarts to judge it by"
-                        .to_string(),
-                )
-            } else {
-                None
-            };
-            Estimate {
-                name: reg.layout.name(j),
-                value: best[j],
-                unit: reg.layout.unit(j).to_string(),
-                stderr,
-                interval: Some([lo, hi]),
-                // Wide disagreement between restarts, a standard error over half the value,
-                // or a value pinned to a bound means the data (or the search) did not
-                // determine it.
-                identifiable: !at_bound
-                    && spread_ok
-                    && stderr.is_finite()
-                    && stderr < 0.5 * best[j].abs(),
-                note,
-            }
-        })
-        .collect();
-    let residual = super::ols::residual_sigma(reg, &best);
-    // The regressor's conditioning does not depend on the method: take it from the LS summary.
-    let condition_number = super::ols::summarise(reg, &best, &residual).condition_number;
-    Ok(Fit {
-        parameters,
-        residual_sigma: residual
-            .iter()
-            .map(|(d, s)| (d.name().to_string(), *s))
-            .collect(),
-        samples: reg.rows(),
-        condition_number,
-        evaluations: Some(problem.evaluations()),
-        objective_value: Some(refined.as_ref().map_or(answers[0].1, |r| r.cost_after)),
-        stopped_early,
-        trace: None,
-    })
 }
 
 /// A population method as the registry holds it: one of the solvers, run by [`execute`].
