@@ -143,202 +143,330 @@ fn parse_columns_gaps(
     min_rows: usize,
     gaps: bool,
 ) -> Result<Log, InputError> {
-    let mut missing_values = 0usize;
-    let err = |line: usize, col: Option<usize>, msg: String, fix: String| {
-        InputError::file(path, msg, fix)
-            .at(line, col)
-            .with_source(text)
+    let spec = Spec {
+        path,
+        text,
+        columns,
+        required,
+        what,
+        min_rows,
+        gaps,
     };
-    let mut lines = text
-        .lines()
+    let mut lines = numbered_lines(text);
+    let Some((hline, header)) = lines.next() else {
+        return Err(spec.empty());
+    };
+    let layout = spec.read_header(hline, header)?;
+    let mut log = Log {
+        t: Vec::new(),
+        cols: vec![Vec::new(); columns.len() - 1],
+        notes: spec.header_notes(&layout),
+        present: layout.present[1..].to_vec(),
+    };
+    let mut missing_values = 0usize;
+    for (lno, line) in lines {
+        let row = spec.read_row(lno, line, &layout, &mut missing_values)?;
+        spec.push_row(&mut log, lno, row)?;
+    }
+    spec.finish(log, hline, missing_values)
+}
+
+/// The non-blank lines of `text`, numbered from 1, without a trailing `\r`.
+fn numbered_lines(text: &str) -> impl Iterator<Item = (usize, &str)> {
+    text.lines()
         .enumerate()
         .map(|(i, l)| (i + 1, l.trim_end_matches('\r')))
-        .filter(|(_, l)| !l.trim().is_empty());
-    let Some((hline, header)) = lines.next() else {
-        return Err(InputError::file(
-            path,
+        .filter(|(_, l)| !l.trim().is_empty())
+}
+
+/// 1-based character column where field `i` of a split line starts.
+fn column_of(fields: &[&str], i: usize) -> usize {
+    fields[..i].iter().map(|f| f.len() + 1).sum::<usize>() + 1
+}
+
+/// What the caller expects of one log, and the text it is read from.
+struct Spec<'a> {
+    path: &'a str,
+    text: &'a str,
+    columns: &'a [&'a str],
+    /// How many of `columns`, from `t` on, the header must have.
+    required: usize,
+    what: &'a str,
+    min_rows: usize,
+    /// Whether a data value may be missing (empty or `nan`).
+    gaps: bool,
+}
+
+/// The header as read: its column names, and where each expected column is.
+struct Layout<'t> {
+    names: Vec<&'t str>,
+    /// Position in the file of each expected column; `usize::MAX` when it is absent.
+    index: Vec<usize>,
+    /// Whether each expected column is in the file.
+    present: Vec<bool>,
+}
+
+impl Spec<'_> {
+    /// An error located at `line` (and `col`) with that line of the file shown.
+    fn err(&self, line: usize, col: Option<usize>, msg: String, fix: String) -> InputError {
+        InputError::file(self.path, msg, fix)
+            .at(line, col)
+            .with_source(self.text)
+    }
+
+    /// The error for a file without even a header.
+    fn empty(&self) -> InputError {
+        let what = self.what;
+        InputError::file(
+            self.path,
             format!("the {what} is empty"),
             format!(
                 "write the header `{}` and one row per sample",
-                columns.join(",")
+                self.columns.join(",")
             ),
-        ));
-    };
-    let names: Vec<&str> = header.split(',').map(unquote).collect();
-    if names.len() == 1 && columns.len() > 1 {
+        )
+    }
+
+    /// Splits the header and finds the expected columns in it.
+    fn read_header<'t>(&self, hline: usize, header: &'t str) -> Result<Layout<'t>, InputError> {
+        let names: Vec<&str> = header.split(',').map(unquote).collect();
+        self.check_delimiter(hline, header, &names)?;
+        let mut index = Vec::with_capacity(self.columns.len());
+        let mut present = Vec::with_capacity(self.columns.len());
+        for (ci, c) in self.columns.iter().enumerate() {
+            match names.iter().position(|n| n.eq_ignore_ascii_case(c)) {
+                Some(i) => {
+                    index.push(i);
+                    present.push(true);
+                }
+                None if ci >= self.required => {
+                    index.push(usize::MAX);
+                    present.push(false);
+                }
+                None => return Err(self.missing_column(hline, c, &names)),
+            }
+        }
+        self.check_any_optional(hline, &present)?;
+        Ok(Layout {
+            names,
+            index,
+            present,
+        })
+    }
+
+    /// A header of one column when more are expected: another delimiter, most likely.
+    fn check_delimiter(
+        &self,
+        hline: usize,
+        header: &str,
+        names: &[&str],
+    ) -> Result<(), InputError> {
+        if names.len() != 1 || self.columns.len() <= 1 {
+            return Ok(());
+        }
         let delim = [';', '\t', ' '].into_iter().find(|d| header.contains(*d));
         let fix = match delim {
             Some(d) => format!(
                 "the file is separated by {:?}; write it with commas: `{}`",
                 d,
-                columns.join(",")
+                self.columns.join(",")
             ),
-            None => format!("the header must be `{}`", columns.join(",")),
+            None => format!("the header must be `{}`", self.columns.join(",")),
         };
-        return Err(err(
+        Err(self.err(
             hline,
             Some(1),
-            format!("the header has one column; expected {}", columns.join(",")),
+            format!(
+                "the header has one column; expected {}",
+                self.columns.join(",")
+            ),
             fix,
-        ));
+        ))
     }
-    let mut index = Vec::with_capacity(columns.len());
-    let mut present = Vec::with_capacity(columns.len());
-    for (ci, c) in columns.iter().enumerate() {
-        match names.iter().position(|n| n.eq_ignore_ascii_case(c)) {
-            Some(i) => {
-                index.push(i);
-                present.push(true);
-            }
-            None if ci >= required => {
-                index.push(usize::MAX);
-                present.push(false);
-            }
-            None => {
-                let hint = crate::diag::nearest(
-                    c,
-                    names
-                        .iter()
-                        .copied()
-                        .filter(|n| !columns.iter().any(|x| x.eq_ignore_ascii_case(n))),
-                )
-                .map_or(String::new(), |n| format!(" (`{n}` is close; rename it)"));
-                return Err(err(
-                    hline,
-                    None,
-                    format!("the {what} has no `{c}` column{hint}"),
-                    format!(
-                        "the header must name the columns {} (in any order)",
-                        columns.join(",")
-                    ),
-                ));
-            }
-        }
-    }
-    if required < columns.len() && !present[1..].iter().any(|p| *p) {
-        return Err(err(
+
+    /// The error for a required column `c` the header lacks, naming a close unexpected name.
+    fn missing_column(&self, hline: usize, c: &str, names: &[&str]) -> InputError {
+        let (columns, what) = (self.columns, self.what);
+        let hint = crate::diag::nearest(
+            c,
+            names
+                .iter()
+                .copied()
+                .filter(|n| !columns.iter().any(|x| x.eq_ignore_ascii_case(n))),
+        )
+        .map_or(String::new(), |n| format!(" (`{n}` is close; rename it)"));
+        self.err(
             hline,
             None,
+            format!("the {what} has no `{c}` column{hint}"),
             format!(
-                "the {what} has none of its columns {}",
-                columns[1..].join(",")
+                "the header must name the columns {} (in any order)",
+                columns.join(",")
             ),
-            format!(
-                "the header must be `t` and any of {}",
-                columns[1..].join(",")
-            ),
-        ));
+        )
     }
-    let mut notes = Vec::new();
-    let missing: Vec<&str> = columns
-        .iter()
-        .zip(&present)
-        .filter(|(_, p)| !**p)
-        .map(|(c, _)| *c)
-        .collect();
-    if !missing.is_empty() {
-        notes.push(format!(
-            "{path}: no {} column{}; used what is there",
-            missing.join(", "),
-            if missing.len() > 1 { "s" } else { "" }
-        ));
+
+    /// A log whose data columns are all optional must still have one of them.
+    fn check_any_optional(&self, hline: usize, present: &[bool]) -> Result<(), InputError> {
+        let (columns, what) = (self.columns, self.what);
+        if self.required < columns.len() && !present[1..].iter().any(|p| *p) {
+            return Err(self.err(
+                hline,
+                None,
+                format!(
+                    "the {what} has none of its columns {}",
+                    columns[1..].join(",")
+                ),
+                format!(
+                    "the header must be `t` and any of {}",
+                    columns[1..].join(",")
+                ),
+            ));
+        }
+        Ok(())
     }
-    let extra: Vec<&str> = names
-        .iter()
-        .enumerate()
-        .filter(|(i, _)| !index.contains(i))
-        .map(|(_, n)| *n)
-        .collect();
-    if !extra.is_empty() {
-        notes.push(format!("{path}: ignored columns {}", extra.join(", ")));
+
+    /// Notes on the header: the expected columns it lacks, the columns it has that are ignored.
+    fn header_notes(&self, layout: &Layout) -> Vec<String> {
+        let path = self.path;
+        let mut notes = Vec::new();
+        let missing: Vec<&str> = self
+            .columns
+            .iter()
+            .zip(&layout.present)
+            .filter(|(_, p)| !**p)
+            .map(|(c, _)| *c)
+            .collect();
+        if !missing.is_empty() {
+            notes.push(format!(
+                "{path}: no {} column{}; used what is there",
+                missing.join(", "),
+                if missing.len() > 1 { "s" } else { "" }
+            ));
+        }
+        let extra: Vec<&str> = layout
+            .names
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| !layout.index.contains(i))
+            .map(|(_, n)| *n)
+            .collect();
+        if !extra.is_empty() {
+            notes.push(format!("{path}: ignored columns {}", extra.join(", ")));
+        }
+        notes
     }
-    let mut log = Log {
-        t: Vec::new(),
-        cols: vec![Vec::new(); columns.len() - 1],
-        notes,
-        present: present[1..].to_vec(),
-    };
-    for (lno, line) in lines {
+
+    /// The expected columns' values in one data line (NaN for an absent column or a gap),
+    /// and the character column of its time.
+    fn read_row(
+        &self,
+        lno: usize,
+        line: &str,
+        layout: &Layout,
+        missing_values: &mut usize,
+    ) -> Result<(Vec<f64>, usize), InputError> {
         let fields: Vec<&str> = line.split(',').collect();
-        if fields.len() != names.len() {
-            return Err(err(
+        if fields.len() != layout.names.len() {
+            return Err(self.err(
                 lno,
                 None,
-                format!("{} fields on this line, {} in the header", fields.len(), names.len()),
+                format!("{} fields on this line, {} in the header", fields.len(), layout.names.len()),
                 "every row needs one value per header column; a truncated last line means the log was cut off: delete it".into(),
             ));
         }
-        let col_of = |i: usize| fields[..i].iter().map(|f| f.len() + 1).sum::<usize>() + 1;
-        let mut row = Vec::with_capacity(columns.len());
-        for (&i, name) in index.iter().zip(columns) {
+        let mut row = Vec::with_capacity(self.columns.len());
+        for (&i, name) in layout.index.iter().zip(self.columns) {
             if i == usize::MAX {
                 row.push(f64::NAN);
                 continue;
             }
             let raw = unquote(fields[i]).trim();
-            if gaps && i != index[0] && (raw.is_empty() || raw.eq_ignore_ascii_case("nan")) {
-                missing_values += 1;
+            if self.gaps
+                && i != layout.index[0]
+                && (raw.is_empty() || raw.eq_ignore_ascii_case("nan"))
+            {
+                *missing_values += 1;
                 row.push(f64::NAN);
                 continue;
             }
-            let v: f64 = raw.parse().map_err(|_| {
-                let fix = if raw.contains(';') || raw.matches('.').count() == 0 && raw.contains(',')
-                {
-                    "use a point as the decimal separator and commas between columns".to_string()
-                } else {
-                    format!("`{name}` must be a number; fix or delete this row")
-                };
-                err(
-                    lno,
-                    Some(col_of(i)),
-                    format!("`{raw}` in column `{name}` is not a number"),
-                    fix,
-                )
-            })?;
-            if !v.is_finite() {
-                return Err(err(
-                    lno,
-                    Some(col_of(i)),
-                    format!("`{raw}` in column `{name}` is not a finite number"),
-                    "a sensor dropout should be a missing row, not NaN or inf: delete this row"
-                        .into(),
-                ));
-            }
-            row.push(v);
+            row.push(self.read_value(lno, column_of(&fields, i), raw, name)?);
         }
+        Ok((row, column_of(&fields, layout.index[0])))
+    }
+
+    /// One value: a finite number, or an error that says how to fix the row.
+    fn read_value(&self, lno: usize, col: usize, raw: &str, name: &str) -> Result<f64, InputError> {
+        let v: f64 = raw.parse().map_err(|_| {
+            let fix = if raw.contains(';') || raw.matches('.').count() == 0 && raw.contains(',') {
+                "use a point as the decimal separator and commas between columns".to_string()
+            } else {
+                format!("`{name}` must be a number; fix or delete this row")
+            };
+            self.err(
+                lno,
+                Some(col),
+                format!("`{raw}` in column `{name}` is not a number"),
+                fix,
+            )
+        })?;
+        if !v.is_finite() {
+            return Err(self.err(
+                lno,
+                Some(col),
+                format!("`{raw}` in column `{name}` is not a finite number"),
+                "a sensor dropout should be a missing row, not NaN or inf: delete this row".into(),
+            ));
+        }
+        Ok(v)
+    }
+
+    /// Appends a row (time first, at character column `t_col`); time may not go backwards.
+    fn push_row(
+        &self,
+        log: &mut Log,
+        lno: usize,
+        (row, t_col): (Vec<f64>, usize),
+    ) -> Result<(), InputError> {
         let t = row[0];
         if let Some(&prev) = log.t.last()
             && t < prev
         {
-            return Err(err(
-                    lno,
-                    Some(col_of(index[0])),
-                    format!("time goes backwards: t = {t} after t = {prev}"),
-                    "the log must be in time order; two recordings appended into one file must be split into two runs".into(),
-                ));
+            return Err(self.err(
+                lno,
+                Some(t_col),
+                format!("time goes backwards: t = {t} after t = {prev}"),
+                "the log must be in time order; two recordings appended into one file must be split into two runs".into(),
+            ));
         }
         log.t.push(t);
         for (c, v) in log.cols.iter_mut().zip(&row[1..]) {
             c.push(*v);
         }
+        Ok(())
     }
-    if missing_values > 0 {
-        log.notes.push(format!(
-            "{path}: {missing_values} values missing (empty or nan), left out of their channel"
-        ));
+
+    /// Notes the gaps and checks that enough rows were read.
+    fn finish(&self, mut log: Log, hline: usize, missing_values: usize) -> Result<Log, InputError> {
+        let (path, what, min_rows) = (self.path, self.what, self.min_rows);
+        if missing_values > 0 {
+            log.notes.push(format!(
+                "{path}: {missing_values} values missing (empty or nan), left out of their channel"
+            ));
+        }
+        if log.len() < min_rows {
+            return Err(InputError::file(
+                path,
+                format!(
+                    "the {what} has {} data rows; at least {min_rows} are needed",
+                    log.len()
+                ),
+                "check that the recording was not cut off".to_string(),
+            )
+            .at(hline, None));
+        }
+        Ok(log)
     }
-    if log.len() < min_rows {
-        return Err(InputError::file(
-            path,
-            format!(
-                "the {what} has {} data rows; at least {min_rows} are needed",
-                log.len()
-            ),
-            "check that the recording was not cut off".to_string(),
-        )
-        .at(hline, None));
-    }
-    Ok(log)
 }
 
 #[cfg(test)]

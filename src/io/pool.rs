@@ -123,110 +123,28 @@ fn read(root: &Path, rel: &str) -> Result<String, InputError> {
 /// Loads the run in folder `dir` (relative to `root`, `/`-separated) whose files are `files`.
 pub fn load(root: &Path, dir: &str, files: &[String]) -> Result<PoolRun, InputError> {
     let name = dir.rsplit('/').next().unwrap_or(dir).to_string();
-    let file = |n: &str| {
-        files
-            .iter()
-            .find(|f| f.rsplit('/').next() == Some(n))
-            .cloned()
-    };
-    let mut notes: Vec<String> = files
-        .iter()
-        .filter(|f| !KNOWN.contains(&f.rsplit('/').next().unwrap_or("")))
-        .map(|f| format!("{f}: not a pool log hydrofit reads; ignored"))
-        .collect();
-
-    let meta_path = file("run.yaml").ok_or_else(|| {
-        InputError::file(
-            format!("{dir}/run.yaml"),
-            "the run has no run.yaml",
-            "add run.yaml with at least `role: train` or `role: validate`",
-        )
-    })?;
-    let text = read(root, &meta_path)?;
-    let meta: RunMeta = serde_yaml_ng::from_str(&text).map_err(|e| {
-        let (line, col) = e.location().map_or((None, None), |l| (Some(l.line()), Some(l.column())));
-        let msg = e.to_string();
-        let msg = msg.rfind(" at line ").map_or(msg.as_str(), |i| &msg[..i]).to_string();
-        let mut err = InputError::file(&meta_path, msg, "run.yaml takes role (train | validate), description, pool {length_m, width_m, depth_m} and tether_anchor_m [x, y, z]");
-        if let Some(l) = line {
-            err = err.at(l, col).with_source(&text);
-        }
-        err
-    })?;
-
-    let thrust_path = file("thrust.csv").ok_or_else(|| {
-        InputError::file(format!("{dir}/thrust.csv"), "the run has no thrust log", "add thrust.csv (t,X_N,Y_N,Z_N,N_Nm): without the commanded force the model cannot be simulated")
-    })?;
-    let mut thrust = csvlog::parse_keeping_repeats(
-        &thrust_path,
-        &read(root, &thrust_path)?,
-        &THRUST,
-        "thrust log",
-        10,
-    )?;
-    type Parser = fn(&str, &str, &[&str], &str, usize) -> Result<Log, InputError>;
-    let mut optional =
-        |n: &str, cols: &[&str], what: &str, parse: Parser| -> Result<Option<Log>, InputError> {
-            match file(n) {
-                None => {
-                    notes.push(format!("{dir}: no {n}"));
-                    Ok(None)
-                }
-                Some(p) => parse(&p, &read(root, &p)?, cols, what, 2).map(Some),
-            }
-        };
-    let uwb = optional("uwb.csv", &UWB, "UWB log", csvlog::parse_subset)?;
-    let sonar = optional("sonar.csv", &SONAR, "sonar log", csvlog::parse_subset)?;
-    let mut imu = optional("imu.csv", &IMU, "IMU log", csvlog::parse_subset)?;
-    let depth = optional("depth.csv", &DEPTH, "depth log", csvlog::parse_subset)?;
-    // A navigation log may have gaps (a DVL without bottom lock writes empty or nan values).
-    let mut nav = optional(
-        "nav.csv",
-        &NAV,
-        "navigation log",
-        csvlog::parse_subset_with_gaps,
-    )?;
-    for (log, n) in [(&uwb, "uwb.csv"), (&sonar, "sonar.csv")] {
-        if log.as_ref().is_some_and(|l| !(l.has(0) && l.has(1))) {
-            return Err(InputError::file(
-                format!("{dir}/{n}"),
-                "a position log needs both x_m and y_m",
-                "write both horizontal coordinates (pool frame); z_m is optional",
-            ));
-        }
-    }
-    if let Some(imu) = &mut imu {
-        for c in &mut imu.cols[..6] {
-            c.iter_mut().for_each(|x| *x = x.to_radians());
-        }
-        for c in &mut imu.cols[6..] {
-            c.iter_mut().for_each(|x| *x *= G);
-        }
-    }
-    if let Some(nav) = &mut nav {
-        for c in &mut nav.cols[3..] {
-            c.iter_mut().for_each(|x| *x = x.to_radians());
-        }
-    }
+    let mut notes = unknown_files(files);
+    let meta = read_meta(root, dir, files)?;
+    let (thrust_path, mut thrust) = read_thrust(root, dir, files)?;
+    let mut sensors = read_sensors(root, dir, files, &mut notes)?;
+    check_positions(dir, &sensors)?;
+    sensors.convert_units();
     let mut repairs = Vec::new();
     if let Some(r) = super::timing::repair_command_clock(&mut thrust) {
         repairs.push(format!("{thrust_path}: {r}"));
     }
     // Rows still sharing a time stamp (no regular clock could be fitted): the last of each.
     thrust.dedupe_times(&thrust_path);
-    for log in [
-        Some(&thrust),
-        uwb.as_ref(),
-        sonar.as_ref(),
-        imu.as_ref(),
-        depth.as_ref(),
-        nav.as_ref(),
-    ]
-    .into_iter()
-    .flatten()
-    {
+    for log in std::iter::once(&thrust).chain(sensors.logs()) {
         notes.extend(log.notes.iter().cloned());
     }
+    let Sensors {
+        uwb,
+        sonar,
+        imu,
+        depth,
+        nav,
+    } = sensors;
     let mut run = PoolRun {
         name,
         meta,
@@ -243,6 +161,150 @@ pub fn load(root: &Path, dir: &str, files: &[String]) -> Result<PoolRun, InputEr
         run.repairs.push(format!("{thrust_path}: {r}"));
     }
     Ok(run)
+}
+
+/// The path of the run's file named `n`, if it has one.
+fn find(files: &[String], n: &str) -> Option<String> {
+    files
+        .iter()
+        .find(|f| f.rsplit('/').next() == Some(n))
+        .cloned()
+}
+
+/// A note for each file of the run that is not a pool log.
+fn unknown_files(files: &[String]) -> Vec<String> {
+    files
+        .iter()
+        .filter(|f| !KNOWN.contains(&f.rsplit('/').next().unwrap_or("")))
+        .map(|f| format!("{f}: not a pool log hydrofit reads; ignored"))
+        .collect()
+}
+
+/// The run's `run.yaml`, which every run needs.
+fn read_meta(root: &Path, dir: &str, files: &[String]) -> Result<RunMeta, InputError> {
+    let meta_path = find(files, "run.yaml").ok_or_else(|| {
+        InputError::file(
+            format!("{dir}/run.yaml"),
+            "the run has no run.yaml",
+            "add run.yaml with at least `role: train` or `role: validate`",
+        )
+    })?;
+    let text = read(root, &meta_path)?;
+    serde_yaml_ng::from_str(&text).map_err(|e| {
+        let (line, col) = e.location().map_or((None, None), |l| (Some(l.line()), Some(l.column())));
+        let msg = e.to_string();
+        let msg = msg.rfind(" at line ").map_or(msg.as_str(), |i| &msg[..i]).to_string();
+        let mut err = InputError::file(&meta_path, msg, "run.yaml takes role (train | validate), description, pool {length_m, width_m, depth_m} and tether_anchor_m [x, y, z]");
+        if let Some(l) = line {
+            err = err.at(l, col).with_source(&text);
+        }
+        err
+    })
+}
+
+/// The thrust log and its path, which every run needs. Its repeated time stamps are kept
+/// for the clock repair.
+fn read_thrust(root: &Path, dir: &str, files: &[String]) -> Result<(String, Log), InputError> {
+    let thrust_path = find(files, "thrust.csv").ok_or_else(|| {
+        InputError::file(format!("{dir}/thrust.csv"), "the run has no thrust log", "add thrust.csv (t,X_N,Y_N,Z_N,N_Nm): without the commanded force the model cannot be simulated")
+    })?;
+    let thrust = csvlog::parse_keeping_repeats(
+        &thrust_path,
+        &read(root, &thrust_path)?,
+        &THRUST,
+        "thrust log",
+        10,
+    )?;
+    Ok((thrust_path, thrust))
+}
+
+/// The sensor logs of a run, each when it was recorded.
+struct Sensors {
+    uwb: Option<Log>,
+    sonar: Option<Log>,
+    imu: Option<Log>,
+    depth: Option<Log>,
+    nav: Option<Log>,
+}
+
+type Parser = fn(&str, &str, &[&str], &str, usize) -> Result<Log, InputError>;
+
+/// Reads the sensor logs the run has; each one it lacks is noted in `notes`.
+fn read_sensors(
+    root: &Path,
+    dir: &str,
+    files: &[String],
+    notes: &mut Vec<String>,
+) -> Result<Sensors, InputError> {
+    let mut optional =
+        |n: &str, cols: &[&str], what: &str, parse: Parser| -> Result<Option<Log>, InputError> {
+            match find(files, n) {
+                None => {
+                    notes.push(format!("{dir}: no {n}"));
+                    Ok(None)
+                }
+                Some(p) => parse(&p, &read(root, &p)?, cols, what, 2).map(Some),
+            }
+        };
+    Ok(Sensors {
+        uwb: optional("uwb.csv", &UWB, "UWB log", csvlog::parse_subset)?,
+        sonar: optional("sonar.csv", &SONAR, "sonar log", csvlog::parse_subset)?,
+        imu: optional("imu.csv", &IMU, "IMU log", csvlog::parse_subset)?,
+        depth: optional("depth.csv", &DEPTH, "depth log", csvlog::parse_subset)?,
+        // A navigation log may have gaps (a DVL without bottom lock writes empty or nan values).
+        nav: optional(
+            "nav.csv",
+            &NAV,
+            "navigation log",
+            csvlog::parse_subset_with_gaps,
+        )?,
+    })
+}
+
+/// A position log (UWB, sonar) needs both horizontal coordinates.
+fn check_positions(dir: &str, sensors: &Sensors) -> Result<(), InputError> {
+    for (log, n) in [(&sensors.uwb, "uwb.csv"), (&sensors.sonar, "sonar.csv")] {
+        if log.as_ref().is_some_and(|l| !(l.has(0) && l.has(1))) {
+            return Err(InputError::file(
+                format!("{dir}/{n}"),
+                "a position log needs both x_m and y_m",
+                "write both horizontal coordinates (pool frame); z_m is optional",
+            ));
+        }
+    }
+    Ok(())
+}
+
+impl Sensors {
+    /// The logs the run has.
+    fn logs(&self) -> impl Iterator<Item = &Log> {
+        [
+            self.uwb.as_ref(),
+            self.sonar.as_ref(),
+            self.imu.as_ref(),
+            self.depth.as_ref(),
+            self.nav.as_ref(),
+        ]
+        .into_iter()
+        .flatten()
+    }
+
+    /// Angles and rates to radians, accelerations from g to m/s^2.
+    fn convert_units(&mut self) {
+        if let Some(imu) = &mut self.imu {
+            for c in &mut imu.cols[..6] {
+                c.iter_mut().for_each(|x| *x = x.to_radians());
+            }
+            for c in &mut imu.cols[6..] {
+                c.iter_mut().for_each(|x| *x *= G);
+            }
+        }
+        if let Some(nav) = &mut self.nav {
+            for c in &mut nav.cols[3..] {
+                c.iter_mut().for_each(|x| *x = x.to_radians());
+            }
+        }
+    }
 }
 
 impl PoolRun {

@@ -68,50 +68,11 @@ fn tokenize(text: &str) -> Vec<String> {
         match c {
             '#' => {
                 flush(&mut cur, &mut toks);
-                let mut word = String::from("#");
-                while let Some(&n) = chars.peek() {
-                    if n.is_alphanumeric() {
-                        word.push(n);
-                        chars.next();
-                    } else {
-                        break;
-                    }
-                }
-                if word == "#eval" {
-                    while chars.peek().is_some_and(|c| c.is_whitespace()) {
-                        chars.next();
-                    }
-                    if chars.peek() == Some(&'{') {
-                        chars.next();
-                        let mut depth = 1;
-                        let mut body = String::new();
-                        for n in chars.by_ref() {
-                            match n {
-                                '{' => depth += 1,
-                                '}' => depth -= 1,
-                                _ => {}
-                            }
-                            if depth == 0 {
-                                break;
-                            }
-                            body.push(n);
-                        }
-                        toks.push(format!("#eval{{{body}}}"));
-                        continue;
-                    }
-                }
-                toks.push(word);
+                toks.push(directive(&mut chars));
             }
             '"' => {
                 flush(&mut cur, &mut toks);
-                let mut s = String::from("\"");
-                for n in chars.by_ref() {
-                    s.push(n);
-                    if n == '"' {
-                        break;
-                    }
-                }
-                toks.push(s);
+                toks.push(quoted(&mut chars));
             }
             '{' | '}' | '(' | ')' | ';' => {
                 flush(&mut cur, &mut toks);
@@ -123,6 +84,62 @@ fn tokenize(text: &str) -> Vec<String> {
     }
     flush(&mut cur, &mut toks);
     toks
+}
+
+type Chars<'a> = std::iter::Peekable<std::str::Chars<'a>>;
+
+/// A directive, its `#` already read: `#eval{...}` as one token, any other as its word.
+fn directive(chars: &mut Chars) -> String {
+    let mut word = String::from("#");
+    while let Some(&n) = chars.peek() {
+        if n.is_alphanumeric() {
+            word.push(n);
+            chars.next();
+        } else {
+            break;
+        }
+    }
+    if word == "#eval" {
+        while chars.peek().is_some_and(|c| c.is_whitespace()) {
+            chars.next();
+        }
+        if chars.peek() == Some(&'{') {
+            chars.next();
+            return format!("#eval{{{}}}", braced_body(chars));
+        }
+    }
+    word
+}
+
+/// What follows an opened `{` up to the `}` that closes it (consumed, not returned); braces
+/// inside are kept.
+fn braced_body(chars: &mut Chars) -> String {
+    let mut depth = 1;
+    let mut body = String::new();
+    for n in chars.by_ref() {
+        match n {
+            '{' => depth += 1,
+            '}' => depth -= 1,
+            _ => {}
+        }
+        if depth == 0 {
+            break;
+        }
+        body.push(n);
+    }
+    body
+}
+
+/// A string, its opening `"` already read, with both quotes.
+fn quoted(chars: &mut Chars) -> String {
+    let mut s = String::from("\"");
+    for n in chars.by_ref() {
+        s.push(n);
+        if n == '"' {
+            break;
+        }
+    }
+    s
 }
 
 pub fn parse(text: &str) -> Result<Dict, DictError> {

@@ -5,12 +5,13 @@
 pub mod case;
 pub mod dict;
 pub mod results;
+mod solve;
 
 use crate::diag::InputError;
 use results::{LogEnd, VectorTable};
 use serde::{Deserialize, Serialize};
-use std::io::{BufRead, Write};
-use std::path::{Path, PathBuf};
+pub use solve::{Results, obtain_results, run, solver_available};
+use std::path::Path;
 
 /// Written into a case folder next to the results of a run by hydrofit: which inputs they
 /// belong to. Results without it (or for other inputs) are not used as they are.
@@ -163,31 +164,6 @@ pub fn read_setup(case: &Path, shown: &str) -> anyhow::Result<CaseSetup> {
     })
 }
 
-/// The OpenFOAM binaries need WM_PROJECT_DIR (Debian's package: /usr/share/openfoam).
-fn project_dir() -> Option<String> {
-    std::env::var("WM_PROJECT_DIR")
-        .ok()
-        .filter(|d| Path::new(d).join("etc/controlDict").exists())
-        .or_else(|| {
-            Path::new("/usr/share/openfoam/etc/controlDict")
-                .exists()
-                .then(|| "/usr/share/openfoam".to_string())
-        })
-}
-
-fn on_path(exe: &str) -> Option<PathBuf> {
-    std::env::var_os("PATH").and_then(|paths| {
-        std::env::split_paths(&paths)
-            .map(|p| p.join(exe))
-            .find(|p| p.is_file())
-    })
-}
-
-/// Whether `solver` (and blockMesh) can run here.
-pub fn solver_available(solver: &str) -> bool {
-    on_path(solver).is_some() && on_path("blockMesh").is_some() && project_dir().is_some()
-}
-
 /// The body's motion and the fluid force on it over time, from a finished run.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Track {
@@ -242,49 +218,9 @@ pub fn read_track(dir: &Path, solver: &str) -> anyhow::Result<(Track, results::L
         }
         .into());
     }
-    let table = |rel: &str| -> anyhow::Result<Option<VectorTable>> {
-        match std::fs::read_to_string(dir.join(rel)) {
-            Ok(text) => Ok(Some(
-                results::parse_vector_table(&text)
-                    .map_err(|e| RunError::Results(format!("{rel}: {e}")))?,
-            )),
-            Err(_) => Ok(None),
-        }
-    };
-    let mut track = match table(STATE)? {
-        Some(st) => {
-            let get = |c: &str| {
-                st.column(c)
-                    .ok_or_else(|| RunError::Results(format!("{STATE} has no `{c}` column")))
-            };
-            Track {
-                t: st.t.clone(),
-                position: get("centreOfMass")?,
-                velocity: get("velocity")?,
-                omega: get("omega")?,
-                fluid_force: None,
-            }
-        }
-        None => {
-            let steps: Vec<&results::LogStep> = log
-                .steps
-                .iter()
-                .filter(|s| s.linear_velocity.is_some())
-                .collect();
-            Track {
-                t: steps.iter().map(|s| s.t).collect(),
-                position: steps.iter().map(|s| s.centre.unwrap_or_default()).collect(),
-                velocity: steps
-                    .iter()
-                    .map(|s| s.linear_velocity.unwrap_or_default())
-                    .collect(),
-                omega: steps
-                    .iter()
-                    .map(|s| s.angular_velocity.unwrap_or_default())
-                    .collect(),
-                fluid_force: None,
-            }
-        }
+    let mut track = match read_table(dir, STATE)? {
+        Some(st) => track_from_state(&st)?,
+        None => track_from_log(&log),
     };
     if track.t.is_empty() {
         return Err(RunError::Results(format!(
@@ -292,42 +228,98 @@ pub fn read_track(dir: &Path, solver: &str) -> anyhow::Result<(Track, results::L
         ))
         .into());
     }
-    if let Some(ft) = table(FORCE)? {
-        // Same time steps as the motion: match by time, the force table may start earlier or end later.
-        let total = ft
-            .column(ft.columns.first().map_or("", String::as_str))
-            .unwrap_or_default();
-        let mut out = Vec::with_capacity(track.t.len());
-        let mut j = 0;
-        for &t in &track.t {
-            while j + 1 < ft.t.len() && ft.t[j] < t - 1e-9 {
-                j += 1;
-            }
-            match ft.t.get(j) {
-                Some(&tf) if (tf - t).abs() <= 1e-9 * t.abs().max(1.0) => out.push(total[j]),
-                _ => break,
-            }
+    if let Some(ft) = read_table(dir, FORCE)? {
+        track.fluid_force = force_at(&ft, &track.t);
+    }
+    check_speed(&track, &log_name, &tail)?;
+    if log.end != LogEnd::Finished {
+        return Err(RunError::Results(format!("{log_name} stops at t = {} s without `End`: the solver was killed or is still running; last lines:\n{tail}", log.steps.last().map_or(0.0, |s| s.t))).into());
+    }
+    Ok((track, log, log_text))
+}
+
+/// The vector table `rel` of a run in `dir`, when the case writes it.
+fn read_table(dir: &Path, rel: &str) -> anyhow::Result<Option<VectorTable>> {
+    match std::fs::read_to_string(dir.join(rel)) {
+        Ok(text) => Ok(Some(
+            results::parse_vector_table(&text)
+                .map_err(|e| RunError::Results(format!("{rel}: {e}")))?,
+        )),
+        Err(_) => Ok(None),
+    }
+}
+
+/// The body's motion from the sixDoFRigidBodyState table.
+fn track_from_state(st: &VectorTable) -> Result<Track, RunError> {
+    let get = |c: &str| {
+        st.column(c)
+            .ok_or_else(|| RunError::Results(format!("{STATE} has no `{c}` column")))
+    };
+    Ok(Track {
+        t: st.t.clone(),
+        position: get("centreOfMass")?,
+        velocity: get("velocity")?,
+        omega: get("omega")?,
+        fluid_force: None,
+    })
+}
+
+/// The body's motion as the solver reports it in its log, at the steps that give a velocity.
+fn track_from_log(log: &results::Log) -> Track {
+    let steps: Vec<&results::LogStep> = log
+        .steps
+        .iter()
+        .filter(|s| s.linear_velocity.is_some())
+        .collect();
+    Track {
+        t: steps.iter().map(|s| s.t).collect(),
+        position: steps.iter().map(|s| s.centre.unwrap_or_default()).collect(),
+        velocity: steps
+            .iter()
+            .map(|s| s.linear_velocity.unwrap_or_default())
+            .collect(),
+        omega: steps
+            .iter()
+            .map(|s| s.angular_velocity.unwrap_or_default())
+            .collect(),
+        fluid_force: None,
+    }
+}
+
+/// The total fluid force of table `ft` at each of the times `times`, when it has all of them.
+fn force_at(ft: &VectorTable, times: &[f64]) -> Option<Vec<[f64; 3]>> {
+    // Same time steps as the motion: match by time, the force table may start earlier or end later.
+    let total = ft
+        .column(ft.columns.first().map_or("", String::as_str))
+        .unwrap_or_default();
+    let mut out = Vec::with_capacity(times.len());
+    let mut j = 0;
+    for &t in times {
+        while j + 1 < ft.t.len() && ft.t[j] < t - 1e-9 {
+            j += 1;
         }
-        if out.len() == track.t.len() {
-            track.fluid_force = Some(out);
+        match ft.t.get(j) {
+            Some(&tf) if (tf - t).abs() <= 1e-9 * t.abs().max(1.0) => out.push(total[j]),
+            _ => break,
         }
     }
+    (out.len() == times.len()).then_some(out)
+}
+
+/// A body speed that is not finite or above 1 km/s is a diverged run.
+fn check_speed(track: &Track, log_name: &str, tail: &str) -> Result<(), RunError> {
     for (k, v) in track.velocity.iter().enumerate() {
         let speed = v.iter().map(|x| x * x).sum::<f64>().sqrt();
         if !speed.is_finite() || speed > 1e3 {
             return Err(RunError::Diverged {
                 speed,
                 t: track.t[k],
-                log: log_name,
-                tail,
-            }
-            .into());
+                log: log_name.to_string(),
+                tail: tail.to_string(),
+            });
         }
     }
-    if log.end != LogEnd::Finished {
-        return Err(RunError::Results(format!("{log_name} stops at t = {} s without `End`: the solver was killed or is still running; last lines:\n{tail}", log.steps.last().map_or(0.0, |s| s.t))).into());
-    }
-    Ok((track, log, log_text))
+    Ok(())
 }
 
 /// Files a run leaves that hydrofit keeps (in the cache and next to the case).
@@ -338,189 +330,6 @@ pub fn result_files(solver: &str) -> Vec<String> {
         STATE.into(),
         FORCE.into(),
     ]
-}
-
-/// Where a case's results come from in this build. A fresh run's scratch folder lives as
-/// long as this value.
-pub struct Results {
-    pub dir: PathBuf,
-    pub stamp: Stamp,
-    /// True when this build ran the solver.
-    pub ran: bool,
-    pub notes: Vec<String>,
-    _scratch: Option<tempfile::TempDir>,
-}
-
-/// The case's results: those left in the case when its stamp names exactly these inputs;
-/// otherwise a fresh run in a scratch copy when the solver is installed; otherwise results
-/// run by hand (without a stamp), with a note; otherwise an error that says how to install
-/// OpenFOAM. `files` are the case's inputs relative to it, `identity` their hash.
-pub fn obtain_results(
-    case_dir: &Path,
-    case_rel: &str,
-    files: &[String],
-    setup: &CaseSetup,
-    identity: &str,
-    message: &dyn Fn(String),
-) -> anyhow::Result<Results> {
-    let solver = setup.application.clone();
-    let stamp: Option<Stamp> = std::fs::read_to_string(case_dir.join(STAMP))
-        .ok()
-        .and_then(|t| serde_json::from_str(&t).ok());
-    let has_results = case_dir.join(format!("log.{solver}")).exists();
-    let mut notes = Vec::new();
-    let (dir, stamp, ran, scratch) = if stamp.as_ref().is_some_and(|s| s.inputs == identity)
-        && has_results
-    {
-        (case_dir.to_path_buf(), stamp.expect("checked"), false, None)
-    } else if solver_available(&solver) {
-        let scratch = tempfile::Builder::new()
-            .prefix("hydrofit-openfoam-")
-            .tempdir()?;
-        let end = setup.end_time_s;
-        message(format!("{solver}: meshing"));
-        let label = solver.clone();
-        let progress = move |t: f64| {
-            message(format!(
-                "{label} t = {t:.2} / {end} s ({:.0} %)",
-                100.0 * t / end.max(1e-12)
-            ))
-        };
-        let stamp = run(case_dir, files, scratch.path(), setup, &progress, identity)
-            .map_err(|e| anyhow::anyhow!("case {case_rel}: {e}"))?;
-        (scratch.path().to_path_buf(), stamp, true, Some(scratch))
-    } else if has_results && stamp.is_none() {
-        notes.push(format!("results in {case_rel} were not produced by hydrofit (no {}): used as they are, unverified against the case's inputs", STAMP));
-        (
-            case_dir.to_path_buf(),
-            Stamp {
-                inputs: identity.to_string(),
-                solver: solver.clone(),
-                openfoam: String::new(),
-                steps: 0,
-                execution_time_s: None,
-                clock_time_s: None,
-            },
-            false,
-            None,
-        )
-    } else {
-        let what = if has_results {
-            "the case's inputs changed since its results were produced"
-        } else {
-            "the case has never been run"
-        };
-        return Err(InputError::file(
-            case_rel,
-            format!("{what}, and {solver} (OpenFOAM) is not installed here"),
-            INSTALL_HINT,
-        )
-        .into());
-    };
-    Ok(Results {
-        dir,
-        stamp,
-        ran,
-        notes,
-        _scratch: scratch,
-    })
-}
-
-/// Runs blockMesh and the solver on a copy of the case's inputs in `scratch`, streaming the
-/// simulated time to `progress`. Returns the stamp of the run.
-pub fn run(
-    case: &Path,
-    inputs: &[String],
-    scratch: &Path,
-    setup: &CaseSetup,
-    progress: &dyn Fn(f64),
-    stamp_inputs: &str,
-) -> anyhow::Result<Stamp> {
-    for rel in inputs {
-        let to = scratch.join(rel);
-        std::fs::create_dir_all(to.parent().expect("has a parent"))?;
-        std::fs::copy(case.join(rel), &to)?;
-    }
-    let wm = project_dir().ok_or_else(|| {
-        anyhow::anyhow!("OpenFOAM's etc folder was not found (set WM_PROJECT_DIR); {INSTALL_HINT}")
-    })?;
-    let mut steps_run = Vec::new();
-    let mut build_line = String::new();
-    let mut tools: Vec<&str> = Vec::new();
-    if inputs.iter().any(|i| i == "system/blockMeshDict") {
-        tools.push("blockMesh");
-    }
-    tools.push(&setup.application);
-    for tool in tools {
-        let log_path = scratch.join(format!("log.{tool}"));
-        let mut log = std::io::BufWriter::new(std::fs::File::create(&log_path)?);
-        let reader = duct::cmd!(tool)
-            .dir(scratch)
-            .env("WM_PROJECT_DIR", &wm)
-            .stderr_to_stdout()
-            .stdin_null()
-            .unchecked()
-            .reader()?;
-        let mut lines = std::io::BufReader::new(&reader);
-        let mut line = String::new();
-        loop {
-            line.clear();
-            if lines.read_line(&mut line)? == 0 {
-                break;
-            }
-            log.write_all(line.as_bytes())?;
-            if let Some(t) = line
-                .strip_prefix("Time = ")
-                .and_then(|t| t.trim().parse::<f64>().ok())
-            {
-                progress(t);
-            } else if let Some(b) = line.strip_prefix("Build  :") {
-                build_line = b.trim().to_string();
-            }
-        }
-        log.flush()?;
-        let status = reader.try_wait()?.map(|o| o.status);
-        let text = std::fs::read_to_string(&log_path).unwrap_or_default();
-        if tool == setup.application {
-            // The log decides: a crash, a divergence or a truncation is reported with its tail.
-            let parsed = results::parse_log(&text);
-            steps_run = parsed.steps;
-            if let LogEnd::Crashed(why) = parsed.end {
-                return Err(RunError::Crashed {
-                    solver: tool.into(),
-                    steps: steps_run.len(),
-                    why,
-                    log: format!("log.{tool}"),
-                    tail: results::tail(&text, 25),
-                }
-                .into());
-            }
-        }
-        if !status.is_some_and(|s| s.success()) {
-            let code = status
-                .and_then(|s| s.code())
-                .map_or("killed by a signal".to_string(), |c| {
-                    format!("exit status {c}")
-                });
-            return Err(RunError::Crashed {
-                solver: tool.into(),
-                steps: steps_run.len(),
-                why: code,
-                log: format!("log.{tool}"),
-                tail: results::tail(&text, 25),
-            }
-            .into());
-        }
-    }
-    let (_, log, _) = read_track(scratch, &setup.application)?;
-    Ok(Stamp {
-        inputs: stamp_inputs.into(),
-        solver: setup.application.clone(),
-        openfoam: build_line,
-        steps: log.steps.len(),
-        execution_time_s: log.execution_time_s,
-        clock_time_s: log.clock_time_s,
-    })
 }
 
 #[cfg(test)]

@@ -1,0 +1,260 @@
+//! Running a case: where its results come from in a build (left in the case, or a fresh run
+//! in a scratch copy), and the run itself (blockMesh, then the solver) through duct.
+
+use super::results::{self, LogEnd};
+use super::{CaseSetup, INSTALL_HINT, RunError, STAMP, Stamp, read_track};
+use crate::diag::InputError;
+use std::io::{BufRead, Write};
+use std::path::{Path, PathBuf};
+use std::process::ExitStatus;
+
+/// The OpenFOAM binaries need WM_PROJECT_DIR (Debian's package: /usr/share/openfoam).
+fn project_dir() -> Option<String> {
+    std::env::var("WM_PROJECT_DIR")
+        .ok()
+        .filter(|d| Path::new(d).join("etc/controlDict").exists())
+        .or_else(|| {
+            Path::new("/usr/share/openfoam/etc/controlDict")
+                .exists()
+                .then(|| "/usr/share/openfoam".to_string())
+        })
+}
+
+/// The executable `exe` in one of the folders of PATH.
+fn on_path(exe: &str) -> Option<PathBuf> {
+    std::env::var_os("PATH").and_then(|paths| {
+        std::env::split_paths(&paths)
+            .map(|p| p.join(exe))
+            .find(|p| p.is_file())
+    })
+}
+
+/// Whether `solver` (and blockMesh) can run here.
+pub fn solver_available(solver: &str) -> bool {
+    on_path(solver).is_some() && on_path("blockMesh").is_some() && project_dir().is_some()
+}
+
+/// Where a case's results come from in this build. A fresh run's scratch folder lives as
+/// long as this value.
+pub struct Results {
+    pub dir: PathBuf,
+    pub stamp: Stamp,
+    /// True when this build ran the solver.
+    pub ran: bool,
+    pub notes: Vec<String>,
+    _scratch: Option<tempfile::TempDir>,
+}
+
+/// The case's results: those left in the case when its stamp names exactly these inputs;
+/// otherwise a fresh run in a scratch copy when the solver is installed; otherwise results
+/// run by hand (without a stamp), with a note; otherwise an error that says how to install
+/// OpenFOAM. `files` are the case's inputs relative to it, `identity` their hash.
+pub fn obtain_results(
+    case_dir: &Path,
+    case_rel: &str,
+    files: &[String],
+    setup: &CaseSetup,
+    identity: &str,
+    message: &dyn Fn(String),
+) -> anyhow::Result<Results> {
+    let solver = &setup.application;
+    let stamp: Option<Stamp> = std::fs::read_to_string(case_dir.join(STAMP))
+        .ok()
+        .and_then(|t| serde_json::from_str(&t).ok());
+    let has_results = case_dir.join(format!("log.{solver}")).exists();
+    let left = |stamp: Stamp, notes: Vec<String>| Results {
+        dir: case_dir.to_path_buf(),
+        stamp,
+        ran: false,
+        notes,
+        _scratch: None,
+    };
+    if stamp.as_ref().is_some_and(|s| s.inputs == identity) && has_results {
+        Ok(left(stamp.expect("checked"), Vec::new()))
+    } else if solver_available(solver) {
+        run_fresh(case_dir, case_rel, files, setup, identity, message)
+    } else if has_results && stamp.is_none() {
+        let note = format!(
+            "results in {case_rel} were not produced by hydrofit (no {}): used as they are, unverified against the case's inputs",
+            STAMP
+        );
+        Ok(left(unstamped(identity, solver), vec![note]))
+    } else {
+        let what = if has_results {
+            "the case's inputs changed since its results were produced"
+        } else {
+            "the case has never been run"
+        };
+        Err(InputError::file(
+            case_rel,
+            format!("{what}, and {solver} (OpenFOAM) is not installed here"),
+            INSTALL_HINT,
+        )
+        .into())
+    }
+}
+
+/// The case run in a scratch copy, its progress reported through `message`.
+fn run_fresh(
+    case_dir: &Path,
+    case_rel: &str,
+    files: &[String],
+    setup: &CaseSetup,
+    identity: &str,
+    message: &dyn Fn(String),
+) -> anyhow::Result<Results> {
+    let solver = setup.application.clone();
+    let scratch = tempfile::Builder::new()
+        .prefix("hydrofit-openfoam-")
+        .tempdir()?;
+    let end = setup.end_time_s;
+    message(format!("{solver}: meshing"));
+    let progress = move |t: f64| {
+        message(format!(
+            "{solver} t = {t:.2} / {end} s ({:.0} %)",
+            100.0 * t / end.max(1e-12)
+        ))
+    };
+    let stamp = run(case_dir, files, scratch.path(), setup, &progress, identity)
+        .map_err(|e| anyhow::anyhow!("case {case_rel}: {e}"))?;
+    Ok(Results {
+        dir: scratch.path().to_path_buf(),
+        stamp,
+        ran: true,
+        notes: Vec::new(),
+        _scratch: Some(scratch),
+    })
+}
+
+/// The stamp standing for results run by hand: this build's inputs, nothing known of the run.
+fn unstamped(identity: &str, solver: &str) -> Stamp {
+    Stamp {
+        inputs: identity.to_string(),
+        solver: solver.to_string(),
+        openfoam: String::new(),
+        steps: 0,
+        execution_time_s: None,
+        clock_time_s: None,
+    }
+}
+
+/// Runs blockMesh and the solver on a copy of the case's inputs in `scratch`, streaming the
+/// simulated time to `progress`. Returns the stamp of the run.
+pub fn run(
+    case: &Path,
+    inputs: &[String],
+    scratch: &Path,
+    setup: &CaseSetup,
+    progress: &dyn Fn(f64),
+    stamp_inputs: &str,
+) -> anyhow::Result<Stamp> {
+    copy_inputs(case, inputs, scratch)?;
+    let wm = project_dir().ok_or_else(|| {
+        anyhow::anyhow!("OpenFOAM's etc folder was not found (set WM_PROJECT_DIR); {INSTALL_HINT}")
+    })?;
+    let mut build_line = String::new();
+    let mut tools: Vec<&str> = Vec::new();
+    if inputs.iter().any(|i| i == "system/blockMeshDict") {
+        tools.push("blockMesh");
+    }
+    tools.push(&setup.application);
+    for tool in tools {
+        let (status, text) = run_tool(tool, scratch, &wm, progress, &mut build_line)?;
+        check_outcome(tool, tool == setup.application, status, &text)?;
+    }
+    let (_, log, _) = read_track(scratch, &setup.application)?;
+    Ok(Stamp {
+        inputs: stamp_inputs.into(),
+        solver: setup.application.clone(),
+        openfoam: build_line,
+        steps: log.steps.len(),
+        execution_time_s: log.execution_time_s,
+        clock_time_s: log.clock_time_s,
+    })
+}
+
+/// Copies the case's input files (paths relative to `case`) into `scratch`.
+fn copy_inputs(case: &Path, inputs: &[String], scratch: &Path) -> anyhow::Result<()> {
+    for rel in inputs {
+        let to = scratch.join(rel);
+        std::fs::create_dir_all(to.parent().expect("has a parent"))?;
+        std::fs::copy(case.join(rel), &to)?;
+    }
+    Ok(())
+}
+
+/// Runs `tool` in `scratch`, its output written to `log.<tool>` as it comes: the simulated
+/// time goes to `progress`, the OpenFOAM build it names to `build_line`. Returns the exit
+/// status and the log's text.
+fn run_tool(
+    tool: &str,
+    scratch: &Path,
+    wm: &str,
+    progress: &dyn Fn(f64),
+    build_line: &mut String,
+) -> anyhow::Result<(Option<ExitStatus>, String)> {
+    let log_path = scratch.join(format!("log.{tool}"));
+    let mut log = std::io::BufWriter::new(std::fs::File::create(&log_path)?);
+    let reader = duct::cmd!(tool)
+        .dir(scratch)
+        .env("WM_PROJECT_DIR", wm)
+        .stderr_to_stdout()
+        .stdin_null()
+        .unchecked()
+        .reader()?;
+    let mut lines = std::io::BufReader::new(&reader);
+    let mut line = String::new();
+    loop {
+        line.clear();
+        if lines.read_line(&mut line)? == 0 {
+            break;
+        }
+        log.write_all(line.as_bytes())?;
+        if let Some(t) = line
+            .strip_prefix("Time = ")
+            .and_then(|t| t.trim().parse::<f64>().ok())
+        {
+            progress(t);
+        } else if let Some(b) = line.strip_prefix("Build  :") {
+            *build_line = b.trim().to_string();
+        }
+    }
+    log.flush()?;
+    let status = reader.try_wait()?.map(|o| o.status);
+    let text = std::fs::read_to_string(&log_path).unwrap_or_default();
+    Ok((status, text))
+}
+
+/// Whether `tool` succeeded. For the solver the log decides first: a crash is reported with
+/// the log's tail, as is a failed exit status of any tool.
+fn check_outcome(
+    tool: &str,
+    is_solver: bool,
+    status: Option<ExitStatus>,
+    text: &str,
+) -> Result<(), RunError> {
+    let crashed = |steps: usize, why: String| RunError::Crashed {
+        solver: tool.into(),
+        steps,
+        why,
+        log: format!("log.{tool}"),
+        tail: results::tail(text, 25),
+    };
+    let mut steps = 0;
+    if is_solver {
+        let parsed = results::parse_log(text);
+        steps = parsed.steps.len();
+        if let LogEnd::Crashed(why) = parsed.end {
+            return Err(crashed(steps, why));
+        }
+    }
+    if !status.is_some_and(|s| s.success()) {
+        let code = status
+            .and_then(|s| s.code())
+            .map_or("killed by a signal".to_string(), |c| {
+                format!("exit status {c}")
+            });
+        return Err(crashed(steps, code));
+    }
+    Ok(())
+}
