@@ -437,13 +437,15 @@ fn verdict_sentence(effects: &[Found], unexplained: bool, drift: bool, c: &Costs
             "The model does not explain the held-out runs, re-estimating its parameters does not either, and no effect of the table does: the residual is structured and is reported as unexplained, with where it is.".to_string()
         } else {
             format!(
-                "{} explain part of the mismatch; a structured residual remains and is reported as unexplained.",
+                "{} explain part of the mismatch: the held-out error cost falls from {base_cost:.4} to {final_cost:.4} ({} of the start, {:.1} times the noise floor); a structured residual remains and is reported as unexplained.",
                 effects
                     .iter()
                     .filter(|e| e.name != "unexplained")
                     .map(|e| e.name.as_str())
                     .collect::<Vec<_>>()
-                    .join(" and ")
+                    .join(" and "),
+                pct(final_cost / base_cost),
+                final_cost / c.noise
             )
         }
     } else if drift {
@@ -458,14 +460,21 @@ fn verdict_sentence(effects: &[Found], unexplained: bool, drift: bool, c: &Costs
         )
     } else {
         format!(
-            "The model leaves out {}: adding {} lowers the held-out error cost from {base_cost:.4} to {final_cost:.4} (noise floor {:.4}); re-estimating its parameters instead reaches {re_cost:.4}.",
+            "The model leaves out {}: adding {} lowers the held-out error cost from {base_cost:.4} to {final_cost:.4} ({} of the start; noise floor {:.4}); re-estimating its parameters instead {} {re_cost:.4} ({} of the start).",
             effects
                 .iter()
                 .map(|e| e.name.as_str())
                 .collect::<Vec<_>>()
                 .join(" and "),
             if effects.len() > 1 { "them" } else { "it" },
-            c.noise
+            pct(final_cost / base_cost),
+            c.noise,
+            if re_cost > base_cost {
+                "worsens it to"
+            } else {
+                "reaches"
+            },
+            pct(re_cost / base_cost)
         )
     }
 }
@@ -638,7 +647,10 @@ fn evidence_figures(
             &tr,
             &format!("with {} (dashed)", h.name),
         )?;
-        out.push(Figure { caption: format!("{}: the held-out residual grows with {} without the effect; with it, it stays flat.", h.name, label), svg });
+        out.push(Figure {
+            caption: binned_caption(h.name, &label, &yb, &ya),
+            svg,
+        });
     }
     Ok(out)
 }
@@ -651,6 +663,50 @@ fn evidence_axis(h: &dx::Hypothesis, data: &Data, j: usize) -> (String, Vec<Vec<
         .map(|r| (0..r.t.len()).map(|k| (h.axis.value)(r, k, j)).collect())
         .collect();
     ((h.axis.label)(j), values)
+}
+
+/// How a binned RMS residual runs along its axis, in words the numbers choose: the
+/// least-squares line through the bins changes by over a third of their mean between the first
+/// bin and the last ("grows", "falls"), or it does not ("stays about flat").
+fn trend(y: &[f64]) -> &'static str {
+    let n = y.len() as f64;
+    let mean = y.iter().sum::<f64>() / n;
+    let xm = (n - 1.0) / 2.0;
+    let (sxy, sxx) = y.iter().enumerate().fold((0.0, 0.0), |(a, b), (i, v)| {
+        let dx = i as f64 - xm;
+        (a + dx * (v - mean), b + dx * dx)
+    });
+    let change = if sxx > 0.0 {
+        sxy / sxx * (n - 1.0)
+    } else {
+        0.0
+    };
+    if mean <= 0.0 || change.abs() <= mean / 3.0 {
+        "stays about flat"
+    } else if change > 0.0 {
+        "grows"
+    } else {
+        "falls"
+    }
+}
+
+/// The caption of an effect's evidence figure, its direction words computed from the binned
+/// RMS residual before (`yb`) and after (`ya`) the effect.
+fn binned_caption(name: &str, label: &str, yb: &[f64], ya: &[f64]) -> String {
+    let mean = |y: &[f64]| y.iter().sum::<f64>() / y.len().max(1) as f64;
+    let (mb, ma) = (mean(yb), mean(ya));
+    let change = if ma <= mb {
+        format!("{} lower", pct(1.0 - ma / mb))
+    } else {
+        format!("{} higher", pct(ma / mb - 1.0))
+    };
+    let ends = |y: &[f64]| (y[0], y[y.len() - 1]);
+    let ((b0, b1), (a0, a1)) = (ends(yb), ends(ya));
+    format!(
+        "{name}: the held-out RMS residual against {label}. Without the effect it {} ({b0:.3} in the first bin, {b1:.3} in the last); with it (dashed) it {} ({a0:.3} to {a1:.3}) and is {change} on average.",
+        trend(yb),
+        trend(ya)
+    )
 }
 
 /// RMS residual of DOF j in 12 bins of x between its 2nd and 98th percentiles.
@@ -690,4 +746,77 @@ fn binned(x: &[Vec<f64>], res: &[[Vec<f64>; 4]], j: usize) -> (Vec<f64>, Vec<f64
             )
         })
         .unzip()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn direction_words_follow_the_numbers() {
+        assert_eq!(trend(&[0.05, 0.08, 0.12, 0.15, 0.2]), "grows");
+        assert_eq!(trend(&[0.18, 0.12, 0.07, 0.05, 0.04]), "falls");
+        assert_eq!(
+            trend(&[0.05, 0.052, 0.049, 0.051, 0.05]),
+            "stays about flat"
+        );
+        // A peak in the middle is not a trend either way.
+        assert_eq!(trend(&[0.02, 0.06, 0.1, 0.06, 0.02]), "stays about flat");
+        // The figure of the issue: largest right after a step, falling; with the effect, lower
+        // but still not flat.
+        let c = binned_caption(
+            "thruster_lag",
+            "time since a command step (s)",
+            &[0.18, 0.12, 0.08, 0.05, 0.04],
+            &[0.02, 0.04, 0.07, 0.1, 0.09],
+        );
+        assert!(c.contains("Without the effect it falls (0.180"), "{c}");
+        assert!(
+            c.contains("with it (dashed) it grows (0.020 to 0.090)"),
+            "{c}"
+        );
+        assert!(c.contains("32 % lower on average"), "{c}");
+        // An effect that makes things worse is said to.
+        let c = binned_caption("x", "y", &[0.05, 0.05, 0.05], &[0.06, 0.06, 0.06]);
+        assert!(
+            c.contains("stays about flat") && c.contains("20 % higher"),
+            "{c}"
+        );
+    }
+
+    #[test]
+    fn the_verdict_gives_costs_with_their_ratio_and_says_worse_when_it_is() {
+        let found = |name: &str| Found {
+            name: name.into(),
+            dofs: vec![],
+            parameters: BTreeMap::new(),
+            evidence: String::new(),
+            validation_nmae_before: BTreeMap::new(),
+            validation_nmae_after: BTreeMap::new(),
+            validation_cost_before: 0.0,
+            validation_cost_after: 0.0,
+        };
+        let costs = Costs {
+            base: 0.447,
+            after_effects: 0.02,
+            reestimated: 0.5203,
+            noise: 0.005,
+        };
+        let v = verdict_sentence(&[found("thruster_lag")], false, false, &costs);
+        assert!(v.contains("from 0.4470 to 0.0200 (4 % of the start"), "{v}");
+        assert!(
+            v.contains("instead worsens it to 0.5203 (116 % of the start)"),
+            "{v}"
+        );
+        let v = verdict_sentence(
+            &[found("thruster_lag"), found("unexplained")],
+            true,
+            false,
+            &costs,
+        );
+        assert!(
+            v.contains("(4 % of the start, 4.0 times the noise floor)"),
+            "{v}"
+        );
+    }
 }
