@@ -18,6 +18,7 @@
 //! velocities' own variances.
 
 pub mod effects;
+mod figures;
 mod locate;
 pub mod result;
 pub mod search;
