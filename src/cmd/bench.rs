@@ -3,8 +3,10 @@
 //! compute bound and against the same algorithm in Python (bench/qpso_compare.py).
 
 use crate::estimate::Regression;
+use crate::estimate::output_error::OutputError;
 use crate::estimate::swarm::qpso::Qpso;
-use crate::estimate::swarm::{Norm, Problem, Solver};
+use crate::estimate::swarm::{Norm, Problem, Solver, Swarm};
+use crate::io::Response;
 use crate::model::{Hydro, Vehicle};
 use crate::rng::Rng;
 use rayon::prelude::*;
@@ -47,6 +49,8 @@ pub fn seed_001_problem(rows: usize) -> Regression {
     reg
 }
 
+/// `hydrofit bench`: the objective `objective` (equation, output or diagnosis) timed, with
+/// QPSO at `population` x `iterations`; `export` also writes the problem for the Python side.
 pub fn run(
     norm: &str,
     objective: &str,
@@ -69,42 +73,11 @@ pub fn run(
     let (k, p) = (reg.rows(), reg.cols());
     let problem = Problem::new(&reg, &Vehicle::reference().rigid_mass(), norm);
     if let Some(path) = export {
-        let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
-        for v in [k as f64, p as f64]
-            .iter()
-            .chain(&reg.phi)
-            .chain(&reg.y)
-            .chain(problem.weights())
-            .chain(&problem.lo)
-            .chain(&problem.hi)
-        {
-            f.write_all(&v.to_le_bytes())?;
-        }
-        f.flush()?;
-        eprintln!("wrote the problem to {}", path.display());
+        export_equation_problem(path, &reg, &problem)?;
     }
-    let mut rng = Rng::new(1);
-    let mut solver = Qpso;
-    let start = std::time::Instant::now();
-    let mut swarm = solver.init(&problem, &mut rng, population);
-    for it in 0..iterations {
-        solver.step(
-            &problem,
-            &mut swarm,
-            &mut rng,
-            it as f64 / iterations as f64,
-        );
-    }
-    let secs = start.elapsed().as_secs_f64();
+    let (swarm, secs) = timed_qpso(&problem, population, iterations);
     let evals = problem.evaluations();
-    let (flops, bytes) = match norm {
-        // theta' A theta - 2 b.theta: p^2 multiply-adds and 2p more; A (p^2 doubles) stays in cache.
-        Norm::L2 => (2 * p * p + 4 * p, 8 * (p * p + p)),
-        // Per row: p multiply-adds (the weights folded into the rows and the fit started at
-        // -w y) and the sum; the absolute value is a sign-bit clear, not counted. Each row
-        // (p + 1 doubles) is read once per population (shared by all its particles).
-        Norm::L1 => (k * (2 * p + 1), 8 * k * (p + 1) / population.max(1)),
-    };
+    let (flops, bytes) = work_per_evaluation(norm, k, p, population);
     let rate = evals as f64 / secs;
     println!(
         "qpso {norm:?}: {k} rows x {p} parameters, population {population}, {iterations} iterations, {} threads",
@@ -116,8 +89,58 @@ pub fn run(
         rate * flops as f64 / 1e9,
         rate * bytes as f64 / 1e9
     );
-    // The objective alone: the final swarm evaluated repeatedly (no solver bookkeeping), the
-    // best of five batches, as the bound below is.
+    print_objective_alone(&problem, &swarm, norm, flops);
+    println!("  best cost {:.6e}", swarm.best_cost[swarm.g]);
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Writes the equation-error problem for bench/qpso_compare.py: rows, cols, then Phi, y, the
+/// weights and the bounds, as little-endian f64.
+fn export_equation_problem(path: &Path, reg: &Regression, problem: &Problem) -> anyhow::Result<()> {
+    let (k, p) = (reg.rows(), reg.cols());
+    let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
+    for v in [k as f64, p as f64]
+        .iter()
+        .chain(&reg.phi)
+        .chain(&reg.y)
+        .chain(problem.weights())
+        .chain(&problem.lo)
+        .chain(&problem.hi)
+    {
+        f.write_all(&v.to_le_bytes())?;
+    }
+    f.flush()?;
+    eprintln!("wrote the problem to {}", path.display());
+    Ok(())
+}
+
+/// QPSO seeded 1 on `problem` for `iterations`: the final swarm and the wall time, s.
+fn timed_qpso(problem: &Problem, population: usize, iterations: usize) -> (Swarm, f64) {
+    let mut rng = Rng::new(1);
+    let mut solver = Qpso;
+    let start = std::time::Instant::now();
+    let mut swarm = solver.init(problem, &mut rng, population);
+    for it in 0..iterations {
+        solver.step(problem, &mut swarm, &mut rng, it as f64 / iterations as f64);
+    }
+    (swarm, start.elapsed().as_secs_f64())
+}
+
+/// (flops, bytes read) per evaluation of the equation-error cost on `k` rows x `p` parameters.
+fn work_per_evaluation(norm: Norm, k: usize, p: usize, population: usize) -> (usize, usize) {
+    match norm {
+        // theta' A theta - 2 b.theta: p^2 multiply-adds and 2p more; A (p^2 doubles) stays in cache.
+        Norm::L2 => (2 * p * p + 4 * p, 8 * (p * p + p)),
+        // Per row: p multiply-adds (the weights folded into the rows and the fit started at
+        // -w y) and the sum; the absolute value is a sign-bit clear, not counted. Each row
+        // (p + 1 doubles) is read once per population (shared by all its particles).
+        Norm::L1 => (k * (2 * p + 1), 8 * k * (p + 1) / population.max(1)),
+    }
+}
+
+/// The objective alone: the final swarm evaluated repeatedly (no solver bookkeeping), the
+/// best of five batches, as the bound is, set against the machine's measured FMA peak.
+fn print_objective_alone(problem: &Problem, swarm: &Swarm, norm: Norm, flops: usize) {
     let reps = match norm {
         Norm::L2 => 4_000,
         Norm::L1 => 20,
@@ -137,8 +160,6 @@ pub fn run(
         100.0 * achieved / peak,
         peak / achieved
     );
-    println!("  best cost {:.6e}", swarm.best_cost[swarm.g]);
-    Ok(ExitCode::SUCCESS)
 }
 
 /// QPSO with the simulator in the loop on the 33 twin CFD cases (seed 1, as shipped).
@@ -148,69 +169,17 @@ fn output_error(
     export: Option<&Path>,
 ) -> anyhow::Result<ExitCode> {
     let vehicle = Vehicle::reference();
-    let opts = crate::io::starccm::ImportOptions {
-        columns: &Default::default(),
-        dofs: &vehicle.dofs,
-        configured_force: Default::default(),
-    };
-    let responses: Vec<_> = crate::twin::cfd::default_cases()
-        .iter()
-        .map(|c| {
-            crate::io::starccm::parse(
-                "twin.csv",
-                &crate::twin::cfd::export(&vehicle, Hydro::reference(), c, 1),
-                &opts,
-            )
-            .map(|i| i.response)
-        })
-        .collect::<Result<_, _>>()?;
+    let responses = twin_cfd_responses(&vehicle)?;
     let refs: Vec<_> = responses.iter().collect();
     let reg = Regression::build(&vehicle, &refs, 0.0);
-    let o = crate::estimate::output_error::OutputError::new(&vehicle, &refs);
+    let o = OutputError::new(&vehicle, &refs);
     let problem = Problem::new(&reg, &vehicle.rigid_mass(), Norm::L2);
     if let Some(path) = export {
-        // n_cases, then per case: n, t[n], tau[n x 4], nu[n x 4], weight[4]; then rigid mass
-        // [m, m, m, Izz], bounds lo[12], hi[12] (parameter order of the report).
-        let idx = [0usize, 1, 2, 5];
-        let mut v: Vec<f64> = vec![refs.len() as f64];
-        for (r, w) in refs.iter().zip(&o.weight) {
-            v.push(r.len() as f64);
-            v.extend(&r.t);
-            for k in 0..r.len() {
-                let tau = r.tau(k);
-                v.extend(idx.iter().map(|&i| tau[i]));
-            }
-            for k in 0..r.len() {
-                let nu = r.nu(k);
-                v.extend(idx.iter().map(|&i| nu[i]));
-            }
-            v.extend(idx.iter().map(|&i| w[i]));
-        }
-        let m = vehicle.rigid_mass();
-        v.extend(idx.iter().map(|&i| m[i]));
-        v.extend(&problem.lo);
-        v.extend(&problem.hi);
-        let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
-        for x in v {
-            f.write_all(&x.to_le_bytes())?;
-        }
-        f.flush()?;
+        export_output_error_problem(path, &o, &problem)?;
     }
     let problem = problem.with_output_error(o);
     let samples: usize = refs.iter().map(|r| r.len()).sum();
-    let mut rng = Rng::new(1);
-    let mut solver = Qpso;
-    let start = std::time::Instant::now();
-    let mut swarm = solver.init(&problem, &mut rng, population);
-    for it in 0..iterations {
-        solver.step(
-            &problem,
-            &mut swarm,
-            &mut rng,
-            it as f64 / iterations as f64,
-        );
-    }
-    let secs = start.elapsed().as_secs_f64();
+    let (swarm, secs) = timed_qpso(&problem, population, iterations);
     let evals = problem.evaluations();
     println!(
         "qpso output error: {} cases, {samples} samples (RK4, h <= 0.01 s), population {population}, {iterations} iterations, {} threads",
@@ -224,6 +193,62 @@ fn output_error(
     );
     println!("  best cost {:.6e}", swarm.best_cost[swarm.g]);
     Ok(ExitCode::SUCCESS)
+}
+
+/// The twin's CFD cases of the reference vehicle, seed 1, imported as response tables.
+fn twin_cfd_responses(vehicle: &Vehicle) -> anyhow::Result<Vec<Response>> {
+    let opts = crate::io::starccm::ImportOptions {
+        columns: &Default::default(),
+        dofs: &vehicle.dofs,
+        configured_force: Default::default(),
+    };
+    let responses = crate::twin::cfd::default_cases()
+        .iter()
+        .map(|c| {
+            crate::io::starccm::parse(
+                "twin.csv",
+                &crate::twin::cfd::export(vehicle, Hydro::reference(), c, 1),
+                &opts,
+            )
+            .map(|i| i.response)
+        })
+        .collect::<Result<_, _>>()?;
+    Ok(responses)
+}
+
+/// Writes the output-error problem for bench/qpso_compare.py, as little-endian f64:
+/// n_cases, then per case: n, t[n], tau[n x 4], nu[n x 4], weight[4]; then rigid mass
+/// [m, m, m, Izz], bounds lo[12], hi[12] (parameter order of the report).
+fn export_output_error_problem(
+    path: &Path,
+    o: &OutputError,
+    problem: &Problem,
+) -> anyhow::Result<()> {
+    let idx = [0usize, 1, 2, 5];
+    let mut v: Vec<f64> = vec![o.responses.len() as f64];
+    for (r, w) in o.responses.iter().zip(&o.weight) {
+        v.push(r.len() as f64);
+        v.extend(&r.t);
+        for k in 0..r.len() {
+            let tau = r.tau(k);
+            v.extend(idx.iter().map(|&i| tau[i]));
+        }
+        for k in 0..r.len() {
+            let nu = r.nu(k);
+            v.extend(idx.iter().map(|&i| nu[i]));
+        }
+        v.extend(idx.iter().map(|&i| w[i]));
+    }
+    let m = o.vehicle.rigid_mass();
+    v.extend(idx.iter().map(|&i| m[i]));
+    v.extend(&problem.lo);
+    v.extend(&problem.hi);
+    let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
+    for x in v {
+        f.write_all(&x.to_le_bytes())?;
+    }
+    f.flush()?;
+    Ok(())
 }
 
 /// The machine's double-precision multiply-add bound, measured: twelve independent FMA chains

@@ -1,12 +1,14 @@
 //! `hydrofit build`: take the lock, recover from any killed build, run what is stale.
 
-use crate::pipeline::executor::{self, Options};
+use crate::pipeline::executor::{self, Options, Summary};
 use crate::pipeline::{Plan, STATE_DIR, lock};
 use crate::progress::Progress;
 use std::path::Path;
 use std::process::ExitCode;
 use std::time::Instant;
 
+/// Builds `targets` (all when empty) in the project at `root`, `jobs` at once (default: the
+/// number of cores), saying why each instance runs when `explain`.
 pub fn run(
     root: &Path,
     targets: Vec<String>,
@@ -36,28 +38,22 @@ pub fn run(
     for p in &s.published {
         progress.println(format!("wrote {p}"));
     }
+    Ok(report(&s, secs))
+}
+
+/// Says how the build went, on stderr, and returns the exit code that says it to scripts:
+/// 130 interrupted, 1 something failed, 0 done.
+fn report(s: &Summary, secs: f64) -> ExitCode {
     if s.interrupted {
         eprintln!(
             "hydrofit: interrupted: {} ran and are cached, the rest will run next time ({secs:.2} s)",
             s.ran.len()
         );
-        return Ok(ExitCode::from(130));
+        return ExitCode::from(130);
     }
     if !s.failed.is_empty() {
-        let names: Vec<&str> = s.failed.iter().map(|(id, _)| id.as_str()).collect();
-        let mut line = format!("hydrofit: {} failed: {}", names.len(), names.join(", "));
-        if !s.skipped.is_empty() {
-            line += &format!(
-                "; not run because they depend on it: {}",
-                s.skipped.join(", ")
-            );
-        }
-        eprintln!(
-            "{line} ({} ran, {} up to date, {secs:.2} s)",
-            s.ran.len(),
-            s.up_to_date
-        );
-        return Ok(ExitCode::from(1));
+        eprintln!("{}", failure_line(s, secs));
+        return ExitCode::from(1);
     }
     if s.ran.is_empty() {
         eprintln!(
@@ -71,5 +67,22 @@ pub fn run(
             s.up_to_date
         );
     }
-    Ok(ExitCode::SUCCESS)
+    ExitCode::SUCCESS
+}
+
+/// `hydrofit: 1 failed: a; not run because they depend on it: b, c (2 ran, ...)`.
+fn failure_line(s: &Summary, secs: f64) -> String {
+    let names: Vec<&str> = s.failed.iter().map(|(id, _)| id.as_str()).collect();
+    let mut line = format!("hydrofit: {} failed: {}", names.len(), names.join(", "));
+    if !s.skipped.is_empty() {
+        line += &format!(
+            "; not run because they depend on it: {}",
+            s.skipped.join(", ")
+        );
+    }
+    format!(
+        "{line} ({} ran, {} up to date, {secs:.2} s)",
+        s.ran.len(),
+        s.up_to_date
+    )
 }

@@ -1,5 +1,8 @@
 //! `hydrofit provenance NAME`: value <- fit stage, method, settings <- imported cases <- files.
 
+use crate::estimate::Estimate;
+use crate::estimate::result::FitResult;
+use crate::pipeline::cache::Cache;
 use crate::pipeline::{Plan, explain};
 use crate::stage::Artifact;
 use std::path::Path;
@@ -9,6 +12,7 @@ fn short(h: &str) -> &str {
     &h[..h.len().min(16)]
 }
 
+/// Prints where parameter `name` comes from, for every fit that identified it.
 pub fn run(root: &Path, name: &str) -> anyhow::Result<ExitCode> {
     let plan = Plan::load(root, crate::stage::KINDS)?;
     let cache = plan.cache();
@@ -19,62 +23,13 @@ pub fn run(root: &Path, name: &str) -> anyhow::Result<ExitCode> {
     let mut known = Vec::new();
     let mut found = false;
     for &i in &models {
-        let inst = &g.instances[i];
-        if !cache.has(&plan.keys[i]) {
-            let why = explain::reasons(cache.records().get(&inst.id), &plan.fields[i]);
-            anyhow::bail!(
-                "stage {} is out of date ({}); run `hydrofit build` first",
-                inst.id,
-                why.join("; ")
-            );
-        }
-        let r = crate::estimate::result::load(&cache.object(&plan.keys[i]))?;
+        let r = load_fit(&plan, &cache, i)?;
         known.extend(r.fit.parameters.iter().map(|p| p.name.clone()));
         let Some(p) = r.fit.parameters.iter().find(|p| p.name == name) else {
             continue;
         };
         found = true;
-        crate::outln!(
-            "{} = {} ± {} {}{}",
-            p.name,
-            p.value,
-            p.stderr,
-            p.unit,
-            if p.identifiable {
-                ""
-            } else {
-                "  (not identifiable from these cases)"
-            }
-        );
-        crate::outln!(
-            "  <- stage {} (kind {}, key {}), method {}, settings {}",
-            inst.id,
-            g.stage_of(i).kind.name,
-            short(&plan.keys[i]),
-            r.method,
-            r.settings
-        );
-        crate::outln!("  <- {} imported cases:", r.cases.len());
-        for c in &r.cases {
-            let key = g
-                .instances
-                .iter()
-                .position(|x| x.id == c.id)
-                .map_or("?", |j| short(&plan.keys[j]));
-            if c.inputs.is_empty() {
-                crate::outln!(
-                    "       {} (key {key}) <- {} blake3 {}",
-                    c.id,
-                    c.source.path,
-                    c.source.blake3
-                );
-            } else {
-                crate::outln!("       {} (key {key}) <- {} files:", c.id, c.inputs.len());
-                for f in &c.inputs {
-                    crate::outln!("           {} blake3 {}", f.path, f.blake3);
-                }
-            }
-        }
+        print_trace(&plan, i, &r, p);
     }
     if !found {
         let hint = crate::diag::nearest(name, known.iter().map(|s| s.as_str()))
@@ -85,4 +40,69 @@ pub fn run(root: &Path, name: &str) -> anyhow::Result<ExitCode> {
         );
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The cached result of fit instance `i`; an error saying why when it is out of date.
+fn load_fit(plan: &Plan, cache: &Cache, i: usize) -> anyhow::Result<FitResult> {
+    let inst = &plan.graph.instances[i];
+    if !cache.has(&plan.keys[i]) {
+        let why = explain::reasons(cache.records().get(&inst.id), &plan.fields[i]);
+        anyhow::bail!(
+            "stage {} is out of date ({}); run `hydrofit build` first",
+            inst.id,
+            why.join("; ")
+        );
+    }
+    crate::estimate::result::load(&cache.object(&plan.keys[i]))
+}
+
+/// `p` as fit instance `i` identified it, the stage, method and settings, then the cases.
+fn print_trace(plan: &Plan, i: usize, r: &FitResult, p: &Estimate) {
+    crate::outln!(
+        "{} = {} ± {} {}{}",
+        p.name,
+        p.value,
+        p.stderr,
+        p.unit,
+        if p.identifiable {
+            ""
+        } else {
+            "  (not identifiable from these cases)"
+        }
+    );
+    crate::outln!(
+        "  <- stage {} (kind {}, key {}), method {}, settings {}",
+        plan.graph.instances[i].id,
+        plan.graph.stage_of(i).kind.name,
+        short(&plan.keys[i]),
+        r.method,
+        r.settings
+    );
+    print_cases(plan, r);
+}
+
+/// The cases a fit read, each with its instance's key and its files' hashes.
+fn print_cases(plan: &Plan, r: &FitResult) {
+    crate::outln!("  <- {} imported cases:", r.cases.len());
+    for c in &r.cases {
+        let key = plan
+            .graph
+            .instances
+            .iter()
+            .position(|x| x.id == c.id)
+            .map_or("?", |j| short(&plan.keys[j]));
+        if c.inputs.is_empty() {
+            crate::outln!(
+                "       {} (key {key}) <- {} blake3 {}",
+                c.id,
+                c.source.path,
+                c.source.blake3
+            );
+        } else {
+            crate::outln!("       {} (key {key}) <- {} files:", c.id, c.inputs.len());
+            for f in &c.inputs {
+                crate::outln!("           {} blake3 {}", f.path, f.blake3);
+            }
+        }
+    }
 }

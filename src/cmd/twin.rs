@@ -1,8 +1,11 @@
 //! `hydrofit twin ...`: write synthetic inputs from the reference vehicle.
 
+use crate::diagnose::result::Diagnosis;
 use crate::twin;
+use crate::twin::world::{Effect, NAMES};
 use std::path::Path;
 use std::process::ExitCode;
+use std::time::Instant;
 
 pub fn starccm(root: &Path, out: &Path, seed: u64) -> anyhow::Result<ExitCode> {
     let dir = if out.is_absolute() {
@@ -92,7 +95,39 @@ pub fn field(root: &Path, out: &Path, truth: &Path, seed: u64) -> anyhow::Result
 /// and the confusion table (concealed vs named).
 pub fn check_diagnosis(seeds: &[u64]) -> anyhow::Result<ExitCode> {
     use crate::twin::scenario;
-    use crate::twin::world::{Effect, NAMES};
+    let scenarios = diagnosis_scenarios()?;
+    let vehicle = crate::model::Vehicle::reference();
+    let plant = scenario::cfd_fit_plant(1)?;
+    let mut tally = Tally::new();
+    for &seed in seeds {
+        for effects in &scenarios {
+            let fused = scenario::fused_runs(effects, seed)?;
+            let t = Instant::now();
+            let (d, _) = crate::diagnose::diagnose(
+                &vehicle,
+                "fit",
+                &plant,
+                &fused,
+                &Default::default(),
+                &|_| {},
+            )?;
+            tally.worst_s = tally.worst_s.max(t.elapsed().as_secs_f64());
+            let named: Vec<&str> = d.effects.iter().map(|e| e.name.as_str()).collect();
+            let truth: Vec<&str> = effects.iter().map(|e| e.name()).collect();
+            let ok = tally.count(&truth, &named);
+            print_verdict(seed, effects, &d, ok, t);
+        }
+    }
+    tally.print();
+    Ok(if tally.right == tally.total {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
+
+/// The check's scenarios: nothing concealed, each effect alone at two magnitudes, then pairs.
+fn diagnosis_scenarios() -> anyhow::Result<Vec<Vec<Effect>>> {
     let singles = [
         ("net_buoyancy", [6.0, -20.0]),
         ("thruster_lag", [0.2, 0.6]),
@@ -125,105 +160,121 @@ pub fn check_diagnosis(seeds: &[u64]) -> anyhow::Result<ExitCode> {
                 .map_err(anyhow::Error::msg)?,
         );
     }
-    let vehicle = crate::model::Vehicle::reference();
-    let plant = scenario::cfd_fit_plant(1)?;
-    let mut labels: Vec<&str> = vec!["nothing"];
-    labels.extend(NAMES);
-    labels.push("unexplained");
-    let mut table = vec![vec![0usize; labels.len()]; labels.len()];
-    let (mut right, mut total, mut worst_s) = (0, 0, 0.0f64);
-    for &seed in seeds {
-        for effects in &scenarios {
-            let fused = scenario::fused_runs(effects, seed)?;
-            let t = std::time::Instant::now();
-            let (d, _) = crate::diagnose::diagnose(
-                &vehicle,
-                "fit",
-                &plant,
-                &fused,
-                &Default::default(),
-                &|_| {},
-            )?;
-            worst_s = worst_s.max(t.elapsed().as_secs_f64());
-            let named: Vec<&str> = d.effects.iter().map(|e| e.name.as_str()).collect();
-            let truth: Vec<&str> = effects.iter().map(|e| e.name()).collect();
-            let row = |n: &str| labels.iter().position(|l| *l == n).unwrap_or(0);
-            if truth.is_empty() {
-                table[0][named.first().map_or(0, |n| row(n))] += 1;
-            }
-            for (i, tn) in truth.iter().enumerate() {
-                // Each concealed effect counts once: named anywhere, else what took its place.
-                let col = if named.contains(tn) {
-                    row(tn)
-                } else {
-                    named.get(i).map_or(0, |n| row(n))
-                };
-                table[row(tn)][col] += 1;
-            }
-            let ok = {
-                let mut a = truth.clone();
-                let mut b: Vec<&str> = named.clone();
-                a.sort();
-                b.sort();
-                a == b
+    Ok(scenarios)
+}
+
+/// What the check found so far: the confusion table (rows: concealed, columns: named), how
+/// many scenarios were exactly right, and the slowest diagnosis.
+struct Tally {
+    /// `nothing`, every effect, `unexplained`.
+    labels: Vec<&'static str>,
+    table: Vec<Vec<usize>>,
+    right: usize,
+    total: usize,
+    worst_s: f64,
+}
+
+impl Tally {
+    fn new() -> Tally {
+        let mut labels: Vec<&str> = vec!["nothing"];
+        labels.extend(NAMES);
+        labels.push("unexplained");
+        Tally {
+            table: vec![vec![0usize; labels.len()]; labels.len()],
+            labels,
+            right: 0,
+            total: 0,
+            worst_s: 0.0,
+        }
+    }
+
+    /// Counts one scenario, `truth` concealed and `named` found; whether the two are the same
+    /// effects.
+    fn count(&mut self, truth: &[&str], named: &[&str]) -> bool {
+        let row = |n: &str| self.labels.iter().position(|l| *l == n).unwrap_or(0);
+        if truth.is_empty() {
+            self.table[0][named.first().map_or(0, |n| row(n))] += 1;
+        }
+        for (i, tn) in truth.iter().enumerate() {
+            // Each concealed effect counts once: named anywhere, else what took its place.
+            let col = if named.contains(tn) {
+                row(tn)
+            } else {
+                named.get(i).map_or(0, |n| row(n))
             };
-            right += usize::from(ok);
-            total += 1;
-            let params: Vec<String> = d
-                .effects
-                .iter()
-                .map(|e| {
-                    format!(
-                        "{} {:?}",
-                        e.name,
-                        e.parameters
-                            .values()
-                            .map(|v| (v * 1000.0).round() / 1000.0)
-                            .collect::<Vec<_>>()
-                    )
-                })
-                .collect();
-            println!(
-                "seed {seed} concealed [{}] named [{}] {} held-out cost {:.4} -> {:.4} (noise {:.4}) {:.1} s",
-                effects
-                    .iter()
-                    .map(|e| format!("{e:?}"))
-                    .collect::<Vec<_>>()
-                    .join(", "),
-                params.join("; "),
-                if ok { "ok" } else { "WRONG" },
-                d.baseline.validation_cost,
-                d.effects
-                    .last()
-                    .map_or(d.baseline.validation_cost, |e| e.validation_cost_after),
-                d.baseline.noise_cost,
-                t.elapsed().as_secs_f64()
-            );
+            self.table[row(tn)][col] += 1;
         }
+        let ok = {
+            let mut a = truth.to_vec();
+            let mut b: Vec<&str> = named.to_vec();
+            a.sort();
+            b.sort();
+            a == b
+        };
+        self.right += usize::from(ok);
+        self.total += 1;
+        ok
     }
-    println!(
-        "\nconfusion (rows: concealed, columns: named; pairs count each concealed effect once)"
-    );
-    let short = |s: &str| s.chars().take(8).collect::<String>();
-    print!("{:>20}", "");
-    for l in &labels {
-        print!(" {:>8}", short(l));
-    }
-    println!();
-    for (i, l) in labels.iter().enumerate() {
-        if table[i].iter().sum::<usize>() == 0 {
-            continue;
-        }
-        print!("{l:>20}");
-        for c in &table[i] {
-            print!(" {c:>8}");
+
+    /// The confusion table (rows nobody concealed left out) and the summary line.
+    fn print(&self) {
+        println!(
+            "\nconfusion (rows: concealed, columns: named; pairs count each concealed effect once)"
+        );
+        let short = |s: &str| s.chars().take(8).collect::<String>();
+        print!("{:>20}", "");
+        for l in &self.labels {
+            print!(" {:>8}", short(l));
         }
         println!();
+        for (i, l) in self.labels.iter().enumerate() {
+            if self.table[i].iter().sum::<usize>() == 0 {
+                continue;
+            }
+            print!("{l:>20}");
+            for c in &self.table[i] {
+                print!(" {c:>8}");
+            }
+            println!();
+        }
+        println!(
+            "\n{} of {} scenarios exactly right; slowest diagnosis {:.1} s",
+            self.right, self.total, self.worst_s
+        );
     }
-    println!("\n{right} of {total} scenarios exactly right; slowest diagnosis {worst_s:.1} s");
-    Ok(if right == total {
-        ExitCode::SUCCESS
-    } else {
-        ExitCode::FAILURE
-    })
+}
+
+/// One scenario's line: what was concealed, what was named with its parameters, whether
+/// that is right, the held-out cost before and after, and the time since `t`.
+fn print_verdict(seed: u64, effects: &[Effect], d: &Diagnosis, ok: bool, t: Instant) {
+    let params: Vec<String> = d
+        .effects
+        .iter()
+        .map(|e| {
+            format!(
+                "{} {:?}",
+                e.name,
+                e.parameters
+                    .values()
+                    .map(|v| (v * 1000.0).round() / 1000.0)
+                    .collect::<Vec<_>>()
+            )
+        })
+        .collect();
+    println!(
+        "seed {seed} concealed [{}] named [{}] {} held-out cost {:.4} -> {:.4} (noise {:.4}) {:.1} s",
+        effects
+            .iter()
+            .map(|e| format!("{e:?}"))
+            .collect::<Vec<_>>()
+            .join(", "),
+        params.join("; "),
+        if ok { "ok" } else { "WRONG" },
+        d.baseline.validation_cost,
+        d.effects
+            .last()
+            .map_or(d.baseline.validation_cost, |e| e.validation_cost_after),
+        d.baseline.noise_cost,
+        t.elapsed().as_secs_f64()
+    );
 }

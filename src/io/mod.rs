@@ -1,6 +1,7 @@
 //! Importers of the input formats in `cases/` and the response table they all produce.
 
 pub mod csvlog;
+pub mod openfoam;
 pub mod pool;
 pub mod response;
 pub mod starccm;

@@ -3,6 +3,7 @@
 //! and reading the body's motion back from what the run leaves.
 
 pub mod case;
+pub mod case_run;
 pub mod dict;
 pub mod results;
 mod solve;

@@ -3,6 +3,7 @@
 
 use super::cache::{Cache, Record};
 use super::contract::{RunCtx, Upstream};
+use super::spec::StageSpec;
 use super::{Plan, explain};
 use crate::progress::Progress;
 use crate::provenance::InputFile;
@@ -40,76 +41,20 @@ enum State {
     Failed,
 }
 
+/// Runs every needed instance that has no cached result, up to `opts.jobs` at once, then
+/// publishes the finished ones.
 pub fn build(plan: &Plan, opts: &Options, progress: &Progress) -> anyhow::Result<Summary> {
     let cache = plan.cache();
-    let need = plan
-        .graph
-        .closure(&opts.targets)
-        .map_err(anyhow::Error::msg)?;
-    let n = plan.graph.instances.len();
-    let mut state: Vec<State> = (0..n)
-        .map(|i| match (need[i], cache.has(&plan.keys[i])) {
-            (false, _) => State::NotNeeded,
-            (true, true) => State::Done,
-            (true, false) => State::Waiting,
-        })
-        .collect();
-    let mut summary = Summary {
-        up_to_date: state.iter().filter(|s| **s == State::Done).count(),
-        ..Default::default()
-    };
-    let to_run = state.iter().filter(|s| **s == State::Waiting).count();
-    let records = if opts.explain {
-        cache.records()
-    } else {
-        HashMap::new()
-    };
-    let bar = progress.bar(to_run as u64, "building");
+    let mut schedule = Schedule::new(plan, opts, progress, &cache)?;
+    let bar = progress.bar(schedule.waiting() as u64, "building");
     let jobs = opts.jobs.max(1);
     let (tx, rx) = mpsc::channel::<(usize, Result<(), String>)>();
     std::thread::scope(|scope| {
         let mut running = 0;
         loop {
-            let stop = crate::interrupt::requested();
-            let ready: Vec<usize> = (0..n)
-                .filter(|&i| {
-                    !stop
-                        && state[i] == State::Waiting
-                        && plan.graph.instances[i].deps.iter().all(|&d| {
-                            state[d] == State::Done
-                                || (state[d] == State::Failed && tolerable(plan, d))
-                        })
-                })
-                .take(jobs - running)
-                .collect();
-            for i in ready {
-                if opts.explain {
-                    let why =
-                        explain::reasons(records.get(&plan.graph.instances[i].id), &plan.fields[i]);
-                    progress.println(format!(
-                        "{}: {}",
-                        plan.graph.instances[i].id,
-                        why.join("; ")
-                    ));
-                }
-                state[i] = State::Running;
+            for i in schedule.ready(jobs - running) {
+                let failed_deps = schedule.start(i);
                 running += 1;
-                let failed_deps: Vec<(String, String)> = plan.graph.instances[i]
-                    .deps
-                    .iter()
-                    .filter(|&&d| state[d] == State::Failed)
-                    .map(|&d| {
-                        let id = &plan.graph.instances[d].id;
-                        (
-                            id.clone(),
-                            summary
-                                .failed
-                                .iter()
-                                .find(|(f, _)| f == id)
-                                .map_or_else(|| "not built".to_string(), |(_, e)| e.clone()),
-                        )
-                    })
-                    .collect();
                 let (tx, cache, spinner) = (
                     tx.clone(),
                     &cache,
@@ -128,35 +73,144 @@ pub fn build(plan: &Plan, opts: &Options, progress: &Progress) -> anyhow::Result
             let (i, r) = rx.recv().expect("a worker always reports");
             running -= 1;
             bar.inc(1);
-            let id = plan.graph.instances[i].id.clone();
-            match r {
-                Ok(()) => {
-                    state[i] = State::Done;
-                    summary.ran.push(id);
-                }
-                Err(_) if crate::interrupt::requested() => {
-                    // Stopped by Ctrl-C, not a failure: it runs again next time.
-                    state[i] = State::Failed;
-                    progress.println(format!("{id}: stopped"));
-                }
-                Err(e) => {
-                    state[i] = State::Failed;
-                    progress.println(format!(
-                        "error: stage {id} failed\n  {}",
-                        e.replace('\n', "\n  ")
-                    ));
-                    summary.failed.push((id, e));
-                    skip_dependents(plan, i, &mut state, &mut summary);
-                }
-            }
+            schedule.finish(i, r);
         }
     });
     bar.finish_and_clear();
+    let Schedule {
+        state, mut summary, ..
+    } = schedule;
     summary.interrupted = crate::interrupt::requested();
-    for i in (0..n).filter(|&i| state[i] == State::Done) {
+    for i in (0..state.len()).filter(|&i| state[i] == State::Done) {
         summary.published.extend(publish(plan, i, &cache)?);
     }
     Ok(summary)
+}
+
+/// A build in progress: where each instance stands and what has been counted so far.
+struct Schedule<'a> {
+    plan: &'a Plan,
+    opts: &'a Options,
+    progress: &'a Progress,
+    state: Vec<State>,
+    summary: Summary,
+    /// What each instance was last built with; read only to explain (`--explain`).
+    records: HashMap<String, Record>,
+}
+
+impl<'a> Schedule<'a> {
+    /// The instances `opts.targets` need: those with a cached result done, the others waiting.
+    fn new(
+        plan: &'a Plan,
+        opts: &'a Options,
+        progress: &'a Progress,
+        cache: &Cache,
+    ) -> anyhow::Result<Schedule<'a>> {
+        let need = plan
+            .graph
+            .closure(&opts.targets)
+            .map_err(anyhow::Error::msg)?;
+        let state: Vec<State> = (0..plan.graph.instances.len())
+            .map(|i| match (need[i], cache.has(&plan.keys[i])) {
+                (false, _) => State::NotNeeded,
+                (true, true) => State::Done,
+                (true, false) => State::Waiting,
+            })
+            .collect();
+        let summary = Summary {
+            up_to_date: state.iter().filter(|s| **s == State::Done).count(),
+            ..Default::default()
+        };
+        let records = if opts.explain {
+            cache.records()
+        } else {
+            HashMap::new()
+        };
+        Ok(Schedule {
+            plan,
+            opts,
+            progress,
+            state,
+            summary,
+            records,
+        })
+    }
+
+    /// How many instances wait to run.
+    fn waiting(&self) -> usize {
+        self.state.iter().filter(|s| **s == State::Waiting).count()
+    }
+
+    /// Up to `free` waiting instances whose dependencies are done (or failed and tolerable);
+    /// none once Ctrl-C is pressed.
+    fn ready(&self, free: usize) -> Vec<usize> {
+        let stop = crate::interrupt::requested();
+        let (plan, state) = (self.plan, &self.state);
+        (0..state.len())
+            .filter(|&i| {
+                !stop
+                    && state[i] == State::Waiting
+                    && plan.graph.instances[i].deps.iter().all(|&d| {
+                        state[d] == State::Done || (state[d] == State::Failed && tolerable(plan, d))
+                    })
+            })
+            .take(free)
+            .collect()
+    }
+
+    /// Marks instance `i` running (saying why, with `--explain`); its failed dependencies
+    /// with their errors, which it goes on without.
+    fn start(&mut self, i: usize) -> Vec<(String, String)> {
+        let instances = &self.plan.graph.instances;
+        if self.opts.explain {
+            let why = explain::reasons(self.records.get(&instances[i].id), &self.plan.fields[i]);
+            self.progress
+                .println(format!("{}: {}", instances[i].id, why.join("; ")));
+        }
+        self.state[i] = State::Running;
+        instances[i]
+            .deps
+            .iter()
+            .filter(|&&d| self.state[d] == State::Failed)
+            .map(|&d| {
+                let id = &instances[d].id;
+                (
+                    id.clone(),
+                    self.summary
+                        .failed
+                        .iter()
+                        .find(|(f, _)| f == id)
+                        .map_or_else(|| "not built".to_string(), |(_, e)| e.clone()),
+                )
+            })
+            .collect()
+    }
+
+    /// Records what a worker reported for instance `i`: done, stopped by Ctrl-C, or failed
+    /// (which stops what depends on it).
+    fn finish(&mut self, i: usize, r: Result<(), String>) {
+        let id = self.plan.graph.instances[i].id.clone();
+        match r {
+            Ok(()) => {
+                self.state[i] = State::Done;
+                self.summary.ran.push(id);
+            }
+            Err(_) if crate::interrupt::requested() => {
+                // Stopped by Ctrl-C, not a failure: it runs again next time.
+                self.state[i] = State::Failed;
+                self.progress.println(format!("{id}: stopped"));
+            }
+            Err(e) => {
+                self.state[i] = State::Failed;
+                self.progress.println(format!(
+                    "error: stage {id} failed\n  {}",
+                    e.replace('\n', "\n  ")
+                ));
+                self.summary.failed.push((id, e));
+                skip_dependents(self.plan, i, &mut self.state, &mut self.summary);
+            }
+        }
+    }
 }
 
 /// Marks everything downstream of a failure as not runnable. Instances are in dependency
@@ -185,6 +239,8 @@ fn tolerable(plan: &Plan, failed: usize) -> bool {
         && !crate::interrupt::requested()
 }
 
+/// Runs instance `i` into a fresh folder and commits it to the cache, or removes the folder
+/// when it fails. `failed_upstream`: its failed dependencies, which it goes on without.
 fn run_one(
     plan: &Plan,
     i: usize,
@@ -194,17 +250,62 @@ fn run_one(
 ) -> anyhow::Result<()> {
     let inst = &plan.graph.instances[i];
     let st = plan.graph.stage_of(i);
-    let key = &plan.keys[i];
-    let tmp = cache.begin(key)?;
-    let inputs: Vec<InputFile> = inst
+    let tmp = cache.begin(&plan.keys[i])?;
+    let inputs = input_files(plan, i);
+    let ctx = RunCtx {
+        id: &inst.id,
+        stage: &st.name,
+        root: &plan.root,
+        vehicle: &plan.graph.spec.vehicle,
+        inputs: &inputs,
+        upstream: upstream(plan, i, cache, &failed_upstream),
+        failed_upstream: failed_upstream.clone(),
+        out: &tmp,
+        progress: spinner,
+    };
+    let start = Instant::now();
+    match run_guarded(st, &ctx) {
+        Ok(()) => {
+            let missing: Vec<String> = failed_upstream.into_iter().map(|(id, _)| id).collect();
+            cache.commit_partial(
+                &tmp,
+                &Record {
+                    id: inst.id.clone(),
+                    key: plan.keys[i].clone(),
+                    fields: plan.fields[i].clone(),
+                },
+                &missing,
+            )?;
+            log_time(spinner, &inst.id, start);
+            Ok(())
+        }
+        Err(e) => {
+            cache.abandon(&tmp);
+            Err(e)
+        }
+    }
+}
+
+/// Instance `i`'s input files with their hashes.
+fn input_files(plan: &Plan, i: usize) -> Vec<InputFile> {
+    plan.graph.instances[i]
         .inputs
         .iter()
         .map(|p| InputFile {
             path: p.clone(),
             blake3: plan.hashes[p].clone(),
         })
-        .collect();
-    let upstream = inst
+        .collect()
+}
+
+/// The finished dependencies instance `i` reads: all of them but the failed ones.
+fn upstream(
+    plan: &Plan,
+    i: usize,
+    cache: &Cache,
+    failed_upstream: &[(String, String)],
+) -> Vec<Upstream> {
+    plan.graph.instances[i]
         .deps
         .iter()
         .filter(|&&d| {
@@ -218,47 +319,18 @@ fn run_one(
             produces: plan.graph.stage_of(d).kind.produces,
             dir: cache.object(&plan.keys[d]),
         })
-        .collect();
-    let ctx = RunCtx {
-        id: &inst.id,
-        stage: &st.name,
-        root: &plan.root,
-        vehicle: &plan.graph.spec.vehicle,
-        inputs: &inputs,
-        upstream,
-        failed_upstream: failed_upstream.clone(),
-        out: &tmp,
-        progress: spinner,
-    };
-    let start = Instant::now();
-    // A panic is a bug, but it must not take the other stages (or the cache) down with it.
-    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| st.imp.run(&ctx)))
-        .unwrap_or_else(|p| {
-            Err(anyhow::anyhow!(
-                "internal error (please report): {}",
-                panic_text(&p)
-            ))
-        });
-    match result {
-        Ok(()) => {
-            let missing: Vec<String> = failed_upstream.into_iter().map(|(id, _)| id).collect();
-            cache.commit_partial(
-                &tmp,
-                &Record {
-                    id: inst.id.clone(),
-                    key: key.clone(),
-                    fields: plan.fields[i].clone(),
-                },
-                &missing,
-            )?;
-            log_time(spinner, &inst.id, start);
-            Ok(())
-        }
-        Err(e) => {
-            cache.abandon(&tmp);
-            Err(e)
-        }
-    }
+        .collect()
+}
+
+/// Runs the stage; a panic is a bug, but it must not take the other stages (or the cache)
+/// down with it, so it becomes this instance's error.
+fn run_guarded(st: &StageSpec, ctx: &RunCtx) -> anyhow::Result<()> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| st.imp.run(ctx))).unwrap_or_else(|p| {
+        Err(anyhow::anyhow!(
+            "internal error (please report): {}",
+            panic_text(&p)
+        ))
+    })
 }
 
 fn log_time(spinner: &indicatif::ProgressBar, id: &str, start: Instant) {

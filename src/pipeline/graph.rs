@@ -68,6 +68,22 @@ fn files_under(root: &Path, dir: &Path, out: &mut Vec<String>) -> std::io::Resul
 
 /// Matched entries of a stage: (name for the instance id, files).
 fn fan_out(root: &Path, st: &StageSpec) -> Result<Vec<(String, Vec<String>)>, GraphError> {
+    let matched = matched_entries(root, st)?;
+    if matched.is_empty() {
+        return Err(GraphError::NoInputs {
+            stage: st.name.clone(),
+            globs: st.inputs.join(", "),
+        });
+    }
+    Ok(named_by_stem(matched))
+}
+
+/// Every path the stage's globs match, skipping hidden names, with its files (the path
+/// itself, or a folder's files its kind keeps).
+fn matched_entries(
+    root: &Path,
+    st: &StageSpec,
+) -> Result<BTreeMap<String, Vec<String>>, GraphError> {
     let mut matched: BTreeMap<String, Vec<String>> = BTreeMap::new();
     for g in &st.inputs {
         let pattern = root.join(g).to_string_lossy().into_owned();
@@ -83,29 +99,34 @@ fn fan_out(root: &Path, st: &StageSpec) -> Result<Vec<(String, Vec<String>)>, Gr
             {
                 continue;
             }
-            let mut files = Vec::new();
-            if p.is_dir() {
-                files_under(root, &p, &mut files).map_err(|source| GraphError::Read {
-                    path: r.clone(),
-                    source,
-                })?;
-                if let Some(keep) = st.kind.input_filter {
-                    let prefix = format!("{r}/");
-                    files.retain(|f| f.strip_prefix(&prefix).is_some_and(keep));
-                }
-            } else {
-                files.push(r.clone());
-            }
+            let files = entry_files(root, st, &p, &r)?;
             matched.insert(r, files);
         }
     }
-    if matched.is_empty() {
-        return Err(GraphError::NoInputs {
-            stage: st.name.clone(),
-            globs: st.inputs.join(", "),
-        });
+    Ok(matched)
+}
+
+/// The input files of one matched path `p` (`r` relative to the root): a file is its own
+/// input; a folder gives the files under it that the stage's kind keeps.
+fn entry_files(root: &Path, st: &StageSpec, p: &Path, r: &str) -> Result<Vec<String>, GraphError> {
+    let mut files = Vec::new();
+    if p.is_dir() {
+        files_under(root, p, &mut files).map_err(|source| GraphError::Read {
+            path: r.to_string(),
+            source,
+        })?;
+        if let Some(keep) = st.kind.input_filter {
+            let prefix = format!("{r}/");
+            files.retain(|f| f.strip_prefix(&prefix).is_some_and(keep));
+        }
+    } else {
+        files.push(r.to_string());
     }
-    // Name each instance by its file stem; fall back to the path where stems collide.
+    Ok(files)
+}
+
+/// Names each entry by its file stem; falls back to the path where stems collide.
+fn named_by_stem(matched: BTreeMap<String, Vec<String>>) -> Vec<(String, Vec<String>)> {
     let stem = |r: &str| {
         Path::new(r)
             .file_stem()
@@ -115,7 +136,7 @@ fn fan_out(root: &Path, st: &StageSpec) -> Result<Vec<(String, Vec<String>)>, Gr
     for r in matched.keys() {
         *count.entry(stem(r)).or_default() += 1;
     }
-    Ok(matched
+    matched
         .into_iter()
         .map(|(r, files)| {
             (
@@ -127,7 +148,7 @@ fn fan_out(root: &Path, st: &StageSpec) -> Result<Vec<(String, Vec<String>)>, Gr
                 files,
             )
         })
-        .collect())
+        .collect()
 }
 
 impl Graph {

@@ -1,6 +1,6 @@
 //! `pipeline.yaml`: the vehicle and the named stages, parsed with every error located.
 
-use super::contract::{self, Kind, Registry, StageImpl};
+use super::contract::{self, Artifact, Kind, Registry, StageImpl};
 use super::locate::KeyIndex;
 use crate::diag::{InputError, nearest};
 use crate::model::Vehicle;
@@ -72,14 +72,7 @@ fn with_suggestion(msg: &str) -> (String, String) {
         .and_then(|u| nearest(u, candidates.iter().copied()))
     {
         Some(s) => format!("did you mean `{s}`?"),
-        None if !candidates.is_empty() => format!(
-            "use one of {}",
-            candidates
-                .iter()
-                .map(|c| format!("`{c}`"))
-                .collect::<Vec<_>>()
-                .join(", ")
-        ),
+        None if !candidates.is_empty() => use_one_of(candidates.iter().copied()),
         None => "see the README's description of pipeline.yaml".into(),
     };
     (msg, fix)
@@ -171,101 +164,173 @@ pub fn parse(path: &str, text: &str, kinds: Registry) -> Result<Spec, InputError
     })
 }
 
+/// Checks one declared stage against the kinds and the other stages; the spec it stands for.
 fn check_stage(
     p: &Parser,
     name: &str,
     rs: &RawStage,
     all: &BTreeMap<String, RawStage>,
 ) -> Result<StageSpec, InputError> {
-    let at = format!("stages.{name}");
-    if name.is_empty()
-        || !name
-            .chars()
-            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
-    {
-        return Err(p.error(
-            &at,
-            format!("stage name `{name}` has characters other than letters, digits, `_` and `-`"),
-            "rename the stage",
-        ));
+    let d = Declared {
+        p,
+        name,
+        at: format!("stages.{name}"),
+        rs,
+        all,
+    };
+    d.check_name()?;
+    let kind = d.kind()?;
+    let imp = d.settings(kind)?;
+    d.check_inputs(kind)?;
+    for f in &rs.from {
+        d.check_upstream(kind, f)?;
     }
-    let kind = contract::find(p.kinds, &rs.kind).ok_or_else(|| {
-        let names = p.kinds.iter().map(|k| k.name);
-        let fix = match nearest(&rs.kind, names.clone()) {
-            Some(s) => format!("did you mean `{s}`?"),
-            None => format!(
-                "use one of {}",
-                names
-                    .map(|n| format!("`{n}`"))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ),
-        };
-        p.error(
-            &format!("{at}.kind"),
-            format!("stage `{name}`: unknown kind `{}`", rs.kind),
-            fix,
-        )
-    })?;
-    let settings = rs
-        .settings
-        .clone()
-        .unwrap_or(serde_yaml_ng::Value::Mapping(Default::default()));
-    let imp = (kind.parse)(settings).map_err(|e| p.serde_error(&format!("{at}.settings"), &e))?;
-    if kind.fan_out && rs.inputs.is_empty() {
-        return Err(p.error(
-            &at,
-            format!("stage `{name}` ({}) has no inputs", kind.name),
-            "add `inputs: [\"cases/...\"]` with the globs of the files it imports",
-        ));
+    d.check_requires(kind)?;
+    Ok(StageSpec {
+        name: name.to_string(),
+        kind,
+        imp,
+        inputs: rs.inputs.clone(),
+        from: rs.from.clone(),
+    })
+}
+
+/// One stage as written under `stages`, with the other stages it may read from.
+struct Declared<'s> {
+    p: &'s Parser<'s>,
+    name: &'s str,
+    /// `stages.<name>`: the key its errors point at.
+    at: String,
+    rs: &'s RawStage,
+    all: &'s BTreeMap<String, RawStage>,
+}
+
+impl Declared<'_> {
+    /// An error at the stage's key followed by `sub` (`""`, `".kind"`, `".from"`, ...).
+    fn error(&self, sub: &str, what: impl Into<String>, fix: impl Into<String>) -> InputError {
+        self.p.error(&format!("{}{sub}", self.at), what, fix)
     }
-    if !kind.fan_out && !kind.reads_files && !rs.inputs.is_empty() {
-        return Err(p.error(
-            &format!("{at}.inputs"),
-            format!(
-                "stage `{name}` ({}) takes no input files; it reads other stages' results",
-                kind.name
-            ),
-            "remove `inputs` and list the stages it reads under `from`",
-        ));
+
+    /// What the stage called `f` produces, when it is a stage of a known kind.
+    fn produces(&self, f: &str) -> Option<Artifact> {
+        self.all
+            .get(f)
+            .and_then(|s| contract::find(self.p.kinds, &s.kind))
+            .map(|k| k.produces)
     }
-    for g in &rs.inputs {
+
+    /// The name may become part of file and instance names: letters, digits, `_` and `-`.
+    fn check_name(&self) -> Result<(), InputError> {
+        let name = self.name;
+        if name.is_empty()
+            || !name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+        {
+            return Err(self.error(
+                "",
+                format!(
+                    "stage name `{name}` has characters other than letters, digits, `_` and `-`"
+                ),
+                "rename the stage",
+            ));
+        }
+        Ok(())
+    }
+
+    /// The stage's kind, or an error suggesting the nearest registered one.
+    fn kind(&self) -> Result<&'static Kind, InputError> {
+        let kinds = self.p.kinds;
+        let raw = &self.rs.kind;
+        contract::find(kinds, raw).ok_or_else(|| {
+            let names = kinds.iter().map(|k| k.name);
+            let fix = match nearest(raw, names.clone()) {
+                Some(s) => format!("did you mean `{s}`?"),
+                None => use_one_of(names),
+            };
+            self.error(
+                ".kind",
+                format!("stage `{}`: unknown kind `{raw}`", self.name),
+                fix,
+            )
+        })
+    }
+
+    /// The settings, parsed by the kind (an empty map when none are written).
+    fn settings(&self, kind: &Kind) -> Result<Arc<dyn StageImpl>, InputError> {
+        let settings = self
+            .rs
+            .settings
+            .clone()
+            .unwrap_or(serde_yaml_ng::Value::Mapping(Default::default()));
+        (kind.parse)(settings).map_err(|e| self.p.serde_error(&format!("{}.settings", self.at), &e))
+    }
+
+    /// A fan-out kind needs input globs, a kind that reads only other stages has none, and
+    /// every glob is valid and stays inside the project.
+    fn check_inputs(&self, kind: &Kind) -> Result<(), InputError> {
+        let (name, inputs) = (self.name, &self.rs.inputs);
+        if kind.fan_out && inputs.is_empty() {
+            return Err(self.error(
+                "",
+                format!("stage `{name}` ({}) has no inputs", kind.name),
+                "add `inputs: [\"cases/...\"]` with the globs of the files it imports",
+            ));
+        }
+        if !kind.fan_out && !kind.reads_files && !inputs.is_empty() {
+            return Err(self.error(
+                ".inputs",
+                format!(
+                    "stage `{name}` ({}) takes no input files; it reads other stages' results",
+                    kind.name
+                ),
+                "remove `inputs` and list the stages it reads under `from`",
+            ));
+        }
+        inputs.iter().try_for_each(|g| self.check_glob(g))
+    }
+
+    /// One input glob: valid syntax, relative, no `..`.
+    fn check_glob(&self, g: &str) -> Result<(), InputError> {
         if let Err(e) = glob::Pattern::new(g) {
-            return Err(p.error(
-                &format!("{at}.inputs"),
+            return Err(self.error(
+                ".inputs",
                 format!("bad glob `{g}`: {e}"),
                 "fix the pattern (`*` any name, `**` any folders)",
             ));
         }
         if g.starts_with('/') || g.split('/').any(|c| c == "..") {
-            return Err(p.error(
-                &format!("{at}.inputs"),
+            return Err(self.error(
+                ".inputs",
                 format!("input `{g}` is outside the project"),
                 "use a path relative to the project folder, e.g. cases/cfd/starccm/*.csv",
             ));
         }
+        Ok(())
     }
-    for f in &rs.from {
+
+    /// One entry of `from`: a stage that exists and produces what this kind reads.
+    fn check_upstream(&self, kind: &Kind, f: &str) -> Result<(), InputError> {
+        let (name, all) = (self.name, self.all);
         let Some(up) = all.get(f) else {
             let fix = nearest(f, all.keys().map(|s| s.as_str()))
                 .map_or("list only stages defined under `stages`".into(), |s| {
                     format!("did you mean `{s}`?")
                 });
-            return Err(p.error(
-                &format!("{at}.from"),
+            return Err(self.error(
+                ".from",
                 format!("stage `{name}` reads from `{f}`, which is not a stage"),
                 fix,
             ));
         };
-        let up_kind = contract::find(p.kinds, &up.kind).map(|k| k.produces);
-        if up_kind.is_some_and(|a| !kind.consumes.contains(&a)) {
-            return Err(p.error(
-                &format!("{at}.from"),
+        match self.produces(f) {
+            Some(a) if !kind.consumes.contains(&a) => Err(self.error(
+                ".from",
                 format!(
                     "stage `{name}` ({}) cannot read from `{f}` ({}), which produces {}",
                     kind.name,
                     up.kind,
-                    up_kind.unwrap().describe()
+                    a.describe()
                 ),
                 format!(
                     "a {} stage reads {}",
@@ -276,62 +341,65 @@ fn check_stage(
                         .collect::<Vec<_>>()
                         .join(" and ")
                 ),
-            ));
+            )),
+            _ => Ok(()),
         }
     }
-    for need in kind.requires {
-        if !rs.from.iter().any(|f| {
-            all.get(f)
-                .and_then(|s| contract::find(p.kinds, &s.kind))
-                .is_some_and(|k| k.produces == *need)
-        }) {
-            return Err(p.error(
-                &at,
+
+    /// Under `from`: a stage producing each artifact the kind requires, and one producing
+    /// any of those it requires one of.
+    fn check_requires(&self, kind: &Kind) -> Result<(), InputError> {
+        let (name, from) = (self.name, &self.rs.from);
+        for need in kind.requires {
+            if !from.iter().any(|f| self.produces(f) == Some(*need)) {
+                return Err(self.error(
+                    "",
+                    format!(
+                        "stage `{name}` ({}) needs a stage that produces {} under `from`",
+                        kind.name,
+                        need.describe()
+                    ),
+                    format!(
+                        "add such a stage to `from: [...]` (e.g. {})",
+                        need.example()
+                    ),
+                ));
+            }
+        }
+        let one_of = kind.requires_one_of;
+        if !one_of.is_empty()
+            && !from
+                .iter()
+                .any(|f| self.produces(f).is_some_and(|a| one_of.contains(&a)))
+        {
+            let what: Vec<&str> = one_of.iter().map(|a| a.describe()).collect();
+            let examples: Vec<&str> = one_of.iter().map(|a| a.example()).collect();
+            return Err(self.error(
+                "",
                 format!(
                     "stage `{name}` ({}) needs a stage that produces {} under `from`",
                     kind.name,
-                    need.describe()
+                    what.join(" or ")
                 ),
                 format!(
-                    "add such a stage to `from: [...]` (e.g. {})",
-                    need.example()
+                    "add such a stage to `from: [...]` ({})",
+                    examples.join(" or ")
                 ),
             ));
         }
+        Ok(())
     }
-    let produces = |f: &String| {
-        all.get(f)
-            .and_then(|s| contract::find(p.kinds, &s.kind))
-            .map(|k| k.produces)
-    };
-    if !kind.requires_one_of.is_empty()
-        && !rs
-            .from
-            .iter()
-            .any(|f| produces(f).is_some_and(|a| kind.requires_one_of.contains(&a)))
-    {
-        let what: Vec<&str> = kind.requires_one_of.iter().map(|a| a.describe()).collect();
-        let examples: Vec<&str> = kind.requires_one_of.iter().map(|a| a.example()).collect();
-        return Err(p.error(
-            &at,
-            format!(
-                "stage `{name}` ({}) needs a stage that produces {} under `from`",
-                kind.name,
-                what.join(" or ")
-            ),
-            format!(
-                "add such a stage to `from: [...]` ({})",
-                examples.join(" or ")
-            ),
-        ));
-    }
-    Ok(StageSpec {
-        name: name.to_string(),
-        kind,
-        imp,
-        inputs: rs.inputs.clone(),
-        from: rs.from.clone(),
-    })
+}
+
+/// `use one of `a`, `b``: the fix when no name is near enough to suggest.
+fn use_one_of<'n>(names: impl Iterator<Item = &'n str>) -> String {
+    format!(
+        "use one of {}",
+        names
+            .map(|n| format!("`{n}`"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    )
 }
 
 /// Orders stages so each follows its upstream; a cycle is reported as `a -> b -> a`.

@@ -3,10 +3,9 @@
 //! validation error on the pool runs, run time and objective evaluations.
 
 use super::{Artifact, Kind, RunCtx, StageImpl, fit, parse_as};
-use crate::estimate::comparison::{Comparison, RESULT, Row};
-use crate::estimate::identify;
+use crate::estimate::comparison::RESULT;
 use crate::io::response;
-use crate::model::{ParamLayout, Plant};
+use crate::validate::compare::{Candidate, Data, compare};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -54,91 +53,31 @@ impl StageImpl for Settings {
             .upstream_of(Artifact::PoolRuns)
             .map(|u| crate::fusion::run::load_for(&u.dir, ctx.vehicle))
             .collect::<Result<_, _>>()?;
-        let held_out: Vec<&crate::fusion::run::FusedRun> = if runs
+        let candidates: Vec<Candidate> = self
+            .methods
             .iter()
-            .any(|r| r.meta.role == crate::io::pool::Role::Validate)
-        {
-            runs.iter()
-                .filter(|r| r.meta.role == crate::io::pool::Role::Validate)
-                .collect()
-        } else {
-            runs.iter().collect()
-        };
-        let mut rows = Vec::new();
-        let mut samples = 0;
-        for (i, m) in self.methods.iter().enumerate() {
-            ctx.progress
-                .set_message(format!("{} ({}/{})", m.label(), i + 1, self.methods.len()));
-            let data = identify::Data {
-                vehicle: ctx.vehicle,
-                cases: responses
-                    .iter()
-                    .zip(&masses)
-                    .map(|(r, m)| (r, *m))
-                    .collect(),
-                pool: vec![],
-                skip_start_s: m.common.skip_start_s,
-            };
-            let req = identify::Request {
-                method: &m.method,
-                objective: m.common.objective,
-                added_mass_window_s: None,
-                progress: None,
-            };
-            let start = std::time::Instant::now();
-            let fit = identify::identify(&data, &req).map(|id| {
-                samples = id.rows;
-                id.fit
-            });
-            let seconds = start.elapsed().as_secs_f64();
-            let mut row = Row {
+            .map(|m| Candidate {
                 label: m.label(),
                 settings: m.settings(),
-                parameters: vec![],
-                error_pct: BTreeMap::new(),
-                max_abs_error_pct: None,
-                pool_nmae: None,
-                seconds,
-                evaluations: None,
-                error: None,
-            };
-            match fit {
-                Err(e) => row.error = Some(e.to_string()),
-                Ok(fit) => {
-                    row.error_pct = relative_errors_pct(&fit.parameters, &self.truth);
-                    row.max_abs_error_pct =
-                        row.error_pct.values().map(|e| e.abs()).reduce(f64::max);
-                    let theta: Vec<f64> = fit.parameters.iter().map(|p| p.value).collect();
-                    let plant =
-                        Plant::new(ctx.vehicle, ParamLayout::of(ctx.vehicle).to_hydro(&theta));
-                    row.pool_nmae =
-                        crate::validate::pool::mean_nmae(&plant, &held_out, &ctx.vehicle.dofs);
-                    row.evaluations = fit.evaluations;
-                    row.parameters = fit.parameters;
-                }
-            }
-            rows.push(row);
-        }
-        let result = Comparison {
-            rows,
-            samples,
-            cases: responses.len(),
-            pool_runs: held_out.iter().map(|r| r.meta.run.clone()).collect(),
+                method: &m.method,
+                objective: m.common.objective,
+                skip_start_s: m.common.skip_start_s,
+            })
+            .collect();
+        let data = Data {
+            vehicle: ctx.vehicle,
+            cases: responses
+                .iter()
+                .zip(&masses)
+                .map(|(r, m)| (r, *m))
+                .collect(),
+            truth: &self.truth,
+            runs: &runs,
         };
-        super::write_json(&ctx.out.join(RESULT), &result)
+        let progress = |m: String| ctx.progress.set_message(m);
+        super::write_json(
+            &ctx.out.join(RESULT),
+            &compare(&data, &candidates, &progress),
+        )
     }
-}
-
-/// Error of each estimate against the known value, % of that value's magnitude.
-fn relative_errors_pct(
-    params: &[crate::estimate::Estimate],
-    truth: &BTreeMap<String, f64>,
-) -> BTreeMap<String, f64> {
-    params
-        .iter()
-        .filter_map(|p| {
-            let t = truth.get(&p.name)?;
-            Some((p.name.clone(), 100.0 * (p.value - t) / t.abs()))
-        })
-        .collect()
 }

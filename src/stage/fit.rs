@@ -175,19 +175,7 @@ impl StageImpl for Settings {
     fn run(&self, ctx: &RunCtx) -> anyhow::Result<()> {
         let start = std::time::Instant::now();
         let vehicle = self.common.vehicle.as_ref().unwrap_or(ctx.vehicle);
-        let mut cases = Vec::new();
-        let mut responses = Vec::new();
-        for up in ctx.upstream_of(Artifact::Responses) {
-            let (meta, r) = response::load(&up.dir)?;
-            cases.push(CaseRef {
-                id: up.id.clone(),
-                case: meta.case,
-                source: meta.source,
-                inputs: meta.all_inputs,
-                mass_kg: meta.body_mass_kg,
-            });
-            responses.push(r);
-        }
+        let (cases, responses) = cfd_cases(ctx)?;
         let (runs, pool_responses, mut notes) = training_runs(ctx, vehicle)?;
         notes.extend(ctx.failed_notes());
         let data = identify::Data {
@@ -233,6 +221,24 @@ impl StageImpl for Settings {
         };
         super::write_json(&ctx.out.join(RESULT), &result)
     }
+}
+
+/// The CFD responses among the upstream, with what the result says of each case.
+fn cfd_cases(ctx: &RunCtx) -> anyhow::Result<(Vec<CaseRef>, Vec<crate::io::Response>)> {
+    let mut cases = Vec::new();
+    let mut responses = Vec::new();
+    for up in ctx.upstream_of(Artifact::Responses) {
+        let (meta, r) = response::load(&up.dir)?;
+        cases.push(CaseRef {
+            id: up.id.clone(),
+            case: meta.case,
+            source: meta.source,
+            inputs: meta.all_inputs,
+            mass_kg: meta.body_mass_kg,
+        });
+        responses.push(r);
+    }
+    Ok((cases, responses))
 }
 
 /// The `role: train` pool runs among the upstream, as response tables (logged command, fused

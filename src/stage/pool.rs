@@ -24,36 +24,11 @@ impl StageImpl for Settings {
     }
 
     fn run(&self, ctx: &RunCtx) -> anyhow::Result<()> {
-        let files: Vec<String> = ctx.inputs.iter().map(|f| f.path.clone()).collect();
-        if files.is_empty() {
-            anyhow::bail!(
-                "{}: the run folder is empty\n  help: a pool run needs at least run.yaml and thrust.csv",
-                ctx.id
-            );
-        }
-        let dir = common_dir(&files);
-        let run = pool::load(ctx.root, &dir, &files)?;
+        let run = load_run(ctx)?;
         ctx.progress.set_message(format!("fusing {}", run.name));
         let fused = fusion::fuse(&run, &self.fusion);
-        let without_sonar = run
-            .sonar
-            .as_ref()
-            .filter(|_| !self.fusion.exclude.iter().any(|e| e == "sonar"))
-            .map(|_| {
-                let mut s = self.fusion.clone();
-                s.exclude.push("sonar".into());
-                fusion::fuse(&run, &s)
-            });
-        let thrust: Vec<[f64; 4]> = (0..run.thrust.len())
-            .map(|k| {
-                [
-                    run.thrust.cols[0][k],
-                    run.thrust.cols[1][k],
-                    run.thrust.cols[2][k],
-                    run.thrust.cols[3][k],
-                ]
-            })
-            .collect();
+        let without_sonar = self.fuse_without_sonar(&run);
+        let thrust = thrust_rows(&run);
         run::write_table(&ctx.out.join(run::TABLE), &thrust, &fused)?;
         if let Some(f) = &without_sonar {
             run::write_table(&ctx.out.join(run::TABLE_NO_SONAR), &thrust, f)?;
@@ -77,6 +52,48 @@ impl StageImpl for Settings {
         };
         super::write_json(&ctx.out.join(run::META), &meta)
     }
+}
+
+impl Settings {
+    /// The run fused once more without its sonar, when it has one the settings use, so the
+    /// report can show what the sonar adds.
+    fn fuse_without_sonar(&self, run: &pool::PoolRun) -> Option<fusion::Fused> {
+        run.sonar
+            .as_ref()
+            .filter(|_| !self.fusion.exclude.iter().any(|e| e == "sonar"))
+            .map(|_| {
+                let mut s = self.fusion.clone();
+                s.exclude.push("sonar".into());
+                fusion::fuse(run, &s)
+            })
+    }
+}
+
+/// The pool run of the instance's folder; an error when the folder is empty.
+fn load_run(ctx: &RunCtx) -> anyhow::Result<pool::PoolRun> {
+    let files: Vec<String> = ctx.inputs.iter().map(|f| f.path.clone()).collect();
+    if files.is_empty() {
+        anyhow::bail!(
+            "{}: the run folder is empty\n  help: a pool run needs at least run.yaml and thrust.csv",
+            ctx.id
+        );
+    }
+    let dir = common_dir(&files);
+    Ok(pool::load(ctx.root, &dir, &files)?)
+}
+
+/// The logged thrust, one [X, Y, Z, N] row per sample.
+fn thrust_rows(run: &pool::PoolRun) -> Vec<[f64; 4]> {
+    (0..run.thrust.len())
+        .map(|k| {
+            [
+                run.thrust.cols[0][k],
+                run.thrust.cols[1][k],
+                run.thrust.cols[2][k],
+                run.thrust.cols[3][k],
+            ]
+        })
+        .collect()
 }
 
 /// The run folder: the longest common folder of its files.

@@ -42,20 +42,7 @@ impl StageImpl for Settings {
             .upstream_of(Artifact::Model)
             .map(|u| crate::estimate::result::load(&u.dir))
             .collect::<Result<_, _>>()?;
-        let mut cases = Vec::new();
-        for u in ctx.upstream_of(Artifact::Responses) {
-            let (meta, response) = response::load(&u.dir)?;
-            let track = crate::openfoam::load_track(&u.dir);
-            cases.push(build::Case {
-                id: u.id.clone(),
-                name: meta.case,
-                response,
-                notes: meta.notes,
-                mass: meta.body_mass_kg,
-                openfoam: meta.openfoam,
-                track,
-            });
-        }
+        let cases = cfd_cases(ctx)?;
         let pool_runs: Vec<crate::fusion::run::FusedRun> = ctx
             .upstream_of(Artifact::PoolRuns)
             .map(|u| crate::fusion::run::load_for(&u.dir, ctx.vehicle))
@@ -90,4 +77,24 @@ impl StageImpl for Settings {
         }
         Ok(())
     }
+}
+
+/// The CFD responses among the upstream, each with what the report shows of its case (and
+/// an OpenFOAM case's track).
+fn cfd_cases(ctx: &RunCtx) -> anyhow::Result<Vec<build::Case>> {
+    let mut cases = Vec::new();
+    for u in ctx.upstream_of(Artifact::Responses) {
+        let (meta, response) = response::load(&u.dir)?;
+        let track = crate::openfoam::load_track(&u.dir);
+        cases.push(build::Case {
+            id: u.id.clone(),
+            name: meta.case,
+            response,
+            notes: meta.notes,
+            mass: meta.body_mass_kg,
+            openfoam: meta.openfoam,
+            track,
+        });
+    }
+    Ok(cases)
 }

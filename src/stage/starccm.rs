@@ -28,6 +28,20 @@ pub struct Settings {
     pub applied_force: Vec<AppliedForce>,
 }
 
+impl Settings {
+    /// The applied force for the export at `path`: every `applied_force` entry whose glob
+    /// matches it, later entries overriding earlier ones per DOF.
+    fn configured_force(&self, path: &str) -> BTreeMap<Dof, f64> {
+        let mut configured_force = BTreeMap::new();
+        for af in &self.applied_force {
+            if glob::Pattern::new(&af.files).is_ok_and(|p| p.matches(path)) {
+                configured_force.extend(af.force.iter().map(|(d, f)| (*d, *f)));
+            }
+        }
+        configured_force
+    }
+}
+
 impl StageImpl for Settings {
     fn settings(&self) -> serde_json::Value {
         serde_json::to_value(self).expect("settings serialise")
@@ -38,27 +52,11 @@ impl StageImpl for Settings {
             .inputs
             .first()
             .ok_or_else(|| anyhow::anyhow!("no input file"))?;
-        let text = std::fs::read(ctx.root.join(&input.path))?;
-        let text = String::from_utf8(text).map_err(|e| {
-            crate::diag::InputError::file(
-                &input.path,
-                format!(
-                    "not UTF-8 text (byte {} is invalid)",
-                    e.utf8_error().valid_up_to()
-                ),
-                "export as CSV text from STAR-CCM+, not a binary or spreadsheet file",
-            )
-        })?;
-        let mut configured_force = BTreeMap::new();
-        for af in &self.applied_force {
-            if glob::Pattern::new(&af.files).is_ok_and(|p| p.matches(&input.path)) {
-                configured_force.extend(af.force.iter().map(|(d, f)| (*d, *f)));
-            }
-        }
+        let text = read_text(ctx.root, &input.path)?;
         let opts = ImportOptions {
             columns: &self.columns,
             dofs: &ctx.vehicle.dofs,
-            configured_force,
+            configured_force: self.configured_force(&input.path),
         };
         let imported = starccm::parse(&input.path, &text, &opts)?;
         imported.response.write_parquet(&ctx.out.join(TABLE))?;
@@ -79,4 +77,21 @@ impl StageImpl for Settings {
         };
         super::write_json(&ctx.out.join(META), &meta)
     }
+}
+
+/// The export at `path` (relative to `root`) as text; an error located in the file when it is
+/// not UTF-8.
+fn read_text(root: &std::path::Path, path: &str) -> anyhow::Result<String> {
+    let text = std::fs::read(root.join(path))?;
+    let text = String::from_utf8(text).map_err(|e| {
+        crate::diag::InputError::file(
+            path,
+            format!(
+                "not UTF-8 text (byte {} is invalid)",
+                e.utf8_error().valid_up_to()
+            ),
+            "export as CSV text from STAR-CCM+, not a binary or spreadsheet file",
+        )
+    })?;
+    Ok(text)
 }

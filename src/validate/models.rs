@@ -1,0 +1,175 @@
+//! Identified models scored on pool runs, as the `validate` stage stores them: each model
+//! simulated under every run's logged thrust and scored per DOF, the scores summarised per
+//! run role, and models re-estimated on each training run alone scored on the others.
+
+use super::pool::{CrossFit, ModelScore, RunScore, Scores, Simulated, score_run, simulate_run};
+use crate::dof::Dof;
+use crate::estimate::result::FitResult;
+use crate::fusion::run::{FusedRun, POOL_DOFS};
+use crate::model::stability::Horizon;
+use crate::model::{Plant, Vehicle};
+use std::collections::BTreeMap;
+
+/// How the models are scored.
+#[derive(Debug, Clone, Copy)]
+pub struct Options {
+    /// Longest lag of the residual autocorrelation, s.
+    pub max_lag_s: f64,
+    /// Also re-estimate a model on each training run and score it on the others.
+    pub cross_validate: bool,
+    /// Simulation window (multiple shooting).
+    pub horizon: Horizon,
+}
+
+/// The scores, and the simulations behind them (one per model and run, for plots).
+pub struct Validation {
+    pub scores: Scores,
+    pub simulations: Vec<Simulated>,
+}
+
+/// Every model of `fits` on every run of `runs`; the notes say which runs cross-validation
+/// could not use.
+pub fn score_models(
+    vehicle: &Vehicle,
+    fits: &[FitResult],
+    runs: &[FusedRun],
+    opts: &Options,
+) -> Validation {
+    let mut models = Vec::new();
+    let mut simulations = Vec::new();
+    for f in fits {
+        let (score, sims) = score_model(vehicle, f, runs, opts);
+        models.push(score);
+        simulations.extend(sims);
+    }
+    let (cross, notes) = if opts.cross_validate {
+        cross_validate(vehicle, runs, opts.max_lag_s)
+    } else {
+        (vec![], vec![])
+    };
+    Validation {
+        scores: Scores {
+            models,
+            cross,
+            notes,
+        },
+        simulations,
+    }
+}
+
+/// One model on every run, with the local stability that chose each run's simulation
+/// window, and its simulations of the vehicle's pool DOFs.
+fn score_model(
+    vehicle: &Vehicle,
+    f: &FitResult,
+    runs: &[FusedRun],
+    opts: &Options,
+) -> (ModelScore, Vec<Simulated>) {
+    let plant = f.plant(vehicle);
+    let mut scored = Vec::new();
+    let mut simulations = Vec::new();
+    for run in runs {
+        let (sim, stability) = simulate_run(&plant, run, opts.horizon);
+        let mut score = score_run(&vehicle.dofs, run, &sim, opts.max_lag_s);
+        score.stability = Some(stability);
+        scored.push(score);
+        let nu = POOL_DOFS
+            .iter()
+            .filter(|d| vehicle.dofs.contains(d))
+            .map(|d| (*d, sim.iter().map(|x| x[d.index()]).collect()))
+            .collect();
+        simulations.push(Simulated {
+            model: f.stage.clone(),
+            run: run.meta.run.clone(),
+            t: run.fused.t.clone(),
+            nu,
+        });
+    }
+    let mean_nmae = mean_nmae_by_role(&scored);
+    let score = ModelScore {
+        model: f.stage.clone(),
+        runs: scored,
+        mean_nmae,
+    };
+    (score, simulations)
+}
+
+/// Mean normalised MAE per DOF over the runs of each role (`train`, `validate`), where it is
+/// finite; diverged runs left out.
+fn mean_nmae_by_role(scored: &[RunScore]) -> BTreeMap<String, BTreeMap<Dof, f64>> {
+    let mut mean_nmae: BTreeMap<String, BTreeMap<Dof, f64>> = BTreeMap::new();
+    for role in ["train", "validate"] {
+        let of_role: Vec<&RunScore> = scored
+            .iter()
+            .filter(|r| r.role == role && !r.diverged)
+            .collect();
+        for d in POOL_DOFS {
+            let v: Vec<f64> = of_role
+                .iter()
+                .filter_map(|r| r.dofs.get(&d))
+                .map(|s| s.metrics.nmae)
+                .filter(|x| x.is_finite())
+                .collect();
+            if !v.is_empty() {
+                mean_nmae
+                    .entry(role.into())
+                    .or_default()
+                    .insert(d, v.iter().sum::<f64>() / v.len() as f64);
+            }
+        }
+    }
+    mean_nmae
+}
+
+/// Cross-validation across trials: a model re-estimated on each training run alone
+/// (equation error, least squares on the fused velocities) and scored on every other run;
+/// notes for the runs that gave no model.
+fn cross_validate(
+    vehicle: &Vehicle,
+    runs: &[FusedRun],
+    max_lag_s: f64,
+) -> (Vec<CrossFit>, Vec<String>) {
+    use crate::estimate::Estimator as _;
+    let mut out = Vec::new();
+    let mut notes = Vec::new();
+    for train in runs
+        .iter()
+        .filter(|r| r.meta.role == crate::io::pool::Role::Train)
+    {
+        let Some(resp) = train.as_response(vehicle) else {
+            notes.push(format!(
+                "{}: not every DOF was fused, so no model was re-estimated on it",
+                train.meta.run
+            ));
+            continue;
+        };
+        let problem = crate::estimate::Regression::build(vehicle, &[&resp], 1.0);
+        let fit = match crate::estimate::ols::Ols.fit(&problem, &Default::default()) {
+            Ok(f) => f,
+            Err(e) => {
+                notes.push(format!("{}: re-estimation failed: {e}", train.meta.run));
+                continue;
+            }
+        };
+        let theta: Vec<f64> = fit.parameters.iter().map(|p| p.value).collect();
+        let plant = Plant::new(vehicle, problem.layout.to_hydro(&theta));
+        let scored = runs
+            .iter()
+            .filter(|r| r.meta.run != train.meta.run)
+            .map(|r| {
+                score_run(
+                    &vehicle.dofs,
+                    r,
+                    &simulate_run(&plant, r, Horizon::WholeRun).0,
+                    max_lag_s,
+                )
+            })
+            .collect();
+        out.push(CrossFit {
+            trained_on: train.meta.run.clone(),
+            parameters: fit.parameters,
+            runs: scored,
+        });
+    }
+    (out, notes)
+}
