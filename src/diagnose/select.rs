@@ -194,7 +194,9 @@ pub fn select(
             break;
         };
         let (h, p, _, val) = &fitted[b];
-        if !significant(criteria, data, current, *val, h.params.len() as f64) {
+        if !significant(criteria, data, current, *val, h.params.len() as f64)
+            || outgained_on_a_bound(&rows, b, criteria, current_train)
+        {
             tested.extend(rows);
             break;
         }
@@ -245,6 +247,17 @@ fn best_row(rows: &[Tested], criteria: &Criteria, current_train: f64) -> Option<
             corroborated(criteria, current_train, rows[i].train_cost) && rows[i].at_bound.is_empty()
         })
         .max_by(|&a, &b| rows[a].score.total_cmp(&rows[b].score))
+}
+
+/// Whether an effect refused on its search bound gained over twice what row `b` does. The data
+/// then want something beyond that effect's range; naming the lesser effect would patch the
+/// mismatch with the wrong physics, so the search stops and what is left is `unexplained`.
+fn outgained_on_a_bound(rows: &[Tested], b: usize, criteria: &Criteria, train: f64) -> bool {
+    rows.iter().any(|r| {
+        !r.at_bound.is_empty()
+            && corroborated(criteria, train, r.train_cost)
+            && r.gain > 2.0 * rows[b].gain
+    })
 }
 
 /// The effect swapped out no longer counts as kept; its replacement's row is added.

@@ -51,10 +51,19 @@ fn main_parameter(e: &Effect, d: &Diagnosis) -> (f64, [f64; 2], f64) {
         Effect::ThrusterDeadband { force_n, .. } => {
             (*force_n, around(*force_n, 0.2), got("force_n"))
         }
-        // Cable paid out vs straight-line distance: at the runs' depths they differ by a
-        // near-constant length that the fitted slack takes up.
-        Effect::TetherDrag { coefficient, .. } => {
-            (*coefficient, around(*coefficient, 0.25), got("coefficient"))
+        // Cable paid out vs straight-line distance plus slack: coefficient and slack trade
+        // along a ridge, so what compares is the drag per unit |v| v where the runs go, 11 m
+        // from the anchor at 1.5 m depth.
+        Effect::TetherDrag {
+            coefficient,
+            slack_m,
+        } => {
+            let want = coefficient * (11.0 + 1.5 + slack_m);
+            (
+                want,
+                around(want, 0.25),
+                got("coefficient") * (11.0f64.hypot(1.5) + got("slack_m")),
+            )
         }
         // +-30 % along the pool, averaging out over where the runs go.
         Effect::WaterCurrent { velocity_m_s } => {
@@ -168,16 +177,23 @@ fn two_concealed_effects_are_both_named() {
     ] {
         // The last pair needs the swap step: neither effect alone fits, and tether drag stands in
         // for coupled drag in the first round.
+        // The twin's forms are not the diagnosis's: what they leave may be reported as
+        // `unexplained`, but no other effect may be named, and the two must explain the bulk.
         let effects: Vec<Effect> = args.iter().map(|a| Effect::from_arg(a).unwrap()).collect();
         let d = scenario_diagnosis(&effects, seed);
-        let mut named: Vec<&str> = d.effects.iter().map(|e| e.name.as_str()).collect();
+        let mut named: Vec<&str> = d
+            .effects
+            .iter()
+            .map(|e| e.name.as_str())
+            .filter(|n| *n != "unexplained")
+            .collect();
         named.sort();
         let mut want: Vec<&str> = effects.iter().map(|e| e.name()).collect();
         want.sort();
         assert_eq!(named, want, "{}", d.verdict);
-        let last = d.effects.last().unwrap();
+        let last = d.effects.iter().rfind(|e| e.name != "unexplained").unwrap();
         assert!(
-            last.validation_cost_after < 3.0 * d.baseline.noise_cost,
+            last.validation_cost_after < 0.1 * d.baseline.validation_cost,
             "{}",
             d.verdict
         );
