@@ -47,6 +47,7 @@ pub enum Command {
     },
     /// Print the graph of stage instances, as text or Graphviz DOT.
     Graph {
+        /// Print Graphviz DOT (for `dot -Tsvg`) instead of one line per instance with its inputs.
         #[arg(long)]
         dot: bool,
     },
@@ -70,8 +71,10 @@ pub enum Command {
         /// runs, against its 10 s target).
         #[arg(long, default_value = "equation")]
         objective: String,
+        /// Swarm size of the timed QPSO run.
         #[arg(long, default_value_t = 40)]
         population: usize,
+        /// Iterations of the timed QPSO run.
         #[arg(long, default_value_t = 300)]
         iterations: usize,
         /// Also write the problem (rows, cols, then Phi, y, w as little-endian f64) for the
@@ -94,6 +97,8 @@ pub enum OpenfoamCommand {
         /// Body mass, kg per metre of span (default: twice the displaced water, 62.83 kg).
         #[arg(long)]
         mass: Option<f64>,
+        /// Cylinder radius, m (the body's mesh and the time step follow it; the 27 x 22 m box
+        /// does not).
         #[arg(long, default_value_t = 0.1)]
         radius: f64,
         /// Simulated time, s (default: long enough for about 2.5 m of travel).
