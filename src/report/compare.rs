@@ -17,17 +17,16 @@ pub fn verdict(c: &Comparison) -> String {
         .collect();
     by_truth.sort_by(|a, b| a.0.total_cmp(&b.0));
     let mut out = String::new();
-    if let [first, second, ..] = by_truth.as_slice() {
+    if let [first, second, rest @ ..] = by_truth.as_slice() {
         let _ = write!(
             out,
-            "Closest to the known parameters: {} (worst parameter off by {:.2} %), then {} ({:.2} %); last: {} ({:.2} %). ",
-            first.1.label,
-            first.0,
-            second.1.label,
-            second.0,
-            by_truth.last().unwrap().1.label,
-            by_truth.last().unwrap().0
+            "Closest to the known parameters: {} (worst parameter off by {:.2} %), then {} ({:.2} %)",
+            first.1.label, first.0, second.1.label, second.0
         );
+        if let Some(last) = rest.last() {
+            let _ = write!(out, "; last: {} ({:.2} %)", last.1.label, last.0);
+        }
+        out.push_str(". ");
     }
     let mut by_pool: Vec<_> = c
         .rows
@@ -36,15 +35,25 @@ pub fn verdict(c: &Comparison) -> String {
         .collect();
     by_pool.sort_by(|a, b| a.0.total_cmp(&b.0));
     if let [first, .., last] = by_pool.as_slice() {
-        let _ = write!(
-            out,
-            "On the held-out pool runs ({}) the best is {} (mean NMAE {:.3}) and the worst {} ({:.3}); the spread between methods is small next to what the CFD model misses there.",
-            c.pool_runs.join(", "),
-            first.1.label,
-            first.0,
-            last.1.label,
-            last.0
-        );
+        let runs = c.pool_runs.join(", ");
+        // Below the printed precision, "best" and "worst" would name a difference nobody can see.
+        if last.0 - first.0 < 0.0005 {
+            let _ = write!(
+                out,
+                "On the held-out pool runs ({runs}) every method scores the same mean NMAE, {:.3}, to three decimals.",
+                first.0
+            );
+        } else {
+            let _ = write!(
+                out,
+                "On the held-out pool runs ({runs}) the best is {} (mean NMAE {:.3}) and the worst {} ({:.3}), {:.0} % above the best.",
+                first.1.label,
+                first.0,
+                last.1.label,
+                last.0,
+                100.0 * (last.0 / first.0 - 1.0)
+            );
+        }
     }
     out
 }
@@ -100,4 +109,55 @@ pub fn section(c: &Comparison) -> String {
     }
     h.push_str("</table>\n");
     h
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::estimate::comparison::Row;
+
+    fn row(label: &str, truth: f64, nmae: f64) -> Row {
+        Row {
+            label: label.into(),
+            settings: serde_json::Value::Null,
+            parameters: vec![],
+            error_pct: Default::default(),
+            max_abs_error_pct: Some(truth),
+            pool_nmae: Some(nmae),
+            seconds: 0.0,
+            evaluations: None,
+            error: None,
+        }
+    }
+
+    fn comparison(rows: Vec<Row>) -> Comparison {
+        Comparison {
+            rows,
+            samples: 0,
+            cases: 0,
+            pool_runs: vec!["mixed".into()],
+        }
+    }
+
+    #[test]
+    fn a_tie_is_called_a_tie_and_a_spread_is_measured() {
+        let tie = verdict(&comparison(vec![
+            row("ols", 1.47, 0.0661),
+            row("qpso (l1)", 0.99, 0.0662),
+        ]));
+        assert!(
+            tie.contains("every method scores the same mean NMAE, 0.066")
+                && !tie.contains("the worst")
+                && !tie.contains("last:"),
+            "{tie}"
+        );
+        let spread = verdict(&comparison(vec![
+            row("ols", 1.47, 0.050),
+            row("ga (l2)", 1.46, 0.060),
+        ]));
+        assert!(
+            spread.contains("the best is ols (mean NMAE 0.050) and the worst ga (l2) (0.060), 20 % above the best"),
+            "{spread}"
+        );
+    }
 }
