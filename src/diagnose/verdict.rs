@@ -54,14 +54,14 @@ pub fn diagnose(
     if let Some(fig) = figures::residual_overview(&data, &res_before, &mismatch)? {
         figures.insert(0, fig);
     }
-    let within_noise = drifted.cost <= crit.within_noise * data.noise_cost;
+    let reestimated_within = within_noise(crit, &data, drifted.cost);
     let diagnosis = Diagnosis {
         baseline: Baseline {
             model: model.to_string(),
             validation_nmae: dx::nmae_map(&base),
             validation_cost: base_cost,
             noise_cost: data.noise_cost,
-            reestimated: drifted.into_record(within_noise),
+            reestimated: drifted.into_record(reestimated_within),
             parameters_reestimated: conclusion.drift,
         },
         mismatch,
@@ -143,6 +143,11 @@ fn main_mismatches(data: &Data, residuals: &[[Vec<f64>; 4]]) -> Vec<Mismatch> {
     mismatch
 }
 
+/// Whether a held-out cost is within `within_noise` times the runs' noise floor.
+fn within_noise(crit: &Criteria, data: &Data, cost: f64) -> bool {
+    cost <= crit.within_noise * data.noise_cost
+}
+
 /// What the diagnosis concludes beyond the named effects.
 struct Conclusion {
     /// Re-estimating the model's parameters explains the held-out runs better than effects.
@@ -161,7 +166,7 @@ fn conclude(
     costs: &Costs,
 ) -> anyhow::Result<(Vec<Found>, Vec<Figure>, Conclusion)> {
     let (mut effects, mut figures) = named_effects(plant, data, &search.selected)?;
-    let within = |c: f64| c <= crit.within_noise * data.noise_cost;
+    let within = |c: f64| within_noise(crit, data, c);
     // Drift wins when re-estimating the model's own parameters explains the held-out runs
     // better than the effects did (and the CFD model itself is not already within noise).
     let drift = costs.reestimated < costs.after_effects

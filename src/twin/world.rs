@@ -158,6 +158,11 @@ fn softplus(z: f64) -> f64 {
     z.max(0.0) + (-z.abs()).exp().ln_1p()
 }
 
+/// Force delivered at signed propeller speed `n`, in sqrt(N): n |n|.
+fn thrust_at_speed(n: f64) -> f64 {
+    n * n.abs()
+}
+
 /// Signed propeller speed, in sqrt(N), that delivers `force` in steady state.
 fn speed_for(force: f64) -> f64 {
     force.signum() * force.abs().sqrt()
@@ -291,7 +296,7 @@ impl WorldPlant {
         // With a lag, the state's `thrust` holds the motors' signed speeds, in sqrt(N).
         let (thrust, thrust_dot) = match self.lag() {
             Some(tc) => (
-                std::array::from_fn(|i| s.thrust[i] * s.thrust[i].abs()),
+                s.thrust.map(thrust_at_speed),
                 std::array::from_fn(|i| (speed_for(target[i]) - s.thrust[i]) / tc),
             ),
             None => (target, [0.0; 6]),
@@ -331,7 +336,7 @@ impl WorldPlant {
     /// The force and moment the thrusters deliver in a state (body frame).
     pub fn delivered(&self, s: &State, cmd: &Vec6) -> Vec6 {
         match self.lag() {
-            Some(_) => std::array::from_fn(|i| s.thrust[i] * s.thrust[i].abs()),
+            Some(_) => s.thrust.map(thrust_at_speed),
             None => self.shape_command(cmd),
         }
     }
