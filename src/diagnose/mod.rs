@@ -463,6 +463,34 @@ impl Data {
     pub fn cost(&self, plant: &Plant, aug: &Augmentation, validate: bool) -> f64 {
         self.eval(plant, aug, validate).cost(&self.scale)
     }
+
+    /// The training cost, or infinity as soon as it is certain to be at least `bound`: a
+    /// search that only needs to know a candidate is no better than `bound` stops simulating
+    /// it. After each run the Huber sums so far, divided by every sample the runs have (at
+    /// least the count the cost divides by), are a lower bound of the cost, in floating point
+    /// too (sums of non-negative terms and divisions by larger numbers round monotonically),
+    /// so a finite answer is `cost(.., false)` to the bit.
+    pub fn train_cost_below(&self, plant: &Plant, aug: &Augmentation, bound: f64) -> f64 {
+        let samples: [f64; 4] =
+            std::array::from_fn(|j| self.train.iter().map(|r| r.vel[j].len() as f64).sum());
+        let mut total = Sums::default();
+        for r in &self.train {
+            total.add(&sums(&simulate(plant, aug, r), r, aug.delay_s, &self.delta));
+            let lower: f64 = (0..4)
+                .map(|j| {
+                    if samples[j] > 0.0 {
+                        total.huber[j] / samples[j] / self.scale[j]
+                    } else {
+                        0.0
+                    }
+                })
+                .sum();
+            if lower >= bound {
+                return f64::INFINITY;
+            }
+        }
+        total.cost(&self.scale)
+    }
 }
 
 /// Per-DOF held-out normalised MAE as docs/formats.md writes it.

@@ -1,6 +1,12 @@
 //! Fitting an effect's few parameters by output error on the training runs: a grid over the
 //! bounds (the cost of a delay or a deadband is not convex), then Nelder-Mead from the best
 //! grid point, in coordinates scaled to the bounds and clamped to them.
+//!
+//! The cost takes a bound: the value a point must beat to change the search's next move
+//! (the best grid point so far; for a reflected point the second-worst vertex, and so on).
+//! A point certain to reach it may be answered with infinity instead of its cost
+//! ([`super::Data::train_cost_below`]), which leaves every decision, and so the result,
+//! as it would be with exact costs.
 
 use super::{Data, Hypothesis, Selection, augmentation};
 use crate::model::Plant;
@@ -17,11 +23,14 @@ fn grid(k: usize) -> usize {
 /// A point and its cost.
 type Vertex = (Vec<f64>, f64);
 
+/// A cost at a point, exact below the bound (second argument), possibly infinite above it.
+type Cost<'a> = &'a dyn Fn(&[f64], f64) -> f64;
+
 /// The starting simplex: `x0` and one step along each axis (back where a step forward would
 /// leave the unit box).
-fn initial_simplex(f: &dyn Fn(&[f64]) -> f64, x0: &[f64], step: f64) -> Vec<Vertex> {
+fn initial_simplex(f: Cost, x0: &[f64], step: f64) -> Vec<Vertex> {
     let mut simplex: Vec<Vertex> = Vec::with_capacity(x0.len() + 1);
-    simplex.push((x0.to_vec(), f(x0)));
+    simplex.push((x0.to_vec(), f(x0, f64::INFINITY)));
     for i in 0..x0.len() {
         let mut x = x0.to_vec();
         x[i] = if x[i] + step <= 1.0 {
@@ -30,14 +39,14 @@ fn initial_simplex(f: &dyn Fn(&[f64]) -> f64, x0: &[f64], step: f64) -> Vec<Vert
             x[i] - step
         };
         let x: Vec<f64> = x.into_iter().map(|v| v.clamp(0.0, 1.0)).collect();
-        let fx = f(&x);
+        let fx = f(&x, f64::INFINITY);
         simplex.push((x, fx));
     }
     simplex
 }
 
 /// Every vertex but the best moves halfway towards it.
-fn shrink(f: &dyn Fn(&[f64]) -> f64, simplex: &mut [Vertex]) {
+fn shrink(f: Cost, simplex: &mut [Vertex]) {
     let best = simplex[0].0.clone();
     for s in simplex.iter_mut().skip(1) {
         let x: Vec<f64> = best
@@ -45,18 +54,13 @@ fn shrink(f: &dyn Fn(&[f64]) -> f64, simplex: &mut [Vertex]) {
             .zip(&s.0)
             .map(|(b, v)| b + 0.5 * (v - b))
             .collect();
-        let fx = f(&x);
+        let fx = f(&x, f64::INFINITY);
         *s = (x, fx);
     }
 }
 
 /// Minimises `f` over the unit box [0, 1]^k from `x0` (Nelder-Mead, clamped), `iters` steps.
-pub fn nelder_mead(
-    f: &dyn Fn(&[f64]) -> f64,
-    x0: &[f64],
-    step: f64,
-    iters: usize,
-) -> (Vec<f64>, f64) {
+pub fn nelder_mead(f: Cost, x0: &[f64], step: f64, iters: usize) -> (Vec<f64>, f64) {
     let k = x0.len();
     let clamp = |x: Vec<f64>| -> Vec<f64> { x.into_iter().map(|v| v.clamp(0.0, 1.0)).collect() };
     let mut simplex = initial_simplex(f, x0, step);
@@ -83,16 +87,17 @@ pub fn nelder_mead(
             )
         };
         let xr = along(1.0);
-        let fr = f(&xr);
+        // Past the second-worst vertex the reflection's cost is not used again.
+        let fr = f(&xr, simplex[k - 1].1);
         if fr < simplex[0].1 {
             let xe = along(2.0);
-            let fe = f(&xe);
+            let fe = f(&xe, fr);
             simplex[k] = if fe < fr { (xe, fe) } else { (xr, fr) };
         } else if fr < simplex[k - 1].1 {
             simplex[k] = (xr, fr);
         } else {
             let xc = along(-0.5);
-            let fc = f(&xc);
+            let fc = f(&xc, worst.1);
             if fc < worst.1 {
                 simplex[k] = (xc, fc);
             } else {
@@ -129,10 +134,10 @@ pub fn fit_one(
     h: &'static Hypothesis,
 ) -> (Vec<f64>, f64) {
     let k = h.params.len();
-    let cost = |u: &[f64]| {
+    let cost = |u: &[f64], bound: f64| {
         let mut sel = selected.clone();
         sel.push((h, to_params(h, u)));
-        data.cost(plant, &augmentation(&sel), false)
+        data.train_cost_below(plant, &augmentation(&sel), bound)
     };
     let g = grid(k);
     let mut best = (vec![0.0; k], f64::INFINITY);
@@ -141,7 +146,7 @@ pub fn fit_one(
         let u: Vec<f64> = (0..k)
             .map(|i| ((idx / g.pow(i as u32)) % g) as f64 / (g - 1) as f64)
             .collect();
-        let c = cost(&u);
+        let c = cost(&u, best.1);
         if c < best.1 {
             best = (u, c);
         }
@@ -166,7 +171,31 @@ pub fn refine_all(plant: &Plant, data: &Data, selected: &Selection) -> Selection
             .collect()
     };
     let u0: Vec<f64> = selected.iter().flat_map(|(h, p)| to_unit(h, p)).collect();
-    let cost = |u: &[f64]| data.cost(plant, &augmentation(&split(u)), false);
+    let cost =
+        |u: &[f64], bound: f64| data.train_cost_below(plant, &augmentation(&split(u)), bound);
     let (u, _) = nelder_mead(&cost, &u0, 0.05, 40 * u0.len());
     split(&u)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::nelder_mead;
+
+    #[test]
+    fn a_cost_that_gives_up_above_its_bound_leaves_nelder_mead_where_the_exact_cost_does() {
+        // A curved valley in the unit box, minimum at (0.7, 0.49).
+        let f = |x: &[f64]| (x[0] - 0.7).powi(2) + 10.0 * (x[1] - x[0] * x[0]).powi(2);
+        let exact = |x: &[f64], _: f64| f(x);
+        let pruned = |x: &[f64], bound: f64| if f(x) >= bound { f64::INFINITY } else { f(x) };
+        for x0 in [[0.1, 0.9], [0.5, 0.0], [1.0, 1.0]] {
+            let (xa, ca) = nelder_mead(&exact, &x0, 0.2, 200);
+            let (xb, cb) = nelder_mead(&pruned, &x0, 0.2, 200);
+            assert_eq!(
+                (xa.clone(), ca.to_bits()),
+                (xb, cb.to_bits()),
+                "from {x0:?}"
+            );
+            assert!((xa[0] - 0.7).abs() < 1e-2 && ca < 1e-4, "{xa:?} {ca}");
+        }
+    }
 }

@@ -474,3 +474,27 @@ fn an_effect_added_to_the_registry_is_tested_and_found() {
         p[0]
     );
 }
+
+#[test]
+fn a_bounded_training_cost_is_exact_below_its_bound_and_gives_up_above_it() {
+    let data =
+        Data::new(scenario::runs(&[Effect::NetBuoyancy { force_n: 6.0 }], 5).unwrap()).unwrap();
+    let plant = scenario::cfd_fit_plant(1).unwrap();
+    let lag = hypothesis("thruster_lag").unwrap();
+    for tc in [0.0, 0.3, 1.2] {
+        let aug = augmentation(&[(lag, vec![tc])]);
+        let exact = data.cost(&plant, &aug, false);
+        let below = |bound: f64| data.train_cost_below(&plant, &aug, bound);
+        assert_eq!(below(f64::INFINITY).to_bits(), exact.to_bits(), "lag {tc}");
+        assert_eq!(
+            below(exact * (1.0 + 1e-9)).to_bits(),
+            exact.to_bits(),
+            "lag {tc}"
+        );
+        assert_eq!(
+            below(0.5 * exact),
+            f64::INFINITY,
+            "lag {tc}: {exact} is over twice the bound"
+        );
+    }
+}

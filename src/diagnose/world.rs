@@ -10,7 +10,10 @@ use std::sync::Arc;
 #[derive(Debug, Clone)]
 pub struct World {
     pub plant: Plant,
-    pub terms: Vec<Arc<dyn Term>>,
+    terms: Vec<Arc<dyn Term>>,
+    /// The thruster lag's time constant, if an effect has one (looked up once: the
+    /// derivative is evaluated four times a step).
+    lag_s: Option<f64>,
     pub pool: Option<Pool>,
     pub tether_anchor: Option<[f64; 3]>,
     /// Whether position and heading are integrated. A caller that sets them from a recording
@@ -21,9 +24,11 @@ pub struct World {
 
 impl World {
     pub fn new(plant: Plant, terms: Vec<Arc<dyn Term>>) -> World {
+        let lag_s = terms.iter().find_map(|t| t.lag_s().filter(|&tc| tc > 0.0));
         World {
             plant,
             terms,
+            lag_s,
             pool: None,
             tether_anchor: None,
             track_pose: true,
@@ -33,12 +38,6 @@ impl World {
     /// Whether any effect depends on the vehicle's position or heading.
     pub fn effects_need_pose(&self) -> bool {
         self.terms.iter().any(|t| t.needs_pose())
-    }
-
-    fn lag(&self) -> Option<f64> {
-        self.terms
-            .iter()
-            .find_map(|t| t.lag_s().filter(|&tc| tc > 0.0))
     }
 
     /// The force the thrusters would deliver in steady state for a command.
@@ -69,14 +68,14 @@ impl World {
         f
     }
 
-    fn deriv(&self, s: &State, cmd: &Vec6) -> State {
-        let target = self.shape_command(cmd);
-        let (thrust, thrust_dot) = match self.lag() {
+    /// The state's derivative with the thrusters driven towards `target` (the shaped command).
+    fn deriv(&self, s: &State, target: &Vec6) -> State {
+        let (thrust, thrust_dot) = match self.lag_s {
             Some(tc) => (
                 s.thrust,
                 std::array::from_fn(|i| (target[i] - s.thrust[i]) / tc),
             ),
-            None => (target, [0.0; 6]),
+            None => (*target, [0.0; 6]),
         };
         if !self.track_pose {
             // No effect reads the pose (the caller checked): heading unused, pose held.
@@ -106,9 +105,10 @@ impl World {
 
     /// One RK4 step of length `h` with the command held.
     pub fn step(&self, s: &State, cmd: &Vec6, h: f64) -> State {
-        let mut out = rk4(s, h, |x| self.deriv(x, cmd));
-        if self.lag().is_none() {
-            out.thrust = self.shape_command(cmd);
+        let target = self.shape_command(cmd);
+        let mut out = rk4(s, h, |x| self.deriv(x, &target));
+        if self.lag_s.is_none() {
+            out.thrust = target;
         }
         out
     }

@@ -46,12 +46,17 @@ pub struct Plant {
     pub mrb: Vec6,
     pub hydro: Hydro,
     pub active: [bool; 6],
+    /// M_RB - M_A on the diagonal, formed once (the simulators ask for the acceleration
+    /// millions of times). A plant is built by [`Plant::new`] and not changed afterwards.
+    mass: Vec6,
 }
 
 impl Plant {
     pub fn new(vehicle: &Vehicle, hydro: Hydro) -> Plant {
+        let mrb = vehicle.rigid_mass();
         Plant {
-            mrb: vehicle.rigid_mass(),
+            mrb,
+            mass: std::array::from_fn(|i| mrb[i] - hydro.added[i]),
             hydro,
             active: vehicle.active(),
         }
@@ -65,8 +70,8 @@ impl Plant {
 
     /// nu_dot from eq. 2 solved for the acceleration; inactive DOFs stay at rest.
     pub fn accel(&self, nu: &Vec6, tau: &Vec6) -> Vec6 {
-        let m: Vec6 = std::array::from_fn(|i| self.mrb[i] - self.hydro.added[i]);
-        let c = coriolis(&m, nu);
+        let m = &self.mass;
+        let c = coriolis(m, nu);
         std::array::from_fn(|i| {
             if !self.active[i] || m[i] <= 0.0 {
                 return 0.0;
