@@ -453,10 +453,12 @@ impl Data {
         } else {
             &self.train
         };
+        let parts: Vec<Sums> = runs
+            .par_iter()
+            .map(|r| sums(&simulate(plant, aug, r), r, aug.delay_s, &self.delta))
+            .collect();
         let mut total = Sums::default();
-        for r in runs {
-            total.add(&sums(&simulate(plant, aug, r), r, aug.delay_s, &self.delta));
-        }
+        parts.iter().for_each(|p| total.add(p));
         total
     }
 
@@ -474,8 +476,13 @@ impl Data {
         let samples: [f64; 4] =
             std::array::from_fn(|j| self.train.iter().map(|r| r.vel[j].len() as f64).sum());
         let mut total = Sums::default();
-        for r in &self.train {
-            total.add(&sums(&simulate(plant, aug, r), r, aug.delay_s, &self.delta));
+        // As many runs at once as there are threads, added in the runs' order.
+        for chunk in self.train.chunks(rayon::current_num_threads().max(1)) {
+            let part: Vec<Sums> = chunk
+                .par_iter()
+                .map(|r| sums(&simulate(plant, aug, r), r, aug.delay_s, &self.delta))
+                .collect();
+            part.iter().for_each(|p| total.add(p));
             let lower: f64 = (0..4)
                 .map(|j| {
                     if samples[j] > 0.0 {

@@ -3,6 +3,7 @@
 
 use super::effects::{Env, State, Term};
 use crate::model::motion::rk4;
+use crate::model::pool::tether_length;
 use crate::model::{Plant, Pool, Vec6};
 use std::sync::Arc;
 
@@ -49,27 +50,35 @@ impl World {
         out
     }
 
-    /// Forces of the effects on the vehicle, body frame, with the heading's cosine and sine.
-    fn extra_force_at(&self, s: &State, cos_psi: f64, sin_psi: f64) -> Vec6 {
-        let mut f = [0.0; 6];
-        if self.terms.is_empty() {
-            return f;
+    /// What the effects read besides the velocity, at the pose `s` holds: the heading and the
+    /// run's geometry (tether length, wall distance), once a step.
+    fn env_at(&self, s: &State) -> Env<'_> {
+        if !self.track_pose {
+            // No effect reads the pose (the caller checked): heading and geometry unused.
+            return Env {
+                plant: &self.plant,
+                cos_psi: 0.0,
+                sin_psi: 0.0,
+                tether_length: None,
+                wall_distance: None,
+            };
         }
-        let env = Env {
+        let (sin_psi, cos_psi) = s.psi.sin_cos();
+        Env {
             plant: &self.plant,
-            pool: self.pool,
-            anchor: self.tether_anchor,
             cos_psi,
             sin_psi,
-        };
-        for t in &self.terms {
-            t.add_force(&env, s, &mut f);
+            tether_length: self.tether_anchor.map(|a| tether_length(a, s.pos)),
+            wall_distance: self.pool.map(|p| p.wall_distance(s.pos[0], s.pos[1])),
         }
-        f
     }
 
-    /// The state's derivative with the thrusters driven towards `target` (the shaped command).
-    fn deriv(&self, s: &State, target: &Vec6) -> State {
+    /// The derivative of velocity and thrust, with the thrusters driven towards `target` (the
+    /// shaped command) and the effects reading `env`. The pose is held within a step
+    /// ([`World::step`] advances it): over one step (at most 0.025 s) it moves by millimetres,
+    /// which no effect's force can tell apart, so the heading's sine and cosine and the
+    /// geometry are computed once a step, not four times.
+    fn deriv(&self, s: &State, target: &Vec6, env: &Env) -> State {
         let (thrust, thrust_dot) = match self.lag_s {
             Some(tc) => (
                 s.thrust,
@@ -77,36 +86,36 @@ impl World {
             ),
             None => (*target, [0.0; 6]),
         };
-        if !self.track_pose {
-            // No effect reads the pose (the caller checked): heading unused, pose held.
-            let extra = self.extra_force_at(s, 0.0, 0.0);
-            let tau: Vec6 = std::array::from_fn(|i| thrust[i] + extra[i]);
-            return State {
-                nu: self.plant.accel(&s.nu, &tau),
-                pos: [0.0; 3],
-                psi: 0.0,
-                thrust: thrust_dot,
-            };
+        let mut tau = thrust;
+        for t in &self.terms {
+            t.add_force(env, s, &mut tau);
         }
-        let (c, sn) = (s.psi.cos(), s.psi.sin());
-        let extra = self.extra_force_at(s, c, sn);
-        let tau: Vec6 = std::array::from_fn(|i| thrust[i] + extra[i]);
         State {
             nu: self.plant.accel(&s.nu, &tau),
-            pos: [
-                c * s.nu[0] - sn * s.nu[1],
-                sn * s.nu[0] + c * s.nu[1],
-                s.nu[2],
-            ],
-            psi: s.nu[5],
+            pos: [0.0; 3],
+            psi: 0.0,
             thrust: thrust_dot,
         }
     }
 
-    /// One RK4 step of length `h` with the command held.
+    /// One RK4 step of length `h` with the command held. The pose (when tracked) advances by
+    /// the step's mean body velocity (trapezoid), turned into the pool frame at the step's
+    /// starting heading.
     pub fn step(&self, s: &State, cmd: &Vec6, h: f64) -> State {
         let target = self.shape_command(cmd);
-        let mut out = rk4(s, h, |x| self.deriv(x, &target));
+        let env = self.env_at(s);
+        let mut out = rk4(s, h, |x| self.deriv(x, &target, &env));
+        if self.track_pose {
+            let (c, sn) = (env.cos_psi, env.sin_psi);
+            let mean = |i: usize| 0.5 * (s.nu[i] + out.nu[i]);
+            let (u, v) = (mean(0), mean(1));
+            out.pos = [
+                s.pos[0] + h * (c * u - sn * v),
+                s.pos[1] + h * (sn * u + c * v),
+                s.pos[2] + h * mean(2),
+            ];
+            out.psi = s.psi + h * mean(5);
+        }
         if self.lag_s.is_none() {
             out.thrust = target;
         }

@@ -20,7 +20,7 @@ mod water_current;
 
 use super::{DOFS, Run};
 pub use crate::model::motion::State;
-use crate::model::{Plant, Pool, Vec6};
+use crate::model::{Plant, Vec6};
 use std::sync::Arc;
 
 /// A list of effects to test.
@@ -129,14 +129,17 @@ pub struct Hypothesis {
     pub axis: Axis,
 }
 
-/// What an effect's force may read besides the state: the base plant and the run's geometry.
+/// What an effect's force may read besides the velocity: the base plant, and the heading and
+/// the run's geometry at the pose held over one integration step.
 pub struct Env<'a> {
     pub plant: &'a Plant,
-    pub pool: Option<Pool>,
-    pub anchor: Option<[f64; 3]>,
     /// cos and sin of the heading.
     pub cos_psi: f64,
     pub sin_psi: f64,
+    /// Straight-line distance from the tether's anchor, m (`None`: the run has no anchor).
+    pub tether_length: Option<f64>,
+    /// Distance to the nearest side wall, m, negative outside the pool (`None`: no pool size).
+    pub wall_distance: Option<f64>,
 }
 
 impl Env<'_> {
@@ -145,13 +148,15 @@ impl Env<'_> {
         let (c, sn) = (self.cos_psi, self.sin_psi);
         (c * fx + sn * fy, -sn * fx + c * fy)
     }
+}
 
-    /// Horizontal velocity over ground in the pool frame, and its magnitude.
-    pub fn ground(&self, s: &State) -> ([f64; 2], f64) {
-        let (c, sn) = (self.cos_psi, self.sin_psi);
-        let vw = [c * s.nu[0] - sn * s.nu[1], sn * s.nu[0] + c * s.nu[1]];
-        (vw, (vw[0] * vw[0] + vw[1] * vw[1]).sqrt())
-    }
+/// Adds a quadratic drag `-k |v| v` on the horizontal velocity over ground v (surge and sway).
+/// The pool-frame force turned into the body frame is the same drag on the body-frame velocity,
+/// so no heading is needed.
+pub fn add_horizontal_drag(k: f64, s: &State, f: &mut Vec6) {
+    let speed = (s.nu[0] * s.nu[0] + s.nu[1] * s.nu[1]).sqrt();
+    f[0] -= k * speed * s.nu[0];
+    f[1] -= k * speed * s.nu[1];
 }
 
 /// An effect at its parameter values, as the simulator applies it. Every hook defaults to

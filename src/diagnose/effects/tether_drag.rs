@@ -1,9 +1,8 @@
 //! `tether_drag`: drag of the umbilical, `-c L |v| v` on the horizontal velocity over ground,
 //! with L the tether in the water (anchor to vehicle, plus slack) and c in N s^2/m^3.
 
-use super::{Axis, Env, Hypothesis, Limits, Needs, Param, State, Term};
+use super::{Axis, Env, Hypothesis, Limits, Needs, Param, State, Term, add_horizontal_drag};
 use crate::model::Vec6;
-use crate::model::pool::tether_length;
 use std::sync::Arc;
 
 pub static EFFECT: Hypothesis = Hypothesis {
@@ -51,12 +50,8 @@ impl Term for TetherDrag {
     }
 
     fn add_force(&self, env: &Env, s: &State, f: &mut Vec6) {
-        let a = env.anchor.unwrap_or([0.0, 0.0, 0.0]);
-        let l = tether_length(a, s.pos) + self.slack_m;
-        let (vw, speed) = env.ground(s);
-        let c = self.coefficient;
-        let (bx, by) = env.to_body(-c * l * speed * vw[0], -c * l * speed * vw[1]);
-        f[0] += bx;
-        f[1] += by;
+        if let Some(length) = env.tether_length {
+            add_horizontal_drag(self.coefficient * (length + self.slack_m), s, f);
+        }
     }
 }

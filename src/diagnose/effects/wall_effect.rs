@@ -1,7 +1,7 @@
 //! `wall_effect`: extra horizontal drag near the side walls, `-c exp(-d / decay) |v| v` on the
 //! velocity over ground, d the distance to the nearest wall.
 
-use super::{Axis, Env, Hypothesis, Limits, Needs, Param, State, Term};
+use super::{Axis, Env, Hypothesis, Limits, Needs, Param, State, Term, add_horizontal_drag};
 use crate::model::Vec6;
 use std::sync::Arc;
 
@@ -50,13 +50,9 @@ impl Term for WallEffect {
     }
 
     fn add_force(&self, env: &Env, s: &State, f: &mut Vec6) {
-        if let Some(pool) = env.pool {
-            let d = pool.wall_distance(s.pos[0], s.pos[1]).max(0.0);
-            let (vw, speed) = env.ground(s);
-            let k = self.coefficient * (-d / self.decay_m).exp() * speed;
-            let (bx, by) = env.to_body(-k * vw[0], -k * vw[1]);
-            f[0] += bx;
-            f[1] += by;
+        if let Some(d) = env.wall_distance {
+            let d = d.max(0.0);
+            add_horizontal_drag(self.coefficient * (-d / self.decay_m).exp(), s, f);
         }
     }
 }
