@@ -10,6 +10,7 @@
 
 use super::output_error::OutputError;
 use crate::model::ParamLayout;
+use crate::model::lanes::LANES;
 use nalgebra::{DMatrix, DVector};
 
 /// The refined coefficients and their standard errors (NaN where `J^T J` is singular).
@@ -160,17 +161,31 @@ fn standard_errors(r: &[f64], cost: f64, a: DMatrix<f64>) -> Vec<f64> {
     }
 }
 
-/// Columns of d(residual)/d(theta_j) by forward differences.
+/// Columns of d(residual)/d(theta_j) by forward differences, the perturbed models simulated
+/// [`LANES`] at a time.
 fn jacobian(oe: &OutputError, layout: &ParamLayout, theta: &[f64], r0: &[f64]) -> Vec<Vec<f64>> {
     use rayon::prelude::*;
-    (0..theta.len())
-        .into_par_iter()
+    let steps: Vec<f64> = theta.iter().map(|x| 1e-4 * x.abs().max(1e-2)).collect();
+    let perturbed: Vec<Vec<f64>> = (0..theta.len())
         .map(|j| {
-            let h = 1e-4 * theta[j].abs().max(1e-2);
             let mut t = theta.to_vec();
-            t[j] += h;
-            let rj = oe.residuals(layout, &t);
-            rj.iter().zip(r0).map(|(a, b)| (a - b) / h).collect()
+            t[j] += steps[j];
+            t
+        })
+        .collect();
+    perturbed
+        .par_chunks(LANES)
+        .enumerate()
+        .flat_map_iter(|(c, chunk)| {
+            let refs: Vec<&[f64]> = chunk.iter().map(Vec::as_slice).collect();
+            let steps = &steps;
+            oe.residuals_many(layout, &refs)
+                .into_iter()
+                .enumerate()
+                .map(move |(q, rj)| {
+                    let h = steps[c * LANES + q];
+                    rj.iter().zip(r0).map(|(a, b)| (a - b) / h).collect()
+                })
         })
         .collect()
 }

@@ -62,6 +62,11 @@ impl Plant {
         }
     }
 
+    /// The diagonal of M_RB - M_A.
+    pub fn mass(&self) -> &Vec6 {
+        &self.mass
+    }
+
     /// The rigid-body side that does not depend on the unknowns: M_RB nu_dot + C_RB(nu) nu.
     pub fn rigid_force(&self, nu: &Vec6, nu_dot: &Vec6) -> Vec6 {
         let c = coriolis(&self.mrb, nu);

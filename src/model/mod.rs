@@ -1,6 +1,7 @@
 //! The vehicle model: rigid body, hydrodynamic parameters and their dynamics.
 
 pub mod dynamics;
+pub mod lanes;
 pub mod motion;
 pub mod params;
 pub mod pool;

@@ -142,8 +142,16 @@ impl<'a> Problem<'a> {
     /// Costs of a whole population, evaluated in parallel; the result does not depend on the
     /// number of threads (each particle's cost is independent).
     pub fn cost_all(&self, pop: &[Vec<f64>]) -> Vec<f64> {
-        if self.output.is_some() {
-            return pop.par_iter().map(|x| self.cost(x)).collect();
+        if let Some(o) = &self.output {
+            // Candidates share the cases' forces and time grid: simulated a lane group at a time.
+            self.evals.fetch_add(pop.len(), Ordering::Relaxed);
+            return pop
+                .par_chunks(crate::model::lanes::LANES)
+                .flat_map_iter(|group| {
+                    let refs: Vec<&[f64]> = group.iter().map(Vec::as_slice).collect();
+                    o.cost_many(&self.reg.layout, &refs)
+                })
+                .collect();
         }
         match self.norm {
             // A few hundred flops: a thread hand-off costs more than the evaluation.
