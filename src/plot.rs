@@ -29,6 +29,25 @@ pub struct Trace<'a> {
     pub simulated: &'a [f64],
 }
 
+/// Orders traces as their measured curves end, highest first, so the legend reads top to
+/// bottom as the curves do (for a family of force levels, their physical order: 100 N after
+/// 90 N, never between 10 N and 15 N as the names sort).
+pub fn sort_by_final_value(traces: &mut [Trace]) {
+    let last = |tr: &Trace| {
+        tr.measured
+            .iter()
+            .rev()
+            .find(|v| v.is_finite())
+            .copied()
+            .unwrap_or(f64::NEG_INFINITY)
+    };
+    traces.sort_by(|a, b| {
+        last(b)
+            .total_cmp(&last(a))
+            .then_with(|| a.label.cmp(b.label))
+    });
+}
+
 /// Twenty distinguishable colours (Tableau 20 order), so a plot of many cases never repeats one.
 const PALETTE: [RGBColor; 20] = [
     RGBColor(31, 119, 180),
@@ -333,4 +352,90 @@ fn zero_band(tr: &PoolTrace) -> Vec<(f64, f64)> {
                 .rev(),
         )
         .collect()
+}
+
+/// A recording against two simulations of it on the same axes: the fused measurement (blue, in
+/// its ±2σ band), the model as given (dashed black), and the model with what the diagnosis
+/// added (red).
+pub struct Overlay<'a> {
+    pub title: &'a str,
+    pub y_desc: &'a str,
+    pub t: &'a [f64],
+    pub recorded: &'a [f64],
+    pub std: &'a [f64],
+    pub model: (&'a str, &'a [f64]),
+    pub augmented: (&'a str, &'a [f64]),
+}
+
+pub fn overlay(o: &Overlay) -> anyhow::Result<String> {
+    ensure_font();
+    let tr = PoolTrace {
+        dof: Dof::Surge,
+        t: o.t,
+        measured: o.recorded,
+        std: o.std,
+        simulated: o.model.1,
+    };
+    let finite = |v: &&f64| v.is_finite();
+    let (lo, hi) = o
+        .recorded
+        .iter()
+        .chain(o.model.1)
+        .chain(o.augmented.1)
+        .filter(finite)
+        .fold((0.0f64, 0.0f64), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
+    let pad = 0.05 * (hi - lo).max(1e-6);
+    let tmax = o.t.last().copied().unwrap_or(1.0).max(1e-3);
+    let ok = |p: &(f64, f64)| p.1.is_finite();
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (WIDTH, HEIGHT)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let (plot, legend) = root.split_horizontally(WIDTH - LEGEND);
+        let mut chart = ChartBuilder::on(&plot)
+            .caption(o.title, ("sans-serif", 18))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(64)
+            .build_cartesian_2d(0f64..tmax, (lo - pad)..(hi + pad))?;
+        chart
+            .configure_mesh()
+            .x_desc("time (s)")
+            .y_desc(o.y_desc)
+            .label_style(("sans-serif", 13))
+            .draw()?;
+        let blue = PALETTE[0];
+        chart.draw_series(std::iter::once(Polygon::new(
+            measured_band(&tr),
+            blue.mix(0.25).filled(),
+        )))?;
+        chart.draw_series(LineSeries::new(
+            thin(o.t, o.recorded).filter(ok),
+            blue.stroke_width(3),
+        ))?;
+        chart.draw_series(DashedLineSeries::new(
+            thin(o.t, o.model.1).filter(ok),
+            6,
+            4,
+            BLACK.stroke_width(1),
+        ))?;
+        chart.draw_series(LineSeries::new(
+            thin(o.t, o.augmented.1).filter(ok),
+            PALETTE[3].stroke_width(1),
+        ))?;
+        let font = ("sans-serif", 12).into_font();
+        let rows: [(&str, ShapeStyle); 4] = [
+            ("recording (fused)", blue.stroke_width(3)),
+            ("±2σ of the recording", blue.mix(0.25).stroke_width(8)),
+            (o.model.0, BLACK.stroke_width(1)),
+            (o.augmented.0, PALETTE[3].stroke_width(1)),
+        ];
+        for (k, (label, style)) in rows.iter().enumerate() {
+            let y = 40 + 17 * k as i32;
+            legend.draw(&PathElement::new(vec![(8, y), (30, y)], *style))?;
+            legend.draw(&Text::new(label.to_string(), (36, y - 7), font.clone()))?;
+        }
+        root.present()?;
+    }
+    Ok(svg)
 }

@@ -148,6 +148,21 @@ fn the_shipped_diagnosis_names_the_concealed_lag_and_tether() {
     let before = effects[0]["validation_cost_before"].as_f64().unwrap();
     let after = effects[1]["validation_cost_after"].as_f64().unwrap();
     assert!(after < 0.1 * before, "held-out cost {before} -> {after}");
+    // The figure of the recording against both simulations gives each one's RMS error and
+    // the word the two numbers call for.
+    let html = read(dir, "reports/index.html");
+    let caption = html
+        .split("<figcaption>")
+        .find(|c| c.contains("where the model misses most"))
+        .expect("the recording-and-simulations figure");
+    let rms: Vec<f64> = caption
+        .split("RMS error ")
+        .skip(1)
+        .map(|s| s.split(' ').next().unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(rms.len(), 2, "{caption}");
+    assert!(rms[1] < 0.5 * rms[0], "{caption}");
+    assert!(caption.contains(", lower)") && caption.contains("thruster_lag and tether_drag"));
 }
 
 #[test]

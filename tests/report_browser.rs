@@ -116,8 +116,104 @@ fn the_report_renders_its_plots_offline_in_chromium() {
         coloured > 20_000,
         "plot lines not drawn: {coloured} coloured pixels"
     );
+    layout_is_readable(&bin, dir, &html);
     let keep = std::env::var_os("HYDROFIT_SCREENSHOT");
     if let Some(path) = keep {
         std::fs::copy(&shot, path).unwrap();
     }
+}
+
+/// Measures the laid-out page in Chromium at a 1200 px wide window: every figure has a caption
+/// and a drawn plot (a line of over ten points besides the axes), no table reaches past the
+/// text column (a wide one scrolls inside it), and the page itself does not scroll sideways. The report forbids scripts, so
+/// a copy whose policy allows one inline script (the measurement) is opened; the script writes
+/// its findings into the DOM that `--dump-dom` returns.
+fn layout_is_readable(bin: &str, dir: &std::path::Path, html: &str) {
+    const MEASURE: &str = r#"<script>
+addEventListener('load', () => {
+  const width = document.documentElement.clientWidth;
+  const body = document.body.getBoundingClientRect();
+  const column = body.right - parseFloat(getComputedStyle(document.body).paddingRight);
+  const figs = [...document.querySelectorAll('figure')];
+  const out = {
+    width,
+    column,
+    page_scroll_width: document.documentElement.scrollWidth,
+    figures: figs.length,
+    uncaptioned: figs.filter(f => !(f.querySelector('figcaption')?.textContent.trim())).map(f => f.id),
+    empty: figs.filter(f => {
+      const svg = f.querySelector('svg');
+      const r = svg ? svg.getBoundingClientRect() : {width: 0, height: 0};
+      const lines = svg ? [...svg.querySelectorAll('polyline')]
+        .filter(p => (p.getAttribute('points') || '').trim().split(/\s+/).length > 10) : [];
+      return r.width < 100 || r.height < 100 || lines.length === 0;
+    }).map(f => f.id),
+    tables: document.querySelectorAll('table').length,
+    overflowing: [...document.querySelectorAll('table')]
+      .filter(t => t.getBoundingClientRect().right > column + 1)
+      .map(t => (t.querySelector('th')?.textContent || '?').trim()),
+  };
+  const pre = document.createElement('pre');
+  pre.id = 'layout';
+  pre.textContent = JSON.stringify(out);
+  document.body.appendChild(pre);
+});
+</script>"#;
+    let policy = "default-src 'none'; style-src 'unsafe-inline'; img-src data:";
+    assert!(
+        html.contains(policy),
+        "the report's policy changed: update this test"
+    );
+    let measured = html
+        .replacen(policy, &format!("{policy}; script-src 'unsafe-inline'"), 1)
+        .replacen("</body>", &format!("{MEASURE}</body>"), 1);
+    let page = dir.join("reports/layout-check.html");
+    std::fs::write(&page, measured).unwrap();
+    let profile = tempfile::tempdir().unwrap();
+    let o = browser(
+        bin,
+        profile.path(),
+        &[
+            "--dump-dom".into(),
+            "--window-size=1200,900".into(),
+            "--virtual-time-budget=5000".into(),
+        ],
+        &format!("file://{}", page.display()),
+    );
+    let dom = String::from_utf8_lossy(&o.stdout);
+    let json = dom
+        .split("<pre id=\"layout\">")
+        .nth(1)
+        .and_then(|s| s.split("</pre>").next())
+        .unwrap_or_else(|| {
+            panic!(
+                "the measurement did not run:\n{}",
+                String::from_utf8_lossy(&o.stderr)
+            )
+        })
+        .replace("&quot;", "\"")
+        .replace("&amp;", "&");
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    eprintln!("layout at 1200 px: {v}");
+    assert!(v["figures"].as_u64().unwrap() >= 8, "{v}");
+    assert!(v["tables"].as_u64().unwrap() >= 8, "{v}");
+    assert_eq!(
+        v["uncaptioned"],
+        serde_json::json!([]),
+        "figures without a caption: {v}"
+    );
+    assert_eq!(
+        v["empty"],
+        serde_json::json!([]),
+        "figures with nothing drawn: {v}"
+    );
+    assert_eq!(
+        v["overflowing"],
+        serde_json::json!([]),
+        "tables past the text column: {v}"
+    );
+    assert!(
+        v["page_scroll_width"].as_f64().unwrap() <= v["width"].as_f64().unwrap(),
+        "the page scrolls sideways: {v}"
+    );
 }

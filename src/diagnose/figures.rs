@@ -45,6 +45,70 @@ pub(super) fn residual_overview(
     }))
 }
 
+/// The held-out run and DOF where the model misses most: the recording, the model's simulation
+/// and the simulation with every named effect, on the same axes, with the RMS error of each
+/// simulation in the caption. None when nothing was named.
+pub(super) fn overlay_figure(
+    plant: &Plant,
+    data: &Data,
+    mismatch: &[Mismatch],
+    selected: &dx::Selection,
+    model: &str,
+) -> anyhow::Result<Option<Figure>> {
+    let Some(m) = mismatch.first().filter(|_| !selected.is_empty()) else {
+        return Ok(None);
+    };
+    let (Some(run), Some(j)) = (
+        data.validate.iter().find(|r| r.name == m.run),
+        DOFS.iter().position(|d| *d == m.dof),
+    ) else {
+        return Ok(None);
+    };
+    let one = std::slice::from_ref(run);
+    // A residual plus the recording is the simulation as the cost compares it (read a sensor
+    // delay earlier, where one was named).
+    let simulated = |aug: &Augmentation| -> Vec<f64> {
+        let r = dx::residuals(plant, aug, one).swap_remove(0);
+        r[j].iter().zip(&run.vel[j]).map(|(e, v)| e + v).collect()
+    };
+    let (base, with) = (
+        simulated(&Augmentation::default()),
+        simulated(&dx::augmentation(selected)),
+    );
+    let rms = |sim: &[f64]| {
+        let (s, n) = sim
+            .iter()
+            .zip(&run.vel[j])
+            .map(|(a, b)| a - b)
+            .filter(|e| e.is_finite())
+            .fold((0.0, 0usize), |(s, n), e| (s + e * e, n + 1));
+        (s / n.max(1) as f64).sqrt()
+    };
+    let names: Vec<&str> = selected.iter().map(|(h, _)| h.name).collect();
+    let d = DOFS[j];
+    let model_label = format!("model {model} (dashed)");
+    let svg = crate::plot::overlay(&crate::plot::Overlay {
+        title: &format!("{}: {} velocity, recorded and simulated", run.name, d),
+        y_desc: &format!("{} ({})", d.velocity(), d.velocity_unit()),
+        t: &run.t,
+        recorded: &run.vel[j],
+        std: &run.std[j],
+        model: (&model_label, &base),
+        augmented: ("with the named effects", &with),
+    })?;
+    let (eb, ea) = (rms(&base), rms(&with));
+    let word = if ea < eb { "lower" } else { "not lower" };
+    Ok(Some(Figure {
+        caption: format!(
+            "Held-out run {}, {d}, where the model misses most: the recording (blue, with its ±2σ band), model {model} simulated under the logged command (dashed black; RMS error {eb:.3} {u}) and the same model with {} (red; RMS error {ea:.3} {u}, {word}).",
+            run.name,
+            names.join(" and "),
+            u = d.velocity_unit()
+        ),
+        svg,
+    }))
+}
+
 /// The residual in DOF `j` over time, before and after effect `h`, on the held-out run where
 /// it was largest before.
 fn worst_run_figure(

@@ -51,6 +51,9 @@ pub fn diagnose(
     };
     let (effects, mut figures, conclusion) = conclude(plant, &data, crit, &search, &costs)?;
     let verdict = verdict_sentence(&effects, conclusion.unexplained, conclusion.drift, &costs);
+    if let Some(fig) = figures::overlay_figure(plant, &data, &mismatch, &search.selected, model)? {
+        figures.insert(0, fig);
+    }
     if let Some(fig) = figures::residual_overview(&data, &res_before, &mismatch)? {
         figures.insert(0, fig);
     }

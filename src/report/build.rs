@@ -306,7 +306,7 @@ fn velocity_plots(plotted: &[(&Case, &Vec<Vec6>)]) -> anyhow::Result<Vec<(String
     by_dof
         .into_iter()
         .map(|(d, list)| {
-            let traces: Vec<plots::Trace> = list
+            let mut traces: Vec<plots::Trace> = list
                 .iter()
                 .map(|(c, s)| plots::Trace {
                     label: &c.name,
@@ -315,6 +315,7 @@ fn velocity_plots(plotted: &[(&Case, &Vec<Vec6>)]) -> anyhow::Result<Vec<(String
                     simulated: s,
                 })
                 .collect();
+            plots::sort_by_final_value(&mut traces);
             Ok((d.name().to_string(), plots::velocity(d, &traces)?))
         })
         .collect()

@@ -26,7 +26,7 @@ fn num(v: f64) -> String {
 }
 
 const STYLE: &str = "body{font-family:sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;color:#222}
-table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #ccc;padding:.25em .6em;text-align:right}
+table{border-collapse:collapse;margin:1em 0;display:block;max-width:100%;overflow-x:auto}td,th{border:1px solid #ccc;padding:.25em .6em;text-align:right}
 th{background:#f3f3f3}td:first-child,th:first-child{text-align:left}.warn{color:#b00}
 figure{margin:1em 0}figure svg{max-width:100%;height:auto;border:1px solid #eee}
 code{background:#f6f6f6;padding:0 .2em}.small{font-size:.85em;color:#555}details{margin:.3em 0}";
@@ -83,7 +83,7 @@ impl Page<'_> {
             for (dof, svg) in &self.plots {
                 let _ = writeln!(
                     h,
-                    "<figure id=\"plot-{dof}\">{svg}<figcaption>{dof}: velocity of each CFD case (colour) and of the identified model simulated under the same applied force from the same initial state (dashed black).</figcaption></figure>"
+                    "<figure id=\"plot-{dof}\">{svg}<figcaption>{dof}: velocity of each CFD case (colour; the legend lists the cases in the order their curves end, top to bottom) and of the identified model simulated under the same applied force from the same initial state (dashed black).</figcaption></figure>"
                 );
             }
             self.validation_table(&mut h);

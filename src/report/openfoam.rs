@@ -203,7 +203,7 @@ fn reference_table(h: &mut String, f: &FitResult) {
 
 /// The figure of each case's surge velocity against the identified model's.
 fn velocity_figure(h: &mut String, cases: &[Case]) -> anyhow::Result<()> {
-    let traces: Vec<Trace> = cases
+    let mut traces: Vec<Trace> = cases
         .iter()
         .map(|c| Trace {
             label: c.name,
@@ -212,6 +212,7 @@ fn velocity_figure(h: &mut String, cases: &[Case]) -> anyhow::Result<()> {
             simulated: &c.simulated,
         })
         .collect();
+    plots::sort_by_final_value(&mut traces);
     let svg = plots::curves(
         "surge velocity: OpenFOAM and the identified model",
         "time (s)",
@@ -221,7 +222,7 @@ fn velocity_figure(h: &mut String, cases: &[Case]) -> anyhow::Result<()> {
     )?;
     let _ = writeln!(
         h,
-        "<figure id=\"openfoam-velocity\">{svg}<figcaption>Velocity of each OpenFOAM case (colour) and of the identified constant-coefficient model under the same force (dashed).</figcaption></figure>"
+        "<figure id=\"openfoam-velocity\">{svg}<figcaption>Velocity of each OpenFOAM case (colour; the legend in the order the curves end, top to bottom) and of the identified constant-coefficient model under the same force (dashed).</figcaption></figure>"
     );
     Ok(())
 }
