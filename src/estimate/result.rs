@@ -48,6 +48,9 @@ pub struct CaseRef {
     /// The body mass the case states, when it does.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mass_kg: Option<f64>,
+    /// A 2D case: its forces and masses are per metre of span.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub per_metre_of_span: bool,
 }
 
 /// A pool run the fit used.

@@ -34,6 +34,7 @@ pub fn import(case: &CaseRun, dofs: &[Dof]) -> anyhow::Result<(Response, Respons
         rows_kept: response.len(),
         notes: case.results.notes.clone(),
         body_mass_kg: Some(case.setup.mass_kg),
+        per_metre_of_span: true,
         all_inputs: case.inputs.clone(),
         openfoam: Some(case.info()),
     };

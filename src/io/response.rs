@@ -201,6 +201,9 @@ pub struct ResponseMeta {
     /// Every input file when the case is more than `source` (an OpenFOAM case folder).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub all_inputs: Vec<crate::provenance::InputFile>,
+    /// Forces and masses per metre of span (a 2D case, as the project's OpenFOAM cylinder is).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub per_metre_of_span: bool,
     /// How an OpenFOAM case was run.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub openfoam: Option<crate::openfoam::RunInfo>,

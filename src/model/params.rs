@@ -115,6 +115,7 @@ impl ParamLayout {
         (0..self.len()).map(|j| self.name(j)).collect()
     }
 
+    /// The unit of coefficient `j`.
     pub fn unit(&self, j: usize) -> &'static str {
         let (g, d) = self.slot(j);
         match (g, d.is_angular()) {
@@ -160,9 +161,30 @@ impl ParamLayout {
     }
 }
 
+/// A coefficient's unit per metre of span (a 2D body): kg -> kg/m, N s/m -> N s/m^2,
+/// N s^2/m^2 -> N s^2/m^3, N -> N/m.
+pub fn per_metre_of_span(unit: &str) -> String {
+    if let Some((head, pow)) = unit.rsplit_once("/m^")
+        && let Ok(k) = pow.parse::<u32>()
+    {
+        return format!("{head}/m^{}", k + 1);
+    }
+    if let Some(head) = unit.strip_suffix("/m") {
+        return format!("{head}/m^2");
+    }
+    format!("{unit}/m")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn units_per_metre_of_span_divide_by_one_more_metre() {
+        let l = ParamLayout::with_constant(&[Dof::Surge], &[Dof::Surge]);
+        let per_span: Vec<String> = (0..l.len()).map(|j| per_metre_of_span(l.unit(j))).collect();
+        assert_eq!(per_span, ["kg/m", "N s/m^2", "N s^2/m^3", "N/m"]);
+    }
 
     #[test]
     fn names_follow_table_1() {

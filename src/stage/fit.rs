@@ -202,6 +202,12 @@ impl StageImpl for Settings {
             },
         )?;
         notes.extend(id.notes);
+        let mut fit = id.fit;
+        if per_metre_of_span(&cases, runs.len())? {
+            for p in &mut fit.parameters {
+                p.unit = crate::model::params::per_metre_of_span(&p.unit);
+            }
+        }
         let result = FitResult {
             stage: ctx.stage.to_string(),
             method: self.method.name().to_string(),
@@ -210,7 +216,7 @@ impl StageImpl for Settings {
             structure: vehicle.structure,
             dofs: vehicle.dofs.clone(),
             constant_force: id.constant_force,
-            fit: id.fit,
+            fit,
             cases,
             runs,
             notes,
@@ -221,6 +227,21 @@ impl StageImpl for Settings {
         };
         super::write_json(&ctx.out.join(RESULT), &result)
     }
+}
+
+/// Whether the coefficients are per metre of span: every case is 2D. A 2D case's forces and
+/// masses are per metre, a 3D case's and a pool run's are not, and one fit cannot mix them.
+fn per_metre_of_span(cases: &[CaseRef], pool_runs: usize) -> anyhow::Result<bool> {
+    let two_d = cases.iter().filter(|c| c.per_metre_of_span).count();
+    if two_d == 0 {
+        return Ok(false);
+    }
+    anyhow::ensure!(
+        two_d == cases.len() && pool_runs == 0,
+        "this fit reads {two_d} 2D cases (forces and masses per metre of span) together with {} 3D cases and {pool_runs} pool runs; their coefficients are in different units\n  help: fit the 2D cases in a stage of their own (`from: [openfoam]`)",
+        cases.len() - two_d
+    );
+    Ok(true)
 }
 
 /// The CFD responses among the upstream, with what the result says of each case.
@@ -235,6 +256,7 @@ fn cfd_cases(ctx: &RunCtx) -> anyhow::Result<(Vec<CaseRef>, Vec<crate::io::Respo
             source: meta.source,
             inputs: meta.all_inputs,
             mass_kg: meta.body_mass_kg,
+            per_metre_of_span: meta.per_metre_of_span,
         });
         responses.push(r);
     }

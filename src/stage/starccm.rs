@@ -72,6 +72,7 @@ impl StageImpl for Settings {
             rows_kept: imported.rows_kept,
             notes: imported.notes,
             body_mass_kg: None,
+            per_metre_of_span: false,
             all_inputs: Vec::new(),
             openfoam: None,
         };
