@@ -159,13 +159,20 @@ fn runs_table(h: &mut String, cases: &[Case]) {
     }
 }
 
+/// How much larger (+) or smaller (-) `value` is than `reference` in magnitude, %: an added
+/// mass of -31.99 kg/m against -31.42 is 1.8 % more added mass, +1.8 %, whatever the sign
+/// convention writes.
+fn magnitude_difference(value: f64, reference: f64) -> f64 {
+    100.0 * (value.abs() - reference.abs()) / reference.abs()
+}
+
 /// The identified parameters against their reference values, with the one-step fit's values
 /// in a column of their own when there is one.
 fn reference_table(h: &mut String, f: &FitResult) {
     let one_step = f.one_step.as_deref();
     let _ = writeln!(
         h,
-        "<h3>Identified against reference values</h3>\n<table><tr><th>parameter</th><th>identified</th><th>± std. error</th><th>reference</th><th>difference</th><th>reference from</th>{}</tr>",
+        "<h3>Identified against reference values</h3>\n<table><tr><th>parameter</th><th>identified</th><th>± std. error</th><th>reference</th><th>size against the reference</th><th>reference from</th>{}</tr>",
         if one_step.is_some() {
             "<th>one-step fit over whole runs</th>"
         } else {
@@ -177,14 +184,14 @@ fn reference_table(h: &mut String, f: &FitResult) {
             .and_then(|o| o.iter().find(|q| q.name == p.name))
             .map(|q| {
                 let rel = f.expected.get(&p.name).map_or(String::new(), |e| {
-                    format!(" ({:+.1} %)", 100.0 * (q.value - e.value) / e.value.abs())
+                    format!(" ({:+.1} %)", magnitude_difference(q.value, e.value))
                 });
                 format!("<td>{:.4}{rel}</td>", q.value)
             });
         let (r, diff, src) = match f.expected.get(&p.name) {
             Some(e) => (
                 format!("{:.4}", e.value),
-                format!("{:+.2} %", 100.0 * (p.value - e.value) / e.value.abs()),
+                format!("{:+.2} %", magnitude_difference(p.value, e.value)),
                 esc(&e.source),
             ),
             None => ("–".into(), "–".into(), String::new()),
@@ -296,4 +303,16 @@ fn finding(curves: &[(&Case, DragCurve)], f: &FitResult) -> String {
         esc(&f.stage)
     );
     h
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn a_larger_added_mass_is_a_positive_difference_whatever_its_sign() {
+        let d = super::magnitude_difference(-31.9856, -31.416);
+        assert!((d - 1.81).abs() < 0.01, "{d}");
+        let d = super::magnitude_difference(-24.5, -31.416);
+        assert!((d + 22.0).abs() < 0.1, "{d}");
+        assert!(super::magnitude_difference(2.0, 1.0) > 0.0);
+    }
 }
