@@ -44,6 +44,10 @@ pub enum Command {
     Provenance {
         /// Parameter name as in the report, e.g. X_uu or N_rdot.
         parameter: String,
+        /// Only the model identified by this fit stage (a name under `stages:`), when several
+        /// identify the parameter.
+        #[arg(long, value_name = "STAGE")]
+        model: Option<String>,
     },
     /// Print the graph of stage instances, as text or Graphviz DOT.
     Graph {
@@ -167,7 +171,9 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         } => cmd::build::run(&root, stages, jobs, explain),
         Command::Status { explain } => cmd::status::run(&root, explain),
         Command::Clean => cmd::clean::run(&root),
-        Command::Provenance { parameter } => cmd::provenance::run(&root, &parameter),
+        Command::Provenance { parameter, model } => {
+            cmd::provenance::run(&root, &parameter, model.as_deref())
+        }
         Command::Graph { dot } => cmd::graph::run(&root, dot),
         Command::Twin {
             what: TwinCommand::Starccm { out, seed },

@@ -260,6 +260,15 @@ fn provenance_traces_a_parameter_to_its_files() {
         out.contains(&format!("<- cases/cfd/starccm/surge_100N.csv blake3 {h}")),
         "{out}"
     );
+    assert!(
+        out.starts_with("X_uu is identified by 2 models (cylinder, fit)"),
+        "{out}"
+    );
+    let one = stdout(&run(dir, &["provenance", "X_uu", "--model", "fit"]));
+    assert!(
+        one.starts_with("X_uu = -4") && !one.contains("stage cylinder"),
+        "{one}"
+    );
     let typo = run(dir, &["provenance", "X_uuu"]);
     assert!(
         stderr(&typo).contains("did you mean X_uu?"),

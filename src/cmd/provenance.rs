@@ -12,32 +12,62 @@ fn short(h: &str) -> &str {
     &h[..h.len().min(16)]
 }
 
-/// Prints where parameter `name` comes from, for every fit that identified it.
-pub fn run(root: &Path, name: &str) -> anyhow::Result<ExitCode> {
+/// Prints where parameter `name` comes from, for every fit that identified it (or only the fit
+/// stage `model`); when several did, says so first.
+pub fn run(root: &Path, name: &str, model: Option<&str>) -> anyhow::Result<ExitCode> {
     let plan = Plan::load(root, crate::stage::KINDS)?;
     let cache = plan.cache();
     let g = &plan.graph;
     let models: Vec<usize> = (0..g.instances.len())
         .filter(|&i| g.stage_of(i).kind.produces == Artifact::Model)
         .collect();
+    if let Some(m) = model {
+        let names: Vec<&str> = models.iter().map(|&i| g.instances[i].id.as_str()).collect();
+        anyhow::ensure!(
+            names.contains(&m),
+            "--model {m}: no fit stage of that name; fit stages: {}",
+            names.join(", ")
+        );
+    }
     let mut known = Vec::new();
-    let mut found = false;
-    for &i in &models {
+    let mut traced = Vec::new();
+    for &i in models
+        .iter()
+        .filter(|&&i| model.is_none_or(|m| g.instances[i].id == m))
+    {
         let r = load_fit(&plan, &cache, i)?;
         known.extend(r.fit.parameters.iter().map(|p| p.name.clone()));
-        let Some(p) = r.fit.parameters.iter().find(|p| p.name == name) else {
-            continue;
-        };
-        found = true;
-        print_trace(&plan, i, &r, p);
+        if r.fit.parameters.iter().any(|p| p.name == name) {
+            traced.push((i, r));
+        }
     }
-    if !found {
+    if traced.is_empty() {
         let hint = crate::diag::nearest(name, known.iter().map(|s| s.as_str()))
             .map_or(String::new(), |s| format!(" (did you mean {s}?)"));
         anyhow::bail!(
             "no identified parameter named {name}{hint}; parameters: {}",
             known.join(", ")
         );
+    }
+    if traced.len() > 1 {
+        let names: Vec<&str> = traced
+            .iter()
+            .map(|(i, _)| g.instances[*i].id.as_str())
+            .collect();
+        crate::outln!(
+            "{name} is identified by {} models ({}); each is traced below (--model NAME for one).",
+            traced.len(),
+            names.join(", ")
+        );
+    }
+    for (i, r) in &traced {
+        let p = r
+            .fit
+            .parameters
+            .iter()
+            .find(|p| p.name == name)
+            .expect("kept above");
+        print_trace(&plan, *i, r, p);
     }
     Ok(ExitCode::SUCCESS)
 }
