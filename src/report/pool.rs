@@ -328,17 +328,50 @@ fn run_figures(
         else {
             continue;
         };
-        let svg = plots::pool_run(&r.meta.run, &first, &traces(r, sim))?;
+        let tr = traces(r, sim);
+        let svg = plots::pool_run(&r.meta.run, &first, &tr)?;
         let _ = writeln!(
             h,
-            "<figure id=\"pool-{}\">{svg}<figcaption>Run <code>{}</code> ({}): per DOF, the fused velocity with its ±2σ band and model <code>{}</code> simulated under the logged thrust; beneath, the error (red) inside the ±2σ band.</figcaption></figure>",
+            "<figure id=\"pool-{}\">{svg}<figcaption>Run <code>{}</code> ({}): per DOF, the fused velocity (blue) with its ±2σ band (shaded, σ the fusion's standard deviation) and model <code>{}</code> simulated under the logged thrust (dashed); beneath, the error model − fused (red) against the same band around zero: {}.</figcaption></figure>",
             esc(&r.meta.run),
             esc(&r.meta.run),
             r.meta.role.as_str(),
-            esc(&first)
+            esc(&first),
+            within_band(&tr)
         );
     }
     Ok(())
+}
+
+/// Where the error lies against the ±2σ band, DOF by DOF, as the figure shows it: "inside it
+/// 12 % of the time in surge, 40 % in sway, ..." (computed, never assumed).
+fn within_band(traces: &[PoolTrace]) -> String {
+    let parts: Vec<String> = traces
+        .iter()
+        .filter_map(|tr| {
+            let (inside, n) = tr
+                .simulated
+                .iter()
+                .zip(tr.measured)
+                .zip(tr.std)
+                .map(|((s, m), sd)| (s - m, *sd))
+                .filter(|(e, sd)| e.is_finite() && sd.is_finite())
+                .fold((0usize, 0usize), |(i, n), (e, sd)| {
+                    (i + usize::from(e.abs() <= 2.0 * sd), n + 1)
+                });
+            (n > 0).then(|| (100.0 * inside as f64 / n as f64, tr.dof))
+        })
+        .enumerate()
+        .map(|(k, (pct, dof))| {
+            let of = if k == 0 { " of the time" } else { "" };
+            format!("{pct:.0} %{of} in {dof}")
+        })
+        .collect();
+    if parts.is_empty() {
+        "no sample has both".into()
+    } else {
+        format!("inside it {}", parts.join(", "))
+    }
 }
 
 /// The traces of run `r`'s figure: each DOF with a fused velocity, its σ and a simulation.
@@ -361,4 +394,40 @@ fn traces<'a>(r: &'a FusedRun, sim: &'a Simulated) -> Vec<PoolTrace<'a>> {
             })
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_band_caption_counts_the_error_inside_the_band() {
+        let t = [0.0, 1.0, 2.0, 3.0];
+        let measured = [0.0; 4];
+        let std = [0.1; 4];
+        // Errors 0.05, 0.3, -0.15, 0.19 against 2σ = 0.2: three of four inside.
+        let surge = [0.05, 0.3, -0.15, 0.19];
+        // Errors all far outside.
+        let sway = [1.0, -1.0, 0.5, f64::NAN];
+        let tr = [
+            PoolTrace {
+                dof: Dof::Surge,
+                t: &t,
+                measured: &measured,
+                std: &std,
+                simulated: &surge,
+            },
+            PoolTrace {
+                dof: Dof::Sway,
+                t: &t,
+                measured: &measured,
+                std: &std,
+                simulated: &sway,
+            },
+        ];
+        assert_eq!(
+            within_band(&tr),
+            "inside it 75 % of the time in surge, 0 % in sway"
+        );
+    }
 }
