@@ -127,6 +127,12 @@ fn the_shipped_diagnosis_names_the_concealed_lag_and_tether() {
         "{names:?}: {}",
         d["verdict"]
     );
+    // A real motor lag is told apart from a late sensor: no look-alike is listed.
+    assert!(
+        effects[0]["alike"].is_null() && effects[1]["alike"].is_null(),
+        "{}",
+        d["verdict"]
+    );
     let param = |i: usize, k: &str| effects[i]["parameters"][k].as_f64().unwrap();
     // A step from rest delivers 63 % after 1.6 motor time constants, a small step after one.
     let tau = hidden("thruster_lag", "time_constant_s");

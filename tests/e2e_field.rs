@@ -85,6 +85,24 @@ fn field_logs_without_cfd_give_a_sound_model_and_a_diagnosis_that_names_only_wha
             "named {n}, which the twin does not hide: {names:?}"
         );
     }
+    // The twin lags the sensor, not the thrusters: named as a thruster lag, the lag must come
+    // with the sensor delay that the held-out runs cannot tell from it, in the verdict too.
+    if let Some(e) = effects.iter().find(|e| e["name"] == "thruster_lag") {
+        let alike: Vec<&str> = e["alike"]
+            .as_array()
+            .map(|a| a.iter().filter_map(|x| x["name"].as_str()).collect())
+            .unwrap_or_default();
+        assert!(
+            alike.contains(&"sensor_delay"),
+            "thruster_lag named alone: {}",
+            e["evidence"]
+        );
+        let verdict = d["verdict"].as_str().unwrap();
+        assert!(
+            verdict.contains("thruster_lag (or sensor_delay: these runs cannot tell them apart)"),
+            "{verdict}"
+        );
+    }
     let hidden_lag = h["nav_filter_s"].as_f64().unwrap() + h["nav_latency_s"].as_f64().unwrap();
     for e in effects
         .iter()

@@ -41,6 +41,62 @@ pub struct Found {
     pub validation_nmae_after: BTreeMap<Dof, f64>,
     pub validation_cost_before: f64,
     pub validation_cost_after: f64,
+    /// Effects of the same round that fit the held-out runs within noise of this one: the
+    /// runs cannot tell them apart (a lagged thrust and a late, filtered velocity log look
+    /// alike on a linear enough vehicle).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub alike: Vec<Alike>,
+}
+
+/// A candidate as good as a named effect on the held-out runs, to within their noise.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Alike {
+    pub name: String,
+    pub parameters: BTreeMap<String, f64>,
+    pub validation_cost: f64,
+}
+
+impl Found {
+    /// An effect's name, with the effects the runs cannot tell from it: "thruster_lag (or
+    /// sensor_delay: these runs cannot tell them apart)".
+    pub fn name_with_alike(&self) -> String {
+        if self.alike.is_empty() {
+            return self.name.clone();
+        }
+        let others: Vec<&str> = self.alike.iter().map(|a| a.name.as_str()).collect();
+        format!(
+            "{} (or {}: these runs cannot tell them apart)",
+            self.name,
+            others.join(" or ")
+        )
+    }
+
+    /// " sensor_delay (delay_s = 0.270; ...) fits the held-out runs within noise of it: these
+    /// runs cannot tell them apart."
+    pub fn alike_sentence(&self, noise: f64) -> String {
+        let others: Vec<String> = self
+            .alike
+            .iter()
+            .map(|a| {
+                let p: Vec<String> = a
+                    .parameters
+                    .iter()
+                    .map(|(k, v)| format!("{k} = {v:.3}"))
+                    .collect();
+                format!(
+                    "{} ({}; held-out cost {:.4})",
+                    a.name,
+                    p.join(", "),
+                    a.validation_cost
+                )
+            })
+            .collect();
+        format!(
+            " {} fits the held-out runs within noise of it ({:.4}; noise floor {noise:.4}): these runs cannot tell them apart.",
+            others.join(" and "),
+            self.validation_cost_after
+        )
+    }
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize)]

@@ -416,3 +416,37 @@ fn swap(
     *selected = next;
     Some((out.name.to_string(), row))
 }
+
+/// The candidates of the round in which `name` was kept that fit the held-out runs as well as
+/// it did, to within `min_noise_multiple` times the noise floor (the margin by which any
+/// effect must beat the model to be named), while being significant themselves and off their
+/// bounds: effects these runs cannot tell apart from the named one.
+pub fn alike(
+    search: &Search,
+    criteria: &Criteria,
+    data: &Data,
+    name: &str,
+) -> Vec<super::result::Alike> {
+    let Some(kept) = search.tested.iter().find(|t| t.accepted && t.name == name) else {
+        return Vec::new();
+    };
+    let Some(&before) = search.costs.get(kept.round - 1) else {
+        return Vec::new();
+    };
+    let margin = criteria.min_noise_multiple * data.noise_cost;
+    search
+        .tested
+        .iter()
+        .filter(|t| t.round == kept.round && !t.accepted && t.at_bound.is_empty())
+        .filter(|t| (t.validation_cost - kept.validation_cost).abs() < margin)
+        .filter(|t| {
+            let params = t.parameters.len() as f64;
+            significant(criteria, data, before, t.validation_cost, params)
+        })
+        .map(|t| super::result::Alike {
+            name: t.name.clone(),
+            parameters: t.parameters.clone(),
+            validation_cost: t.validation_cost,
+        })
+        .collect()
+}

@@ -169,6 +169,13 @@ fn conclude(
     costs: &Costs,
 ) -> anyhow::Result<(Vec<Found>, Vec<Figure>, Conclusion)> {
     let (mut effects, mut figures) = named_effects(plant, data, &search.selected)?;
+    for e in &mut effects {
+        e.alike = dx::select::alike(search, crit, data, &e.name);
+        if !e.alike.is_empty() {
+            let sentence = e.alike_sentence(data.noise_cost);
+            e.evidence.push_str(&sentence);
+        }
+    }
     let within = |c: f64| within_noise(crit, data, c);
     // Drift wins when re-estimating the model's own parameters explains the held-out runs
     // better than the effects did (and the CFD model itself is not already within noise).
@@ -285,6 +292,7 @@ fn named_effects(
             validation_nmae_after: dx::nmae_map(&sa),
             validation_cost_before: cb,
             validation_cost_after: ca,
+            alike: Vec::new(),
         });
     }
     Ok((effects, figures))
@@ -360,6 +368,7 @@ fn unexplained_residual(
         validation_nmae_after: nm,
         validation_cost_before: explained_cost,
         validation_cost_after: explained_cost,
+        alike: Vec::new(),
     }
 }
 
@@ -450,7 +459,7 @@ fn verdict_sentence(effects: &[Found], unexplained: bool, drift: bool, c: &Costs
                 effects
                     .iter()
                     .filter(|e| e.name != "unexplained")
-                    .map(|e| e.name.as_str())
+                    .map(Found::name_with_alike)
                     .collect::<Vec<_>>()
                     .join(" and "),
                 pct(final_cost / base_cost),
@@ -472,7 +481,7 @@ fn verdict_sentence(effects: &[Found], unexplained: bool, drift: bool, c: &Costs
             "The model leaves out {}: adding {} lowers the held-out error cost from {base_cost:.4} to {final_cost:.4} ({} of the start; noise floor {:.4}); re-estimating its parameters instead {} {re_cost:.4} ({} of the start).",
             effects
                 .iter()
-                .map(|e| e.name.as_str())
+                .map(Found::name_with_alike)
                 .collect::<Vec<_>>()
                 .join(" and "),
             if effects.len() > 1 { "them" } else { "it" },
@@ -548,6 +557,7 @@ mod tests {
             validation_nmae_after: BTreeMap::new(),
             validation_cost_before: 0.0,
             validation_cost_after: 0.0,
+            alike: Vec::new(),
         };
         let costs = Costs {
             base: 0.447,
