@@ -210,24 +210,40 @@ fn mismatch_table(h: &mut String, d: &Diagnosis) {
     h.push_str("</table>\n");
 }
 
-/// The error per regime of motion against the time spent in it.
+/// The error per regime of motion against the time spent in it. A share under 1 % reads
+/// "< 1 %", and a concentration over so little time is not given (a ratio of two shares that
+/// both print as 0 % would contradict them).
 fn regimes_table(h: &mut String, d: &Diagnosis) {
     h.push_str("<table><tr><th>regime</th><th>share of the error</th><th>share of the time</th><th>concentration</th></tr>\n");
     for r in &d.regimes {
         let _ = writeln!(
             h,
-            "<tr><td>{}</td><td>{:.0} %</td><td>{:.0} %</td><td>{:.2}</td></tr>",
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
             esc(&r.label),
-            100.0 * r.share_of_error,
-            100.0 * r.share_of_time,
-            if r.share_of_time > 0.0 {
-                r.share_of_error / r.share_of_time
-            } else {
-                f64::NAN
-            }
+            share(r.share_of_error),
+            share(r.share_of_time),
+            concentration(r.share_of_error, r.share_of_time)
         );
     }
     h.push_str("</table>\n");
+}
+
+/// A share as a percentage: "0 %", "< 1 %", "12 %".
+fn share(x: f64) -> String {
+    if x > 0.0 && x < 0.005 {
+        "< 1 %".into()
+    } else {
+        format!("{:.0} %", 100.0 * x)
+    }
+}
+
+/// Error share over time share, when the regime covers at least 1 % of the time.
+fn concentration(error: f64, time: f64) -> String {
+    if time >= 0.01 && error.is_finite() {
+        format!("{:.2}", error / time)
+    } else {
+        "– (under 1 % of the time)".into()
+    }
 }
 
 /// Every hypothesis tested, round by round, with its costs, gain, score and whether it was kept.
@@ -261,5 +277,20 @@ fn kept(t: &crate::diagnose::Tested) -> String {
         )
     } else {
         String::new()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn a_regime_over_almost_no_time_gets_no_concentration() {
+        assert_eq!(super::share(0.004), "< 1 %");
+        assert_eq!(super::share(0.0), "0 %");
+        assert_eq!(super::share(0.23), "23 %");
+        assert_eq!(
+            super::concentration(0.0036, 0.004),
+            "– (under 1 % of the time)"
+        );
+        assert_eq!(super::concentration(0.77, 0.5), "1.54");
     }
 }
