@@ -498,3 +498,37 @@ fn a_bounded_training_cost_is_exact_below_its_bound_and_gives_up_above_it() {
         );
     }
 }
+
+#[test]
+fn evidence_words_follow_their_numbers_with_the_effect_present_and_absent() {
+    let plant = scenario::cfd_fit_plant(1).unwrap();
+    let lag = hypothesis("thruster_lag").unwrap();
+    let caption = |effects: &[Effect], tc: f64| {
+        let data = Data::new(scenario::runs(effects, 11).unwrap()).unwrap();
+        let after = augmentation(&[(lag, vec![tc])]);
+        let figs = super::figures::evidence_figures(
+            &plant,
+            &data,
+            lag,
+            &Augmentation::default(),
+            &after,
+            &[],
+        )
+        .unwrap();
+        figs.last().unwrap().caption.clone()
+    };
+    // Absent: effect-free runs, with a 0.6 s lag forced on them. The residual has no shape
+    // along the time since a step, and the lag makes it worse.
+    let c = caption(&[], 0.6);
+    assert!(c.contains("Without the effect it stays about flat"), "{c}");
+    assert!(c.contains("higher on average"), "{c}");
+    // Present: a concealed motor lag, and the first-order lag it looks like.
+    let c = caption(
+        &[Effect::ThrusterLag {
+            time_constant_s: 0.35,
+        }],
+        0.45,
+    );
+    assert!(c.contains("Without the effect it falls"), "{c}");
+    assert!(c.contains("lower on average"), "{c}");
+}
