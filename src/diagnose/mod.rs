@@ -64,9 +64,9 @@ pub struct Run {
     pub psi: Vec<f64>,
     pub pool: Option<Pool>,
     pub anchor: Option<[f64; 3]>,
-    /// Window over which simulations of this run are re-anchored to the fused velocity
-    /// (multiple shooting, where the model is locally unstable along it); `None`: whole run.
-    pub horizon_s: Option<f64>,
+    /// Times at which simulations of this run are re-anchored to the fused velocity (multiple
+    /// shooting, where the model is locally unstable along it); empty: the whole run.
+    pub anchors_s: Vec<f64>,
 }
 
 impl Run {
@@ -114,7 +114,7 @@ impl Run {
             psi: f.psi.clone(),
             pool,
             anchor,
-            horizon_s: None,
+            anchors_s: Vec::new(),
         })
     }
 
@@ -239,7 +239,7 @@ fn simulate_checked(
     }
     s.thrust = w.shape_command(&cmd6(0));
     let mut out = Vec::with_capacity(n);
-    let anchors = crate::model::stability::anchors(&run.t, run.horizon_s);
+    let anchors = crate::model::stability::anchors(&run.t, &run.anchors_s);
     let mut next_anchor = 1;
     for k in 0..n {
         if anchors.get(next_anchor) == Some(&k) {

@@ -25,10 +25,11 @@ pub struct Criteria {
     /// A DOF whose held-out residual after the named effects exceeds this multiple of its
     /// noise and is structured (autocorrelated) is reported `unexplained`.
     pub unexplained_noise_multiple: f64,
-    /// Simulation window (multiple shooting): `whole_run` (the default), `auto` (re-anchored
-    /// where the model is locally unstable along a run, whole run where it is stable), or
-    /// seconds. Short windows hide slow effects, so `auto` is for runs flown fast in closed
-    /// loop, where a whole-run simulation of an unstable model drifts whatever the physics.
+    /// Simulation window (multiple shooting): `auto` (the default: re-anchored each time the
+    /// model's local instability along the run would have doubled an error, so a whole-run
+    /// simulation of an unstable model does not drift whatever the physics; stable stretches
+    /// and stable runs are simulated whole, where slow effects stay visible), `whole_run`, or
+    /// seconds.
     pub horizon_s: crate::model::stability::Horizon,
 }
 
@@ -41,7 +42,7 @@ impl Default for Criteria {
             within_noise: 5.0,
             max_effects: 3,
             unexplained_noise_multiple: 5.0,
-            horizon_s: crate::model::stability::Horizon::WholeRun,
+            horizon_s: crate::model::stability::Horizon::Auto,
         }
     }
 }

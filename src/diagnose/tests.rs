@@ -340,13 +340,17 @@ fn an_unstable_model_on_piloted_runs_is_not_read_as_missing_physics() {
     use crate::model::{Hydro, Plant, Vehicle};
     let fused = piloted_fast_runs(3);
     let plant = Plant::new(&Vehicle::reference(), Hydro::reference());
-    let auto = Criteria {
-        horizon_s: crate::model::stability::Horizon::Auto,
-        ..Criteria::default()
-    };
-    let d = diagnose(&Vehicle::reference(), "fit", &plant, &fused, &auto, &|_| {})
-        .unwrap()
-        .0;
+    // The default horizon: re-anchored where the model grows.
+    let d = diagnose(
+        &Vehicle::reference(),
+        "fit",
+        &plant,
+        &fused,
+        &Criteria::default(),
+        &|_| {},
+    )
+    .unwrap()
+    .0;
     let names: Vec<&str> = d.effects.iter().map(|e| e.name.as_str()).collect();
     assert!(
         names.is_empty(),
@@ -366,7 +370,20 @@ fn an_unstable_model_on_piloted_runs_is_not_read_as_missing_physics() {
         );
     }
     // Simulated whole, the same runs drift apart: the error is far above the noise floor.
-    let w = full(&fused, &plant);
+    let whole = Criteria {
+        horizon_s: crate::model::stability::Horizon::WholeRun,
+        ..Criteria::default()
+    };
+    let w = diagnose(
+        &Vehicle::reference(),
+        "fit",
+        &plant,
+        &fused,
+        &whole,
+        &|_| {},
+    )
+    .unwrap()
+    .0;
     assert!(
         w.baseline.validation_cost > 20.0 * d.baseline.validation_cost.max(1e-9),
         "whole-run {} vs windowed {}",

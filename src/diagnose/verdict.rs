@@ -241,7 +241,7 @@ fn prepare_runs(
             .map(|k| std::array::from_fn(|j| r.vel[j][k]))
             .collect();
         let s = crate::model::stability::along(plant, &r.t, &vel, crit.horizon_s);
-        r.horizon_s = s.horizon_s;
+        r.anchors_s = s.anchors_s.clone();
         stability.insert(r.name.clone(), s);
     }
     (runs, skipped, stability)

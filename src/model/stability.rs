@@ -7,8 +7,9 @@
 //! vehicle on course, so a 60 s open-loop simulation of such a run drifts apart from the
 //! recording whatever the model; that drift is not missing physics. Where the linearised model
 //! grows along the run, validation and diagnosis re-anchor the simulation to the fused state
-//! over windows (multiple shooting) short enough that an error grows at most
-//! [`GROWTH_PER_WINDOW`]-fold; where it is stable the whole run is simulated in one piece.
+//! (multiple shooting) each time an error would have grown [`GROWTH_PER_WINDOW`]-fold since
+//! the last anchor; where it is stable no anchor is set, so a stable stretch (or a stable run)
+//! is simulated in one piece and a slow effect stays visible there.
 
 use super::{Plant, Vec6};
 use serde::{Deserialize, Serialize};
@@ -24,7 +25,7 @@ const NEUTRAL_PER_S: f64 = 0.02;
 const NU: [usize; 4] = [0, 1, 2, 5];
 
 /// How the model behaves along one run.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Stability {
     /// The 90th percentile over the run of the largest real part of the linearised model's
     /// eigenvalues at the recorded velocity, 1/s (positive: a perturbation grows).
@@ -33,10 +34,14 @@ pub struct Stability {
     pub peak_growth_per_s: f64,
     /// Share of the run's samples where the model is locally unstable.
     pub share_unstable: f64,
-    /// Window over which the simulation is re-anchored to the fused state, s; `None`: the
-    /// whole run is simulated in one piece.
+    /// The shortest window between re-anchorings, s; `None`: the whole run is simulated in
+    /// one piece.
     #[serde(default)]
     pub horizon_s: Option<f64>,
+    /// Times at which the simulation is re-anchored to the fused state, s (the run's start
+    /// always is, and is not listed).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub anchors_s: Vec<f64>,
 }
 
 /// What the user asked for in `horizon_s`: `auto` (from the model's stability along each run),
@@ -136,71 +141,58 @@ pub fn along(plant: &Plant, t: &[f64], vel: &[[f64; 4]], setting: Horizon) -> St
     let peak = sorted.last().copied().unwrap_or(0.0);
     let share_unstable = rates.iter().filter(|r| **r > NEUTRAL_PER_S).count() as f64 / m as f64;
     let times: Vec<f64> = idx.iter().map(|&k| t[k]).collect();
-    let horizon_s = match setting {
-        Horizon::WholeRun => None,
-        Horizon::Seconds(x) => (x < duration_s).then_some(x),
-        Horizon::Auto => auto_horizon(&times, &rates),
+    let start = t.first().copied().unwrap_or(0.0);
+    let anchors_s = match setting {
+        Horizon::WholeRun => Vec::new(),
+        Horizon::Seconds(x) if x < duration_s => (1..)
+            .map(|i| start + i as f64 * x)
+            .take_while(|a| *a < start + duration_s)
+            .collect(),
+        Horizon::Seconds(_) => Vec::new(),
+        Horizon::Auto => auto_anchors(&times, &rates),
     };
+    let horizon_s = std::iter::once(start)
+        .chain(anchors_s.iter().copied())
+        .collect::<Vec<f64>>()
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .min_by(f64::total_cmp);
     Stability {
         growth_per_s: growth,
         peak_growth_per_s: peak,
         share_unstable,
         horizon_s,
+        anchors_s,
     }
 }
 
-/// The longest window over which an error, growing at the local rate `rates` (1/s, at
-/// `times`), grows at most [`GROWTH_PER_WINDOW`]-fold wherever the window sits on the run, at
-/// least [`MIN_HORIZON_S`]; `None` when that is the whole run (the model is stable, or
-/// unstable too briefly to matter).
-pub fn auto_horizon(times: &[f64], rates: &[f64]) -> Option<f64> {
+/// Where to re-anchor a simulation along a run whose linearised model grows at `rates` (1/s,
+/// at `times`): each time an error would have grown [`GROWTH_PER_WINDOW`]-fold since the last
+/// anchor, and never sooner than [`MIN_HORIZON_S`] after it. A stable stretch gets no anchor.
+pub fn auto_anchors(times: &[f64], rates: &[f64]) -> Vec<f64> {
     let n = times.len().min(rates.len());
-    if n < 2 {
-        return None;
-    }
-    // Integrated growth: G[k] = sum of max(rate, 0) dt up to sample k.
-    let mut g = vec![0.0; n];
+    let budget = GROWTH_PER_WINDOW.ln();
+    let mut out = Vec::new();
+    let (mut since, mut last) = (0.0, times.first().copied().unwrap_or(0.0));
     for k in 1..n {
         let r = 0.5 * (rates[k - 1].max(0.0) + rates[k].max(0.0));
-        g[k] = g[k - 1] + if r.is_finite() { r } else { 1e3 } * (times[k] - times[k - 1]);
-    }
-    let budget = GROWTH_PER_WINDOW.ln();
-    if g[n - 1] <= budget {
-        return None;
-    }
-    // Worst growth over any window of length h (two pointers).
-    let worst = |h: f64| {
-        let (mut j, mut w) = (0, 0.0f64);
-        for i in 0..n {
-            while j + 1 < n && times[j + 1] - times[i] <= h {
-                j += 1;
-            }
-            w = w.max(g[j] - g[i]);
-        }
-        w
-    };
-    let (mut lo, mut hi) = (0.0, times[n - 1] - times[0]);
-    for _ in 0..40 {
-        let mid = 0.5 * (lo + hi);
-        if worst(mid) <= budget {
-            lo = mid
-        } else {
-            hi = mid
+        since += if r.is_finite() { r } else { 1e3 } * (times[k] - times[k - 1]);
+        if since >= budget && times[k] - last >= MIN_HORIZON_S {
+            out.push(times[k]);
+            (since, last) = (0.0, times[k]);
         }
     }
-    Some(lo.max(MIN_HORIZON_S))
+    out
 }
 
-/// The sample indices at which a simulation over times `t` is re-anchored to the recording
-/// (the first sample always is), windows of `horizon_s`.
-pub fn anchors(t: &[f64], horizon_s: Option<f64>) -> Vec<usize> {
+/// The sample indices at which a simulation over times `t` is re-anchored to the recording:
+/// the first sample, then the first sample at or after each of `anchors_s`.
+pub fn anchors(t: &[f64], anchors_s: &[f64]) -> Vec<usize> {
     let mut out = vec![0];
-    let Some(h) = horizon_s else { return out };
-    let mut next = t.first().copied().unwrap_or(0.0) + h;
-    for (k, &tk) in t.iter().enumerate().skip(1) {
-        if tk >= next {
+    for &a in anchors_s {
+        let k = t.partition_point(|&tk| tk < a);
+        if k < t.len() && k > *out.last().expect("starts with 0") {
             out.push(k);
-            next = tk + h;
         }
     }
     out
@@ -223,7 +215,8 @@ pub fn describe(s: &Stability) -> String {
     };
     match s.horizon_s {
         Some(h) => format!(
-            "the model is {state}: simulated in {h:.1} s windows re-anchored to the fused state"
+            "the model is {state}: re-anchored to the fused state {} times where it grows (windows of {h:.1} s at the shortest), simulated in one piece elsewhere",
+            s.anchors_s.len()
         ),
         None => format!("the model is {state}: simulated over the whole run"),
     }
@@ -291,6 +284,12 @@ mod tests {
             (s.horizon_s.unwrap() - expect_h).abs() < 0.15,
             "{s:?} vs {expect_h}"
         );
+        // Anchors only where the model grows (20-40 s), none in the stable stretches.
+        assert!(
+            s.anchors_s.iter().all(|a| (20.0..=40.5).contains(a)) && s.anchors_s.len() > 5,
+            "{:?}",
+            s.anchors_s
+        );
         assert!((s.share_unstable - 1.0 / 3.0).abs() < 0.02, "{s:?}");
         let rest = along(&plant, &t, &vec![[0.0; 4]; t.len()], Horizon::Auto);
         assert_eq!(rest.horizon_s, None);
@@ -304,8 +303,12 @@ mod tests {
     #[test]
     fn anchors_split_the_run_into_windows() {
         let t: Vec<f64> = (0..=100).map(|k| k as f64 * 0.1).collect();
-        assert_eq!(anchors(&t, None), vec![0]);
-        assert_eq!(anchors(&t, Some(2.5)), vec![0, 25, 50, 75, 100]);
+        assert_eq!(anchors(&t, &[]), vec![0]);
+        assert_eq!(
+            anchors(&t, &[2.5, 5.0, 7.5, 10.0]),
+            vec![0, 25, 50, 75, 100]
+        );
+        assert_eq!(anchors(&t, &[2.51, 2.52, 11.0]), vec![0, 26]);
     }
 
     #[test]

@@ -239,11 +239,11 @@ fn stability(h: &mut String, m: &ModelScore) {
         .runs
         .iter()
         .filter_map(|r| {
-            r.stability.map(|s| {
+            r.stability.as_ref().map(|s| {
                 format!(
                     "<li><code>{}</code>: {}</li>",
                     esc(&r.run),
-                    esc(&crate::model::stability::describe(&s))
+                    esc(&crate::model::stability::describe(s))
                 )
             })
         })

@@ -22,9 +22,10 @@ pub struct Settings {
     /// Also re-estimate the model on each training run alone (equation error, least squares on
     /// the fused velocities) and score it on every other run: cross-validation across trials.
     pub cross_validate: bool,
-    /// Simulation window (multiple shooting): `whole_run` (the default); `auto` re-anchors the
-    /// simulation to the fused state where the model is locally unstable along a run and
-    /// simulates stable runs whole; or a window in seconds.
+    /// Simulation window (multiple shooting): `auto` (the default) re-anchors the simulation to
+    /// the fused state each time the model's local instability along the run would have
+    /// doubled an error, and simulates stable stretches and stable runs whole; `whole_run`; or
+    /// a window in seconds.
     pub horizon_s: Horizon,
 }
 
@@ -33,7 +34,7 @@ impl Default for Settings {
         Settings {
             max_lag_s: 5.0,
             cross_validate: true,
-            horizon_s: Horizon::WholeRun,
+            horizon_s: Horizon::Auto,
         }
     }
 }

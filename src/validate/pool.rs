@@ -117,7 +117,7 @@ pub fn simulate_run(plant: &Plant, run: &FusedRun, horizon: Horizon) -> (Vec<Vec
         .map(|k| std::array::from_fn(|j| run.fused.vel[j].as_ref().map_or(0.0, |v| v[k])))
         .collect();
     let stability = crate::model::stability::along(plant, t, &vel, horizon);
-    let mut anchors = crate::model::stability::anchors(t, stability.horizon_s);
+    let mut anchors = crate::model::stability::anchors(t, &stability.anchors_s);
     anchors.push(t.len());
     let mut out = Vec::with_capacity(t.len());
     for w in anchors.windows(2) {
