@@ -95,7 +95,7 @@ pub fn section(
     repairs(&mut h, runs);
     accuracy_table(&mut h, accuracy);
     let Some(scores) = scores else { return Ok(h) };
-    h.push_str("<h2 id=\"pool-validation\">Pool runs: the model against the recordings</h2>\n<p>Each model simulated (RK4, 0.01 s) under the run's logged thrust from the fused initial state; where the model is locally unstable along a run (a perturbation grows, as an open-frame vehicle's sway and yaw do at speed), the simulation is re-anchored to the fused state over windows short enough that an error at most doubles, since a pilot or autopilot kept the real vehicle on course. Residual whiteness (seed 000): share of autocorrelation lags up to 5 s outside the 95 % band ±1.96/√N — about 5 % for a model that explains everything but noise. σ̄ is the mean standard deviation of the fused velocity, the floor no model can beat.</p>\n");
+    h.push_str("<h2 id=\"pool-validation\">Pool runs: the model against the recordings</h2>\n<p>Each model simulated (RK4, 0.01 s) under the run's logged thrust from the fused initial state; where the model is locally unstable along a run (a perturbation grows, as an open-frame vehicle's sway and yaw do at speed), the simulation is re-anchored to the fused state each time an error would have doubled since the last anchor (a pilot or autopilot kept the real vehicle on course), and stable stretches are simulated in one piece. Residual whiteness (seed 000): share of autocorrelation lags up to 5 s outside the 95 % band ±1.96/√N — about 5 % for a model that explains everything but noise. σ̄ is the mean standard deviation of the fused velocity, the floor no model can beat.</p>\n");
     for m in &scores.models {
         model_table(&mut h, m);
         stability(&mut h, m);
