@@ -294,15 +294,52 @@ fn finding(curves: &[(&Case, DragCurve)], f: &FitResult) -> String {
     h.push_str("</ul>\n");
     let worst = curves.iter().map(|(c, _)| c.nmae).fold(0.0f64, f64::max);
     let fall = spread.iter().map(|(p, e)| p / e).fold(0.0f64, f64::max);
+    let rel = |name: &str| {
+        f.fit
+            .parameters
+            .iter()
+            .find(|p| p.name == name)
+            .map_or(f64::NAN, |p| (p.stderr / p.value).abs())
+    };
     let _ = writeln!(
         h,
-        "<p>The drag is not a function of speed alone: it depends on how far the body has travelled (the wake builds up behind it), with Cd falling by up to a factor {fall:.1} from its peak within one run. \
-         A model with constant linear and quadratic drag (<code>{}</code>) can only average this over the runs, so its velocity error reaches NMAE {worst:.3}; \
-         the added mass, which acts while the body accelerates and the wake is still small, is the better-determined parameter. \
-         Use the drag from these runs for motions of similar length only.</p>",
-        esc(&f.stage)
+        "<p>{}</p>",
+        drag_summary(&esc(&f.stage), fall, worst, rel("X_udot"), rel("X_uu"))
     );
     h
+}
+
+/// The paragraph under the drag figure, each claim chosen by its number: whether Cd falls
+/// along a run (`fall`: the largest peak-to-end ratio), the model's worst velocity NMAE, and
+/// which of the added mass and the quadratic drag has the smaller relative standard error.
+fn drag_summary(stage: &str, fall: f64, worst: f64, rel_added: f64, rel_quad: f64) -> String {
+    let history = if fall >= 1.2 {
+        format!(
+            "The drag is not a function of speed alone: it depends on how far the body has travelled (the wake builds up behind it), with Cd falling by up to a factor {fall:.1} from its peak within one run. \
+             A model with constant linear and quadratic drag (<code>{stage}</code>) can only average this over the runs, so its velocity error reaches NMAE {worst:.3}. \
+             Use the drag from these runs for motions of similar length only."
+        )
+    } else {
+        format!(
+            "Cd stays within a factor {fall:.2} of its peak along every run: the drag is close to a function of speed alone, and the constant-coefficient model (<code>{stage}</code>) follows it to a velocity NMAE of {worst:.3} at worst."
+        )
+    };
+    let better = if !(rel_added.is_finite() && rel_quad.is_finite()) {
+        String::new()
+    } else if rel_added < rel_quad {
+        format!(
+            " The added mass is the better-determined parameter (relative standard error {:.2} % against {:.2} % for the quadratic drag).",
+            100.0 * rel_added,
+            100.0 * rel_quad
+        )
+    } else {
+        format!(
+            " The quadratic drag is the better-determined parameter (relative standard error {:.2} % against {:.2} % for the added mass).",
+            100.0 * rel_quad,
+            100.0 * rel_added
+        )
+    };
+    format!("{history}{better}")
 }
 
 #[cfg(test)]
@@ -314,5 +351,16 @@ mod tests {
         let d = super::magnitude_difference(-24.5, -31.416);
         assert!((d + 22.0).abs() < 0.1, "{d}");
         assert!(super::magnitude_difference(2.0, 1.0) > 0.0);
+    }
+
+    #[test]
+    fn the_drag_paragraph_says_what_its_numbers_say() {
+        let s = super::drag_summary("cyl", 2.1, 0.08, 0.001, 0.013);
+        assert!(s.contains("Cd falling by up to a factor 2.1"), "{s}");
+        assert!(s.contains("The added mass is the better-determined"), "{s}");
+        let s = super::drag_summary("cyl", 1.05, 0.01, 0.05, 0.013);
+        assert!(s.contains("close to a function of speed alone"), "{s}");
+        assert!(!s.contains("falling"), "{s}");
+        assert!(s.contains("The quadratic drag is the better-determined"), "{s}");
     }
 }
