@@ -361,6 +361,9 @@ mod tests {
         let s = super::drag_summary("cyl", 1.05, 0.01, 0.05, 0.013);
         assert!(s.contains("close to a function of speed alone"), "{s}");
         assert!(!s.contains("falling"), "{s}");
-        assert!(s.contains("The quadratic drag is the better-determined"), "{s}");
+        assert!(
+            s.contains("The quadratic drag is the better-determined"),
+            "{s}"
+        );
     }
 }
