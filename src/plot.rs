@@ -263,7 +263,7 @@ fn velocity_panel(area: &SvgArea, tr: &PoolTrace, tmax: f64) -> anyhow::Result<(
         .label_style(("sans-serif", 12))
         .draw()?;
     chart.draw_series(std::iter::once(Polygon::new(
-        measured_band(tr),
+        measured_band(tr.t, tr.measured, tr.std),
         blue.mix(0.25).filled(),
     )))?;
     chart.draw_series(LineSeries::new(
@@ -281,18 +281,14 @@ fn velocity_panel(area: &SvgArea, tr: &PoolTrace, tmax: f64) -> anyhow::Result<(
 
 /// The outline of the ±2σ band around the measured velocity: its upper edge forwards in time,
 /// then its lower edge backwards.
-fn measured_band(tr: &PoolTrace) -> Vec<(f64, f64)> {
-    thin(tr.t, tr.measured)
-        .zip(thin(tr.t, tr.std))
-        .map(|((t, m), (_, s))| (t, m + 2.0 * s))
-        .chain(
-            thin(tr.t, tr.measured)
-                .zip(thin(tr.t, tr.std))
-                .map(|((t, m), (_, s))| (t, m - 2.0 * s))
-                .collect::<Vec<_>>()
-                .into_iter()
-                .rev(),
-        )
+fn measured_band(t: &[f64], measured: &[f64], std: &[f64]) -> Vec<(f64, f64)> {
+    let edge = |sign: f64| {
+        thin(t, measured)
+            .zip(thin(t, std))
+            .map(move |((t, m), (_, s))| (t, m + sign * 2.0 * s))
+    };
+    edge(1.0)
+        .chain(edge(-1.0).collect::<Vec<_>>().into_iter().rev())
         .collect()
 }
 
@@ -369,13 +365,6 @@ pub struct Overlay<'a> {
 
 pub fn overlay(o: &Overlay) -> anyhow::Result<String> {
     ensure_font();
-    let tr = PoolTrace {
-        dof: Dof::Surge,
-        t: o.t,
-        measured: o.recorded,
-        std: o.std,
-        simulated: o.model.1,
-    };
     let finite = |v: &&f64| v.is_finite();
     let (lo, hi) = o
         .recorded
@@ -406,7 +395,7 @@ pub fn overlay(o: &Overlay) -> anyhow::Result<String> {
             .draw()?;
         let blue = PALETTE[0];
         chart.draw_series(std::iter::once(Polygon::new(
-            measured_band(&tr),
+            measured_band(o.t, o.recorded, o.std),
             blue.mix(0.25).filled(),
         )))?;
         chart.draw_series(LineSeries::new(

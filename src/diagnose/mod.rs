@@ -255,7 +255,7 @@ fn simulate_checked(
         s.pos = [0, 1, 2].map(|j| rec.at(&run.pos[j], k));
         s.psi = rec.at(&run.psi, k);
         let span = run.t[k + 1] - run.t[k];
-        let m = (span / STEP).ceil().max(1.0) as usize;
+        let m = crate::model::dynamics::substeps(span, STEP);
         let c = cmd6(k);
         for _ in 0..m {
             s = w.step(&s, &c, span / m as f64);
@@ -447,6 +447,11 @@ impl Data {
         })
     }
 
+    /// The sums of one run simulated with `aug`.
+    fn run_sums(&self, plant: &Plant, aug: &Augmentation, r: &Run) -> Sums {
+        sums(&simulate(plant, aug, r), r, aug.delay_s, &self.delta)
+    }
+
     pub fn eval(&self, plant: &Plant, aug: &Augmentation, validate: bool) -> Sums {
         let runs = if validate {
             &self.validate
@@ -455,7 +460,7 @@ impl Data {
         };
         let parts: Vec<Sums> = runs
             .par_iter()
-            .map(|r| sums(&simulate(plant, aug, r), r, aug.delay_s, &self.delta))
+            .map(|r| self.run_sums(plant, aug, r))
             .collect();
         let mut total = Sums::default();
         parts.iter().for_each(|p| total.add(p));
@@ -480,7 +485,7 @@ impl Data {
         for chunk in self.train.chunks(rayon::current_num_threads().max(1)) {
             let part: Vec<Sums> = chunk
                 .par_iter()
-                .map(|r| sums(&simulate(plant, aug, r), r, aug.delay_s, &self.delta))
+                .map(|r| self.run_sums(plant, aug, r))
                 .collect();
             part.iter().for_each(|p| total.add(p));
             let lower: f64 = (0..4)

@@ -54,7 +54,7 @@ impl<'a> OutputError<'a> {
         let mut values = 0;
         for r in self.responses {
             for k in 0..r.len().saturating_sub(1) {
-                steps += ((r.t[k + 1] - r.t[k]) / MAX_STEP).ceil().max(1.0) as usize;
+                steps += crate::model::dynamics::substeps(r.t[k + 1] - r.t[k], MAX_STEP);
             }
             values += r.dofs.values().map(|s| s.velocity.len()).sum::<usize>();
         }
@@ -63,8 +63,7 @@ impl<'a> OutputError<'a> {
 
     /// Whether the kernel integrates all six DOFs (roll or pitch free) for these cases.
     pub fn six_dof(&self) -> bool {
-        let a = self.vehicle.active();
-        a[3] || a[4]
+        crate::model::lanes::needs_six_dof(&self.vehicle.active())
     }
 
     fn plants(&self, layout: &crate::model::ParamLayout, thetas: &[&[f64]]) -> LanePlants {

@@ -40,6 +40,12 @@ pub fn hydro_force(h: &Hydro, nu: &Vec6, nu_dot: &Vec6) -> Vec6 {
     })
 }
 
+/// Integration steps over a sample interval `span` with steps of at most `max_step` (at least
+/// one): every simulator here holds the input over a sample and divides it evenly.
+pub fn substeps(span: f64, max_step: f64) -> usize {
+    (span / max_step).ceil().max(1.0) as usize
+}
+
 /// A vehicle with known rigid-body properties and a hydrodynamic model.
 #[derive(Debug, Clone)]
 pub struct Plant {
@@ -108,7 +114,7 @@ impl Plant {
                 break;
             }
             let span = t[k + 1] - t[k];
-            let n = (span / max_step).ceil().max(1.0) as usize;
+            let n = substeps(span, max_step);
             let h = span / n as f64;
             for _ in 0..n {
                 nu = self.rk4(&nu, &tau[k], h);

@@ -59,6 +59,11 @@ pub fn flops_per_step(six: bool) -> usize {
     }
 }
 
+/// Whether the six-DOF kernel is needed for a vehicle free in `active`: roll or pitch is free.
+pub fn needs_six_dof(active: &[bool; 6]) -> bool {
+    active[3] || active[4]
+}
+
 impl LanePlants {
     /// The plants of a population; fewer than [`LANES`] fill the other lanes with the last.
     pub fn new(plants: &[Plant]) -> LanePlants {
@@ -78,7 +83,7 @@ impl LanePlants {
             lin: by(&|p, i| p.hydro.lin[i]),
             quad: by(&|p, i| p.hydro.quad[i]),
             constant: by(&|p, i| p.hydro.constant[i]),
-            six: plants[0].active[3] || plants[0].active[4],
+            six: needs_six_dof(&plants[0].active),
         }
     }
 
@@ -173,7 +178,7 @@ impl LanePlants {
                 break;
             }
             let span = t[k + 1] - t[k];
-            let n = (span / max_step).ceil().max(1.0) as usize;
+            let n = super::dynamics::substeps(span, max_step);
             let h = span / n as f64;
             // The force and constant term are held over the sample: summed once.
             let push: [Lanes; 6] =

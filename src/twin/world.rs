@@ -360,7 +360,7 @@ impl WorldPlant {
                 break;
             }
             let span = t[k + 1] - t[k];
-            let n = (span / max_step).ceil().max(1.0) as usize;
+            let n = crate::model::dynamics::substeps(span, max_step);
             for _ in 0..n {
                 s = self.step(&s, &cmd[k], span / n as f64);
             }
