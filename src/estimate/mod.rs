@@ -46,7 +46,7 @@ pub struct Estimate {
 /// the reason. An estimator that constrains signs leaves nothing to flag here.
 pub fn check_signs(layout: &crate::model::ParamLayout, params: &mut [Estimate]) {
     for (j, p) in params.iter_mut().enumerate().take(layout.len()) {
-        let Some(sign) = layout.slot(j).0.physical_sign() else {
+        let Some(sign) = layout.terms[j].physical_sign() else {
             continue;
         };
         if p.value * sign < 0.0 && p.note.is_none() {

@@ -55,10 +55,7 @@ pub(crate) fn solve_signed(
         let worst = (0..p)
             .filter(|&j| free[j])
             .filter_map(|j| {
-                problem
-                    .layout
-                    .slot(j)
-                    .0
+                problem.layout.terms[j]
                     .physical_sign()
                     .map(|s| (j, theta[j] * s))
             })

@@ -82,19 +82,47 @@ impl<'a> OutputError<'a> {
         thetas: &[&[f64]],
         visit: &mut dyn FnMut(&[f64; LANES]),
     ) {
+        if layout.structure != crate::model::Structure::Diagonal {
+            return self.errors_coupled(layout, thetas, visit);
+        }
         let lp = self.plants(layout, thetas);
         for (c, (r, w)) in self.responses.iter().zip(&self.weight).enumerate() {
-            let cols: Vec<(usize, f64, &[f64])> = r
-                .dofs
-                .iter()
-                .map(|(d, s)| (d.index(), w[d.index()].sqrt(), s.velocity.as_slice()))
-                .collect();
+            let cols = columns(r, w);
             lp.simulate(&r.t, &self.taus[c], r.nu(0), MAX_STEP, &mut |k, nu| {
                 for (i, sw, v) in &cols {
                     let e: [f64; LANES] = std::array::from_fn(|l| sw * (nu[*i][l] - v[k]));
                     visit(&e);
                 }
             });
+        }
+    }
+
+    /// [`OutputError::errors`] for coupled models (full mass matrix, cross drag, buoyancy that
+    /// turns with the attitude): one scalar simulation per model, the same errors in the
+    /// same order.
+    fn errors_coupled(
+        &self,
+        layout: &crate::model::ParamLayout,
+        thetas: &[&[f64]],
+        visit: &mut dyn FnMut(&[f64; LANES]),
+    ) {
+        let plants: Vec<Plant> = thetas
+            .iter()
+            .map(|t| Plant::new(self.vehicle, layout.to_hydro(t)))
+            .collect();
+        for (c, (r, w)) in self.responses.iter().zip(&self.weight).enumerate() {
+            let cols = columns(r, w);
+            let sims: Vec<Vec<Vec6>> = plants
+                .iter()
+                .map(|p| p.simulate_from(&r.t, &self.taus[c], r.nu(0), r.attitude(0), MAX_STEP))
+                .collect();
+            for k in 0..r.len() {
+                for (i, sw, v) in &cols {
+                    let at = |l: usize| &sims[l.min(sims.len() - 1)][k];
+                    let e: [f64; LANES] = std::array::from_fn(|l| sw * (at(l)[*i] - v[k]));
+                    visit(&e);
+                }
+            }
         }
     }
 
@@ -140,4 +168,12 @@ impl<'a> OutputError<'a> {
         });
         (0..thetas.len()).map(|l| s[l] / n.max(1) as f64).collect()
     }
+}
+
+/// Per DOF of a case: its index, the square root of its weight and its recorded velocity.
+fn columns<'r>(r: &'r crate::io::Response, w: &[f64; 6]) -> Vec<(usize, f64, &'r [f64])> {
+    r.dofs
+        .iter()
+        .map(|(d, s)| (d.index(), w[d.index()].sqrt(), s.velocity.as_slice()))
+        .collect()
 }

@@ -38,7 +38,7 @@ pub fn output_error_lm(
     let mut lm = Lm {
         oe,
         layout,
-        signs: (0..p).map(|j| layout.slot(j).0.physical_sign()).collect(),
+        signs: (0..p).map(|j| layout.terms[j].physical_sign()).collect(),
         theta,
         r,
         cost,

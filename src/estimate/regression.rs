@@ -3,7 +3,7 @@
 
 use crate::dof::Dof;
 use crate::io::Response;
-use crate::model::dynamics::hydro_force;
+use crate::model::dynamics::{gravity_body, term_column};
 use crate::model::{ParamLayout, Plant, Vehicle};
 
 /// Stacked regression rows (one per sample and DOF), row-major.
@@ -53,20 +53,19 @@ impl Regression {
     }
 
     /// Builds the rows from every sample of every response (after `skip_start_s` seconds), for
-    /// the DOFs each response has.
+    /// the DOFs each response has, with the vehicle's structure.
     pub fn build(vehicle: &Vehicle, responses: &[&Response], skip_start_s: f64) -> Regression {
-        let layout = ParamLayout::of(vehicle);
-        let p = layout.len();
-        // hydro_force is linear in the coefficients: column j is its value at the j-th unit vector.
-        let units: Vec<_> = (0..p)
-            .map(|j| {
-                layout.to_hydro(
-                    &(0..p)
-                        .map(|i| f64::from(u8::from(i == j)))
-                        .collect::<Vec<_>>(),
-                )
-            })
-            .collect();
+        Regression::build_with(&ParamLayout::of(vehicle), vehicle, responses, skip_start_s)
+    }
+
+    /// [`Regression::build`] for the terms of `layout`. The force is linear in every term, so
+    /// column j is the force of term j alone at 1 (`term_column`).
+    pub fn build_with(
+        layout: &ParamLayout,
+        vehicle: &Vehicle,
+        responses: &[&Response],
+        skip_start_s: f64,
+    ) -> Regression {
         let rigid = Plant::new(vehicle, Default::default());
         let mut r = Regression {
             layout: layout.clone(),
@@ -74,6 +73,7 @@ impl Regression {
             y: Vec::new(),
             row_dof: Vec::new(),
         };
+        let mut cols = vec![[0.0; 6]; layout.len()];
         for resp in responses {
             let dofs: Vec<Dof> = resp
                 .dofs
@@ -83,9 +83,12 @@ impl Regression {
                 .collect();
             for k in (0..resp.len()).filter(|&k| resp.t[k] >= skip_start_s) {
                 let (nu, nu_dot, tau) = (resp.nu(k), resp.nu_dot(k), resp.tau(k));
+                let [phi, theta] = resp.attitude(k);
+                let g = gravity_body(phi, theta);
                 let known = rigid.rigid_force(&nu, &nu_dot);
-                let cols: Vec<[f64; 6]> =
-                    units.iter().map(|h| hydro_force(h, &nu, &nu_dot)).collect();
+                for (c, t) in cols.iter_mut().zip(&layout.terms) {
+                    *c = term_column(*t, &nu, &nu_dot, &g);
+                }
                 for d in &dofs {
                     let i = d.index();
                     r.y.push(tau[i] - known[i]);

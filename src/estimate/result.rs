@@ -69,6 +69,9 @@ pub struct FitResult {
     pub objective: Objective,
     pub settings: serde_json::Value,
     pub structure: Structure,
+    /// The terms of `structure: custom`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub custom_terms: Option<crate::model::CustomTerms>,
     pub dofs: Vec<Dof>,
     /// DOFs whose model has a constant force term (X_0 ..), after `dofs`' terms.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -97,7 +100,13 @@ pub const RESULT: &str = "fit.json";
 impl FitResult {
     /// The parameter layout the values are in.
     pub fn layout(&self) -> ParamLayout {
-        ParamLayout::with_constant(&self.dofs, &self.constant_force)
+        ParamLayout::build(
+            self.structure,
+            &self.dofs,
+            &self.constant_force,
+            &self.custom_terms.clone().unwrap_or_default(),
+        )
+        .expect("a fit's structure was built when it ran")
     }
 
     /// The identified coefficients.

@@ -168,6 +168,7 @@ impl FusedRun {
         let mut r = crate::io::Response {
             t: self.fused.t.clone(),
             dofs: Default::default(),
+            attitude: Vec::new(),
         };
         for (j, d) in POOL_DOFS
             .iter()

@@ -50,6 +50,7 @@ fn to_response(track: &Track, setup: &CaseSetup, dofs: &[Dof]) -> Response {
     let mut out = Response {
         t: t.clone(),
         dofs: BTreeMap::new(),
+        attitude: Vec::new(),
     };
     for d in dofs {
         let (series, f): (Vec<f64>, f64) = match d {

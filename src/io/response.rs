@@ -35,13 +35,16 @@ pub struct Series {
 pub struct Response {
     pub t: Vec<f64>,
     pub dofs: BTreeMap<Dof, Series>,
+    /// Roll and pitch (rad) per sample where measured (a pool run's attitude sensor); empty
+    /// for a CFD run, whose body is held level. Only a coupled model's buoyancy uses them.
+    pub attitude: Vec<[f64; 2]>,
 }
 
 impl Response {
     /// `plant`'s velocities under this response's applied force, from its first measured state.
     pub fn simulate(&self, plant: &crate::model::Plant) -> Vec<crate::model::Vec6> {
         let tau: Vec<crate::model::Vec6> = (0..self.len()).map(|k| self.tau(k)).collect();
-        plant.simulate(&self.t, &tau, self.nu(0), 0.01)
+        plant.simulate_from(&self.t, &tau, self.nu(0), self.attitude(0), 0.01)
     }
 
     pub fn len(&self) -> usize {
@@ -59,6 +62,11 @@ impl Response {
 
     pub fn nu_dot(&self, k: usize) -> [f64; 6] {
         self.pick(k, |s| &s.accel)
+    }
+
+    /// Roll and pitch at sample `k` (level when not measured).
+    pub fn attitude(&self, k: usize) -> [f64; 2] {
+        self.attitude.get(k).copied().unwrap_or([0.0; 2])
     }
 
     pub fn tau(&self, k: usize) -> [f64; 6] {
@@ -95,6 +103,7 @@ impl Response {
         let mut r = Response {
             t: get("t")?,
             dofs: BTreeMap::new(),
+            attitude: Vec::new(),
         };
         for (d, (fs, acs)) in sources {
             let s = Series {
@@ -156,6 +165,7 @@ mod tests {
         let mut r = Response {
             t: vec![0.0, 0.1, 0.2],
             dofs: BTreeMap::new(),
+            attitude: Vec::new(),
         };
         r.dofs.insert(
             Dof::Yaw,

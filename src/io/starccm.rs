@@ -296,6 +296,7 @@ fn build_response(
     let mut response = Response {
         t: t.clone(),
         dofs: BTreeMap::new(),
+        attitude: Vec::new(),
     };
     for d in dofs {
         let velocity = column(col_of(Role::Velocity, d).expect("checked"));

@@ -80,8 +80,8 @@ impl LanePlants {
         LanePlants {
             mass,
             inv_mass,
-            lin: by(&|p, i| p.hydro.lin[i]),
-            quad: by(&|p, i| p.hydro.quad[i]),
+            lin: by(&|p, i| p.hydro.lin[i][i]),
+            quad: by(&|p, i| p.hydro.quad[i][i][i]),
             constant: by(&|p, i| p.hydro.constant[i]),
             six: needs_six_dof(&plants[0].active),
         }
@@ -293,9 +293,9 @@ mod tests {
                 };
                 let mut h = h0;
                 for i in 0..6 {
-                    h.added[i] *= f(i, 0);
-                    h.lin[i] *= f(i, 1);
-                    h.quad[i] *= f(i, 2);
+                    h.added[i][i] *= f(i, 0);
+                    h.lin[i][i] *= f(i, 1);
+                    h.quad[i][i][i] *= f(i, 2);
                     h.constant[i] = 3.0 * (f(i, 3) - 1.0);
                 }
                 Plant::new(vehicle, h)

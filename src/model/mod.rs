@@ -1,14 +1,18 @@
 //! The vehicle model: rigid body, hydrodynamic parameters and their dynamics.
 
+pub mod attitude;
 pub mod dynamics;
 pub mod lanes;
 pub mod motion;
 pub mod params;
 pub mod pool;
+pub mod spd;
 pub mod stability;
+pub mod terms;
 pub mod vehicle;
 
 pub use dynamics::{Plant, Vec6};
-pub use params::{Hydro, ParamLayout};
+pub use params::{Hydro, Mat6, ParamLayout};
 pub use pool::Pool;
+pub use terms::{CustomTerms, Term};
 pub use vehicle::{Structure, Vehicle};

@@ -1,163 +1,208 @@
-//! Hydrodynamic parameters: the named vector an estimator works on, and its physical layout.
+//! Hydrodynamic parameters: the coefficients of the model (seed 003 eq. 1-9, of which the
+//! diagonal model of seed 001 is one configuration) and the named vector an estimator works on.
 
+use super::terms::{CustomTerms, Structure, Term};
 use crate::dof::Dof;
 
-/// Diagonal hydrodynamic coefficients in SNAME form, indexed by `Dof::index()`:
-/// `added[i]` is X_udot.., `lin[i]` is X_u.., `quad[i]` is X_uu.. (all negative for a real vehicle),
-/// `constant[i]` is X_0..: a constant generalised force on the body (net buoyancy, a steady
-/// tether pull), N or N m, in SNAME sign (Z_0 < 0 pushes the vehicle up).
+pub use super::terms::Group;
+
+pub type Mat6 = [[f64; 6]; 6];
+
+/// Hydrodynamic coefficients in SNAME form, indexed by `Dof::index()`: `added[i][j]` is
+/// X_udot, X_vdot .. (symmetric; M_A = -added), `lin[i][j]` the force in DOF i per unit
+/// velocity j (X_u, Y_r ..), `quad[k][i][j]` the force in DOF i per `nu_j |nu_k|` (seed 003
+/// eq. 8, D_Qk), `constant[i]` X_0 .. a constant generalised force on the body (a steady
+/// tether pull, a thruster offset; Z_0 < 0 pushes the vehicle up), `net_weight` W - B and
+/// `moment` W r_g - B r_b of eq. 9. Diagonal drag and added mass are negative for a real vehicle.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Hydro {
-    pub added: [f64; 6],
-    pub lin: [f64; 6],
-    pub quad: [f64; 6],
+    pub added: Mat6,
+    pub lin: Mat6,
+    pub quad: [Mat6; 6],
     pub constant: [f64; 6],
+    pub net_weight: f64,
+    pub moment: [f64; 3],
 }
 
 impl Hydro {
+    /// The diagonal model: added mass, linear and quadratic drag per DOF.
+    pub fn diagonal(added: [f64; 6], lin: [f64; 6], quad: [f64; 6]) -> Hydro {
+        let mut h = Hydro::default();
+        for i in 0..6 {
+            h.added[i][i] = added[i];
+            h.lin[i][i] = lin[i];
+            h.quad[i][i][i] = quad[i];
+        }
+        h
+    }
+
     /// Seed 001, Table 1 (docs/formats.md reference vehicle).
     pub fn reference() -> Hydro {
-        Hydro {
-            added: [-16.04, -37.74, -83.60, 0.0, 0.0, -1.06],
-            lin: [-2.41, -1.50, -21.75, 0.0, 0.0, -1.18],
-            quad: [-44.17, -114.30, -121.30, 0.0, 0.0, -2.64],
-            constant: [0.0; 6],
+        Hydro::diagonal(
+            [-16.04, -37.74, -83.60, 0.0, 0.0, -1.06],
+            [-2.41, -1.50, -21.75, 0.0, 0.0, -1.18],
+            [-44.17, -114.30, -121.30, 0.0, 0.0, -2.64],
+        )
+    }
+
+    /// The diagonal added mass X_udot .. N_rdot.
+    pub fn added_diag(&self) -> [f64; 6] {
+        std::array::from_fn(|i| self.added[i][i])
+    }
+
+    /// The diagonal linear drag X_u .. N_r.
+    pub fn lin_diag(&self) -> [f64; 6] {
+        std::array::from_fn(|i| self.lin[i][i])
+    }
+
+    /// The diagonal quadratic drag X_uu .. N_rr.
+    pub fn quad_diag(&self) -> [f64; 6] {
+        std::array::from_fn(|i| self.quad[i][i][i])
+    }
+
+    /// Whether every coefficient off the diagonal, and the buoyancy, is zero: the seed-001
+    /// model, which the simulators evaluate without a mass-matrix solve.
+    pub fn is_diagonal(&self) -> bool {
+        let off = |i: usize, j: usize| i != j;
+        (0..6).all(|i| {
+            (0..6).all(|j| {
+                (!off(i, j) || (self.added[i][j] == 0.0 && self.lin[i][j] == 0.0))
+                    && (0..6).all(|k| (i == j && j == k) || self.quad[k][i][j] == 0.0)
+            })
+        }) && self.net_weight == 0.0
+            && self.moment == [0.0; 3]
+    }
+
+    /// The value of one term.
+    pub fn get(&self, t: Term) -> f64 {
+        match t {
+            Term::Added(i, j) => self.added[i][j],
+            Term::Linear(i, j) => self.lin[i][j],
+            Term::Quadratic { row, vel, by } => self.quad[by][row][vel],
+            Term::Constant(i) => self.constant[i],
+            Term::NetWeight => self.net_weight,
+            Term::Moment(a) => self.moment[a],
+        }
+    }
+
+    /// Sets one term (both halves of a symmetric mass pair).
+    pub fn set(&mut self, t: Term, value: f64) {
+        match t {
+            Term::Added(i, j) => {
+                self.added[i][j] = value;
+                self.added[j][i] = value;
+            }
+            Term::Linear(i, j) => self.lin[i][j] = value,
+            Term::Quadratic { row, vel, by } => self.quad[by][row][vel] = value,
+            Term::Constant(i) => self.constant[i] = value,
+            Term::NetWeight => self.net_weight = value,
+            Term::Moment(a) => self.moment[a] = value,
         }
     }
 }
 
-/// The groups of the diagonal structure, in parameter-vector order.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Group {
-    AddedMass,
-    LinearDrag,
-    QuadraticDrag,
-    /// A constant generalised force (only for the DOFs the vehicle lists in `constant_force`).
-    Constant,
-}
-
-impl Group {
-    /// The sign physics allows: added mass and drag coefficients are negative in SNAME form
-    /// (a positive one would be negative inertia or drag that feeds energy in); a constant
-    /// force may point either way.
-    pub fn physical_sign(self) -> Option<f64> {
-        match self {
-            Group::AddedMass | Group::LinearDrag | Group::QuadraticDrag => Some(-1.0),
-            Group::Constant => None,
-        }
-    }
-}
-
-/// Maps the flat parameter vector `theta` to named coefficients: group-major, then the
-/// vehicle's DOF order (X_udot, Y_vdot, .., X_u, .., X_uu, ..), as seed 001 Table 1 lists them,
-/// then the constant forces (X_0, ..) of the DOFs that have one.
+/// Maps the flat parameter vector `theta` to named coefficients. For the diagonal structure
+/// the order is group-major, then the vehicle's DOF order (X_udot, Y_vdot, .., X_u, ..,
+/// X_uu, ..) as seed 001 Table 1 lists them, then the constant forces (X_0, ..); for the
+/// coupled structures: mass, linear drag, quadratic drag, constants, buoyancy.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ParamLayout {
     pub dofs: Vec<Dof>,
     pub constant: Vec<Dof>,
+    pub structure: Structure,
+    pub terms: Vec<Term>,
 }
 
 impl ParamLayout {
+    /// The diagonal structure over `dofs`.
     pub fn new(dofs: &[Dof]) -> ParamLayout {
-        ParamLayout {
-            dofs: dofs.to_vec(),
-            constant: Vec::new(),
-        }
+        ParamLayout::with_constant(dofs, &[])
     }
 
-    /// The layout of a vehicle: its DOFs and the DOFs with a constant force term.
+    /// The layout of a vehicle: its structure, DOFs and the DOFs with a constant force term.
+    /// A vehicle is checked before use (`Vehicle::problems`), so its structure builds.
     pub fn of(vehicle: &crate::model::Vehicle) -> ParamLayout {
-        ParamLayout::with_constant(&vehicle.dofs, &vehicle.constant_force)
+        ParamLayout::build(
+            vehicle.structure,
+            &vehicle.dofs,
+            &vehicle.constant_force,
+            &vehicle.custom_terms.clone().unwrap_or_default(),
+        )
+        .expect("a checked vehicle's structure")
     }
 
+    /// The diagonal structure over `dofs` with constant forces on `constant`.
     pub fn with_constant(dofs: &[Dof], constant: &[Dof]) -> ParamLayout {
-        let constant = dofs
+        ParamLayout::build(Structure::Diagonal, dofs, constant, &CustomTerms::default())
+            .expect("the diagonal structure always builds")
+    }
+
+    pub fn build(
+        structure: Structure,
+        dofs: &[Dof],
+        constant: &[Dof],
+        custom: &CustomTerms,
+    ) -> Result<ParamLayout, String> {
+        let constant: Vec<Dof> = dofs
             .iter()
             .copied()
             .filter(|d| constant.contains(d))
             .collect();
-        ParamLayout {
+        let mut terms = structure.terms(dofs, &constant, custom)?;
+        if structure == Structure::Diagonal {
+            // Seed 001 Table 1 order: the vehicle's DOF order within each group.
+            let pos = |t: &Term| dofs.iter().position(|d| *d == t.dof());
+            terms.sort_by_key(|t| (t.group() as usize, pos(t)));
+        }
+        Ok(ParamLayout {
             dofs: dofs.to_vec(),
             constant,
-        }
+            structure,
+            terms,
+        })
     }
 
     pub fn len(&self) -> usize {
-        3 * self.dofs.len() + self.constant.len()
+        self.terms.len()
     }
 
     pub fn is_empty(&self) -> bool {
-        self.dofs.is_empty()
+        self.terms.is_empty()
     }
 
-    /// Group and DOF of parameter `j`.
+    /// Group and DOF (equation) of parameter `j`.
     pub fn slot(&self, j: usize) -> (Group, Dof) {
-        let n = self.dofs.len();
-        if j >= 3 * n {
-            return (Group::Constant, self.constant[j - 3 * n]);
-        }
-        let group = [Group::AddedMass, Group::LinearDrag, Group::QuadraticDrag][j / n];
-        (group, self.dofs[j % n])
+        (self.terms[j].group(), self.terms[j].dof())
+    }
+
+    /// The index of a term, when the layout has it.
+    pub fn index_of(&self, t: Term) -> Option<usize> {
+        self.terms.iter().position(|x| *x == t)
     }
 
     pub fn name(&self, j: usize) -> String {
-        let (g, d) = self.slot(j);
-        let (f, v) = (d.force(), d.velocity());
-        match g {
-            Group::AddedMass => format!("{f}_{v}dot"),
-            Group::LinearDrag => format!("{f}_{v}"),
-            Group::QuadraticDrag => format!("{f}_{v}{v}"),
-            Group::Constant => format!("{f}_0"),
-        }
+        self.terms[j].name()
     }
 
     pub fn names(&self) -> Vec<String> {
-        (0..self.len()).map(|j| self.name(j)).collect()
+        self.terms.iter().map(|t| t.name()).collect()
     }
 
     /// The unit of coefficient `j`.
     pub fn unit(&self, j: usize) -> &'static str {
-        let (g, d) = self.slot(j);
-        match (g, d.is_angular()) {
-            (Group::AddedMass, false) => "kg",
-            (Group::AddedMass, true) => "kg m^2",
-            (Group::LinearDrag, false) => "N s/m",
-            (Group::LinearDrag, true) => "N m s/rad",
-            (Group::QuadraticDrag, false) => "N s^2/m^2",
-            (Group::QuadraticDrag, true) => "N m s^2/rad^2",
-            (Group::Constant, false) => "N",
-            (Group::Constant, true) => "N m",
-        }
+        self.terms[j].unit()
     }
 
     pub fn to_hydro(&self, theta: &[f64]) -> Hydro {
         let mut h = Hydro::default();
-        for (j, &value) in theta.iter().enumerate().take(self.len()) {
-            let (g, d) = self.slot(j);
-            let i = d.index();
-            match g {
-                Group::AddedMass => h.added[i] = value,
-                Group::LinearDrag => h.lin[i] = value,
-                Group::QuadraticDrag => h.quad[i] = value,
-                Group::Constant => h.constant[i] = value,
-            }
+        for (t, &value) in self.terms.iter().zip(theta) {
+            h.set(*t, value);
         }
         h
     }
 
     pub fn from_hydro(&self, h: &Hydro) -> Vec<f64> {
-        (0..self.len())
-            .map(|j| {
-                let (g, d) = self.slot(j);
-                let i = d.index();
-                match g {
-                    Group::AddedMass => h.added[i],
-                    Group::LinearDrag => h.lin[i],
-                    Group::QuadraticDrag => h.quad[i],
-                    Group::Constant => h.constant[i],
-                }
-            })
-            .collect()
+        self.terms.iter().map(|t| h.get(*t)).collect()
     }
 }
 

@@ -238,9 +238,9 @@ mod tests {
         let at_rest = growth_rate(&plant, &[0.0; 4]);
         assert!(at_rest < 0.0, "{at_rest}");
         // Surge at rest: -X_u / (m - X_udot), the slowest pole at rest is surge or sway.
-        let surge_pole = h.lin[0] / (v.mass_kg - h.added[0]);
-        let sway_pole = h.lin[1] / (v.mass_kg - h.added[1]);
-        let yaw_pole = h.lin[5] / (v.inertia_kg_m2.zz - h.added[5]);
+        let surge_pole = h.lin[0][0] / (v.mass_kg - h.added[0][0]);
+        let sway_pole = h.lin[1][1] / (v.mass_kg - h.added[1][1]);
+        let yaw_pole = h.lin[5][5] / (v.inertia_kg_m2.zz - h.added[5][5]);
         let slowest = surge_pole.max(sway_pole).max(yaw_pole);
         assert!((at_rest - slowest).abs() < 1e-4, "{at_rest} vs {slowest}");
 
@@ -251,10 +251,10 @@ mod tests {
         // eq. 6-7 with the added mass.
         let (m, iz) = (v.mass_kg, v.inertia_kg_m2.zz);
         let a = nalgebra::Matrix2::new(
-            h.lin[1] / (m - h.added[1]),
-            -(m - h.added[0]) * u / (m - h.added[1]),
-            (h.added[1] - h.added[0]) * u / (iz - h.added[5]),
-            h.lin[5] / (iz - h.added[5]),
+            h.lin[1][1] / (m - h.added[1][1]),
+            -(m - h.added[0][0]) * u / (m - h.added[1][1]),
+            (h.added[1][1] - h.added[0][0]) * u / (iz - h.added[5][5]),
+            h.lin[5][5] / (iz - h.added[5][5]),
         );
         let expect = a
             .complex_eigenvalues()

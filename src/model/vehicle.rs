@@ -3,22 +3,7 @@
 use crate::dof::Dof;
 use serde::{Deserialize, Serialize};
 
-/// Which terms of the hydrodynamic model are identified.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "snake_case")]
-pub enum Structure {
-    /// Diagonal added mass, linear and quadratic drag (seed 001 eq. 4-5).
-    #[default]
-    Diagonal,
-}
-
-impl Structure {
-    pub fn label(self) -> &'static str {
-        match self {
-            Structure::Diagonal => "diagonal",
-        }
-    }
-}
+pub use super::terms::{CustomTerms, Structure};
 
 /// Principal moments of inertia about the centre of gravity, kg m^2.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
@@ -43,8 +28,15 @@ pub struct Vehicle {
     pub inertia_kg_m2: Inertia,
     /// The DOFs the vehicle moves in, e.g. `[surge, sway, heave, yaw]`.
     pub dofs: Vec<Dof>,
+    /// Which terms are identified: `diagonal` (seed 001) or a parameter set of seed 003
+    /// Table I (`full_qd`, `diag_qd`, `diag_mass`, `diag_all`, `full_ld`, `custom`). A fit
+    /// stage may choose its own.
     #[serde(default)]
     pub structure: Structure,
+    /// The terms of `structure: custom`: a base set and terms added and removed by name
+    /// (`{base: full_qd, add: [K_p], remove: [K_pp]}`, seed 003's CUSTOM, when left out).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub custom_terms: Option<CustomTerms>,
     /// DOFs whose model carries a constant generalised force X_0 .. N_0 to identify: net
     /// buoyancy (heave), a steady tether pull, a thruster offset. Empty by default (CFD runs
     /// of a neutrally buoyant body have none).
@@ -69,6 +61,7 @@ impl Vehicle {
             },
             dofs: vec![Dof::Surge, Dof::Sway, Dof::Heave, Dof::Yaw],
             structure: Structure::Diagonal,
+            custom_terms: None,
             constant_force: Vec::new(),
             command_limits: Default::default(),
         }
@@ -131,6 +124,20 @@ impl Vehicle {
                     "command_limits.{d} must be a positive number (N or N m), not {l}"
                 ));
             }
+        }
+        if let Err(e) = crate::model::ParamLayout::build(
+            self.structure,
+            &self.dofs,
+            &self.constant_force,
+            &self.custom_terms.clone().unwrap_or_default(),
+        ) {
+            out.push(e);
+        }
+        if self.custom_terms.is_some() && self.structure != Structure::Custom {
+            out.push(format!(
+                "custom_terms is set but structure is {}: set structure: custom to use them",
+                self.structure.label()
+            ));
         }
         let mut seen = std::collections::BTreeSet::new();
         for d in &self.dofs {

@@ -52,6 +52,13 @@ pub struct Common {
     /// up), which a one-step fit would fold into the added mass.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub added_mass_window_s: Option<f64>,
+    /// The parameter set this fit identifies, when not the vehicle's (`full_qd`, `diag_qd`,
+    /// `diag_mass`, `diag_all`, `full_ld`, `custom`: seed 003 Table I; `diagonal`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub structure: Option<crate::model::Structure>,
+    /// The terms of `structure: custom`, when not the vehicle's.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub custom_terms: Option<crate::model::CustomTerms>,
 }
 
 impl Default for Common {
@@ -64,6 +71,8 @@ impl Default for Common {
             expected: BTreeMap::new(),
             reference_length_m: None,
             added_mass_window_s: None,
+            structure: None,
+            custom_terms: None,
         }
     }
 }
@@ -93,7 +102,9 @@ impl Default for Settings {
     }
 }
 
-const COMMON_KEYS: [&str; 7] = [
+const COMMON_KEYS: [&str; 9] = [
+    "structure",
+    "custom_terms",
     "method",
     "objective",
     "skip_start_s",
@@ -165,6 +176,30 @@ impl Serialize for Settings {
     }
 }
 
+impl Settings {
+    /// The body this fit identifies with the structure it identifies.
+    fn vehicle(&self, pipeline: &crate::model::Vehicle) -> anyhow::Result<crate::model::Vehicle> {
+        let mut v = self
+            .common
+            .vehicle
+            .clone()
+            .unwrap_or_else(|| pipeline.clone());
+        if let Some(s) = self.common.structure {
+            v.structure = s;
+        }
+        if self.common.custom_terms.is_some() {
+            v.custom_terms = self.common.custom_terms.clone();
+        }
+        let problems = v.problems();
+        anyhow::ensure!(
+            problems.is_empty(),
+            "this fit's model cannot be built: {}",
+            problems.join("; ")
+        );
+        Ok(v)
+    }
+}
+
 impl StageImpl for Settings {
     /// Only the settings the chosen method reads, so tuning the swarm does not rerun a
     /// least-squares fit (and a deterministic method shows no seed).
@@ -174,7 +209,7 @@ impl StageImpl for Settings {
 
     fn run(&self, ctx: &RunCtx) -> anyhow::Result<()> {
         let start = std::time::Instant::now();
-        let vehicle = self.common.vehicle.as_ref().unwrap_or(ctx.vehicle);
+        let vehicle = &self.vehicle(ctx.vehicle)?;
         let (cases, responses) = cfd_cases(ctx)?;
         let (runs, pool_responses, mut notes) = training_runs(ctx, vehicle)?;
         notes.extend(ctx.failed_notes());
@@ -214,6 +249,7 @@ impl StageImpl for Settings {
             objective: self.common.objective,
             settings: self.settings(),
             structure: vehicle.structure,
+            custom_terms: vehicle.custom_terms.clone(),
             dofs: vehicle.dofs.clone(),
             constant_force: id.constant_force,
             fit,

@@ -99,14 +99,17 @@ pub fn cfd_fit_plant(seed: u64) -> anyhow::Result<crate::model::Plant> {
 /// by 1 to 2.5 %, alternating in sign (the shipped CFD fit is 1.5 % off at worst).
 pub fn cfd_plant() -> crate::model::Plant {
     use crate::model::{Hydro, Plant, Vehicle};
-    let mut h = Hydro::reference();
+    let h = Hydro::reference();
     let mut k = 0;
-    for arr in [&mut h.added, &mut h.lin, &mut h.quad] {
-        for x in arr.iter_mut() {
+    let mut moved = |arr: [f64; 6]| {
+        arr.map(|x| {
             let f = [0.015, -0.02, 0.01, -0.025, 0.02, -0.01][k % 6];
-            *x *= 1.0 + f;
             k += 1;
-        }
-    }
-    Plant::new(&Vehicle::reference(), h)
+            x * (1.0 + f)
+        })
+    };
+    let added = moved(h.added_diag());
+    let lin = moved(h.lin_diag());
+    let quad = moved(h.quad_diag());
+    Plant::new(&Vehicle::reference(), Hydro::diagonal(added, lin, quad))
 }

@@ -139,7 +139,7 @@ pub struct WorldPlant {
 }
 
 fn drag(p: &Plant, i: usize, x: f64) -> f64 {
-    (p.hydro.lin[i] + p.hydro.quad[i] * x.abs()) * x
+    (p.hydro.lin[i][i] + p.hydro.quad[i][i][i] * x.abs()) * x
 }
 
 /// Cable paid out from an anchor at the surface to the vehicle: the horizontal run plus the

@@ -322,10 +322,11 @@ impl Scales {
                 Group::AddedMass => 5.0 * rigid_mass[d],
                 Group::LinearDrag => 3.0 * lin_bound[d].min(fmax[d] / v),
                 Group::QuadraticDrag => 3.0 * fmax[d] / (v * v),
-                // A constant force no larger than the largest force the rows need.
-                Group::Constant => fmax[d],
+                // A constant force (or buoyancy) no larger than the largest force the rows need.
+                Group::Constant | Group::Buoyancy => fmax[d],
             };
-            if g == Group::Constant {
+            if matches!(g, Group::Constant | Group::Buoyancy) || !reg.layout.terms[j].is_diagonal()
+            {
                 hi[j] = fmax[d];
             }
         }
@@ -333,9 +334,15 @@ impl Scales {
     }
 }
 
-/// The column of group `g` in DOF `d`, if the layout has one.
+/// The diagonal column of group `g` in DOF `d`, if the layout has one.
 fn column(reg: &Regression, g: Group, d: usize) -> Option<usize> {
-    (0..reg.cols()).find(|&j| reg.layout.slot(j) == (g, crate::dof::Dof::ALL[d]))
+    use crate::model::Term;
+    let t = match g {
+        Group::AddedMass => Term::Added(d, d),
+        Group::LinearDrag => Term::Linear(d, d),
+        _ => return None,
+    };
+    reg.layout.index_of(t)
 }
 
 /// The weighted L2 objective as a quadratic form (A, b, c): f = c - 2 b.theta + theta' A theta.
