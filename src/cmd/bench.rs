@@ -380,7 +380,7 @@ fn diagnosis() -> anyhow::Result<ExitCode> {
     let train: Vec<crate::io::Response> = fused
         .iter()
         .filter(|r| r.meta.role == crate::io::pool::Role::Train)
-        .filter_map(|r| r.as_response(&vehicle))
+        .filter_map(|r| r.as_response(&vehicle, None))
         .collect();
     let refs: Vec<&crate::io::Response> = train.iter().collect();
     let fit = crate::estimate::ols::Ols.fit(

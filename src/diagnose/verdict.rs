@@ -533,7 +533,7 @@ fn reestimate(
     let train: Vec<crate::io::Response> = fused
         .iter()
         .filter(|r| data.train.iter().any(|t| t.name == r.meta.run))
-        .filter_map(|r| r.as_response(vehicle))
+        .filter_map(|r| r.as_response(vehicle, None))
         .collect();
     let refs: Vec<&crate::io::Response> = train.iter().collect();
     let problem = crate::estimate::Regression::build(vehicle, &refs, 1.0);

@@ -3,6 +3,7 @@
 pub mod comparison;
 pub mod identify;
 mod kernels;
+pub mod median;
 pub mod method;
 pub mod ols;
 pub mod output_error;

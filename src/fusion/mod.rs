@@ -19,6 +19,7 @@ mod heading;
 pub mod kalman;
 pub mod nav;
 mod position;
+pub mod rotation;
 pub mod run;
 
 mod numeric;
@@ -149,6 +150,9 @@ pub struct Fused {
     pub y: Vec<f64>,
     pub z: Vec<f64>,
     pub psi: Vec<f64>,
+    /// Roll, pitch, p and q, for a vehicle that moves in them (empty otherwise).
+    #[serde(default)]
+    pub roll_pitch: rotation::RollPitch,
     pub stats: Stats,
 }
 
@@ -321,6 +325,7 @@ fn assemble(
         y,
         z,
         psi,
+        roll_pitch: Default::default(),
         stats,
     }
 }

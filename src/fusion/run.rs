@@ -36,6 +36,8 @@ pub struct FusedRun {
     pub meta: RunMeta,
     /// X, Y, Z, N per sample (the logged command).
     pub thrust: Vec<[f64; 4]>,
+    /// K, M per sample, when the command log has them (a vehicle actuated in roll and pitch).
+    pub moments: Vec<[f64; 2]>,
     pub fused: Fused,
     pub without_sonar: Option<Fused>,
 }
@@ -46,13 +48,38 @@ pub const TABLE_NO_SONAR: &str = "fused_without_sonar.parquet";
 const VEL: [&str; 4] = ["u", "v", "w", "r"];
 const TAU: [&str; 4] = ["X", "Y", "Z", "N"];
 
-pub fn write_table(path: &Path, thrust: &[[f64; 4]], f: &Fused) -> anyhow::Result<()> {
+pub fn write_table(
+    path: &Path,
+    thrust: &[[f64; 4]],
+    moments: &[[f64; 2]],
+    f: &Fused,
+) -> anyhow::Result<()> {
     let mut cols = vec![Column::new("t".into(), &f.t)];
     for (j, name) in TAU.iter().enumerate() {
         cols.push(Column::new(
             (*name).into(),
             thrust.iter().map(|r| r[j]).collect::<Vec<_>>(),
         ));
+    }
+    for (j, name) in ["K", "M"]
+        .iter()
+        .enumerate()
+        .filter(|_| !moments.is_empty())
+    {
+        let c: Vec<f64> = moments.iter().map(|r| r[j]).collect();
+        cols.push(Column::new((*name).into(), c));
+    }
+    let rp = &f.roll_pitch;
+    for (j, name) in ["p", "q"].iter().enumerate() {
+        if let (Some(v), Some(s)) = (&rp.rate[j], &rp.rate_std[j]) {
+            cols.push(Column::new((*name).into(), v));
+            cols.push(Column::new(format!("{name}_std").into(), s));
+        }
+    }
+    for (name, v) in [("roll", &rp.roll), ("pitch", &rp.pitch)] {
+        if !v.is_empty() {
+            cols.push(Column::new(name.into(), v));
+        }
     }
     for ((name, v), s) in VEL.iter().zip(&f.vel).zip(&f.std) {
         if let (Some(v), Some(s)) = (v, s) {
@@ -70,11 +97,10 @@ pub fn write_table(path: &Path, thrust: &[[f64; 4]], f: &Fused) -> anyhow::Resul
     Ok(())
 }
 
-fn read_table(
-    path: &Path,
-    known: [bool; 4],
-    stats: Stats,
-) -> anyhow::Result<(Vec<[f64; 4]>, Fused)> {
+/// The command (X Y Z N, and K M when logged) and the fused state of a stored table.
+type Table = (Vec<[f64; 4]>, Vec<[f64; 2]>, Fused);
+
+fn read_table(path: &Path, known: [bool; 4], stats: Stats) -> anyhow::Result<Table> {
     let df = ParquetReader::new(std::fs::File::open(path)?)
         .set_rechunk(true)
         .finish()?;
@@ -94,6 +120,24 @@ fn read_table(
             std[j] = Some(get(&format!("{}_std", VEL[j]))?);
         }
     }
+    let has = |name: &str| df.column(name).is_ok();
+    let opt = |name: &str| -> anyhow::Result<Option<Vec<f64>>> {
+        if has(name) {
+            get(name).map(Some)
+        } else {
+            Ok(None)
+        }
+    };
+    let moments = match (opt("K")?, opt("M")?) {
+        (Some(k), Some(m)) => k.into_iter().zip(m).map(|(k, m)| [k, m]).collect(),
+        _ => Vec::new(),
+    };
+    let roll_pitch = crate::fusion::rotation::RollPitch {
+        rate: [opt("p")?, opt("q")?],
+        rate_std: [opt("p_std")?, opt("q_std")?],
+        roll: opt("roll")?.unwrap_or_default(),
+        pitch: opt("pitch")?.unwrap_or_default(),
+    };
     let fused = Fused {
         t,
         vel,
@@ -102,22 +146,24 @@ fn read_table(
         y: get("y")?,
         z: get("z")?,
         psi: get("psi")?,
+        roll_pitch,
         stats,
     };
-    Ok((thrust, fused))
+    Ok((thrust, moments, fused))
 }
 
 /// Loads a run written by a `pool` stage.
 pub fn load(dir: &Path) -> anyhow::Result<FusedRun> {
     let meta: RunMeta = crate::fsutil::read_json(&dir.join(META))?;
-    let (thrust, fused) = read_table(&dir.join(TABLE), meta.known, meta.stats.clone())?;
+    let (thrust, moments, fused) = read_table(&dir.join(TABLE), meta.known, meta.stats.clone())?;
     let without_sonar = match &meta.stats_without_sonar {
-        Some(s) => Some(read_table(&dir.join(TABLE_NO_SONAR), meta.known, s.clone())?.1),
+        Some(s) => Some(read_table(&dir.join(TABLE_NO_SONAR), meta.known, s.clone())?.2),
         None => None,
     };
     Ok(FusedRun {
         meta,
         thrust,
+        moments,
         fused,
         without_sonar,
     })
@@ -157,32 +203,87 @@ impl FusedRun {
         self
     }
 
+    /// The fused velocity of DOF `d` (u, v, w, r from the fusion; p, q from the attitude
+    /// sensor), when the run has it.
+    pub fn velocity(&self, d: crate::dof::Dof) -> Option<&Vec<f64>> {
+        self.channel(d, false)
+    }
+
+    /// The standard deviation of [`FusedRun::velocity`].
+    pub fn velocity_std(&self, d: crate::dof::Dof) -> Option<&Vec<f64>> {
+        self.channel(d, true)
+    }
+
+    fn channel(&self, d: crate::dof::Dof, std: bool) -> Option<&Vec<f64>> {
+        let f = &self.fused;
+        let rp = &f.roll_pitch;
+        match d.index() {
+            3 | 4 if std => rp.rate_std[d.index() - 3].as_ref(),
+            3 | 4 => rp.rate[d.index() - 3].as_ref(),
+            _ => {
+                let j = POOL_DOFS.iter().position(|x| *x == d)?;
+                if std {
+                    f.std[j].as_ref()
+                } else {
+                    f.vel[j].as_ref()
+                }
+            }
+        }
+    }
+
+    /// The logged command at sample `k` as a 6-vector X Y Z K M N (K and M zero when the log
+    /// has none).
+    pub fn tau(&self, k: usize) -> crate::model::Vec6 {
+        let c = self.thrust[k];
+        let [kk, m] = self.moments.get(k).copied().unwrap_or([0.0; 2]);
+        [c[0], c[1], c[2], kk, m, c[3]]
+    }
+
+    /// Roll and pitch at sample `k` (level where no sensor gave them).
+    pub fn attitude(&self, k: usize) -> [f64; 2] {
+        let rp = &self.fused.roll_pitch;
+        let at = |v: &Vec<f64>| v.get(k).copied().filter(|x| x.is_finite()).unwrap_or(0.0);
+        [at(&rp.roll), at(&rp.pitch)]
+    }
+
     /// The run as a response table for the equation-error fit: the command as loaded (see
     /// [`load_for`], which clips it at the vehicle's limits), the fused velocity and its time
-    /// derivative. The fused
-    /// velocity is the smoother's state, so its central difference is smooth where a
-    /// difference of raw samples would be noise. None when a DOF of the vehicle was not fused
-    /// (the Coriolis terms need every velocity).
-    pub fn as_response(&self, vehicle: &crate::model::Vehicle) -> Option<crate::io::Response> {
+    /// derivative, and the attitude. The fused velocity is the smoother's state, so its
+    /// central difference is smooth where a difference of raw samples would be noise. With a
+    /// median `filter` (seed 003), translational velocities are cleaned before they are
+    /// differentiated and angular accelerations after. None when a DOF of the vehicle was not
+    /// fused (the Coriolis terms need every velocity).
+    pub fn as_response(
+        &self,
+        vehicle: &crate::model::Vehicle,
+        filter: Option<&crate::estimate::median::MedianFilter>,
+    ) -> Option<crate::io::Response> {
+        use crate::estimate::median::reject;
         use crate::io::response::{Series, Source, differentiate};
+        let t = self.fused.t.clone();
         let mut r = crate::io::Response {
-            t: self.fused.t.clone(),
+            attitude: (0..t.len()).map(|k| self.attitude(k)).collect(),
+            t,
             dofs: Default::default(),
-            attitude: Vec::new(),
         };
-        for (j, d) in POOL_DOFS
+        for d in crate::dof::Dof::ALL
             .iter()
-            .enumerate()
-            .filter(|(_, d)| vehicle.dofs.contains(d))
+            .filter(|d| vehicle.dofs.contains(d))
         {
-            let v = self.fused.vel[j].as_ref()?;
-            let force = self.thrust.iter().map(|c| c[j]).collect();
-            let accel = differentiate(&r.t, v);
+            let mut v = self.velocity(*d)?.clone();
+            if let (Some(f), false) = (filter, d.is_angular()) {
+                v = reject(&v, f.length, f.width_m_s).0;
+            }
+            let mut accel = differentiate(&r.t, &v);
+            if let (Some(f), true) = (filter, d.is_angular()) {
+                accel = reject(&accel, f.length, f.width_deg_s2.to_radians()).0;
+            }
+            let force = (0..r.t.len()).map(|k| self.tau(k)[d.index()]).collect();
             r.dofs.insert(
                 *d,
                 Series {
                     force,
-                    velocity: v.clone(),
+                    velocity: v,
                     accel,
                     force_source: Source::Column,
                     accel_source: Source::Differentiated,
@@ -194,11 +295,9 @@ impl FusedRun {
 
     /// Which of the vehicle's DOFs this run lacks a fused velocity for.
     pub fn missing_dofs(&self, vehicle: &crate::model::Vehicle) -> Vec<crate::dof::Dof> {
-        POOL_DOFS
-            .iter()
-            .enumerate()
-            .filter(|(j, d)| vehicle.dofs.contains(d) && self.fused.vel[*j].is_none())
-            .map(|(_, d)| *d)
+        crate::dof::Dof::ALL
+            .into_iter()
+            .filter(|d| vehicle.dofs.contains(d) && self.velocity(*d).is_none())
             .collect()
     }
 }
@@ -233,11 +332,13 @@ mod tests {
             y: vec![],
             z: vec![],
             psi: vec![],
+            roll_pitch: Default::default(),
             stats: Stats::default(),
         };
         let run = FusedRun {
             meta,
             thrust: vec![[80.0, -10.0, -70.0, 20.0], [10.0, 10.0, 10.0, -12.0]],
+            moments: Vec::new(),
             fused,
             without_sonar: None,
         };

@@ -82,15 +82,17 @@ pub fn parse(
 
 /// As [`parse`], but rows that repeat a time stamp are kept: a log written by receive time
 /// holds many distinct rows within one tick of its clock, which only a clock repair
-/// ([`super::timing`]) can place; call [`Log::dedupe_times`] when no repair applies.
+/// ([`super::timing`]) can place; call [`Log::dedupe_times`] when no repair applies. Only the
+/// first `required` columns must be there (the others are NaN when missing).
 pub fn parse_keeping_repeats(
     path: &str,
     text: &str,
     columns: &[&str],
+    required: usize,
     what: &str,
     min_rows: usize,
 ) -> Result<Log, InputError> {
-    parse_columns(path, text, columns, columns.len(), what, min_rows)
+    parse_columns(path, text, columns, required, what, min_rows)
 }
 
 /// As [`parse`], but only `t` and the first `required - 1` data columns must be there; the

@@ -45,7 +45,7 @@ pub struct RunMeta {
 pub struct PoolRun {
     pub name: String,
     pub meta: RunMeta,
-    /// t, X, Y, Z, N.
+    /// t, X, Y, Z, N, and K, M when the vehicle is commanded in roll and pitch.
     pub thrust: Log,
     /// t, x, y, z.
     pub uwb: Option<Log>,
@@ -62,7 +62,9 @@ pub struct PoolRun {
     pub repairs: Vec<String>,
 }
 
-pub const THRUST: [&str; 5] = ["t", "X_N", "Y_N", "Z_N", "N_Nm"];
+pub const THRUST: [&str; 7] = ["t", "X_N", "Y_N", "Z_N", "N_Nm", "K_Nm", "M_Nm"];
+/// The thrust log's columns every run has (K and M only a vehicle actuated in roll and pitch).
+const THRUST_REQUIRED: usize = 5;
 pub const UWB: [&str; 4] = ["t", "x_m", "y_m", "z_m"];
 pub const SONAR: [&str; 3] = ["t", "x_m", "y_m"];
 pub const IMU: [&str; 10] = [
@@ -208,13 +210,20 @@ fn read_thrust(root: &Path, dir: &str, files: &[String]) -> Result<(String, Log)
     let thrust_path = find(files, "thrust.csv").ok_or_else(|| {
         InputError::file(format!("{dir}/thrust.csv"), "the run has no thrust log", "add thrust.csv (t,X_N,Y_N,Z_N,N_Nm): without the commanded force the model cannot be simulated")
     })?;
-    let thrust = csvlog::parse_keeping_repeats(
+    let mut thrust = csvlog::parse_keeping_repeats(
         &thrust_path,
         &read(root, &thrust_path)?,
         &THRUST,
+        THRUST_REQUIRED,
         "thrust log",
         10,
     )?;
+    // A 4-DOF vehicle's log has no roll and pitch moments; that is not worth a note.
+    if !thrust.has(4) && !thrust.has(5) {
+        thrust
+            .notes
+            .retain(|n| !n.contains("no K_Nm, M_Nm columns"));
+    }
     Ok((thrust_path, thrust))
 }
 

@@ -59,6 +59,11 @@ pub struct Common {
     /// The terms of `structure: custom`, when not the vehicle's.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub custom_terms: Option<crate::model::CustomTerms>,
+    /// Seed 003's median outlier filter on the pool runs' velocities (translational) and
+    /// accelerations (angular) before the regression: `median_filter: {}` for its values
+    /// (length 9, 0.03 m/s, 0.3 deg/s^2). Off when not set.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub median_filter: Option<estimate::median::MedianFilter>,
 }
 
 impl Default for Common {
@@ -73,6 +78,7 @@ impl Default for Common {
             added_mass_window_s: None,
             structure: None,
             custom_terms: None,
+            median_filter: None,
         }
     }
 }
@@ -102,7 +108,8 @@ impl Default for Settings {
     }
 }
 
-const COMMON_KEYS: [&str; 9] = [
+const COMMON_KEYS: [&str; 10] = [
+    "median_filter",
     "structure",
     "custom_terms",
     "method",
@@ -211,7 +218,8 @@ impl StageImpl for Settings {
         let start = std::time::Instant::now();
         let vehicle = &self.vehicle(ctx.vehicle)?;
         let (cases, responses) = cfd_cases(ctx)?;
-        let (runs, pool_responses, mut notes) = training_runs(ctx, vehicle)?;
+        let (runs, pool_responses, mut notes) =
+            training_runs(ctx, vehicle, self.common.median_filter.as_ref())?;
         notes.extend(ctx.failed_notes());
         let data = identify::Data {
             vehicle,
@@ -304,6 +312,7 @@ fn cfd_cases(ctx: &RunCtx) -> anyhow::Result<(Vec<CaseRef>, Vec<crate::io::Respo
 fn training_runs(
     ctx: &RunCtx,
     vehicle: &crate::model::Vehicle,
+    filter: Option<&estimate::median::MedianFilter>,
 ) -> anyhow::Result<(Vec<RunRef>, Vec<crate::io::Response>, Vec<String>)> {
     let (mut refs, mut responses, mut notes) = (Vec::new(), Vec::new(), Vec::new());
     for up in ctx.upstream_of(Artifact::PoolRuns) {
@@ -311,7 +320,7 @@ fn training_runs(
         if run.meta.role != crate::io::pool::Role::Train {
             continue;
         }
-        match run.as_response(vehicle) {
+        match run.as_response(vehicle, filter) {
             Some(r) => {
                 refs.push(RunRef {
                     id: up.id.clone(),

@@ -26,12 +26,18 @@ impl StageImpl for Settings {
     fn run(&self, ctx: &RunCtx) -> anyhow::Result<()> {
         let run = load_run(ctx)?;
         ctx.progress.set_message(format!("fusing {}", run.name));
-        let fused = fusion::fuse(&run, &self.fusion);
+        let mut fused = fusion::fuse(&run, &self.fusion);
+        let rolls = [crate::dof::Dof::Roll, crate::dof::Dof::Pitch];
+        if ctx.vehicle.dofs.iter().any(|d| rolls.contains(d)) {
+            let mut notes = Vec::new();
+            fused.roll_pitch = fusion::rotation::fuse(&run, &fused.t, &mut notes);
+            fused.stats.notes.extend(notes);
+        }
         let without_sonar = self.fuse_without_sonar(&run);
-        let thrust = thrust_rows(&run);
-        run::write_table(&ctx.out.join(run::TABLE), &thrust, &fused)?;
+        let (thrust, moments) = thrust_rows(&run);
+        run::write_table(&ctx.out.join(run::TABLE), &thrust, &moments, &fused)?;
         if let Some(f) = &without_sonar {
-            run::write_table(&ctx.out.join(run::TABLE_NO_SONAR), &thrust, f)?;
+            run::write_table(&ctx.out.join(run::TABLE_NO_SONAR), &thrust, &moments, f)?;
         }
         let sensors = run.sensors().iter().map(|(n, _)| n.to_string()).collect();
         let mut notes = run.notes.clone();
@@ -82,18 +88,21 @@ fn load_run(ctx: &RunCtx) -> anyhow::Result<pool::PoolRun> {
     Ok(pool::load(ctx.root, &dir, &files)?)
 }
 
-/// The logged thrust, one [X, Y, Z, N] row per sample.
-fn thrust_rows(run: &pool::PoolRun) -> Vec<[f64; 4]> {
-    (0..run.thrust.len())
-        .map(|k| {
-            [
-                run.thrust.cols[0][k],
-                run.thrust.cols[1][k],
-                run.thrust.cols[2][k],
-                run.thrust.cols[3][k],
-            ]
-        })
-        .collect()
+/// The logged thrust, one [X, Y, Z, N] row per sample, and one [K, M] row per sample when
+/// the log has them (a missing one of the two is zero: not commanded).
+fn thrust_rows(run: &pool::PoolRun) -> (Vec<[f64; 4]>, Vec<[f64; 2]>) {
+    let c = &run.thrust.cols;
+    let xyzn = (0..run.thrust.len())
+        .map(|k| [c[0][k], c[1][k], c[2][k], c[3][k]])
+        .collect();
+    let given = |j: usize| run.thrust.has(j);
+    let km = match given(4) || given(5) {
+        true => (0..run.thrust.len())
+            .map(|k| [4, 5].map(|j| if given(j) { c[j][k] } else { 0.0 }))
+            .collect(),
+        false => Vec::new(),
+    };
+    (xyzn, km)
 }
 
 /// The run folder: the longest common folder of its files.

@@ -53,6 +53,7 @@ pub fn fuse_folder(root: &std::path::Path, name: &str) -> anyhow::Result<FusedRu
     Ok(FusedRun {
         meta,
         thrust,
+        moments: Vec::new(),
         fused,
         without_sonar: None,
     })

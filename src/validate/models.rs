@@ -136,7 +136,7 @@ fn cross_validate(
         .iter()
         .filter(|r| r.meta.role == crate::io::pool::Role::Train)
     {
-        let Some(resp) = train.as_response(vehicle) else {
+        let Some(resp) = train.as_response(vehicle, None) else {
             notes.push(format!(
                 "{}: not every DOF was fused, so no model was re-estimated on it",
                 train.meta.run

@@ -4,7 +4,7 @@
 
 use super::{Metrics, Whiteness};
 use crate::dof::Dof;
-use crate::fusion::run::{FusedRun, POOL_DOFS};
+use crate::fusion::run::FusedRun;
 use crate::model::stability::{Horizon, Stability};
 use crate::model::{Plant, Vec6};
 use serde::{Deserialize, Serialize};
@@ -92,11 +92,7 @@ pub fn sim_file(model: &str, run: &str) -> String {
 /// shooting, see [`crate::model::stability`]), and the stability that chose the window.
 pub fn simulate_run(plant: &Plant, run: &FusedRun, horizon: Horizon) -> (Vec<Vec6>, Stability) {
     let t = &run.fused.t;
-    let tau: Vec<Vec6> = run
-        .thrust
-        .iter()
-        .map(|c| [c[0], c[1], c[2], 0.0, 0.0, c[3]])
-        .collect();
+    let tau: Vec<Vec6> = (0..t.len()).map(|k| run.tau(k)).collect();
     // A window after the first starts from the recording's centred mean over five samples, so
     // that one sample's noise is not carried through it.
     let fused_at = |k: usize| -> Vec6 {
@@ -106,8 +102,8 @@ pub fn simulate_run(plant: &Plant, run: &FusedRun, horizon: Horizon) -> (Vec<Vec
         } else {
             (k.saturating_sub(2), (k + 2).min(t.len() - 1))
         };
-        for (j, d) in POOL_DOFS.iter().enumerate() {
-            if let Some(v) = &run.fused.vel[j] {
+        for d in Dof::ALL {
+            if let Some(v) = run.velocity(d) {
                 nu[d.index()] = v[a..=b].iter().sum::<f64>() / (b - a + 1) as f64;
             }
         }
@@ -124,7 +120,8 @@ pub fn simulate_run(plant: &Plant, run: &FusedRun, horizon: Horizon) -> (Vec<Vec
         let (a, b) = (w[0], w[1]);
         // Each window runs to the next anchor's time; its last sample is the next window's first.
         let end = (b + 1).min(t.len());
-        let mut sim = plant.simulate(&t[a..end], &tau[a..end], fused_at(a), 0.01);
+        let mut sim =
+            plant.simulate_from(&t[a..end], &tau[a..end], fused_at(a), run.attitude(a), 0.01);
         sim.truncate(b - a);
         out.extend(sim);
     }
@@ -142,8 +139,8 @@ pub fn score_run(vehicle_dofs: &[Dof], run: &FusedRun, sim: &[Vec6], max_lag_s: 
         .iter()
         .any(|nu| nu.iter().any(|x| !x.is_finite() || x.abs() > 50.0));
     let mut dofs = BTreeMap::new();
-    for (j, d) in POOL_DOFS.iter().enumerate() {
-        let (Some(v), Some(s)) = (&run.fused.vel[j], &run.fused.std[j]) else {
+    for d in &Dof::ALL {
+        let (Some(v), Some(s)) = (run.velocity(*d), run.velocity_std(*d)) else {
             continue;
         };
         if !vehicle_dofs.contains(d) {

@@ -82,6 +82,7 @@ pub(super) fn piloted_fast_runs(seed: u64) -> Vec<crate::fusion::run::FusedRun> 
             y: vec![],
             z: vec![],
             psi: vec![],
+            roll_pitch: Default::default(),
             stats: Default::default(),
         };
         let (mut vel, mut thrust) = ([vec![], vec![], vec![], vec![]], vec![]);
@@ -124,6 +125,7 @@ pub(super) fn piloted_fast_runs(seed: u64) -> Vec<crate::fusion::run::FusedRun> 
         out.push(crate::fusion::run::FusedRun {
             meta,
             thrust,
+            moments: Vec::new(),
             fused,
             without_sonar: None,
         });
