@@ -5,6 +5,7 @@ pub mod cfd;
 pub mod field;
 pub mod pool;
 pub mod scenario;
+pub mod six;
 pub mod world;
 
 /// Writes one twin run: its `files` into `cases_dir/<name>/`, its true motion and what it
