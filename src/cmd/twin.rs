@@ -90,6 +90,25 @@ pub fn field(root: &Path, out: &Path, truth: &Path, seed: u64) -> anyhow::Result
     Ok(ExitCode::SUCCESS)
 }
 
+pub fn six_dof(root: &Path, out: &Path, truth: &Path, seed: u64) -> anyhow::Result<ExitCode> {
+    let abs = |p: &Path| {
+        if p.is_absolute() {
+            p.to_path_buf()
+        } else {
+            root.join(p)
+        }
+    };
+    let trials = twin::six::default_trials();
+    let written = twin::six::render::write_trials(&abs(out), &abs(truth), &trials, seed)?;
+    eprintln!(
+        "hydrofit: wrote {} six-DOF trials to {} and their truth to {} (seed {seed})",
+        written.len(),
+        abs(out).display(),
+        abs(truth).display()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
 /// `hydrofit twin check-diagnosis`: the diagnosis on generated scenarios, each effect concealed
 /// alone at two magnitudes, pairs of effects, and nothing, for each seed; prints every verdict
 /// and the confusion table (concealed vs named).

@@ -97,6 +97,17 @@ fn pool_html(inp: &Inputs, accuracy: &[super::pool::FusionAccuracy]) -> anyhow::
         .comparison
         .as_ref()
         .map_or(String::new(), crate::report::compare::section);
+    let truth_file = inp
+        .truth_files
+        .iter()
+        .find(|p| p.rsplit('/').next() == Some(super::sets::TRUTH_PARAMETERS));
+    let truth = truth_file
+        .map(|p| super::sets::read_truth(&inp.root.join(p)))
+        .transpose()?;
+    let sets_html = inp.pool_scores.as_ref().map_or(String::new(), |(s, _)| {
+        super::sets::section(&inp.fits, s, truth.as_ref())
+    });
+    let compare_html = sets_html + &compare_html;
     let diagnosis_html = inp.diagnosis.as_ref().map_or(String::new(), |(d, figs)| {
         crate::report::diagnose::section(d, figs)
     });

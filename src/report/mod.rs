@@ -8,3 +8,4 @@ pub mod html;
 pub mod json;
 pub mod openfoam;
 pub mod pool;
+pub mod sets;

@@ -246,6 +246,15 @@ impl StageImpl for Settings {
         )?;
         notes.extend(id.notes);
         let mut fit = id.fit;
+        let theta: Vec<f64> = fit.parameters.iter().map(|p| p.value).collect();
+        let layout = crate::model::ParamLayout::of(vehicle);
+        let plant = crate::model::Plant::new(vehicle, layout.to_hydro(&theta));
+        if let Some(why) = plant.mass_problem() {
+            anyhow::bail!(
+                "the identified {} model is refused: {why}\n  help: a structure with fewer mass terms (diag_mass, diag_all), or runs that excite the coupled DOFs more, give a physical mass matrix",
+                vehicle.structure.label()
+            );
+        }
         if per_metre_of_span(&cases, runs.len())? {
             for p in &mut fit.parameters {
                 p.unit = crate::model::params::per_metre_of_span(&p.unit);
