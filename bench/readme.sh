@@ -100,6 +100,14 @@ rate=$(alone "$out/oe.txt")
 bound=$(pick "$out/oe.txt" 's/.*(\([0-9.]*x\) from the bound).*/\1/p')
 peak=$(pick "$out/oe.txt" 's/.*FMA peak on [0-9]* threads): \([0-9.]*\) GFLOP.*/\1/p')
 row "output-error objective: the 33 twin CFD cases simulated (\`hydrofit bench --objective output\`; target within 4x of the bound)" "$ms ms per evaluation in QPSO; alone $rate, $bound from the measured FMA peak ($peak GFLOP/s)"
+"$bin" bench --objective six-dof >"$out/six.txt"
+size=$(pick "$out/six.txt" 's/.*(CUSTOM): \([0-9]*\) rows x \([0-9]*\) terms.*/\1 rows x \2 terms/p')
+ols=$(pick "$out/six.txt" 's/.*ols solve.*(build + solve \([0-9.]*\) ms).*/\1/p')
+tls=$(pick "$out/six.txt" 's/.*tls solve.*(build + solve \([0-9.]*\) ms).*/\1/p')
+cstep=$(pick "$out/six.txt" 's/.*coupled (CUSTOM truth) *\([0-9]*\) ns.*/\1/p')
+dstep=$(pick "$out/six.txt" 's/.*simulation, diagonal *\([0-9]*\) ns.*/\1/p')
+row "seed 003's CUSTOM regression, $size, built and solved (\`hydrofit bench --objective six-dof\`; target well under 1 s)" "OLS $ols ms, TLS $tls ms"
+row "one RK4 step of a six-DOF model, scalar (same bench)" "coupled (241 terms) $cstep ns, diagonal $dstep ns"
 
 if [ "${SKIP_PYTHON:-0}" != 1 ]; then
   venv="${HYDROFIT_BENCH_VENV:-$HOME/.cache/hydrofit-bench-venv}"

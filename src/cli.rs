@@ -71,8 +71,9 @@ pub enum Command {
         #[arg(long, default_value = "l2")]
         norm: String,
         /// equation (seed 001 eq. 14), output (eq. 9: every candidate simulated on the
-        /// 33 twin CFD cases) or diagnosis (the whole diagnosis over 16 one-minute field-twin
-        /// runs, against its 10 s target).
+        /// 33 twin CFD cases), diagnosis (the whole diagnosis over 16 one-minute field-twin
+        /// runs, against its 10 s target) or six-dof (seed 003's 241-term regression built and
+        /// solved by QR and SVD, and the coupled model's simulation step).
         #[arg(long, default_value = "equation")]
         objective: String,
         /// Swarm size of the timed QPSO run.

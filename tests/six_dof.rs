@@ -146,11 +146,11 @@ fn tls_beats_ols_when_the_regressors_are_noisy() {
     let col_rms: Vec<f64> = (0..p).map(|j| rms(&|i| reg.phi[i * p + j])).collect();
     let y_rms = rms(&|i| reg.y[i]);
     let mut rng = hydrofit::rng::Rng::new(11);
-    for i in 0..n {
-        for j in 0..p {
-            reg.phi[i * p + j] += 0.1 * col_rms[j] * rng.normal();
+    for (row, y) in reg.phi.chunks_exact_mut(p).zip(reg.y.iter_mut()) {
+        for (x, r) in row.iter_mut().zip(&col_rms) {
+            *x += 0.1 * r * rng.normal();
         }
-        reg.y[i] += 0.1 * y_rms * rng.normal();
+        *y += 0.1 * y_rms * rng.normal();
     }
     let truth = l.from_hydro(&h);
     let err = |est: &[f64]| -> f64 {

@@ -67,7 +67,8 @@ pub fn run(
         "equation" => {}
         "output" => return output_error(population, iterations, export),
         "diagnosis" => return diagnosis(),
-        other => anyhow::bail!("--objective {other}: use equation, output or diagnosis"),
+        "six-dof" => return super::bench_six::run(),
+        other => anyhow::bail!("--objective {other}: use equation, output, diagnosis or six-dof"),
     }
     let reg = seed_001_problem(SEED_001_ROWS);
     let (k, p) = (reg.rows(), reg.cols());

@@ -1,6 +1,7 @@
 //! One file per subcommand.
 
 pub mod bench;
+pub mod bench_six;
 pub mod build;
 pub mod clean;
 pub mod graph;

@@ -5,6 +5,7 @@ pub mod identify;
 mod kernels;
 pub mod median;
 pub mod method;
+pub mod normal;
 pub mod ols;
 pub mod output_error;
 pub mod refine;

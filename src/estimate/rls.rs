@@ -55,7 +55,11 @@ impl Estimator for Rls {
         }
         super::ols::check_excitation(problem)?;
         let ones = problem.row_dof.iter().map(|d| (*d, 1.0)).collect();
-        let first = super::ols::solve(problem, &ones)?;
+        let first = super::ols::solve(
+            problem,
+            &ones,
+            super::normal::Normal::for_problem(problem).as_ref(),
+        )?;
         let sigma = super::ols::residual_sigma(problem, &first);
         let (n, p) = (problem.rows(), problem.cols());
         let lambda = opts.forgetting.clamp(0.9, 1.0);

@@ -33,7 +33,7 @@ pub fn combine(mut cfd: Regression, mut pool: Regression, notes: &mut Vec<String
 /// the RMS of its targets where that fit is not possible.
 pub fn source_sigma(reg: &Regression) -> BTreeMap<Dof, f64> {
     let ones: BTreeMap<Dof, f64> = reg.row_dof.iter().map(|d| (*d, 1.0)).collect();
-    match super::ols::solve(reg, &ones) {
+    match super::ols::solve(reg, &ones, super::normal::Normal::for_problem(reg).as_ref()) {
         Ok(theta) => super::ols::residual_sigma(reg, &theta),
         Err(_) => {
             let mut acc: BTreeMap<Dof, (f64, usize)> = BTreeMap::new();

@@ -25,28 +25,22 @@ impl Estimator for Tls {
         // Rows weighted per DOF as in OLS (first pass), columns equilibrated to unit RMS so
         // that no column's units decide which one absorbs the error.
         let ones = problem.row_dof.iter().map(|d| (*d, 1.0)).collect();
-        let first = super::ols::solve(problem, &ones)?;
+        let normal = super::normal::Normal::of(problem);
+        let big = (problem.cols() > super::normal::NORMAL_ABOVE_TERMS).then_some(&normal);
+        let first = super::ols::solve(problem, &ones, big)?;
         let sigma = super::ols::residual_sigma(problem, &first);
         let (n, p) = (problem.rows(), problem.cols());
-        let w: Vec<f64> = problem.row_dof.iter().map(|d| 1.0 / sigma[d]).collect();
-        let mut m = DMatrix::<f64>::from_fn(n, p + 1, |i, j| {
-            w[i] * if j < p {
-                problem.row(i)[j]
-            } else {
-                problem.y[i]
-            }
-        });
+        // [A y]^T W [A y], then each column scaled to unit RMS: D^-1 G D^-1.
+        let g = normal.weighted(&sigma);
         let scale: Vec<f64> = (0..=p)
-            .map(|j| (m.column(j).norm_squared() / n as f64).sqrt().max(1e-300))
+            .map(|j| (g[(j, j)] / n as f64).sqrt().max(1e-300))
             .collect();
-        for (j, s) in scale.iter().enumerate() {
-            m.column_mut(j).scale_mut(1.0 / s);
-        }
-        let theta_scaled = tls_solve(&(m.transpose() * &m))?;
+        let scaled = DMatrix::from_fn(p + 1, p + 1, |a, b| g[(a, b)] / (scale[a] * scale[b]));
+        let theta_scaled = tls_solve(&scaled)?;
         let theta: Vec<f64> = (0..p)
             .map(|j| theta_scaled[j] * scale[p] / scale[j])
             .collect();
-        let mut fit = super::ols::summarise(problem, &theta, &sigma);
+        let mut fit = super::ols::summarise_with(problem, &theta, &sigma, Some(&normal));
         for e in &mut fit.parameters {
             e.interval = None;
         }

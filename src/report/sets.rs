@@ -13,13 +13,14 @@ use std::fmt::Write as _;
 /// The file of true coefficients (`name,value` lines) a twin writes beside its runs' truth.
 pub const TRUTH_PARAMETERS: &str = "parameters.csv";
 
+/// One metric of a DOF's score.
+type Metric = fn(&crate::validate::Metrics) -> f64;
+
+/// The worst relative error so far and the term it is on.
+type Worst = Option<(f64, String)>;
+
 /// Mean of a metric over the runs of `role`, per DOF.
-fn mean_by_dof(
-    scores: &Scores,
-    model: &str,
-    role: &str,
-    metric: fn(&crate::validate::Metrics) -> f64,
-) -> BTreeMap<Dof, f64> {
+fn mean_by_dof(scores: &Scores, model: &str, role: &str, metric: Metric) -> BTreeMap<Dof, f64> {
     let mut sums: BTreeMap<Dof, (f64, usize)> = BTreeMap::new();
     let runs = scores
         .models
@@ -73,7 +74,7 @@ pub fn section(
         h,
         "<p>Every fit simulated under each trial's logged command, as the validation does. Mean absolute error on the trials it was identified from (<code>train</code>; cm/s for translations, deg/s for rotations, as seed 003 Table IV), and normalised mean absolute error, mean |v<sub>model</sub> − v<sub>meas</sub>| / mean |v<sub>meas</sub>|, on the trials held out (<code>validate</code>; Table V). The lowest of each column is in bold.</p>"
     );
-    let tables: [(&str, &str, fn(&crate::validate::Metrics) -> f64, bool); 2] = [
+    let tables: [(&str, &str, Metric, bool); 2] = [
         ("train", "MAE on the identification trials", |m| m.mae, true),
         (
             "validate",
@@ -172,7 +173,7 @@ fn against_truth(h: &mut String, fits: &[&FitResult], truth: &BTreeMap<String, f
     h.push_str("<table><tr><th>fit</th><th>diagonal terms: worst</th><th>buoyancy: worst</th><th>cross terms: RMS error / RMS truth</th></tr>\n");
     for f in fits {
         let layout = f.layout();
-        let (mut diag, mut buoy): (Option<(f64, String)>, Option<(f64, String)>) = (None, None);
+        let (mut diag, mut buoy): (Worst, Worst) = (None, None);
         let (mut cross_err, mut cross_true) = (0.0, 0.0);
         for (j, p) in f.fit.parameters.iter().enumerate() {
             let t = truth.get(&p.name).copied().unwrap_or(0.0);

@@ -54,14 +54,14 @@ pub fn truth() -> Hydro {
     // term of its row (a deterministic pattern, so the truth is the same everywhere).
     let scale = [120.0, 250.0, 300.0, 30.0, 70.0, 45.0];
     for k in 0..6 {
-        for i in 0..6 {
+        for (i, row_scale) in scale.iter().enumerate() {
             for j in 0..6 {
                 if i == j && j == k {
                     continue;
                 }
                 let s = ((i * 7 + j * 5 + k * 3) % 10) as f64 / 100.0 + 0.03;
                 let sign = if (i + 2 * j + k) % 3 == 0 { 1.0 } else { -1.0 };
-                h.quad[k][i][j] = sign * s * scale[i] * if i == j { 1.0 } else { 0.5 };
+                h.quad[k][i][j] = sign * s * row_scale * if i == j { 1.0 } else { 0.5 };
             }
         }
     }

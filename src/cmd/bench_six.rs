@@ -1,0 +1,117 @@
+//! `hydrofit bench --objective six-dof`: seed 003's largest regression (CUSTOM, 241 terms) on
+//! the six-DOF twin's Table II trial, built and solved by QR (OLS) and SVD (TLS), and the
+//! coupled model's simulation step against the diagonal one's.
+
+use crate::estimate::{self, Options, Regression};
+use crate::io::Response;
+use crate::io::response::{Series, Source};
+use crate::model::{ParamLayout, Plant, Vec6};
+use crate::twin::six;
+use std::process::ExitCode;
+use std::time::Instant;
+
+/// The Table II trial sampled at its command rate with the twin's exact accelerations.
+fn trial_response() -> Response {
+    let v = six::vehicle();
+    let trial = six::default_trials().remove(0);
+    let rec = six::fly(&six::Body::new(&v, &six::truth()), &v, &trial);
+    let idx: Vec<usize> = (0..rec.t.len()).step_by(six::COMMAND_EVERY).collect();
+    let mut r = Response {
+        t: idx.iter().map(|&k| rec.t[k]).collect(),
+        attitude: idx
+            .iter()
+            .map(|&k| [rec.eta[k][3], rec.eta[k][4]])
+            .collect(),
+        ..Default::default()
+    };
+    for d in crate::dof::Dof::ALL {
+        let i = d.index();
+        let col = |x: &Vec<[f64; 6]>| idx.iter().map(|&k| x[k][i]).collect::<Vec<f64>>();
+        let series = Series {
+            force: col(&rec.tau),
+            velocity: col(&rec.nu),
+            accel: col(&rec.nu_dot),
+            force_source: Source::Column,
+            accel_source: Source::Column,
+        };
+        r.dofs.insert(d, series);
+    }
+    r
+}
+
+/// The median of `reps` timings of `f`, s.
+fn median_time(reps: usize, mut f: impl FnMut()) -> f64 {
+    let mut t: Vec<f64> = (0..reps)
+        .map(|_| {
+            let s = Instant::now();
+            f();
+            s.elapsed().as_secs_f64()
+        })
+        .collect();
+    t.sort_by(f64::total_cmp);
+    t[reps / 2]
+}
+
+pub fn run() -> anyhow::Result<ExitCode> {
+    let v = six::vehicle();
+    let resp = trial_response();
+    let layout = ParamLayout::of(&v);
+    let opts = Options {
+        rigid_mass: v.rigid_mass(),
+        ..Options::default()
+    };
+    let mut reg = Regression::build_with(&layout, &v, &[&resp], 0.0);
+    let build = median_time(5, || {
+        reg = Regression::build_with(&layout, &v, &[&resp], 0.0)
+    });
+    println!(
+        "six-DOF regression (CUSTOM): {} rows x {} terms from {} samples of the Table II trial",
+        reg.rows(),
+        reg.cols(),
+        resp.len()
+    );
+    println!("  build        {:8.1} ms", 1e3 * build);
+    for method in ["ols", "tls"] {
+        let m = estimate::Method::parse(method, Default::default()).map_err(anyhow::Error::msg)?;
+        let s = median_time(5, || {
+            m.estimator
+                .fit(&reg, &opts)
+                .expect("the twin's trial is well posed");
+        });
+        println!(
+            "  {method} solve    {:8.1} ms (build + solve {:.1} ms)",
+            1e3 * s,
+            1e3 * (build + s)
+        );
+    }
+    simulation_step(&v, &resp);
+    Ok(ExitCode::SUCCESS)
+}
+
+/// ns per RK4 step of the coupled model and of a diagonal one, scalar, on the same trial.
+fn simulation_step(v: &crate::model::Vehicle, resp: &Response) {
+    let tau: Vec<Vec6> = (0..resp.len()).map(|k| resp.tau(k)).collect();
+    let steps: usize = resp
+        .t
+        .windows(2)
+        .map(|w| crate::model::dynamics::substeps(w[1] - w[0], 0.01))
+        .sum();
+    let h = six::truth();
+    let diag = crate::model::Hydro::diagonal(h.added_diag(), h.lin_diag(), h.quad_diag());
+    for (name, hydro) in [("coupled (CUSTOM truth)", h), ("diagonal", diag)] {
+        let p = Plant::new(v, hydro);
+        let s = median_time(5, || {
+            std::hint::black_box(p.simulate_from(
+                &resp.t,
+                &tau,
+                resp.nu(0),
+                resp.attitude(0),
+                0.01,
+            ));
+        });
+        println!(
+            "  simulation, {name:22} {:7.0} ns per RK4 step ({steps} steps)",
+            1e9 * s / steps as f64
+        );
+    }
+}
