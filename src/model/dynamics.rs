@@ -334,6 +334,49 @@ mod tests {
     }
 
     #[test]
+    fn the_diagonal_model_is_the_coupled_one_without_couplings() {
+        // A coupling of 1e-200 sends the plant down the coupled path (full mass matrix,
+        // Kirchhoff Coriolis, attitude) without changing any number that matters: the two
+        // paths must give the same accelerations and trajectories.
+        let mut v = Vehicle::reference();
+        v.dofs = crate::dof::Dof::ALL.to_vec();
+        v.inertia_kg_m2.xx = 0.9;
+        v.inertia_kg_m2.yy = 1.1;
+        let mut h = Hydro::reference();
+        for i in [3, 4] {
+            h.added[i][i] = -0.3;
+            h.lin[i][i] = -2.0;
+            h.quad[i][i][i] = -1.5;
+        }
+        let diag = Plant::new(&v, h);
+        h.quad[0][1][5] = 1e-200;
+        let coupled = Plant::new(&v, h);
+        assert!(!diag.is_coupled() && coupled.is_coupled());
+        let nu = [0.7, -0.3, 0.2, 0.1, -0.2, 0.4];
+        let tau = [40.0, -10.0, 5.0, 1.0, -2.0, 3.0];
+        let (a, b) = (diag.accel(&nu, &tau), coupled.accel(&nu, &tau));
+        for i in 0..6 {
+            assert!(
+                (a[i] - b[i]).abs() < 1e-12 * (1.0 + a[i].abs()),
+                "{i}: {} vs {}",
+                a[i],
+                b[i]
+            );
+        }
+        let t: Vec<f64> = (0..200).map(|k| k as f64 * 0.05).collect();
+        let taus = vec![tau; t.len()];
+        let (x, y) = (
+            diag.simulate(&t, &taus, nu, 0.01),
+            coupled.simulate(&t, &taus, nu, 0.01),
+        );
+        let worst = x
+            .iter()
+            .zip(&y)
+            .flat_map(|(p, q)| (0..6).map(move |i| (p[i] - q[i]).abs()));
+        assert!(worst.fold(0.0, f64::max) < 1e-9);
+    }
+
+    #[test]
     fn surge_reaches_closed_form_terminal_speed() {
         // Under a constant force F, X_u u + X_uu u^2 = -F at steady state.
         let v = Vehicle::reference();
