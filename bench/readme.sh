@@ -106,8 +106,10 @@ ols=$(pick "$out/six.txt" 's/.*ols solve.*(build + solve \([0-9.]*\) ms).*/\1/p'
 tls=$(pick "$out/six.txt" 's/.*tls solve.*(build + solve \([0-9.]*\) ms).*/\1/p')
 cstep=$(pick "$out/six.txt" 's/.*coupled (CUSTOM truth) *\([0-9]*\) ns.*/\1/p')
 dstep=$(pick "$out/six.txt" 's/.*simulation, diagonal *\([0-9]*\) ns.*/\1/p')
+clane=$(pick "$out/six.txt" 's/.*coupled, 8 per SIMD lane *\([0-9.]*\) ns per RK4 step per candidate (\([0-9.]*\) GFLOP.*/\1 ns (\2 GFLOP\/s)/p')
+dlane=$(pick "$out/six.txt" 's/.*diagonal, 8 per SIMD lane *\([0-9.]*\) ns.*/\1 ns/p')
 row "seed 003's CUSTOM regression, $size, built and solved (\`hydrofit bench --objective six-dof\`; target well under 1 s)" "OLS $ols ms, TLS $tls ms"
-row "one RK4 step of a six-DOF model, scalar (same bench)" "coupled (241 terms) $cstep ns, diagonal $dstep ns"
+row "one RK4 step of a six-DOF model (same bench)" "scalar: coupled (241 terms) $cstep ns, diagonal $dstep ns; eight candidates per SIMD pass, per candidate: coupled $clane, diagonal $dlane"
 
 if [ "${SKIP_PYTHON:-0}" != 1 ]; then
   venv="${HYDROFIT_BENCH_VENV:-$HOME/.cache/hydrofit-bench-venv}"

@@ -229,3 +229,34 @@ fn the_model_code_and_the_twin_agree_on_the_acceleration() {
         }
     }
 }
+
+#[test]
+fn the_output_error_of_a_coupled_model_is_zero_at_the_truth_only() {
+    // Output error (seed 001 eq. 9) on a coupled structure, through the coupled lane kernel:
+    // the twin's own trajectory is reproduced by its coefficients, not by coefficients 10 %
+    // off in the quadratic drag.
+    let v = six::vehicle();
+    let resp = exact_response(&fly(&six::truth(), 60.0), None);
+    let refs = [&resp];
+    let oe = hydrofit::estimate::output_error::OutputError::new(&v, &refs);
+    let l = layout(Structure::Custom);
+    let truth = l.from_hydro(&six::truth());
+    let off: Vec<f64> = truth
+        .iter()
+        .zip(&l.terms)
+        .map(|(x, t)| {
+            if t.group() == hydrofit::model::params::Group::QuadraticDrag {
+                1.1 * x
+            } else {
+                *x
+            }
+        })
+        .collect();
+    let rms = |r: Vec<f64>| (r.iter().map(|x| x * x).sum::<f64>() / r.len() as f64).sqrt();
+    let (at_truth, at_off) = (rms(oe.residuals(&l, &truth)), rms(oe.residuals(&l, &off)));
+    eprintln!("output error: {at_truth:.2e} at the truth, {at_off:.2e} 10 % off");
+    assert!(
+        at_truth < 1e-4 && at_off > 100.0 * at_truth,
+        "{at_truth} vs {at_off}"
+    );
+}

@@ -114,4 +114,30 @@ fn simulation_step(v: &crate::model::Vehicle, resp: &Response) {
             1e9 * s / steps as f64
         );
     }
+    // Eight candidates per pass, as the output-error objective simulates them.
+    let lanes = crate::model::lanes::LANES;
+    let coupled = crate::model::lanes_coupled::CoupledLanes::new(&vec![Plant::new(v, h); lanes]);
+    let start = (resp.nu(0), resp.attitude(0));
+    let s = median_time(5, || {
+        coupled.simulate(&resp.t, &tau, start, 0.01, &mut |_, nu| {
+            std::hint::black_box(nu);
+        })
+    });
+    let per = s / (steps * lanes) as f64;
+    let flops = crate::model::lanes_coupled::FLOPS_PER_STEP as f64;
+    println!(
+        "  simulation, coupled, {lanes} per SIMD lane {:7.1} ns per RK4 step per candidate ({:.1} GFLOP/s at {flops} flops a step)",
+        1e9 * per,
+        flops / per / 1e9
+    );
+    let diagonal = crate::model::lanes::LanePlants::new(&vec![Plant::new(v, diag); lanes]);
+    let s = median_time(5, || {
+        diagonal.simulate(&resp.t, &tau, resp.nu(0), 0.01, &mut |_, nu| {
+            std::hint::black_box(nu);
+        })
+    });
+    println!(
+        "  simulation, diagonal, {lanes} per SIMD lane {:6.1} ns per RK4 step per candidate",
+        1e9 * s / (steps * lanes) as f64
+    );
 }

@@ -98,8 +98,8 @@ impl<'a> OutputError<'a> {
     }
 
     /// [`OutputError::errors`] for coupled models (full mass matrix, cross drag, buoyancy that
-    /// turns with the attitude): one scalar simulation per model, the same errors in the
-    /// same order.
+    /// turns with the attitude), up to [`LANES`] at once with their own kernel
+    /// ([`crate::model::lanes_coupled`]): the same errors in the same order.
     fn errors_coupled(
         &self,
         layout: &crate::model::ParamLayout,
@@ -110,19 +110,16 @@ impl<'a> OutputError<'a> {
             .iter()
             .map(|t| Plant::new(self.vehicle, layout.to_hydro(t)))
             .collect();
+        let lp = crate::model::lanes_coupled::CoupledLanes::new(&plants);
         for (c, (r, w)) in self.responses.iter().zip(&self.weight).enumerate() {
             let cols = columns(r, w);
-            let sims: Vec<Vec<Vec6>> = plants
-                .iter()
-                .map(|p| p.simulate_from(&r.t, &self.taus[c], r.nu(0), r.attitude(0), MAX_STEP))
-                .collect();
-            for k in 0..r.len() {
+            let start = (r.nu(0), r.attitude(0));
+            lp.simulate(&r.t, &self.taus[c], start, MAX_STEP, &mut |k, nu| {
                 for (i, sw, v) in &cols {
-                    let at = |l: usize| &sims[l.min(sims.len() - 1)][k];
-                    let e: [f64; LANES] = std::array::from_fn(|l| sw * (at(l)[*i] - v[k]));
+                    let e: [f64; LANES] = std::array::from_fn(|l| sw * (nu[*i][l] - v[k]));
                     visit(&e);
                 }
-            }
+            });
         }
     }
 

@@ -164,6 +164,24 @@ impl Plant {
         &self.mass
     }
 
+    /// The mass matrix M_RB - M_A and its inverse over the free DOFs (zero rows and columns
+    /// elsewhere, and a zero inverse when the matrix is not positive definite).
+    pub fn mass_matrix(&self) -> (Mat6, Mat6) {
+        match &self.coupled {
+            Some(c) => (c.total, c.inverse),
+            None => {
+                let m = &self.mass;
+                let on = |i: usize| self.active[i] && m[i] > 0.0;
+                let diag = |f: &dyn Fn(usize) -> f64| -> Mat6 {
+                    std::array::from_fn(|i| {
+                        std::array::from_fn(|j| if i == j && on(i) { f(i) } else { 0.0 })
+                    })
+                };
+                (diag(&|i| m[i]), diag(&|i| 1.0 / m[i]))
+            }
+        }
+    }
+
     /// Whether the model couples DOFs (and needs the full mass matrix and the attitude).
     pub fn is_coupled(&self) -> bool {
         self.coupled.is_some()

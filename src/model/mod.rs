@@ -3,6 +3,7 @@
 pub mod attitude;
 pub mod dynamics;
 pub mod lanes;
+pub mod lanes_coupled;
 pub mod motion;
 pub mod params;
 pub mod pool;
