@@ -108,6 +108,9 @@ impl Page<'_> {
                 parameter_row(h, f, p);
             }
             h.push_str("</table>\n");
+            if f.fit.parameters.len() > FOLD_ABOVE {
+                h.push_str("</details>\n");
+            }
         }
     }
 
@@ -187,8 +190,9 @@ impl Page<'_> {
 fn fit_heading(h: &mut String, f: &FitResult) {
     let _ = write!(
         h,
-        "<h2 id=\"model-{s}\">Parameters — model <code>{s}</code></h2>\n<p>Method <code>{m}</code>, objective {o}, {n} equation rows from {c} CFD cases and {r} pool runs; regressor condition number {k}.</p>\n\
-         <table><tr><th>parameter</th><th>value</th><th>± std. error</th><th>unit</th><th>rel. error</th><th>provenance</th></tr>\n",
+        "<h2 id=\"model-{s}\">Parameters — model <code>{s}</code></h2>\n<p>Method <code>{m}</code>, objective {o}, {st} structure ({p} terms), {n} equation rows from {c} CFD cases and {r} pool runs; regressor condition number {k}.</p>\n",
+        st = f.structure.label(),
+        p = f.fit.parameters.len(),
         s = esc(&f.stage),
         m = esc(&f.method),
         o = f.objective.label(),
@@ -220,7 +224,20 @@ fn fit_heading(h: &mut String, f: &FitResult) {
             "<p class=\"small\">{e} objective evaluations; ± is the standard deviation over seeded restarts, the interval their range (see parameters.json).</p>"
         );
     }
+    // A coupled set's hundreds of terms are folded away; parameters.json has them all.
+    if f.fit.parameters.len() > FOLD_ABOVE {
+        let _ = writeln!(
+            h,
+            "<details><summary>All {} parameters of <code>{}</code></summary>",
+            f.fit.parameters.len(),
+            esc(&f.stage)
+        );
+    }
+    h.push_str("<table><tr><th>parameter</th><th>value</th><th>± std. error</th><th>unit</th><th>rel. error</th><th>provenance</th></tr>\n");
 }
+
+/// Parameter tables longer than this are folded (a `<details>` element, open on a click).
+const FOLD_ABOVE: usize = 40;
 
 /// One parameter of fit `f`: value, standard error, unit, relative error, whether it is
 /// identifiable, and a link to its provenance.
