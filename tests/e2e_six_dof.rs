@@ -122,6 +122,23 @@ fn six_parameter_sets_from_pool_trials_alone_rank_as_the_data_say() {
         assert!(((v - t) / t).abs() < tol, "{name}: {v} vs truth {t}");
     }
 
+    // Fusion in six DOF: p and q from the navigation log's rates, every velocity within a
+    // few millimetres (or milliradians) per second of the twin's true motion.
+    for r in json(dir, "reports/fusion.json")["runs"].as_array().unwrap() {
+        let rmse = &r["accuracy_against_truth"]["rmse"];
+        for (d, tol) in [
+            ("surge", 0.01),
+            ("sway", 0.01),
+            ("heave", 0.005),
+            ("roll", 0.005),
+            ("pitch", 0.005),
+            ("yaw", 0.005),
+        ] {
+            let e = rmse[d].as_f64().unwrap_or(f64::NAN);
+            assert!(e < tol, "{}: fused {d} {e} from the truth", r["run"]);
+        }
+    }
+
     let html = std::fs::read_to_string(dir.join("reports/index.html")).unwrap();
     assert!(
         html.contains("<h2 id=\"sets\">Parameter sets compared (seed 003, Tables IV and V)</h2>")

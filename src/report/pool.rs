@@ -27,8 +27,17 @@ pub struct FusionAccuracy {
 fn rmse_against(truth: &csvlog::Log, f: &Fused) -> (BTreeMap<Dof, f64>, BTreeMap<Dof, f64>) {
     let mut rmse = BTreeMap::new();
     let mut z = BTreeMap::new();
-    for (j, d) in POOL_DOFS.iter().enumerate() {
-        let (Some(v), Some(s)) = (&f.vel[j], &f.std[j]) else {
+    let rp = &f.roll_pitch;
+    let channels = POOL_DOFS
+        .iter()
+        .enumerate()
+        .map(|(j, d)| (*d, j, &f.vel[j], &f.std[j]))
+        .chain([
+            (Dof::Roll, 4, &rp.rate[0], &rp.rate_std[0]),
+            (Dof::Pitch, 5, &rp.rate[1], &rp.rate_std[1]),
+        ]);
+    for (d, j, v, s) in channels {
+        let (Some(v), Some(s), true) = (v, s, truth.has(j)) else {
             continue;
         };
         let (mut se, mut sz) = (0.0, 0.0);
@@ -38,8 +47,8 @@ fn rmse_against(truth: &csvlog::Log, f: &Fused) -> (BTreeMap<Dof, f64>, BTreeMap
             sz += (e / s[k]).powi(2);
         }
         let n = f.t.len().max(1) as f64;
-        rmse.insert(*d, (se / n).sqrt());
-        z.insert(*d, (sz / n).sqrt());
+        rmse.insert(d, (se / n).sqrt());
+        z.insert(d, (sz / n).sqrt());
     }
     (rmse, z)
 }
@@ -59,7 +68,8 @@ pub fn fusion_accuracy(
             continue;
         };
         let text = std::fs::read_to_string(root.join(path))?;
-        let truth = csvlog::parse(path, &text, &["t", "u", "v", "w", "r"], "truth file", 2)?;
+        let cols = ["t", "u", "v", "w", "r", "p", "q"];
+        let truth = csvlog::parse_subset(path, &text, &cols, "truth file", 2)?;
         let (rmse, z) = rmse_against(&truth, &run.fused);
         let rmse_without_sonar = run
             .without_sonar
@@ -376,15 +386,10 @@ fn within_band(traces: &[PoolTrace]) -> String {
 
 /// The traces of run `r`'s figure: each DOF with a fused velocity, its σ and a simulation.
 fn traces<'a>(r: &'a FusedRun, sim: &'a Simulated) -> Vec<PoolTrace<'a>> {
-    POOL_DOFS
+    Dof::ALL
         .iter()
-        .enumerate()
-        .filter_map(|(j, d)| {
-            let (v, s, m) = (
-                r.fused.vel[j].as_ref()?,
-                r.fused.std[j].as_ref()?,
-                sim.nu.get(d)?,
-            );
+        .filter_map(|d| {
+            let (v, s, m) = (r.velocity(*d)?, r.velocity_std(*d)?, sim.nu.get(d)?);
             Some(PoolTrace {
                 dof: *d,
                 t: &r.fused.t,

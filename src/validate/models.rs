@@ -73,7 +73,7 @@ fn score_model(
         let mut score = score_run(&vehicle.dofs, run, &sim, opts.max_lag_s);
         score.stability = Some(stability);
         scored.push(score);
-        let nu = POOL_DOFS
+        let nu = Dof::ALL
             .iter()
             .filter(|d| vehicle.dofs.contains(d))
             .map(|d| (*d, sim.iter().map(|x| x[d.index()]).collect()))
