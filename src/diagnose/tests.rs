@@ -206,10 +206,11 @@ fn two_concealed_effects_are_both_named() {
 #[test]
 fn drifted_drag_is_reported_as_drift_not_as_an_effect() {
     // The CFD model's quadratic drag 35 % too low in every DOF, nothing left out of the runs.
-    let mut plant = scenario::cfd_fit_plant(1).unwrap();
+    let mut h = scenario::cfd_fit_plant(1).unwrap().hydro;
     for i in 0..6 {
-        plant.hydro.quad[i][i][i] *= 0.65;
+        h.quad[i][i][i] *= 0.65;
     }
+    let plant = crate::model::Plant::new(&crate::model::Vehicle::reference(), h);
     let d = full(&scenario::fused_runs(&[], 5).unwrap(), &plant);
     assert!(
         d.baseline.validation_cost > 3.0 * d.baseline.noise_cost,

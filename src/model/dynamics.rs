@@ -121,11 +121,16 @@ pub fn substeps(span: f64, max_step: f64) -> usize {
 #[derive(Debug, Clone)]
 pub struct Plant {
     pub mrb: Vec6,
+    /// The coefficients the plant was built with; to change them, build a new plant (the
+    /// simulators read copies formed by [`Plant::new`]).
     pub hydro: Hydro,
     pub active: [bool; 6],
     /// M_RB - M_A on the diagonal, formed once (the simulators ask for the acceleration
     /// millions of times). A plant is built by [`Plant::new`] and not changed afterwards.
     mass: Vec6,
+    /// The diagonal linear and quadratic drag, side by side for the hot loop (the matrices of
+    /// `hydro` put them hundreds of bytes apart).
+    drag: [Vec6; 2],
     /// The inverse of the full M_RB - M_A over the active DOFs, for a coupled model; `None`
     /// for a diagonal one, whose accelerations are divisions.
     coupled: Option<Box<Coupled>>,
@@ -152,6 +157,7 @@ impl Plant {
         Plant {
             mrb,
             mass,
+            drag: [hydro.lin_diag(), hydro.quad_diag()],
             hydro,
             active,
             coupled,
@@ -201,23 +207,39 @@ impl Plant {
 
     /// nu_dot from eq. 2 solved for the acceleration at level trim; inactive DOFs stay at rest.
     pub fn accel(&self, nu: &Vec6, tau: &Vec6) -> Vec6 {
-        self.accel_at(nu, tau, &LEVEL)
+        match &self.coupled {
+            Some(c) => self.accel_coupled(c, nu, tau, &LEVEL),
+            None => self.accel_diagonal(nu, tau),
+        }
     }
 
     /// nu_dot with gravity along `g` in the body frame (it matters only to the buoyancy).
     pub fn accel_at(&self, nu: &Vec6, tau: &Vec6, g: &[f64; 3]) -> Vec6 {
-        if let Some(c) = &self.coupled {
-            return self.accel_coupled(c, nu, tau, g);
+        match &self.coupled {
+            Some(c) => self.accel_coupled(c, nu, tau, g),
+            None => self.accel_diagonal(nu, tau),
         }
+    }
+
+    /// The diagonal linear plus quadratic drag force in DOF `i` at velocity `x`.
+    #[inline]
+    pub fn diagonal_drag(&self, i: usize, x: f64) -> f64 {
+        (self.drag[0][i] + self.drag[1][i] * x.abs()) * x
+    }
+
+    /// The diagonal model's acceleration: divisions, no matrix (gravity does not enter it).
+    #[inline(always)]
+    fn accel_diagonal(&self, nu: &Vec6, tau: &Vec6) -> Vec6 {
         let m = &self.mass;
         let c = coriolis(m, nu);
-        let h = &self.hydro;
+        let [lin, quad] = &self.drag;
+        let constant = &self.hydro.constant;
         std::array::from_fn(|i| {
             if !self.active[i] || m[i] <= 0.0 {
                 return 0.0;
             }
-            let drag = (h.lin[i][i] + h.quad[i][i][i] * nu[i].abs()) * nu[i];
-            (tau[i] + h.constant[i] - c[i] + drag) / m[i]
+            let drag = (lin[i] + quad[i] * nu[i].abs()) * nu[i];
+            (tau[i] + constant[i] - c[i] + drag) / m[i]
         })
     }
 

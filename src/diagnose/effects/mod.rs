@@ -200,5 +200,5 @@ pub fn since_step(r: &Run, k: usize) -> f64 {
 
 /// Linear plus quadratic drag of the base plant in DOF `i` at velocity `x`.
 pub fn drag(p: &Plant, i: usize, x: f64) -> f64 {
-    (p.hydro.lin[i][i] + p.hydro.quad[i][i][i] * x.abs()) * x
+    p.diagonal_drag(i, x)
 }
