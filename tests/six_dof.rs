@@ -4,43 +4,8 @@
 //! with its own simulator (Fossen's matrix form), not the model code under test.
 
 use hydrofit::estimate::{self, Options, Regression};
-use hydrofit::io::Response;
-use hydrofit::io::response::{Series, Source};
 use hydrofit::model::{CustomTerms, Hydro, ParamLayout, Plant, Structure, Vehicle};
 use hydrofit::twin::six;
-
-/// The trial as a response table sampled at the command times: exact velocities, the
-/// simulator's own accelerations and the attitude (what a perfect sensor suite would give).
-fn exact_response(rec: &six::Record, noise: Option<(f64, u64)>) -> Response {
-    let idx: Vec<usize> = (0..rec.t.len()).step_by(six::COMMAND_EVERY).collect();
-    let mut rng = hydrofit::rng::Rng::new(noise.map_or(0, |n| n.1));
-    let sigma = noise.map_or(0.0, |n| n.0);
-    let mut r = Response {
-        t: idx.iter().map(|&k| rec.t[k]).collect(),
-        attitude: idx
-            .iter()
-            .map(|&k| [rec.eta[k][3], rec.eta[k][4]])
-            .collect(),
-        ..Default::default()
-    };
-    for d in hydrofit::dof::Dof::ALL {
-        let i = d.index();
-        // Angular channels get a tenth of the noise (rad/s against m/s).
-        let s = sigma * if d.is_angular() { 0.1 } else { 1.0 };
-        let mut n = |x: f64, f: f64| x + f * s * rng.normal();
-        r.dofs.insert(
-            d,
-            Series {
-                force: idx.iter().map(|&k| rec.tau[k][i]).collect(),
-                velocity: idx.iter().map(|&k| n(rec.nu[k][i], 1.0)).collect(),
-                accel: idx.iter().map(|&k| n(rec.nu_dot[k][i], 5.0)).collect(),
-                force_source: Source::Column,
-                accel_source: Source::Column,
-            },
-        );
-    }
-    r
-}
 
 fn fly(h: &Hydro, seconds: f64) -> six::Record {
     let v = six::vehicle();
@@ -87,7 +52,7 @@ fn every_set_that_contains_the_truth_recovers_it() {
     let v = six::vehicle();
     // The twin's truth is in CUSTOM (and in no other set: it has K_p and no K_pp).
     let rec = fly(&six::truth(), 240.0);
-    let resp = exact_response(&rec, None);
+    let resp = rec.response();
     let l = layout(Structure::Custom);
     let start = std::time::Instant::now();
     let reg = Regression::build_with(&l, &v, &[&resp], 0.0);
@@ -109,7 +74,7 @@ fn every_set_that_contains_the_truth_recovers_it() {
     diag.quad[3][3][3] = -35.0;
     diag.net_weight = six::truth().net_weight;
     diag.moment = six::truth().moment;
-    let resp = exact_response(&fly(&diag, 240.0), None);
+    let resp = fly(&diag, 240.0).response();
     for s in [
         Structure::DiagAll,
         Structure::DiagQd,
@@ -137,7 +102,7 @@ fn tls_beats_ols_when_the_regressors_are_noisy() {
     h.quad[3][3][3] = -35.0;
     h.net_weight = 4.0;
     h.moment = six::truth().moment;
-    let resp = exact_response(&fly(&h, 240.0), None);
+    let resp = fly(&h, 240.0).response();
     let l = layout(Structure::DiagAll);
     let mut reg = Regression::build_with(&l, &v, &[&resp], 0.0);
     let (n, p) = (reg.rows(), reg.cols());
@@ -236,7 +201,7 @@ fn the_output_error_of_a_coupled_model_is_zero_at_the_truth_only() {
     // the twin's own trajectory is reproduced by its coefficients, not by coefficients 10 %
     // off in the quadratic drag.
     let v = six::vehicle();
-    let resp = exact_response(&fly(&six::truth(), 60.0), None);
+    let resp = fly(&six::truth(), 60.0).response();
     let refs = [&resp];
     let oe = hydrofit::estimate::output_error::OutputError::new(&v, &refs);
     let l = layout(Structure::Custom);

@@ -4,7 +4,6 @@
 
 use crate::estimate::{self, Options, Regression};
 use crate::io::Response;
-use crate::io::response::{Series, Source};
 use crate::model::{ParamLayout, Plant, Vec6};
 use crate::twin::six;
 use std::process::ExitCode;
@@ -14,29 +13,7 @@ use std::time::Instant;
 fn trial_response() -> Response {
     let v = six::vehicle();
     let trial = six::default_trials().remove(0);
-    let rec = six::fly(&six::Body::new(&v, &six::truth()), &v, &trial);
-    let idx: Vec<usize> = (0..rec.t.len()).step_by(six::COMMAND_EVERY).collect();
-    let mut r = Response {
-        t: idx.iter().map(|&k| rec.t[k]).collect(),
-        attitude: idx
-            .iter()
-            .map(|&k| [rec.eta[k][3], rec.eta[k][4]])
-            .collect(),
-        ..Default::default()
-    };
-    for d in crate::dof::Dof::ALL {
-        let i = d.index();
-        let col = |x: &Vec<[f64; 6]>| idx.iter().map(|&k| x[k][i]).collect::<Vec<f64>>();
-        let series = Series {
-            force: col(&rec.tau),
-            velocity: col(&rec.nu),
-            accel: col(&rec.nu_dot),
-            force_source: Source::Column,
-            accel_source: Source::Column,
-        };
-        r.dofs.insert(d, series);
-    }
-    r
+    six::fly(&six::Body::new(&v, &six::truth()), &v, &trial).response()
 }
 
 /// The median of `reps` timings of `f`, s.

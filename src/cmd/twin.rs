@@ -7,12 +7,17 @@ use std::path::Path;
 use std::process::ExitCode;
 use std::time::Instant;
 
-pub fn starccm(root: &Path, out: &Path, seed: u64) -> anyhow::Result<ExitCode> {
-    let dir = if out.is_absolute() {
-        out.to_path_buf()
+/// `p` as given when absolute, else inside the project folder `root`.
+fn under(root: &Path, p: &Path) -> std::path::PathBuf {
+    if p.is_absolute() {
+        p.to_path_buf()
     } else {
-        root.join(out)
-    };
+        root.join(p)
+    }
+}
+
+pub fn starccm(root: &Path, out: &Path, seed: u64) -> anyhow::Result<ExitCode> {
+    let dir = under(root, out);
     let cases = twin::cfd::default_cases();
     let written = twin::cfd::write_cases(&dir, &cases, seed)?;
     eprintln!(
@@ -30,13 +35,7 @@ pub fn pool(
     seed: u64,
     effects: &[String],
 ) -> anyhow::Result<ExitCode> {
-    let abs = |p: &Path| {
-        if p.is_absolute() {
-            p.to_path_buf()
-        } else {
-            root.join(p)
-        }
-    };
+    let abs = |p: &Path| under(root, p);
     let effects = if effects.is_empty() {
         twin::pool::default_effects()
     } else if effects.iter().any(|e| e == "none") {
@@ -66,13 +65,7 @@ pub fn pool(
 }
 
 pub fn field(root: &Path, out: &Path, truth: &Path, seed: u64) -> anyhow::Result<ExitCode> {
-    let abs = |p: &Path| {
-        if p.is_absolute() {
-            p.to_path_buf()
-        } else {
-            root.join(p)
-        }
-    };
+    let abs = |p: &Path| under(root, p);
     let hidden = twin::field::Hidden::default();
     let written = twin::field::write_runs(
         &abs(out),
@@ -91,13 +84,7 @@ pub fn field(root: &Path, out: &Path, truth: &Path, seed: u64) -> anyhow::Result
 }
 
 pub fn six_dof(root: &Path, out: &Path, truth: &Path, seed: u64) -> anyhow::Result<ExitCode> {
-    let abs = |p: &Path| {
-        if p.is_absolute() {
-            p.to_path_buf()
-        } else {
-            root.join(p)
-        }
-    };
+    let abs = |p: &Path| under(root, p);
     let trials = twin::six::default_trials();
     let written = twin::six::render::write_trials(&abs(out), &abs(truth), &trials, seed)?;
     eprintln!(

@@ -86,7 +86,7 @@ fn solve_cols(
     let cols: Vec<usize> = (0..problem.cols()).filter(|&j| free[j]).collect();
     let n = problem.rows();
     let w = row_weights(problem, sigma);
-    let a = weighted(problem, &w, &cols, None);
+    let a = weighted(problem, &w, &cols);
     let b = Mat::<f64>::from_fn(n, 1, |i, _| problem.y[i] * w[i]);
     let x = a.qr().solve_lstsq(&b);
     let mut theta = vec![0.0; problem.cols()];
@@ -138,7 +138,7 @@ pub(crate) fn solve(
     }
     let (n, p) = (problem.rows(), problem.cols());
     let w = row_weights(problem, sigma);
-    let a = weighted(problem, &w, &(0..p).collect::<Vec<_>>(), None);
+    let a = weighted(problem, &w, &(0..p).collect::<Vec<_>>());
     let b = Mat::<f64>::from_fn(n, 1, |i, _| problem.y[i] * w[i]);
     let x = a.qr().solve_lstsq(&b);
     let theta: Vec<f64> = (0..p).map(|j| x[(j, 0)]).collect();
@@ -154,36 +154,22 @@ pub(crate) fn row_weights(problem: &Regression, sigma: &BTreeMap<Dof, f64>) -> V
     problem.row_dof.iter().map(|d| 1.0 / sigma[d]).collect()
 }
 
-/// The Gram matrix of the row-weighted regressor, with the weighted `y` as a last column when
-/// given (`[A y]^T [A y]`, scaled per column by `scale`): faer's blocked product, since the
-/// 241-term regression of seed 003 on tens of thousands of rows is billions of operations.
-pub(crate) fn gram_with(problem: &Regression, w: &[f64], scale: Option<&[f64]>) -> DMatrix<f64> {
-    let a = weighted(problem, w, &(0..problem.cols()).collect::<Vec<_>>(), scale);
+/// The Gram matrix of the row-weighted regressor (faer's blocked product).
+fn gram(problem: &Regression, w: &[f64]) -> DMatrix<f64> {
+    let a = weighted(problem, w, &(0..problem.cols()).collect::<Vec<_>>());
     let g: Mat<f64> = a.transpose() * &a;
     DMatrix::from_fn(g.nrows(), g.ncols(), |i, j| g[(i, j)])
 }
 
-/// The regressor's columns `cols` with each row times `w`, and the weighted `y` as a last
-/// column when `scale` is given (every column then divided by its `scale`). Filled row by
-/// row from the row-major rows, then laid out by faer's blocked copy.
-fn weighted(problem: &Regression, w: &[f64], cols: &[usize], scale: Option<&[f64]>) -> Mat<f64> {
-    let (n, p) = (problem.rows(), problem.cols());
-    let q = cols.len() + usize::from(scale.is_some());
-    let mut buf = Vec::with_capacity(n * q);
+/// The regressor's columns `cols` with each row times `w`: filled row by row from the
+/// row-major rows, then laid out by faer's blocked copy.
+fn weighted(problem: &Regression, w: &[f64], cols: &[usize]) -> Mat<f64> {
+    let mut buf = Vec::with_capacity(problem.rows() * cols.len());
     for (i, wi) in w.iter().enumerate() {
         let row = problem.row(i);
         buf.extend(cols.iter().map(|&j| wi * row[j]));
-        if scale.is_some() {
-            buf.push(wi * problem.y[i]);
-        }
     }
-    if let Some(s) = scale {
-        for r in buf.chunks_exact_mut(q) {
-            r.iter_mut().zip(s).for_each(|(x, s)| *x /= s);
-        }
-    }
-    debug_assert!(scale.is_none_or(|s| s.len() == p + 1));
-    MatRef::from_row_major_slice(&buf, n, q).to_owned()
+    MatRef::from_row_major_slice(&buf, problem.rows(), cols.len()).to_owned()
 }
 
 fn residuals(problem: &Regression, theta: &[f64]) -> Vec<f64> {
@@ -231,7 +217,7 @@ pub(crate) fn summarise_with(
     let w = row_weights(problem, sigma);
     let normal = match blocks {
         Some(b) => b.weighted(sigma).view((0, 0), (p, p)).into_owned(),
-        None => gram_with(problem, &w, None),
+        None => gram(problem, &w),
     };
     let res = residuals(problem, theta);
     let ss: f64 = res.iter().zip(&w).map(|(r, w)| (r * w).powi(2)).sum();

@@ -302,6 +302,36 @@ pub struct Record {
     pub eta: Vec<[f64; 6]>,
 }
 
+impl Record {
+    /// The trial as a response table sampled at the command times: exact velocities, the
+    /// simulator's own accelerations and the attitude (what a perfect sensor suite would give).
+    pub fn response(&self) -> crate::io::Response {
+        use crate::io::response::{Series, Source};
+        let idx: Vec<usize> = (0..self.t.len()).step_by(COMMAND_EVERY).collect();
+        let mut r = crate::io::Response {
+            t: idx.iter().map(|&k| self.t[k]).collect(),
+            attitude: idx
+                .iter()
+                .map(|&k| [self.eta[k][3], self.eta[k][4]])
+                .collect(),
+            ..Default::default()
+        };
+        for d in crate::dof::Dof::ALL {
+            let i = d.index();
+            let col = |x: &Vec<[f64; 6]>| idx.iter().map(|&k| x[k][i]).collect::<Vec<f64>>();
+            let series = Series {
+                force: col(&self.tau),
+                velocity: col(&self.nu),
+                accel: col(&self.nu_dot),
+                force_source: Source::Column,
+                accel_source: Source::Column,
+            };
+            r.dofs.insert(d, series);
+        }
+        r
+    }
+}
+
 /// Position gains of the closed-loop controller (per unit mass: about 0.6 rad/s, damped 0.9).
 const KP: f64 = 0.36;
 const KD: f64 = 1.08;
