@@ -10,6 +10,7 @@ pub mod diag;
 pub mod diagnose;
 pub mod dof;
 pub mod estimate;
+pub mod field;
 pub mod fsutil;
 pub mod fusion;
 pub mod interrupt;

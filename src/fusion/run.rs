@@ -28,6 +28,16 @@ pub struct RunMeta {
     /// What was done to the logs' timing (docs/formats.md: every repair said in the report).
     #[serde(default)]
     pub repairs: Vec<String>,
+    /// Whether the run logged commanded forces (`thrust.csv`); see [`FusedRun::require_force`].
+    #[serde(default = "yes")]
+    pub force_logged: bool,
+    /// The actuators of `actuators.csv`, held on the command clock in [`ACTUATORS`].
+    #[serde(default)]
+    pub actuators: Vec<String>,
+}
+
+fn yes() -> bool {
+    true
 }
 
 /// A fused run as stored: the thrust log and the fused state on its time base.
@@ -40,11 +50,39 @@ pub struct FusedRun {
     pub moments: Vec<[f64; 2]>,
     pub fused: Fused,
     pub without_sonar: Option<Fused>,
+    /// Each actuator of `meta.actuators` (SI units) on the fused time base.
+    pub actuators: Vec<Vec<f64>>,
 }
 
 pub const META: &str = "run.json";
 pub const TABLE: &str = "fused.parquet";
 pub const TABLE_NO_SONAR: &str = "fused_without_sonar.parquet";
+pub const ACTUATORS: &str = "actuators.parquet";
+
+/// Writes the actuator columns (`names`, each on the fused time base) to `path`.
+pub fn write_actuators(path: &Path, names: &[String], cols: &[Vec<f64>]) -> anyhow::Result<()> {
+    let cols: Vec<Column> = names
+        .iter()
+        .zip(cols)
+        .map(|(n, c)| Column::new(n.as_str().into(), c))
+        .collect();
+    let mut df = DataFrame::new_infer_height(cols)?;
+    let tmp = path.with_extension("tmp");
+    ParquetWriter::new(std::fs::File::create(&tmp)?).finish(&mut df)?;
+    std::fs::rename(tmp, path)?;
+    Ok(())
+}
+
+fn read_actuators(path: &Path, names: &[String]) -> anyhow::Result<Vec<Vec<f64>>> {
+    if names.is_empty() {
+        return Ok(Vec::new());
+    }
+    let df = ParquetReader::new(std::fs::File::open(path)?).finish()?;
+    names
+        .iter()
+        .map(|n| Ok(df.column(n)?.f64()?.into_no_null_iter().collect()))
+        .collect()
+}
 const VEL: [&str; 4] = ["u", "v", "w", "r"];
 const TAU: [&str; 4] = ["X", "Y", "Z", "N"];
 
@@ -160,18 +198,23 @@ pub fn load(dir: &Path) -> anyhow::Result<FusedRun> {
         Some(s) => Some(read_table(&dir.join(TABLE_NO_SONAR), meta.known, s.clone())?.2),
         None => None,
     };
+    let actuators = read_actuators(&dir.join(ACTUATORS), &meta.actuators)?;
     Ok(FusedRun {
         meta,
         thrust,
         moments,
         fused,
         without_sonar,
+        actuators,
     })
 }
 
 /// Loads a run for a model of `vehicle`: its command clipped at the vehicle's limits.
+/// Fails for a run without a force log (see [`FusedRun::require_force`]).
 pub fn load_for(dir: &Path, vehicle: &crate::model::Vehicle) -> anyhow::Result<FusedRun> {
-    Ok(load(dir)?.clip_to(vehicle))
+    let run = load(dir)?;
+    run.require_force()?;
+    Ok(run.clip_to(vehicle))
 }
 
 /// The DOFs a pool run records, in the order of `Fused::vel` and the thrust columns.
@@ -183,6 +226,23 @@ pub const POOL_DOFS: [crate::dof::Dof; 4] = [
 ];
 
 impl FusedRun {
+    /// An error for a run that logged no commanded forces: a model driven by forces cannot be
+    /// fitted to it or simulated on it; the field-trial stages (`arx`, `integrated`) can.
+    pub fn require_force(&self) -> anyhow::Result<()> {
+        anyhow::ensure!(
+            self.meta.force_logged,
+            "pool run `{}` has no thrust.csv (only actuators.csv): a force-driven stage cannot use it; identify it with an `arx` or `integrated` stage, or add the commanded forces",
+            self.meta.run
+        );
+        Ok(())
+    }
+
+    /// The actuator called `name` on the fused time base, when the run logged it.
+    pub fn actuator(&self, name: &str) -> Option<&Vec<f64>> {
+        let j = self.meta.actuators.iter().position(|n| n == name)?;
+        self.actuators.get(j)
+    }
+
     /// The logged command as the thrusters can deliver it: clipped at the vehicle's
     /// `command_limits` (a closed-loop controller asks for more than it gets). Said in the
     /// run's notes when any row was clipped.
@@ -323,6 +383,8 @@ mod tests {
             stats_without_sonar: None,
             notes: vec![],
             repairs: vec![],
+            force_logged: true,
+            actuators: vec![],
         };
         let fused = Fused {
             t: vec![0.0, 1.0],
@@ -341,6 +403,7 @@ mod tests {
             moments: Vec::new(),
             fused,
             without_sonar: None,
+            actuators: Vec::new(),
         };
         let mut v = crate::model::Vehicle::reference();
         v.command_limits = [

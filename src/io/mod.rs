@@ -1,5 +1,6 @@
 //! Importers of the input formats in `cases/` and the response table they all produce.
 
+pub mod actuators;
 pub mod csvlog;
 pub mod openfoam;
 pub mod pool;

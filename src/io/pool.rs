@@ -57,6 +57,12 @@ pub struct PoolRun {
     pub depth: Option<Log>,
     /// t, u, v, w (m/s), roll, pitch, yaw (rad), p, q, r (rad/s): a vehicle's navigation log.
     pub nav: Option<Log>,
+    /// The actuator command log (fin and plane angles, propeller speed), when recorded.
+    pub actuators: Option<super::actuators::Actuators>,
+    /// Whether `thrust.csv` was recorded. A run steered by its actuators alone has none: its
+    /// `thrust` is then zero on the actuator log's clock, and the force-driven stages (fit,
+    /// validate, diagnose) refuse it.
+    pub force_logged: bool,
     pub notes: Vec<String>,
     /// What was done to the logs' timing (receive-time bursts, spans trimmed to the overlap).
     pub repairs: Vec<String>,
@@ -92,8 +98,9 @@ pub const NAV: [&str; 10] = [
     "q_dps",
     "r_dps",
 ];
-const KNOWN: [&str; 7] = [
+const KNOWN: [&str; 8] = [
     "run.yaml",
+    "actuators.csv",
     "thrust.csv",
     "uwb.csv",
     "sonar.csv",
@@ -127,7 +134,26 @@ pub fn load(root: &Path, dir: &str, files: &[String]) -> Result<PoolRun, InputEr
     let name = dir.rsplit('/').next().unwrap_or(dir).to_string();
     let mut notes = unknown_files(files);
     let meta = read_meta(root, dir, files)?;
-    let (thrust_path, mut thrust) = read_thrust(root, dir, files)?;
+    let actuators = match find(files, "actuators.csv") {
+        Some(p) => Some(super::actuators::parse(&p, &read(root, &p)?)?),
+        None => None,
+    };
+    let force_logged = find(files, "thrust.csv").is_some() || actuators.is_none();
+    let (thrust_path, mut thrust) = if force_logged {
+        read_thrust(root, dir, files)?
+    } else {
+        let a = &actuators.as_ref().expect("checked").log;
+        let zeros = vec![0.0; a.len()];
+        let log = Log {
+            t: a.t.clone(),
+            cols: vec![zeros; THRUST.len() - 1],
+            notes: vec![format!(
+                "{dir}: no thrust.csv; the actuator log is the command clock"
+            )],
+            present: vec![false; THRUST.len() - 1],
+        };
+        (format!("{dir}/actuators.csv"), log)
+    };
     let mut sensors = read_sensors(root, dir, files, &mut notes)?;
     check_positions(dir, &sensors)?;
     sensors.convert_units();
@@ -156,6 +182,8 @@ pub fn load(root: &Path, dir: &str, files: &[String]) -> Result<PoolRun, InputEr
         imu,
         depth,
         nav,
+        actuators,
+        force_logged,
         notes,
         repairs,
     };
@@ -208,7 +236,7 @@ fn read_meta(root: &Path, dir: &str, files: &[String]) -> Result<RunMeta, InputE
 /// for the clock repair.
 fn read_thrust(root: &Path, dir: &str, files: &[String]) -> Result<(String, Log), InputError> {
     let thrust_path = find(files, "thrust.csv").ok_or_else(|| {
-        InputError::file(format!("{dir}/thrust.csv"), "the run has no thrust log", "add thrust.csv (t,X_N,Y_N,Z_N,N_Nm): without the commanded force the model cannot be simulated")
+        InputError::file(format!("{dir}/thrust.csv"), "the run has no command log", "add thrust.csv (t,X_N,Y_N,Z_N,N_Nm), or actuators.csv (t,<name>_deg,...) for a vehicle steered by fins and propeller speed")
     })?;
     let mut thrust = csvlog::parse_keeping_repeats(
         &thrust_path,

@@ -39,6 +39,16 @@ impl StageImpl for Settings {
         if let Some(f) = &without_sonar {
             run::write_table(&ctx.out.join(run::TABLE_NO_SONAR), &thrust, &moments, f)?;
         }
+        let actuators = match &run.actuators {
+            Some(a) => {
+                let cols: Vec<Vec<f64>> = (0..a.names.len())
+                    .map(|j| crate::io::actuators::hold_at(&a.log, j, &fused.t))
+                    .collect();
+                run::write_actuators(&ctx.out.join(run::ACTUATORS), &a.names, &cols)?;
+                a.names.clone()
+            }
+            None => Vec::new(),
+        };
         let sensors = run.sensors().iter().map(|(n, _)| n.to_string()).collect();
         let mut notes = run.notes.clone();
         notes.extend(fused.stats.notes.iter().cloned());
@@ -55,6 +65,8 @@ impl StageImpl for Settings {
             stats_without_sonar: without_sonar.map(|f| f.stats),
             notes,
             repairs: run.repairs.clone(),
+            force_logged: run.force_logged,
+            actuators,
         };
         super::write_json(&ctx.out.join(run::META), &meta)
     }

@@ -49,6 +49,8 @@ pub fn fuse_folder(root: &std::path::Path, name: &str) -> anyhow::Result<FusedRu
         stats_without_sonar: None,
         notes: run.notes.clone(),
         repairs: run.repairs.clone(),
+        force_logged: true,
+        actuators: Vec::new(),
     };
     Ok(FusedRun {
         meta,
@@ -56,6 +58,7 @@ pub fn fuse_folder(root: &std::path::Path, name: &str) -> anyhow::Result<FusedRu
         moments: Vec::new(),
         fused,
         without_sonar: None,
+        actuators: Vec::new(),
     })
 }
 

@@ -56,6 +56,8 @@ fn straight_meta(i: usize) -> crate::fusion::run::RunMeta {
         stats_without_sonar: None,
         notes: vec![],
         repairs: vec![],
+        force_logged: true,
+        actuators: vec![],
     }
 }
 
@@ -128,6 +130,7 @@ pub(super) fn piloted_fast_runs(seed: u64) -> Vec<crate::fusion::run::FusedRun> 
             moments: Vec::new(),
             fused,
             without_sonar: None,
+            actuators: Vec::new(),
         });
     }
     out
