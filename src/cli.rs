@@ -160,6 +160,13 @@ pub enum TwinCommand {
         #[command(flatten)]
         to: TwinRuns,
     },
+    /// Tank runs of a 1.6 m submarine model (seed 002): PRBS on the ordered depth through its
+    /// depth controller, the elevator command logged (actuators.csv), inclinometer pitch and
+    /// rate gyro (imu.csv) and depth; no thrust log. The truth: poles and pitch gain.
+    Tank {
+        #[command(flatten)]
+        to: TwinRuns,
+    },
     /// Proves the diagnosis on generated scenarios (each effect alone at two magnitudes, pairs,
     /// none) and prints the confusion table of concealed vs named effects.
     CheckDiagnosis {
@@ -229,6 +236,9 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Twin {
             what: TwinCommand::SixDof { to },
         } => cmd::twin::six_dof(&root, &to.out, &to.truth, to.seed),
+        Command::Twin {
+            what: TwinCommand::Tank { to },
+        } => cmd::twin::tank(&root, &to.out, &to.truth, to.seed),
         Command::Twin {
             what: TwinCommand::CheckDiagnosis { seeds },
         } => cmd::twin::check_diagnosis(&seeds),

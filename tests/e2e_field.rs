@@ -7,19 +7,6 @@ mod common;
 use common::*;
 use std::path::Path;
 
-/// A temporary copy of an example project.
-fn example(name: &str) -> tempfile::TempDir {
-    let dir = tempfile::tempdir().unwrap();
-    let src = manifest_dir().join("examples").join(name);
-    std::fs::copy(src.join("pipeline.yaml"), dir.path().join("pipeline.yaml")).unwrap();
-    for sub in ["cases", "truth"] {
-        if src.join(sub).is_dir() {
-            hydrofit::fsutil::copy_dir(&src.join(sub), &dir.path().join(sub)).unwrap();
-        }
-    }
-    dir
-}
-
 fn hidden(dir: &Path) -> serde_json::Value {
     json(dir, "truth/box_1.json")["hidden"].clone()
 }

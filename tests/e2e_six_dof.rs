@@ -8,16 +8,6 @@ mod common;
 use common::*;
 use std::collections::BTreeMap;
 
-fn example(name: &str) -> tempfile::TempDir {
-    let dir = tempfile::tempdir().unwrap();
-    let src = manifest_dir().join("examples").join(name);
-    std::fs::copy(src.join("pipeline.yaml"), dir.path().join("pipeline.yaml")).unwrap();
-    for sub in ["cases", "truth"] {
-        hydrofit::fsutil::copy_dir(&src.join(sub), &dir.path().join(sub)).unwrap();
-    }
-    dir
-}
-
 /// Mean held-out normalised MAE per model and DOF.
 fn held_out(v: &serde_json::Value) -> BTreeMap<String, BTreeMap<String, f64>> {
     let mut out = BTreeMap::new();

@@ -96,6 +96,18 @@ pub fn six_dof(root: &Path, out: &Path, truth: &Path, seed: u64) -> anyhow::Resu
     Ok(ExitCode::SUCCESS)
 }
 
+pub fn tank(root: &Path, out: &Path, truth: &Path, seed: u64) -> anyhow::Result<ExitCode> {
+    let abs = |p: &Path| under(root, p);
+    let written = twin::tank::write_runs(&abs(out), &abs(truth), seed)?;
+    eprintln!(
+        "hydrofit: wrote {} tank runs to {} and their truth to {} (seed {seed})",
+        written.len(),
+        abs(out).display(),
+        abs(truth).display()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
 /// `hydrofit twin check-diagnosis`: the diagnosis on generated scenarios, each effect concealed
 /// alone at two magnitudes, pairs of effects, and nothing, for each seed; prints every verdict
 /// and the confusion table (concealed vs named).

@@ -149,7 +149,7 @@ impl Arx {
 
     /// Poles: the roots of `z^na + a_1 z^(na-1) + ... + a_na`.
     pub fn poles(&self) -> Vec<[f64; 2]> {
-        roots(&self.a.iter().copied().collect::<Vec<_>>(), 1.0)
+        roots(&self.a, 1.0)
     }
 
     /// Zeros: the roots of `b_1 z^(nb-1) + ... + b_nb`.
@@ -387,7 +387,7 @@ mod tests {
     #[test]
     fn noise_free_arx_is_recovered_exactly_with_its_poles() {
         let r = generate(TRUE, &A, &B, 400, 0.0, 1);
-        let m = estimate(&[r.clone()], TRUE).unwrap();
+        let m = estimate(std::slice::from_ref(&r), TRUE).unwrap();
         for (x, t) in m.a.iter().chain(&m.b).zip(A.iter().chain(&B)) {
             assert!((x - t).abs() < 1e-9, "{x} vs {t}");
         }

@@ -23,6 +23,8 @@ pub enum Artifact {
     Responses,
     /// An identified vehicle model.
     Model,
+    /// A field-trial identification (ARX, integrated-regressor LS / RLS, adaptive).
+    FieldModel,
     /// A pool run fused into body-frame velocities.
     PoolRuns,
     /// Scores of models on pool runs.
@@ -40,6 +42,7 @@ impl Artifact {
         match self {
             Artifact::Responses => "CFD responses",
             Artifact::Model => "an identified model",
+            Artifact::FieldModel => "a field-trial identification",
             Artifact::PoolRuns => "fused pool runs",
             Artifact::Validation => "validation scores",
             Artifact::Comparison => "an estimator comparison",
@@ -52,6 +55,7 @@ impl Artifact {
         match self {
             Artifact::Responses => "a `starccm` stage",
             Artifact::Model => "a `fit` stage",
+            Artifact::FieldModel => "an `arx` or `integrated` stage",
             Artifact::PoolRuns => "a `pool` stage",
             Artifact::Validation => "a `validate` stage",
             Artifact::Comparison => "a `compare` stage",

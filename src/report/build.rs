@@ -38,6 +38,8 @@ pub struct Inputs<'a> {
     pub fits: Vec<FitResult>,
     pub cases: Vec<Case>,
     pub pool_runs: Vec<FusedRun>,
+    /// Field-trial identifications (ARX, integrated LS / RLS, adaptive).
+    pub field: Vec<crate::field::FieldResult>,
     pub pool_scores: Option<(Scores, Vec<Simulated>)>,
     pub comparison: Option<Comparison>,
     pub diagnosis: Option<(Diagnosis, Vec<Figure>)>,
@@ -66,7 +68,10 @@ pub fn build(inp: &Inputs) -> anyhow::Result<Vec<(&'static str, Vec<u8>)>> {
         .filter_map(|(c, s)| Some((c, s.as_ref()?)))
         .collect();
     let svgs = velocity_plots(&plotted)?;
-    let parameters = json::parameters(&inp.fits);
+    let mut parameters = json::parameters(&inp.fits);
+    parameters
+        .parameters
+        .extend(json::field_parameters(&inp.field));
     let validation = Validation { models };
     let page = html::Page {
         vehicle: inp.vehicle,
@@ -88,6 +93,10 @@ pub fn build(inp: &Inputs) -> anyhow::Result<Vec<(&'static str, Vec<u8>)>> {
     if let Some((d, _)) = &inp.diagnosis {
         files.push(("diagnosis.json", json_bytes(d)?));
     }
+    if !inp.field.is_empty() {
+        let field = serde_json::json!({ "identifiers": inp.field });
+        files.push(("field.json", json_bytes(&field)?));
+    }
     Ok(files)
 }
 
@@ -107,7 +116,9 @@ fn pool_html(inp: &Inputs, accuracy: &[super::pool::FusionAccuracy]) -> anyhow::
     let sets_html = inp.pool_scores.as_ref().map_or(String::new(), |(s, _)| {
         super::sets::section(&inp.fits, s, truth.as_ref())
     });
-    let compare_html = sets_html + &compare_html;
+    let field_truth = super::field::read_truth(inp.root, &inp.truth_files);
+    let compare_html =
+        sets_html + &super::field::sections(&inp.field, &field_truth)? + &compare_html;
     let diagnosis_html = inp.diagnosis.as_ref().map_or(String::new(), |(d, figs)| {
         crate::report::diagnose::section(d, figs)
     });

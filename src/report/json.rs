@@ -61,6 +61,35 @@ pub fn parameters(fits: &[FitResult]) -> Parameters {
     Parameters { parameters: out }
 }
 
+/// The parameters of the field-trial identifiers (ARX coefficients, integrated-regressor and
+/// adaptive estimates), each with its stage's provenance; `model` is `<stage>.<structure>`
+/// where a stage compares several models.
+pub fn field_parameters(results: &[crate::field::FieldResult]) -> Vec<Parameter> {
+    let mut out = Vec::new();
+    for r in results {
+        for p in &r.parameters {
+            out.push(Parameter {
+                name: p.name.clone(),
+                value: p.value,
+                unit: p.unit.clone(),
+                stderr: p.stderr,
+                interval: None,
+                identifiable: p.stderr.is_finite(),
+                note: None,
+                model: p
+                    .model
+                    .as_ref()
+                    .map_or(r.stage.clone(), |m| format!("{}.{m}", r.stage)),
+                stage: r.stage.clone(),
+                method: r.method.clone(),
+                settings: r.settings.clone(),
+                inputs: r.inputs.clone(),
+            });
+        }
+    }
+    out
+}
+
 /// docs/formats.md's per-DOF metrics, plus the residual whiteness where it was measured (pool runs).
 #[derive(Debug, Clone, Serialize)]
 pub struct DofMetrics {

@@ -4,6 +4,7 @@
 pub mod build;
 pub mod compare;
 pub mod diagnose;
+pub mod field;
 pub mod html;
 pub mod json;
 pub mod openfoam;

@@ -1,6 +1,7 @@
 //! Stage kinds: what a stage of `pipeline.yaml` can be. Adding a kind is one new file and
 //! one line in `KINDS`.
 
+pub mod arx;
 pub mod compare;
 pub mod diagnose;
 pub mod fit;
@@ -19,6 +20,7 @@ pub const KINDS: Registry = &[
     &openfoam::KIND,
     &pool::KIND,
     &fit::KIND,
+    &arx::KIND,
     &validate::KIND,
     &compare::KIND,
     &diagnose::KIND,

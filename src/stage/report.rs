@@ -14,8 +14,9 @@ pub static KIND: Kind = Kind {
         Artifact::Validation,
         Artifact::Comparison,
         Artifact::Diagnosis,
+        Artifact::FieldModel,
     ],
-    requires: &[Artifact::Model],
+    requires_one_of: &[Artifact::Model, Artifact::FieldModel],
     publishes_to: Some("reports"),
     ..Kind::new("report", Artifact::Report, parse_as::<Settings>)
 };
@@ -24,12 +25,13 @@ pub static KIND: Kind = Kind {
 #[serde(deny_unknown_fields, default)]
 pub struct Settings {}
 
-pub const FILES: [&str; 5] = [
+pub const FILES: [&str; 6] = [
     "index.html",
     "parameters.json",
     "validation.json",
     "fusion.json",
     "diagnosis.json",
+    "field.json",
 ];
 
 impl StageImpl for Settings {
@@ -45,7 +47,19 @@ impl StageImpl for Settings {
         let cases = cfd_cases(ctx)?;
         let pool_runs: Vec<crate::fusion::run::FusedRun> = ctx
             .upstream_of(Artifact::PoolRuns)
-            .map(|u| crate::fusion::run::load_for(&u.dir, ctx.vehicle))
+            .map(|u| {
+                // A run steered by its actuators alone (no force log) is shown, not simulated.
+                let r = crate::fusion::run::load(&u.dir)?;
+                Ok::<_, anyhow::Error>(if r.meta.force_logged {
+                    r.clip_to(ctx.vehicle)
+                } else {
+                    r
+                })
+            })
+            .collect::<Result<_, _>>()?;
+        let field: Vec<crate::field::FieldResult> = ctx
+            .upstream_of(Artifact::FieldModel)
+            .map(|u| crate::field::load(&u.dir))
             .collect::<Result<_, _>>()?;
         let pool_scores = ctx
             .upstream_of(Artifact::Validation)
@@ -58,6 +72,7 @@ impl StageImpl for Settings {
             fits,
             cases,
             pool_runs,
+            field,
             pool_scores,
             comparison: ctx
                 .upstream_of(Artifact::Comparison)

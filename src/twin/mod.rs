@@ -6,6 +6,7 @@ pub mod field;
 pub mod pool;
 pub mod scenario;
 pub mod six;
+pub mod tank;
 pub mod world;
 
 /// Writes one twin run: its `files` into `cases_dir/<name>/`, its true motion and what it

@@ -23,6 +23,19 @@ pub fn project() -> tempfile::TempDir {
     dir
 }
 
+/// A temporary copy of `examples/<name>`: its pipeline.yaml, cases/ and truth/.
+pub fn example(name: &str) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    let src = manifest_dir().join("examples").join(name);
+    std::fs::copy(src.join("pipeline.yaml"), dir.path().join("pipeline.yaml")).unwrap();
+    for sub in ["cases", "truth"] {
+        if src.join(sub).exists() {
+            hydrofit::fsutil::copy_dir(&src.join(sub), &dir.path().join(sub)).unwrap();
+        }
+    }
+    dir
+}
+
 /// Stage instances of the shipped pipeline besides the imports: fit, cylinder, validate, compare, report.
 pub const SINGLE_STAGES: usize = 6;
 

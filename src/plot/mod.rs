@@ -1,5 +1,7 @@
 //! SVG plots drawn with plotters, embedded in the HTML (no files, no network).
 
+pub mod lines;
+
 use crate::dof::Dof;
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -9,7 +11,7 @@ use std::sync::Once;
 
 /// DejaVu Sans (fonts-dejavu-core, Bitstream Vera licence; see assets/fonts): plotters'
 /// `ab_glyph` text needs a registered font, and the report must not depend on system fonts.
-static FONT: &[u8] = include_bytes!("../assets/fonts/DejaVuSans.ttf");
+static FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
 static REGISTER: Once = Once::new();
 
 fn ensure_font() {
