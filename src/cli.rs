@@ -160,6 +160,13 @@ pub enum TwinCommand {
         #[command(flatten)]
         to: TwinRuns,
     },
+    /// Runs of a DSRV at 8 knots (seed 000): PRBS on the stern plane, open loop, one run whose
+    /// stern plane loses 40 % of its effectiveness half-way; the stern-plane command logged
+    /// (actuators.csv), a DVL + AHRS navigation log and depth; no thrust log.
+    Dsrv {
+        #[command(flatten)]
+        to: TwinRuns,
+    },
     /// Tank runs of a 1.6 m submarine model (seed 002): PRBS on the ordered depth through its
     /// depth controller, the elevator command logged (actuators.csv), inclinometer pitch and
     /// rate gyro (imu.csv) and depth; no thrust log. The truth: poles and pitch gain.
@@ -236,6 +243,9 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Twin {
             what: TwinCommand::SixDof { to },
         } => cmd::twin::six_dof(&root, &to.out, &to.truth, to.seed),
+        Command::Twin {
+            what: TwinCommand::Dsrv { to },
+        } => cmd::twin::dsrv(&root, &to.out, &to.truth, to.seed),
         Command::Twin {
             what: TwinCommand::Tank { to },
         } => cmd::twin::tank(&root, &to.out, &to.truth, to.seed),

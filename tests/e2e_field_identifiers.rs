@@ -133,3 +133,105 @@ fn a_run_without_a_force_log_is_refused_by_a_force_driven_fit() {
     let e = stderr(&o);
     assert!(e.contains("has no thrust.csv") && e.contains("arx"), "{e}");
 }
+
+/// `truth/coefficients.csv` of the DSRV twin by name.
+fn coefficients(dir: &Path) -> std::collections::BTreeMap<String, f64> {
+    read(dir, "truth/coefficients.csv")
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let (n, v) = l.split_once(',').unwrap();
+            (n.to_string(), v.parse().unwrap())
+        })
+        .collect()
+}
+
+#[test]
+fn integrated_least_squares_and_rls_on_the_dsrv_twin() {
+    let p = example("dsrv");
+    let dir = p.path();
+    ok(dir, &["build"]);
+    let field = json(dir, "reports/field.json");
+    let truth = coefficients(dir);
+
+    // Off-line LS on the steady runs (fused DVL + AHRS with noise): the pitch-rate equation
+    // within 2 %, the heave equation within 3 % (its stern plane, whose kinks the fusion's
+    // smoother blurs, within 8 %); the tiny pitch term of heave (0.01) within 0.05.
+    let ls = identifier(&field, "ls");
+    for prm in ls["parameters"].as_array().unwrap() {
+        let n = prm["name"].as_str().unwrap();
+        let v = prm["value"].as_f64().unwrap();
+        let t = truth[n];
+        let tol = match n {
+            "dw/dt:pitch" => 0.05,
+            "dw/dt:stern" => 0.08 * t.abs(),
+            _ if n.starts_with("dw/dt") => 0.03 * t.abs(),
+            _ => 0.02 * t.abs(),
+        };
+        assert!((v - t).abs() < tol, "{n}: {v} vs {t}");
+    }
+    // The held-out prediction errors are nearly white (seed 000 Fig. 3): at most 2 of the
+    // lags outside the 95 % band per state.
+    for pr in ls["detail"]["predictions"].as_array().unwrap() {
+        let band = pr["band"].as_f64().unwrap();
+        let out = pr["acf"].as_array().unwrap()[1..]
+            .iter()
+            .filter(|a| a.as_f64().unwrap().abs() > band)
+            .count();
+        assert!(out <= 2, "{}: {out} lags outside", pr["state"]);
+        assert_eq!(pr["run"], "steady_2");
+    }
+
+    // RLS through the drift: before the step it holds the old stern-plane coefficient of
+    // pitch rate (within 3 %), and within 300 s (five memory lengths of 60 s) it stays within
+    // 15 % of the step of the new one.
+    let rls = identifier(&field, "rls");
+    let d = &rls["detail"];
+    let names: Vec<&str> = d["equations"][0]["names"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|n| n.as_str().unwrap())
+        .collect();
+    assert_eq!(d["equations"][0]["state"], "q");
+    let j = names.iter().position(|n| *n == "dq/dt:stern").unwrap();
+    let tr = &d["traces"][0]["traces"][0];
+    let t: Vec<f64> = tr["t"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    let x: Vec<f64> = tr["theta"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r[j].as_f64().unwrap())
+        .collect();
+    let (before, after) = (truth["dq/dt:stern"], truth["dq/dt:stern@500"]);
+    let k = t.iter().rposition(|s| *s < 500.0).unwrap();
+    assert!(
+        (x[k] - before).abs() < 0.03 * before.abs(),
+        "before the step {}",
+        x[k]
+    );
+    let settle = hydrofit::field::integrated::settling_time(
+        &t,
+        &x,
+        500.0,
+        after,
+        0.15 * (after - before).abs(),
+    )
+    .expect("RLS follows the step");
+    assert!(settle < 300.0, "followed after {settle} s");
+
+    let html = read(dir, "reports/index.html");
+    for s in [
+        "id=\"field-ls\"",
+        "id=\"field-rls\"",
+        "RLS convergence",
+        "followed within 15 %",
+    ] {
+        assert!(html.contains(s), "report lacks {s}");
+    }
+}

@@ -96,6 +96,18 @@ pub fn six_dof(root: &Path, out: &Path, truth: &Path, seed: u64) -> anyhow::Resu
     Ok(ExitCode::SUCCESS)
 }
 
+pub fn dsrv(root: &Path, out: &Path, truth: &Path, seed: u64) -> anyhow::Result<ExitCode> {
+    let abs = |p: &Path| under(root, p);
+    let written = twin::dsrv::write_runs(&abs(out), &abs(truth), seed)?;
+    eprintln!(
+        "hydrofit: wrote {} DSRV runs to {} and their truth to {} (seed {seed})",
+        written.len(),
+        abs(out).display(),
+        abs(truth).display()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
 pub fn tank(root: &Path, out: &Path, truth: &Path, seed: u64) -> anyhow::Result<ExitCode> {
     let abs = |p: &Path| under(root, p);
     let written = twin::tank::write_runs(&abs(out), &abs(truth), seed)?;

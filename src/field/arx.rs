@@ -350,6 +350,60 @@ pub fn autocorrelation(e: &[f64], max_lag: usize) -> (Vec<f64>, f64) {
     (acf, 2.58 / (n as f64).sqrt())
 }
 
+/// A model of the stage with its figures on every validation run.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Model {
+    pub name: String,
+    pub selected: bool,
+    #[serde(flatten)]
+    pub arx: Arx,
+    pub poles: Vec<[f64; 2]>,
+    pub zeros: Vec<[f64; 2]>,
+    pub stable: bool,
+    pub gain: f64,
+    pub validation: Vec<RunFit>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct RunFit {
+    pub run: String,
+    /// MATLAB `compare`'s NRMSE fit of the simulation, %; None when the simulation diverged.
+    pub fit_pct: Option<f64>,
+    pub simulation_loss: Option<f64>,
+    pub prediction_loss: Option<f64>,
+}
+
+/// A run with the measured output and each model's simulation, for the plot.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Simulation {
+    pub run: String,
+    pub t: Vec<f64>,
+    pub input: Vec<f64>,
+    pub measured: Vec<f64>,
+    pub models: Vec<(String, Vec<f64>)>,
+}
+
+/// What `arx` stores in `detail`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Detail {
+    pub input: String,
+    pub output: String,
+    pub input_unit: String,
+    pub output_unit: String,
+    pub sample_s: f64,
+    pub criterion: Criterion,
+    pub models: Vec<Model>,
+    /// The best structures of the grid by the criterion, best first.
+    pub ranking: Vec<Scored>,
+    pub grid_size: usize,
+    pub simulations: Vec<Simulation>,
+    /// Autocorrelation of the chosen model's one-step prediction error on the first validation
+    /// run (the estimation run when there is none), with its 99 % band.
+    pub residual_run: String,
+    pub residual_acf: Vec<f64>,
+    pub residual_band: f64,
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

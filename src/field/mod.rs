@@ -5,6 +5,7 @@
 //! ([`signals`]).
 
 pub mod arx;
+pub mod integrated;
 pub mod signals;
 
 use crate::provenance::InputFile;

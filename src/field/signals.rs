@@ -35,6 +35,7 @@ pub fn unit(name: &str) -> &'static str {
         "x" | "y" | "depth" => "m",
         "X" | "Y" | "Z" => "N",
         "K" | "M" | "N" => "N m",
+        "1" => "1",
         _ => "SI",
     }
 }
@@ -123,6 +124,17 @@ pub fn interpolate(t: &[f64], y: &[f64], at: &[f64]) -> Vec<f64> {
             y[j] + s * (y[j + 1] - y[j])
         })
         .collect()
+}
+
+/// The median of the steps of `t` (0.1 s when it has none).
+pub fn median_step(t: &[f64]) -> f64 {
+    let mut d: Vec<f64> = t
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .filter(|d| *d > 0.0)
+        .collect();
+    d.sort_by(f64::total_cmp);
+    d.get(d.len() / 2).copied().unwrap_or(0.1)
 }
 
 /// A uniform grid of step `h` over `[t0, t1]`.

@@ -413,7 +413,10 @@ mod tests {
         let e = load(d.path(), "cases/pool/r1", &files)
             .unwrap_err()
             .to_string();
-        assert!(e.contains("no thrust log") && e.contains("help:"), "{e}");
+        assert!(
+            e.contains("no command log") && e.contains("actuators.csv"),
+            "{e}"
+        );
         let t = thrust();
         let (d, files) = folder(&[("run.yaml", "role: tran\n"), ("thrust.csv", &t)]);
         let e = load(d.path(), "cases/pool/r1", &files)

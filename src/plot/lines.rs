@@ -83,8 +83,14 @@ pub fn chart(c: &Chart) -> anyhow::Result<String> {
             }
         }
         let font = ("sans-serif", 12).into_font();
-        for (i, s) in c.series.iter().enumerate() {
-            let y = 40 + 17 * i as i32;
+        for (row, (i, s)) in c
+            .series
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| !s.label.is_empty())
+            .enumerate()
+        {
+            let y = 40 + 17 * row as i32;
             legend.draw(&PathElement::new(vec![(8, y), (30, y)], style(i, s)))?;
             legend.draw(&Text::new(s.label.to_string(), (36, y - 7), font.clone()))?;
         }

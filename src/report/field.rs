@@ -5,8 +5,8 @@
 
 use super::html::esc;
 use crate::field::FieldResult;
+use crate::field::arx::{Detail as ArxDetail, Model};
 use crate::plot::lines::{Chart, Series, chart};
-use crate::stage::arx::{Detail as ArxDetail, Model};
 use std::collections::BTreeMap;
 use std::fmt::Write;
 
@@ -43,6 +43,7 @@ pub fn sections(results: &[FieldResult], truth: &Truth) -> anyhow::Result<String
     for r in results {
         h += &match r.kind.as_str() {
             "arx" => arx_section(r, truth)?,
+            "integrated" => super::field_integrated::section(r, truth)?,
             _ => format!(
                 "<h2>{}</h2><p>Unknown identifier kind `{}`.</p>",
                 esc(&r.stage),

@@ -4,7 +4,7 @@
 //! chosen one, each simulated from the input alone on the `role: validate` runs.
 
 use super::{Artifact, Kind, RunCtx, StageImpl, parse_as};
-use crate::field::arx::{self, Arx, Criterion, Orders, Record, Scored};
+use crate::field::arx::{self, Arx, Criterion, Detail, Model, Orders, Record, RunFit, Simulation};
 use crate::field::signals;
 use crate::fusion::run::FusedRun;
 use serde::{Deserialize, Serialize};
@@ -79,60 +79,6 @@ fn twenty() -> usize {
     20
 }
 
-/// A model of the stage with its figures on every validation run.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct Model {
-    pub name: String,
-    pub selected: bool,
-    #[serde(flatten)]
-    pub arx: Arx,
-    pub poles: Vec<[f64; 2]>,
-    pub zeros: Vec<[f64; 2]>,
-    pub stable: bool,
-    pub gain: f64,
-    pub validation: Vec<RunFit>,
-}
-
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct RunFit {
-    pub run: String,
-    /// MATLAB `compare`'s NRMSE fit of the simulation, %; None when the simulation diverged.
-    pub fit_pct: Option<f64>,
-    pub simulation_loss: Option<f64>,
-    pub prediction_loss: Option<f64>,
-}
-
-/// A run with the measured output and each model's simulation, for the plot.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct Simulation {
-    pub run: String,
-    pub t: Vec<f64>,
-    pub input: Vec<f64>,
-    pub measured: Vec<f64>,
-    pub models: Vec<(String, Vec<f64>)>,
-}
-
-/// What `arx` stores in `detail`.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct Detail {
-    pub input: String,
-    pub output: String,
-    pub input_unit: String,
-    pub output_unit: String,
-    pub sample_s: f64,
-    pub criterion: Criterion,
-    pub models: Vec<Model>,
-    /// The best structures of the grid by the criterion, best first.
-    pub ranking: Vec<Scored>,
-    pub grid_size: usize,
-    pub simulations: Vec<Simulation>,
-    /// Autocorrelation of the chosen model's one-step prediction error on the first validation
-    /// run (the estimation run when there is none), with its 99 % band.
-    pub residual_run: String,
-    pub residual_acf: Vec<f64>,
-    pub residual_band: f64,
-}
-
 impl StageImpl for Settings {
     fn settings(&self) -> serde_json::Value {
         serde_json::to_value(self).expect("settings serialise")
@@ -152,7 +98,7 @@ impl StageImpl for Settings {
                 );
                 h
             }
-            None => median_step(&est_runs[0].fused.t),
+            None => signals::median_step(&est_runs[0].fused.t),
         };
         let records = |rs: &[&FusedRun]| -> anyhow::Result<Vec<(Record, Vec<f64>)>> {
             rs.iter().map(|r| self.record(r, h)).collect()
@@ -367,15 +313,4 @@ fn hold(t: &[f64], y: &[f64], at: &[f64]) -> Vec<f64> {
             y[j]
         })
         .collect()
-}
-
-/// The median of the steps of `t`.
-fn median_step(t: &[f64]) -> f64 {
-    let mut d: Vec<f64> = t
-        .windows(2)
-        .map(|w| w[1] - w[0])
-        .filter(|d| *d > 0.0)
-        .collect();
-    d.sort_by(f64::total_cmp);
-    d.get(d.len() / 2).copied().unwrap_or(0.1)
 }

@@ -5,6 +5,7 @@ pub mod arx;
 pub mod compare;
 pub mod diagnose;
 pub mod fit;
+pub mod integrated;
 pub mod openfoam;
 pub mod pool;
 pub mod report;
@@ -21,6 +22,7 @@ pub const KINDS: Registry = &[
     &pool::KIND,
     &fit::KIND,
     &arx::KIND,
+    &integrated::KIND,
     &validate::KIND,
     &compare::KIND,
     &diagnose::KIND,

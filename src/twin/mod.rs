@@ -2,6 +2,7 @@
 //! exactly the formats real users have, so every stage can be checked against a known truth.
 
 pub mod cfd;
+pub mod dsrv;
 pub mod field;
 pub mod pool;
 pub mod scenario;
