@@ -123,7 +123,7 @@ fn bad_pool_runs_stop_only_themselves() {
     assert!(!o.status.success());
     let err = stderr(&o);
     assert!(
-        err.contains("cases/pool/broken/thrust.csv: the run has no thrust log"),
+        err.contains("cases/pool/broken/thrust.csv: the run has no command log"),
         "{err}"
     );
     assert!(err.contains("help:"), "{err}");
