@@ -160,6 +160,14 @@ pub enum TwinCommand {
         #[command(flatten)]
         to: TwinRuns,
     },
+    /// Dives of an Iver3-sized torpedo AUV (seed 004): four fins and a ducted thruster under a
+    /// closed-loop depth and heading controller, two manoeuvring dives and one at constant
+    /// depth and heading; fin and propeller commands (actuators.csv), DVL (nav.csv), AHRS
+    /// (imu.csv) and depth; no thrust log.
+    Auv {
+        #[command(flatten)]
+        to: TwinRuns,
+    },
     /// Runs of a DSRV at 8 knots (seed 000): PRBS on the stern plane, open loop, one run whose
     /// stern plane loses 40 % of its effectiveness half-way; the stern-plane command logged
     /// (actuators.csv), a DVL + AHRS navigation log and depth; no thrust log.
@@ -243,6 +251,9 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Twin {
             what: TwinCommand::SixDof { to },
         } => cmd::twin::six_dof(&root, &to.out, &to.truth, to.seed),
+        Command::Twin {
+            what: TwinCommand::Auv { to },
+        } => cmd::twin::auv(&root, &to.out, &to.truth, to.seed),
         Command::Twin {
             what: TwinCommand::Dsrv { to },
         } => cmd::twin::dsrv(&root, &to.out, &to.truth, to.seed),

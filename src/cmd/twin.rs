@@ -96,6 +96,18 @@ pub fn six_dof(root: &Path, out: &Path, truth: &Path, seed: u64) -> anyhow::Resu
     Ok(ExitCode::SUCCESS)
 }
 
+pub fn auv(root: &Path, out: &Path, truth: &Path, seed: u64) -> anyhow::Result<ExitCode> {
+    let abs = |p: &Path| under(root, p);
+    let written = twin::auv::write_runs(&abs(out), &abs(truth), seed)?;
+    eprintln!(
+        "hydrofit: wrote {} AUV dives to {} and their truth to {} (seed {seed})",
+        written.len(),
+        abs(out).display(),
+        abs(truth).display()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
 pub fn dsrv(root: &Path, out: &Path, truth: &Path, seed: u64) -> anyhow::Result<ExitCode> {
     let abs = |p: &Path| under(root, p);
     let written = twin::dsrv::write_runs(&abs(out), &abs(truth), seed)?;

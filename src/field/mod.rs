@@ -4,6 +4,7 @@
 //! least squares with forgetting ([`integrated`]), over the named signals of a fused pool run
 //! ([`signals`]).
 
+pub mod adaptive;
 pub mod arx;
 pub mod integrated;
 pub mod signals;

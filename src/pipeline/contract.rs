@@ -55,7 +55,7 @@ impl Artifact {
         match self {
             Artifact::Responses => "a `starccm` stage",
             Artifact::Model => "a `fit` stage",
-            Artifact::FieldModel => "an `arx` or `integrated` stage",
+            Artifact::FieldModel => "an `arx`, `integrated` or `adaptive` stage",
             Artifact::PoolRuns => "a `pool` stage",
             Artifact::Validation => "a `validate` stage",
             Artifact::Comparison => "a `compare` stage",

@@ -44,6 +44,7 @@ pub fn sections(results: &[FieldResult], truth: &Truth) -> anyhow::Result<String
         h += &match r.kind.as_str() {
             "arx" => arx_section(r, truth)?,
             "integrated" => super::field_integrated::section(r, truth)?,
+            "adaptive" => super::field_adaptive::section(r, truth)?,
             _ => format!(
                 "<h2>{}</h2><p>Unknown identifier kind `{}`.</p>",
                 esc(&r.stage),

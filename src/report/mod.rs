@@ -5,6 +5,7 @@ pub mod build;
 pub mod compare;
 pub mod diagnose;
 pub mod field;
+pub mod field_adaptive;
 pub mod field_integrated;
 pub mod html;
 pub mod json;

@@ -1,6 +1,7 @@
 //! Stage kinds: what a stage of `pipeline.yaml` can be. Adding a kind is one new file and
 //! one line in `KINDS`.
 
+pub mod adaptive;
 pub mod arx;
 pub mod compare;
 pub mod diagnose;
@@ -22,6 +23,7 @@ pub const KINDS: Registry = &[
     &pool::KIND,
     &fit::KIND,
     &arx::KIND,
+    &adaptive::KIND,
     &integrated::KIND,
     &validate::KIND,
     &compare::KIND,
