@@ -116,7 +116,7 @@ fn the_report_renders_its_plots_offline_in_chromium() {
         coloured > 20_000,
         "plot lines not drawn: {coloured} coloured pixels"
     );
-    layout_is_readable(&bin, dir, &html);
+    layout_is_readable(&bin, dir, &html, 8, 8);
     let keep = std::env::var_os("HYDROFIT_SCREENSHOT");
     if let Some(path) = keep {
         std::fs::copy(&shot, path).unwrap();
@@ -128,7 +128,13 @@ fn the_report_renders_its_plots_offline_in_chromium() {
 /// text column (a wide one scrolls inside it), and the page itself does not scroll sideways. The report forbids scripts, so
 /// a copy whose policy allows one inline script (the measurement) is opened; the script writes
 /// its findings into the DOM that `--dump-dom` returns.
-fn layout_is_readable(bin: &str, dir: &std::path::Path, html: &str) {
+fn layout_is_readable(
+    bin: &str,
+    dir: &std::path::Path,
+    html: &str,
+    min_figures: u64,
+    min_tables: u64,
+) {
     const MEASURE: &str = r#"<script>
 addEventListener('load', () => {
   const width = document.documentElement.clientWidth;
@@ -195,8 +201,8 @@ addEventListener('load', () => {
         .replace("&amp;", "&");
     let v: serde_json::Value = serde_json::from_str(&json).unwrap();
     eprintln!("layout at 1200 px: {v}");
-    assert!(v["figures"].as_u64().unwrap() >= 8, "{v}");
-    assert!(v["tables"].as_u64().unwrap() >= 8, "{v}");
+    assert!(v["figures"].as_u64().unwrap() >= min_figures, "{v}");
+    assert!(v["tables"].as_u64().unwrap() >= min_tables, "{v}");
     assert_eq!(
         v["uncaptioned"],
         serde_json::json!([]),
@@ -216,4 +222,29 @@ addEventListener('load', () => {
         v["page_scroll_width"].as_f64().unwrap() <= v["width"].as_f64().unwrap(),
         "the page scrolls sideways: {v}"
     );
+}
+
+/// The field-trial examples' reports (ARX, integrated LS / RLS, adaptive identification) laid
+/// out in Chromium: every figure captioned and drawn, no table past the text column.
+#[test]
+fn the_field_identifier_reports_are_readable_in_chromium() {
+    let Some(bin) = chromium() else {
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "CI must install chromium (.ci/run does)"
+        );
+        eprintln!("SKIPPED: no chromium on this machine");
+        return;
+    };
+    for (name, figures, tables) in [
+        ("tank_submarine", 4, 6),
+        ("dsrv", 8, 4),
+        ("iver3_auv", 9, 4),
+    ] {
+        let p = example(name);
+        let dir = p.path();
+        ok(dir, &["build"]);
+        let html = read(dir, "reports/index.html");
+        layout_is_readable(&bin, dir, &html, figures, tables);
+    }
 }

@@ -67,6 +67,11 @@ pub fn chart(c: &Chart) -> anyhow::Result<String> {
         for (i, s) in c.series.iter().enumerate() {
             let style = style(i, s);
             if c.stems {
+                // A thin line through the points, then the stems.
+                chart.draw_series(LineSeries::new(
+                    s.x.iter().zip(s.y).map(|(a, b)| (*a, *b)).filter(ok),
+                    style.stroke_width(1),
+                ))?;
                 for (x, y) in s.x.iter().zip(s.y).filter(|(_, y)| y.is_finite()) {
                     chart.draw_series(LineSeries::new([(*x, 0.0), (*x, *y)], style))?;
                     chart.draw_series(std::iter::once(Circle::new((*x, *y), 3, style.filled())))?;
@@ -107,4 +112,12 @@ fn style(i: usize, s: &Series) -> ShapeStyle {
     } else {
         PALETTE[i % PALETTE.len()].stroke_width(1)
     }
+}
+
+/// `c` as an HTML figure with id `id` and caption `caption` (HTML, already escaped).
+pub fn figure(id: &str, caption: &str, c: &Chart) -> anyhow::Result<String> {
+    Ok(format!(
+        "<figure id=\"{id}\">{}<figcaption>{caption}</figcaption></figure>\n",
+        chart(c)?
+    ))
 }

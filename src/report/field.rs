@@ -6,7 +6,7 @@
 use super::html::esc;
 use crate::field::FieldResult;
 use crate::field::arx::{Detail as ArxDetail, Model};
-use crate::plot::lines::{Chart, Series, chart};
+use crate::plot::lines::{Chart, Series, figure};
 use std::collections::BTreeMap;
 use std::fmt::Write;
 
@@ -121,14 +121,25 @@ fn arx_section(r: &FieldResult, truth: &Truth) -> anyhow::Result<String> {
             d.output, s.run, d.input
         );
         let y_desc = format!("{} ({}, detrended)", d.output, d.output_unit);
-        h += &chart(&Chart {
-            title: &title,
-            x_desc: "time (s)",
-            y_desc: &y_desc,
-            series,
-            hlines: vec![],
-            stems: false,
-        })?;
+        let fig_id = format!("field-{}-sim-{}", esc(&r.stage), esc(&s.run));
+        let caption = format!(
+            "{} on held-out run <code>{}</code> (detrended, blue) and each structure simulated from {} alone from the measured initial samples (MATLAB <code>compare</code>); a structure whose simulation diverged is left out.",
+            esc(&d.output),
+            esc(&s.run),
+            esc(&d.input)
+        );
+        h += &figure(
+            &fig_id,
+            &caption,
+            &Chart {
+                title: &title,
+                x_desc: "time (s)",
+                y_desc: &y_desc,
+                series,
+                hlines: vec![],
+                stems: false,
+            },
+        )?;
     }
     let lags: Vec<f64> = (0..d.residual_acf.len()).map(|l| l as f64).collect();
     let outside = d
@@ -149,19 +160,28 @@ fn arx_section(r: &FieldResult, truth: &Truth) -> anyhow::Result<String> {
         "autocorrelation of the prediction error ({})",
         d.residual_run
     );
-    h += &chart(&Chart {
-        title: &title,
-        x_desc: "lag (samples)",
-        y_desc: "autocorrelation",
-        series: vec![Series {
-            label: "selected",
-            x: &lags,
-            y: &d.residual_acf,
-            reference: false,
-        }],
-        hlines: vec![-d.residual_band, d.residual_band],
-        stems: true,
-    })?;
+    let fig_id = format!("field-{}-resid", esc(&r.stage));
+    let caption = format!(
+        "Autocorrelation of the selected model's one-step prediction error on <code>{}</code> by lag, with the 99 % band of a white sequence (dotted).",
+        esc(&d.residual_run)
+    );
+    h += &figure(
+        &fig_id,
+        &caption,
+        &Chart {
+            title: &title,
+            x_desc: "lag (samples)",
+            y_desc: "autocorrelation",
+            series: vec![Series {
+                label: "selected",
+                x: &lags,
+                y: &d.residual_acf,
+                reference: false,
+            }],
+            hlines: vec![-d.residual_band, d.residual_band],
+            stems: true,
+        },
+    )?;
     h += &ranking_table(&d);
     Ok(h)
 }

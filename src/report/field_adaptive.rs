@@ -8,7 +8,7 @@ use super::field::Truth;
 use super::html::esc;
 use crate::field::FieldResult;
 use crate::field::adaptive::result::Detail;
-use crate::plot::lines::{Chart, Series, chart};
+use crate::plot::lines::{Chart, Series, figure};
 use std::fmt::Write;
 
 const DOFS: [(&str, &str); 6] = [
@@ -41,7 +41,7 @@ pub fn section(r: &FieldResult, truth: &Truth) -> anyhow::Result<String> {
     h += &convergence(&d, truth)?;
     h += &excitation(&d);
     h += &validation(&d);
-    h += &figure(&d)?;
+    h += &fig4(&d)?;
     Ok(h)
 }
 
@@ -106,15 +106,27 @@ fn convergence(d: &Detail, truth: &Truth) -> anyhow::Result<String> {
                 reference: false,
             })
             .collect();
+        let fig_id = format!(
+            "field-aid-convergence-{}",
+            title.split(' ').next().unwrap_or("x")
+        );
+        let caption = format!(
+            "Convergence of the {title} parameters: each estimate scaled by the known <code>{}</code> and divided by its truth (or, without one, by its final value), over the identification; 1 is the truth (dotted).",
+            esc(&d.scale_by)
+        );
         let title = format!("convergence: {title} (scaled estimate / truth)");
-        h += &chart(&Chart {
-            title: &title,
-            x_desc: "identification time (s)",
-            y_desc: "estimate / truth",
-            series,
-            hlines: vec![1.0],
-            stems: false,
-        })?;
+        h += &figure(
+            &fig_id,
+            &caption,
+            &Chart {
+                title: &title,
+                x_desc: "identification time (s)",
+                y_desc: "estimate / truth",
+                series,
+                hlines: vec![1.0],
+                stems: false,
+            },
+        )?;
     }
     Ok(h)
 }
@@ -195,7 +207,7 @@ fn validation(d: &Detail) -> String {
     h
 }
 
-fn figure(d: &Detail) -> anyhow::Result<String> {
+fn fig4(d: &Detail) -> anyhow::Result<String> {
     let mut h = String::new();
     for s in &d.simulations {
         for (i, (n, u)) in DOFS.iter().enumerate() {
@@ -224,14 +236,23 @@ fn figure(d: &Detail) -> anyhow::Result<String> {
                 });
             }
             let title = format!("{n} on {} (cross-validation)", s.run);
-            h += &chart(&Chart {
-                title: &title,
-                x_desc: "time (s)",
-                y_desc: &format!("{n} ({u})"),
-                series,
-                hlines: vec![],
-                stems: false,
-            })?;
+            let fig_id = format!("field-aid-{n}-{}", esc(&s.run));
+            let caption = format!(
+                "{n} on held-out <code>{}</code>: measured (blue), and the model simulated from the logged commands alone with the initial parameters and with the identified ones (seed 004 Fig. 4).",
+                esc(&s.run)
+            );
+            h += &figure(
+                &fig_id,
+                &caption,
+                &Chart {
+                    title: &title,
+                    x_desc: "time (s)",
+                    y_desc: &format!("{n} ({u})"),
+                    series,
+                    hlines: vec![],
+                    stems: false,
+                },
+            )?;
         }
     }
     Ok(h)

@@ -7,7 +7,7 @@ use super::field::Truth;
 use super::html::esc;
 use crate::field::FieldResult;
 use crate::field::integrated::{Detail, RunTrace};
-use crate::plot::lines::{Chart, Series, chart};
+use crate::plot::lines::{Chart, Series, figure};
 use std::fmt::Write;
 
 pub fn section(r: &FieldResult, truth: &Truth) -> anyhow::Result<String> {
@@ -64,27 +64,42 @@ pub fn section(r: &FieldResult, truth: &Truth) -> anyhow::Result<String> {
             "d{}/dt on {}: measured and one-step predicted",
             p.state, p.run
         );
-        h += &chart(&Chart {
-            title: &title,
-            x_desc: "time (s)",
-            y_desc: &format!("{} (accumulated increments)", p.state),
-            series: vec![
-                Series {
-                    label: "measured",
-                    x: &p.t,
-                    y: &p.measured,
-                    reference: false,
-                },
-                Series {
-                    label: "predicted",
-                    x: &p.t,
-                    y: &p.predicted,
-                    reference: false,
-                },
-            ],
-            hlines: vec![],
-            stems: false,
-        })?;
+        let fig_id = format!(
+            "field-{}-pred-{}-{}",
+            esc(&r.stage),
+            esc(&p.state),
+            esc(&p.run)
+        );
+        let caption = format!(
+            "{} on <code>{}</code>: the measured state (blue) and its one-step prediction from the previous window's value and the integrated regressor (seed 000 Fig. 4).",
+            esc(&p.state),
+            esc(&p.run)
+        );
+        h += &figure(
+            &fig_id,
+            &caption,
+            &Chart {
+                title: &title,
+                x_desc: "time (s)",
+                y_desc: &format!("{} (accumulated increments)", p.state),
+                series: vec![
+                    Series {
+                        label: "measured",
+                        x: &p.t,
+                        y: &p.measured,
+                        reference: false,
+                    },
+                    Series {
+                        label: "predicted",
+                        x: &p.t,
+                        y: &p.predicted,
+                        reference: false,
+                    },
+                ],
+                hlines: vec![],
+                stems: false,
+            },
+        )?;
         let outside = p.acf.iter().skip(1).filter(|a| a.abs() > p.band).count();
         let _ = writeln!(
             h,
@@ -99,19 +114,34 @@ pub fn section(r: &FieldResult, truth: &Truth) -> anyhow::Result<String> {
             "autocorrelation of the prediction error, {} ({})",
             p.state, p.run
         );
-        h += &chart(&Chart {
-            title: &title,
-            x_desc: "lag (s)",
-            y_desc: "autocorrelation",
-            series: vec![Series {
-                label: &p.state,
-                x: &p.lag_s,
-                y: &p.acf,
-                reference: false,
-            }],
-            hlines: vec![-p.band, p.band],
-            stems: true,
-        })?;
+        let fig_id = format!(
+            "field-{}-acf-{}-{}",
+            esc(&r.stage),
+            esc(&p.state),
+            esc(&p.run)
+        );
+        let caption = format!(
+            "Autocorrelation of the prediction error of d{}/dt on <code>{}</code> with the 95 % band of a white sequence (dotted; seed 000 Fig. 3).",
+            esc(&p.state),
+            esc(&p.run)
+        );
+        h += &figure(
+            &fig_id,
+            &caption,
+            &Chart {
+                title: &title,
+                x_desc: "lag (s)",
+                y_desc: "autocorrelation",
+                series: vec![Series {
+                    label: &p.state,
+                    x: &p.lag_s,
+                    y: &p.acf,
+                    reference: false,
+                }],
+                hlines: vec![-p.band, p.band],
+                stems: true,
+            },
+        )?;
     }
     Ok(h)
 }
@@ -233,14 +263,24 @@ fn trace_charts(d: &Detail, tr: &RunTrace, truth: &Truth) -> anyhow::Result<Stri
             });
         }
         let title = format!("RLS convergence, d{}/dt ({})", e.state, tr.run);
-        h += &chart(&Chart {
-            title: &title,
-            x_desc: "time (s)",
-            y_desc: "parameter",
-            series,
-            hlines: vec![],
-            stems: false,
-        })?;
+        let fig_id = format!("field-rls-{}-{}", esc(&e.state), esc(&tr.run));
+        let caption = format!(
+            "RLS estimates of the d{}/dt parameters through <code>{}</code> (colour) and the twin's truth where known (dashed; seed 000 Fig. 5).",
+            esc(&e.state),
+            esc(&tr.run)
+        );
+        h += &figure(
+            &fig_id,
+            &caption,
+            &Chart {
+                title: &title,
+                x_desc: "time (s)",
+                y_desc: "parameter",
+                series,
+                hlines: vec![],
+                stems: false,
+            },
+        )?;
     }
     Ok(h)
 }

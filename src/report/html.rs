@@ -29,7 +29,7 @@ const STYLE: &str = "body{font-family:sans-serif;max-width:1100px;margin:2em aut
 table{border-collapse:collapse;margin:1em 0;display:block;max-width:100%;overflow-x:auto}td,th{border:1px solid #ccc;padding:.25em .6em;text-align:right}
 th{background:#f3f3f3}td:first-child,th:first-child{text-align:left}.warn{color:#b00}
 figure{margin:1em 0}figure svg{max-width:100%;height:auto;border:1px solid #eee}
-code{background:#f6f6f6;padding:0 .2em}.small{font-size:.85em;color:#555}details{margin:.3em 0}";
+code{background:#f6f6f6;padding:0 .2em}.small{font-size:.85em;color:#555}details{margin:.3em 0}summary code{overflow-wrap:anywhere}";
 
 pub struct Page<'a> {
     pub vehicle: &'a Vehicle,

@@ -35,7 +35,7 @@ pub struct Settings {
     pub window_s: f64,
     #[serde(default)]
     pub rls: Option<Rls>,
-    /// Longest lag of the prediction error's autocorrelation, s.
+    /// Longest lag of the prediction error's autocorrelation, s (at least 15 windows).
     #[serde(default = "twenty")]
     pub max_lag_s: f64,
 }
@@ -108,7 +108,8 @@ impl StageImpl for Settings {
         } else {
             (&val, &wv)
         };
-        let lags = ((self.max_lag_s / window_s).round() as usize).max(1);
+        // At least 15 lags, however long the windows.
+        let lags = ((self.max_lag_s / window_s).round() as usize).max(15);
         let predictions = show
             .iter()
             .zip(shown)
