@@ -308,6 +308,12 @@ fn adaptive_identification_on_the_auv_twin_dives() {
     assert_eq!(d["simulations"][0]["run"], "dive_88");
 
     let html = read(dir, "reports/index.html");
+    // `hydrofit provenance` traces a field parameter to its stage and files.
+    let prov = ok(dir, &["provenance", "c_L1"]);
+    assert!(
+        prov.contains("kind adaptive") && prov.contains("cases/pool/dive_86/actuators.csv blake3"),
+        "{prov}"
+    );
     for s in [
         "id=\"field-aid\"",
         "Persistence of excitation",

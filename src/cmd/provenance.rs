@@ -41,6 +41,9 @@ pub fn run(root: &Path, name: &str, model: Option<&str>) -> anyhow::Result<ExitC
             traced.push((i, r));
         }
     }
+    if traced.is_empty() && model.is_none() && print_field(&plan, &cache, name, &mut known)? {
+        return Ok(ExitCode::SUCCESS);
+    }
     if traced.is_empty() {
         let hint = crate::diag::nearest(name, known.iter().map(|s| s.as_str()))
             .map_or(String::new(), |s| format!(" (did you mean {s}?)"));
@@ -70,6 +73,54 @@ pub fn run(root: &Path, name: &str, model: Option<&str>) -> anyhow::Result<ExitC
         print_trace(&plan, *i, r, p);
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Parameter `name` as the field-trial stages (arx, integrated, adaptive) identified it, with
+/// their input files; false when none did (their names are added to `known`).
+fn print_field(
+    plan: &Plan,
+    cache: &Cache,
+    name: &str,
+    known: &mut Vec<String>,
+) -> anyhow::Result<bool> {
+    let g = &plan.graph;
+    let mut found = false;
+    for i in (0..g.instances.len()).filter(|&i| g.stage_of(i).kind.produces == Artifact::FieldModel)
+    {
+        if !cache.has(&plan.keys[i]) {
+            anyhow::bail!(
+                "stage {} is out of date; run `hydrofit build` first",
+                g.instances[i].id
+            );
+        }
+        let r = crate::field::load(&cache.object(&plan.keys[i]))?;
+        known.extend(r.parameters.iter().map(|p| p.name.clone()));
+        for p in r.parameters.iter().filter(|p| p.name == name) {
+            found = true;
+            let model = p
+                .model
+                .as_ref()
+                .map_or(String::new(), |m| format!(" (model {m})"));
+            crate::outln!("{} = {} ± {} {}{model}", p.name, p.value, p.stderr, p.unit);
+            crate::outln!(
+                "  <- stage {} (kind {}, key {}), method {}, settings {}",
+                g.instances[i].id,
+                g.stage_of(i).kind.name,
+                short(&plan.keys[i]),
+                r.method,
+                r.settings
+            );
+            crate::outln!(
+                "  <- estimated on {}; {} input files:",
+                r.estimation_runs.join(", "),
+                r.inputs.len()
+            );
+            for f in &r.inputs {
+                crate::outln!("       {} blake3 {}", f.path, f.blake3);
+            }
+        }
+    }
+    Ok(found)
 }
 
 /// The cached result of fit instance `i`; an error saying why when it is out of date.
