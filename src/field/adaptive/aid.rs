@@ -85,8 +85,8 @@ pub fn column_power(act: &Actuators, rec: &Record) -> Vec<f64> {
         .collect()
 }
 
-/// Runs the identifier over `rec` from `theta0` (Euler steps at the record's samples, as the
-/// paper did on its logs). Masses are kept above 1 % of their start (a projection that keeps
+/// Runs the identifier over `rec` from `theta0`, one Heun step per sample interval (the paper
+/// used Euler steps on its logs). Masses are kept above 1 % of their start (a projection that keeps
 /// the identifier plant invertible).
 pub fn identify(
     act: &Actuators,
@@ -113,17 +113,28 @@ pub fn identify(
     let mut count = 0usize;
     for k in 0..n.saturating_sub(1) {
         let dt = rec.t[k + 1] - rec.t[k];
+        // Heun's method over the sample interval, the commands of sample k held through it
+        // and the measured state taken at both ends: the identifier plant's own truncation
+        // error would otherwise correlate with the regressor and bias the estimate.
         let dnu: [f64; 6] = std::array::from_fn(|i| nu_hat[i] - rec.nu[k][i]);
-        let f = apply(&regressor(act, &rec.sample(k, [0.0; 6])), &th);
-        let a_hat: [f64; 6] = std::array::from_fn(|i| -g.velocity * dnu[i] - f[i] / th[i]);
-        let r: Regressor = regressor(act, &rec.sample(k, a_hat));
+        let (a0, r0) = step_terms(act, &rec.sample(k, [0.0; 6]), &th, &dnu, g.velocity);
+        let pred: [f64; 6] = std::array::from_fn(|i| nu_hat[i] + dt * a0[i]);
+        let dnu1: [f64; 6] = std::array::from_fn(|i| pred[i] - rec.nu[k + 1][i]);
+        let end = Sample {
+            nu: rec.nu[k + 1],
+            acc: [0.0; 6],
+            down: down(rec.roll_pitch[k + 1][0], rec.roll_pitch[k + 1][1]),
+            fins: &rec.fins[k],
+            prop: rec.prop[k],
+        };
+        let (a1, r1) = step_terms(act, &end, &th, &dnu1, g.velocity);
         for j in 0..P {
-            let grad: f64 = (0..6).map(|i| r[i][j] * dnu[i]).sum();
-            th[j] += dt * gamma[j] * grad;
+            let grad: f64 = (0..6).map(|i| r0[i][j] * dnu[i] + r1[i][j] * dnu1[i]).sum();
+            th[j] += 0.5 * dt * gamma[j] * grad;
         }
         for i in 0..6 {
             th[i] = th[i].max(floor[i]);
-            nu_hat[i] += dt * a_hat[i];
+            nu_hat[i] += 0.5 * dt * (a0[i] + a1[i]);
         }
         if 4 * k >= 3 * n {
             count += 1;
@@ -139,6 +150,25 @@ pub fn identify(
     out.velocity_error_rms = std::array::from_fn(|i| (sq[i] / count.max(1) as f64).sqrt());
     out.last = th;
     out
+}
+
+/// The identifier plant's acceleration at sample `s` (whose acceleration is zero) with
+/// velocity error `dnu`, and the regressor at that acceleration (the acceleration enters only
+/// the mass columns' diagonal).
+fn step_terms(
+    act: &Actuators,
+    s: &Sample,
+    th: &[f64],
+    dnu: &[f64; 6],
+    k: f64,
+) -> ([f64; 6], Regressor) {
+    let mut r = regressor(act, s);
+    let f = apply(&r, th);
+    let a: [f64; 6] = std::array::from_fn(|i| -k * dnu[i] - f[i] / th[i]);
+    for i in 0..6 {
+        r[i][i] += a[i];
+    }
+    (a, r)
 }
 
 /// `theta` scaled so that parameter `j` takes the value `known`.
