@@ -7,6 +7,16 @@ use std::path::Path;
 use std::process::ExitCode;
 use std::time::Instant;
 
+/// Says what a twin command wrote, and where.
+fn wrote(what: &str, n: usize, out: &Path, truth: &Path, seed: u64) -> anyhow::Result<ExitCode> {
+    eprintln!(
+        "hydrofit: wrote {n} {what} to {} and their truth to {} (seed {seed})",
+        out.display(),
+        truth.display()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
 /// `p` as given when absolute, else inside the project folder `root`.
 fn under(root: &Path, p: &Path) -> std::path::PathBuf {
     if p.is_absolute() {
@@ -84,52 +94,28 @@ pub fn field(root: &Path, out: &Path, truth: &Path, seed: u64) -> anyhow::Result
 }
 
 pub fn six_dof(root: &Path, out: &Path, truth: &Path, seed: u64) -> anyhow::Result<ExitCode> {
-    let abs = |p: &Path| under(root, p);
+    let (out, truth) = (under(root, out), under(root, truth));
     let trials = twin::six::default_trials();
-    let written = twin::six::render::write_trials(&abs(out), &abs(truth), &trials, seed)?;
-    eprintln!(
-        "hydrofit: wrote {} six-DOF trials to {} and their truth to {} (seed {seed})",
-        written.len(),
-        abs(out).display(),
-        abs(truth).display()
-    );
-    Ok(ExitCode::SUCCESS)
+    let written = twin::six::render::write_trials(&out, &truth, &trials, seed)?;
+    wrote("six-DOF trials", written.len(), &out, &truth, seed)
 }
 
 pub fn auv(root: &Path, out: &Path, truth: &Path, seed: u64) -> anyhow::Result<ExitCode> {
-    let abs = |p: &Path| under(root, p);
-    let written = twin::auv::write_runs(&abs(out), &abs(truth), seed)?;
-    eprintln!(
-        "hydrofit: wrote {} AUV dives to {} and their truth to {} (seed {seed})",
-        written.len(),
-        abs(out).display(),
-        abs(truth).display()
-    );
-    Ok(ExitCode::SUCCESS)
+    let (out, truth) = (under(root, out), under(root, truth));
+    let written = twin::auv::write_runs(&out, &truth, seed)?;
+    wrote("AUV dives", written.len(), &out, &truth, seed)
 }
 
 pub fn dsrv(root: &Path, out: &Path, truth: &Path, seed: u64) -> anyhow::Result<ExitCode> {
-    let abs = |p: &Path| under(root, p);
-    let written = twin::dsrv::write_runs(&abs(out), &abs(truth), seed)?;
-    eprintln!(
-        "hydrofit: wrote {} DSRV runs to {} and their truth to {} (seed {seed})",
-        written.len(),
-        abs(out).display(),
-        abs(truth).display()
-    );
-    Ok(ExitCode::SUCCESS)
+    let (out, truth) = (under(root, out), under(root, truth));
+    let written = twin::dsrv::write_runs(&out, &truth, seed)?;
+    wrote("DSRV runs", written.len(), &out, &truth, seed)
 }
 
 pub fn tank(root: &Path, out: &Path, truth: &Path, seed: u64) -> anyhow::Result<ExitCode> {
-    let abs = |p: &Path| under(root, p);
-    let written = twin::tank::write_runs(&abs(out), &abs(truth), seed)?;
-    eprintln!(
-        "hydrofit: wrote {} tank runs to {} and their truth to {} (seed {seed})",
-        written.len(),
-        abs(out).display(),
-        abs(truth).display()
-    );
-    Ok(ExitCode::SUCCESS)
+    let (out, truth) = (under(root, out), under(root, truth));
+    let written = twin::tank::write_runs(&out, &truth, seed)?;
+    wrote("tank runs", written.len(), &out, &truth, seed)
 }
 
 /// `hydrofit twin check-diagnosis`: the diagnosis on generated scenarios, each effect concealed
