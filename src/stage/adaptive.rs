@@ -89,26 +89,13 @@ impl StageImpl for Settings {
             .filter(|(_, role)| *role == "train")
             .map(|(r, _)| r)
             .collect();
-        let power = mean_power(&self.actuators, &train);
-        let size: Vec<f64> = theta0.iter().map(|x| x.abs()).collect();
-        let mut theta = theta0.clone();
-        let (mut trace_t, mut trace) = (Vec::new(), Vec::new());
-        let mut offset = 0.0;
-        let mut last_rms = [0.0; 6];
-        for pass in 0..self.passes {
-            for rec in &train {
-                ctx.progress
-                    .set_message(format!("pass {} on {}", pass + 1, rec.name));
-                let run = aid::identify(&self.actuators, rec, &theta, self.gains, &power, &size);
-                for (t, th) in run.t.iter().zip(&run.theta) {
-                    trace_t.push(offset + t - rec.t[0]);
-                    trace.push(aid::scaled(th, known, self.scale_by.value));
-                }
-                offset += rec.t[rec.t.len() - 1] - rec.t[0];
-                theta = run.last;
-                last_rms = run.velocity_error_rms;
-            }
-        }
+        let id = self.identify(ctx, &train, &theta0, known);
+        let Identified {
+            theta,
+            trace_t,
+            trace,
+            last_rms,
+        } = id;
         anyhow::ensure!(
             theta.iter().all(|x| x.is_finite()),
             "the identifier diverged: lower gains.adaptation"
@@ -164,7 +151,50 @@ impl StageImpl for Settings {
     }
 }
 
+/// The identifier's result over the training runs.
+struct Identified {
+    theta: Vec<f64>,
+    trace_t: Vec<f64>,
+    trace: Vec<Vec<f64>>,
+    last_rms: [f64; 6],
+}
+
 impl Settings {
+    /// The identifier run `passes` times through the training runs, one after the other, the
+    /// scaled estimate traced on one clock.
+    fn identify(
+        &self,
+        ctx: &RunCtx,
+        train: &[&Record],
+        theta0: &[f64],
+        known: usize,
+    ) -> Identified {
+        let power = mean_power(&self.actuators, train);
+        let size: Vec<f64> = theta0.iter().map(|x| x.abs()).collect();
+        let mut id = Identified {
+            theta: theta0.to_vec(),
+            trace_t: vec![],
+            trace: vec![],
+            last_rms: [0.0; 6],
+        };
+        let mut offset = 0.0;
+        for pass in 0..self.passes {
+            for rec in train {
+                ctx.progress
+                    .set_message(format!("pass {} on {}", pass + 1, rec.name));
+                let run = aid::identify(&self.actuators, rec, &id.theta, self.gains, &power, &size);
+                for (t, th) in run.t.iter().zip(&run.theta) {
+                    id.trace_t.push(offset + t - rec.t[0]);
+                    id.trace.push(aid::scaled(th, known, self.scale_by.value));
+                }
+                offset += rec.t[rec.t.len() - 1] - rec.t[0];
+                id.theta = run.last;
+                id.last_rms = run.velocity_error_rms;
+            }
+        }
+        id
+    }
+
     /// The initial vector in the model's order and the index of the known parameter.
     fn check(&self) -> anyhow::Result<(Vec<f64>, usize)> {
         let names: Vec<&str> = NAMES.iter().map(|(n, _)| *n).collect();

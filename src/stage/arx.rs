@@ -107,44 +107,14 @@ impl StageImpl for Settings {
         let val = records(&val_runs)?;
         let est_r: Vec<Record> = est.iter().map(|(r, _)| r.clone()).collect();
         let val_r: Vec<Record> = val.iter().map(|(r, _)| r.clone()).collect();
-        let s = &self.search;
-        anyhow::ensure!(
-            s.na[0] <= s.na[1] && s.nb[0] <= s.nb[1] && s.k[0] <= s.k[1] && s.nb[1] >= 1,
-            "search: each range is [lowest, highest] and nb reaches at least 1"
-        );
-        let grid = arx::grid(s.na, s.nb, s.k);
+        let grid = self.grid()?;
         ctx.progress
             .set_message(format!("{} ARX structures", grid.len()));
         let ranking = arx::select(&est_r, &val_r, &grid, self.criterion);
         let best = ranking.first().ok_or_else(|| {
             anyhow::anyhow!("no ARX structure of the grid could be estimated: the runs are too short for these orders, or the input does not change")
         })?;
-        let mut named: Vec<(String, Orders)> = self
-            .structures
-            .iter()
-            .map(|(n, [na, nb, k])| {
-                (
-                    n.clone(),
-                    Orders {
-                        na: *na,
-                        nb: *nb,
-                        k: *k,
-                    },
-                )
-            })
-            .collect();
-        if !named.iter().any(|(_, o)| *o == best.orders) {
-            named.push(("selected".into(), best.orders));
-        }
-        let mut models = Vec::new();
-        let mut notes = Vec::new();
-        for (name, o) in &named {
-            anyhow::ensure!(o.nb >= 1, "structure `{name}`: nb must be at least 1");
-            match arx::estimate(&est_r, *o) {
-                Some(m) => models.push(model(name, m, *o == best.orders, &val_r)),
-                None => notes.push(format!("structure `{name}` ({o}) could not be estimated: too few samples or a singular regressor")),
-            }
-        }
+        let (models, mut notes) = self.models(best.orders, &est_r, &val_r)?;
         let show: Vec<&(Record, Vec<f64>)> = if val.is_empty() {
             est.iter().collect()
         } else {
@@ -199,6 +169,53 @@ impl StageImpl for Settings {
 }
 
 impl Settings {
+    /// The structures of the search grid.
+    fn grid(&self) -> anyhow::Result<Vec<Orders>> {
+        let s = &self.search;
+        anyhow::ensure!(
+            s.na[0] <= s.na[1] && s.nb[0] <= s.nb[1] && s.k[0] <= s.k[1] && s.nb[1] >= 1,
+            "search: each range is [lowest, highest] and nb reaches at least 1"
+        );
+        Ok(arx::grid(s.na, s.nb, s.k))
+    }
+
+    /// The named structures and the selected one (`best`), estimated and scored on `val`;
+    /// a note for each that could not be estimated.
+    fn models(
+        &self,
+        best: Orders,
+        est: &[Record],
+        val: &[Record],
+    ) -> anyhow::Result<(Vec<Model>, Vec<String>)> {
+        let mut named: Vec<(String, Orders)> = self
+            .structures
+            .iter()
+            .map(|(n, [na, nb, k])| {
+                (
+                    n.clone(),
+                    Orders {
+                        na: *na,
+                        nb: *nb,
+                        k: *k,
+                    },
+                )
+            })
+            .collect();
+        if !named.iter().any(|(_, o)| *o == best) {
+            named.push(("selected".into(), best));
+        }
+        let mut models = Vec::new();
+        let mut notes = Vec::new();
+        for (name, o) in &named {
+            anyhow::ensure!(o.nb >= 1, "structure `{name}`: nb must be at least 1");
+            match arx::estimate(est, *o) {
+                Some(m) => models.push(model(name, m, *o == best, val)),
+                None => notes.push(format!("structure `{name}` ({o}) could not be estimated: too few samples or a singular regressor")),
+            }
+        }
+        Ok((models, notes))
+    }
+
     /// Run `r` resampled at `h`: the output interpolated, the input held (a command stays
     /// until the next), both detrended as set; and the record's times.
     fn record(&self, r: &FusedRun, h: f64) -> anyhow::Result<(Record, Vec<f64>)> {

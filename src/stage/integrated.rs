@@ -68,41 +68,8 @@ impl StageImpl for Settings {
             rs.iter().map(|r| self.windows(r, m)).collect()
         };
         let (we, wv) = (wins(&est)?, wins(&val)?);
-        let mut equations = Vec::new();
-        for (i, (state, terms)) in self.equations.iter().enumerate() {
-            let ws: Vec<&Windows> = we.iter().map(|r| &r[i]).collect();
-            let estimate = method::least_squares(&ws).ok_or_else(|| {
-                anyhow::anyhow!("equation of `{state}`: the integrated regressor is singular or has fewer windows than terms (a term that never changes, or two that are proportional: {})", terms.join(", "))
-            })?;
-            let names = terms.iter().map(|t| format!("d{state}/dt:{t}")).collect();
-            equations.push(EquationFit {
-                state: state.clone(),
-                terms: terms.clone(),
-                names,
-                estimate,
-            });
-        }
-        let traces = match &self.rls {
-            Some(r) => est
-                .iter()
-                .zip(&we)
-                .map(|(run, ws)| RunTrace {
-                    run: run.meta.run.clone(),
-                    traces: ws
-                        .iter()
-                        .map(|w| {
-                            thin(method::recursive(
-                                w,
-                                &vec![0.0; w.f.first().map_or(0, Vec::len)],
-                                r.forgetting,
-                                r.p0,
-                            ))
-                        })
-                        .collect(),
-                })
-                .collect(),
-            None => Vec::new(),
-        };
+        let equations = self.fit(&we)?;
+        let traces = self.track(&est, &we);
         let (show, shown) = if val.is_empty() {
             (&est, &we)
         } else {
@@ -151,6 +118,45 @@ impl StageImpl for Settings {
 }
 
 impl Settings {
+    /// Least squares per equation over the windows of every estimation run (`we[run][eq]`).
+    fn fit(&self, we: &[Vec<Windows>]) -> anyhow::Result<Vec<EquationFit>> {
+        let mut equations = Vec::new();
+        for (i, (state, terms)) in self.equations.iter().enumerate() {
+            let ws: Vec<&Windows> = we.iter().map(|r| &r[i]).collect();
+            let estimate = method::least_squares(&ws).ok_or_else(|| {
+                anyhow::anyhow!("equation of `{state}`: the integrated regressor is singular or has fewer windows than terms (a term that never changes, or two that are proportional: {})", terms.join(", "))
+            })?;
+            let names = terms.iter().map(|t| format!("d{state}/dt:{t}")).collect();
+            equations.push(EquationFit {
+                state: state.clone(),
+                terms: terms.clone(),
+                names,
+                estimate,
+            });
+        }
+        Ok(equations)
+    }
+
+    /// The RLS traces through each estimation run, when `rls` is set.
+    fn track(&self, est: &[&FusedRun], we: &[Vec<Windows>]) -> Vec<RunTrace> {
+        let Some(r) = &self.rls else {
+            return Vec::new();
+        };
+        est.iter()
+            .zip(we)
+            .map(|(run, ws)| RunTrace {
+                run: run.meta.run.clone(),
+                traces: ws
+                    .iter()
+                    .map(|w| {
+                        let zero = vec![0.0; w.f.first().map_or(0, Vec::len)];
+                        thin(method::recursive(w, &zero, r.forgetting, r.p0))
+                    })
+                    .collect(),
+            })
+            .collect()
+    }
+
     fn check(&self) -> anyhow::Result<()> {
         anyhow::ensure!(
             !self.equations.is_empty(),
