@@ -31,7 +31,14 @@ pub enum Command {
         /// Say why each stage instance runs.
         #[arg(long)]
         explain: bool,
+        /// Stop at a damaged cache object (a result whose files no longer match their recorded
+        /// blake3) instead of moving it aside and rebuilding it.
+        #[arg(long)]
+        strict_cache: bool,
     },
+    /// Check every cached result and the published report files against their recorded
+    /// blake3; exit 1 when any is damaged or edited.
+    Verify,
     /// List the stage instances a build would run and what makes each stale.
     Status {
         /// Also print every key field of each stale instance.
@@ -198,7 +205,17 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             stages,
             jobs,
             explain,
-        } => cmd::build::run(&root, stages, jobs, explain),
+            strict_cache,
+        } => cmd::build::run(
+            &root,
+            stages,
+            cmd::build::Flags {
+                jobs,
+                explain,
+                strict_cache,
+            },
+        ),
+        Command::Verify => cmd::verify::run(&root),
         Command::Status { explain } => cmd::status::run(&root, explain),
         Command::Clean => cmd::clean::run(&root),
         Command::Provenance { parameter, model } => {

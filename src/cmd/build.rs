@@ -7,14 +7,23 @@ use std::path::Path;
 use std::process::ExitCode;
 use std::time::Instant;
 
+/// How `build` was asked to run.
+pub struct Flags {
+    pub jobs: Option<usize>,
+    /// Say why each instance runs.
+    pub explain: bool,
+    /// Stop at a damaged cache object instead of rebuilding it.
+    pub strict_cache: bool,
+}
+
 /// Builds `targets` (all when empty) in the project at `root`, `jobs` at once (default: the
-/// number of cores), saying why each instance runs when `explain`.
-pub fn run(
-    root: &Path,
-    targets: Vec<String>,
-    jobs: Option<usize>,
-    explain: bool,
-) -> anyhow::Result<ExitCode> {
+/// number of cores).
+pub fn run(root: &Path, targets: Vec<String>, flags: Flags) -> anyhow::Result<ExitCode> {
+    let Flags {
+        jobs,
+        explain,
+        strict_cache,
+    } = flags;
     let start = Instant::now();
     let _lock = lock::acquire(&root.join(STATE_DIR), |holder| {
         eprintln!("hydrofit: waiting for another build of this project to finish ({holder})");
@@ -31,6 +40,7 @@ pub fn run(
             targets,
             jobs,
             explain,
+            strict_cache,
         },
         &progress,
     )?;

@@ -8,3 +8,4 @@ pub mod graph;
 pub mod provenance;
 pub mod status;
 pub mod twin;
+pub mod verify;

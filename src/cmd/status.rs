@@ -10,11 +10,16 @@ pub fn run(root: &Path, show_fields: bool) -> anyhow::Result<ExitCode> {
     let records = cache.records();
     let mut stale = 0;
     for (i, inst) in plan.graph.instances.iter().enumerate() {
-        if cache.has(&plan.keys[i]) {
+        let key = &plan.keys[i];
+        let damaged = cache.has(key).then(|| cache.verify(key).err()).flatten();
+        if cache.has(key) && damaged.is_none() {
             continue;
         }
         stale += 1;
-        let why = explain::reasons(records.get(&inst.id), &plan.fields[i]);
+        let why = match damaged {
+            Some(d) => vec![format!("its cached result is damaged ({d})")],
+            None => explain::reasons(records.get(&inst.id), &plan.fields[i]),
+        };
         crate::outln!("{}: {}", inst.id, why.join("; "));
         if show_fields {
             for line in plan.fields[i].text().lines() {

@@ -5,6 +5,10 @@
 //! build killed at any point leaves either nothing or a whole result. `log` is an append-only
 //! list of the fields each instance was last built with, used only to explain staleness; a torn
 //! last line (killed mid-append) is cut off on the next build, never fatal.
+//!
+//! Every object carries a manifest (`.manifest.json`: the blake3 of each of its files), written
+//! before the rename. An object is served only when its files still match it ([`Cache::verify`]):
+//! a truncated, bit-flipped or edited artifact is never taken for a result.
 
 use super::key::Fields;
 use serde::{Deserialize, Serialize};
@@ -15,6 +19,8 @@ use std::path::{Path, PathBuf};
 /// Engine-owned file inside each object folder (dot-named: never published).
 pub const FIELDS_FILE: &str = ".fields.json";
 const PARTIAL_FILE: &str = ".partial";
+/// The blake3 of every other file of the object, by path relative to it.
+pub const MANIFEST_FILE: &str = ".manifest.json";
 const LOG: &str = "log";
 /// Rewrite the log keeping the last record per instance once it has this many lines.
 const COMPACT_AT: usize = 20_000;
@@ -93,6 +99,7 @@ impl Cache {
         if !missing.is_empty() {
             crate::fsutil::write_atomic(&tmp.join(PARTIAL_FILE), missing.join(", ").as_bytes())?;
         }
+        write_manifest(tmp)?;
         let dest = self.object(&record.key);
         std::fs::create_dir_all(dest.parent().expect("objects/<key> has a parent"))?;
         if self.partial(&record.key).is_some() {
@@ -106,6 +113,41 @@ impl Cache {
             std::fs::rename(tmp, &dest)?;
         }
         self.append(record)
+    }
+
+    /// Whether object `key`'s files are exactly those its manifest lists, with the same
+    /// contents; the first difference otherwise.
+    pub fn verify(&self, key: &str) -> Result<(), String> {
+        let dir = self.object(key);
+        let text = std::fs::read_to_string(dir.join(MANIFEST_FILE))
+            .map_err(|_| format!("{MANIFEST_FILE} is missing"))?;
+        let listed: std::collections::BTreeMap<String, String> =
+            serde_json::from_str(&text).map_err(|_| format!("{MANIFEST_FILE} is damaged"))?;
+        let found = files_under(&dir).map_err(|e| format!("cannot list the object: {e}"))?;
+        for rel in &found {
+            if !listed.contains_key(rel) {
+                return Err(format!("{rel} is not part of the result"));
+            }
+        }
+        for (rel, hash) in &listed {
+            match crate::fsutil::hash_file(&dir.join(rel)) {
+                Ok(h) if h == *hash => {}
+                Ok(_) => return Err(format!("{rel} differs from the result as written")),
+                Err(_) => return Err(format!("{rel} is missing")),
+            }
+        }
+        Ok(())
+    }
+
+    /// Moves a damaged object aside (`.hydrofit/damaged/<key>`, the last copy kept for
+    /// inspection) so that its stage reruns.
+    pub fn quarantine(&self, key: &str) -> std::io::Result<()> {
+        let dest = self.dir.join("damaged").join(key);
+        if dest.exists() {
+            std::fs::remove_dir_all(&dest)?;
+        }
+        std::fs::create_dir_all(dest.parent().expect("damaged/<key> has a parent"))?;
+        std::fs::rename(self.object(key), dest)
     }
 
     pub fn abandon(&self, tmp: &Path) {
@@ -160,6 +202,38 @@ impl Cache {
         }
         Ok(())
     }
+}
+
+/// Every file under `dir` but the manifest, as `/`-separated paths relative to it.
+fn files_under(dir: &Path) -> std::io::Result<Vec<String>> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d)? {
+            let p = e?.path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                let rel = p.strip_prefix(dir).expect("under dir");
+                let rel = rel.to_string_lossy().replace('\\', "/");
+                if rel != MANIFEST_FILE {
+                    out.push(rel);
+                }
+            }
+        }
+    }
+    out.sort();
+    Ok(out)
+}
+
+/// Writes the manifest of a finished object folder.
+fn write_manifest(dir: &Path) -> std::io::Result<()> {
+    let mut m = std::collections::BTreeMap::new();
+    for rel in files_under(dir)? {
+        m.insert(rel.clone(), crate::fsutil::hash_file(&dir.join(&rel))?);
+    }
+    let text = serde_json::to_string_pretty(&m).map_err(std::io::Error::other)?;
+    crate::fsutil::write_atomic(&dir.join(MANIFEST_FILE), text.as_bytes())
 }
 
 #[cfg(test)]

@@ -18,6 +18,34 @@ pub struct Options {
     pub jobs: usize,
     /// Print why each instance runs (the same text as `hydrofit status`).
     pub explain: bool,
+    /// Stop at a damaged cache object instead of moving it aside and rerunning its stage.
+    pub strict_cache: bool,
+}
+
+/// A cached result of instance `i` is served only when its files match its manifest; a
+/// damaged one is said, moved aside and rerun (or, strictly, stops the build).
+fn served(
+    plan: &Plan,
+    i: usize,
+    cache: &Cache,
+    progress: &Progress,
+    strict: bool,
+) -> anyhow::Result<State> {
+    let key = &plan.keys[i];
+    let Err(why) = cache.verify(key) else {
+        return Ok(State::Done);
+    };
+    let id = &plan.graph.instances[i].id;
+    let short = &key[..key.len().min(16)];
+    anyhow::ensure!(
+        !strict,
+        "the cached result of {id} (.hydrofit/objects/{short}...) is damaged: {why}; run without --strict-cache to rebuild it, or `hydrofit verify` to check the whole cache"
+    );
+    progress.println(format!(
+        "warning: the cached result of {id} (.hydrofit/objects/{short}...) is damaged ({why}): moved to .hydrofit/damaged/ and rebuilt"
+    ));
+    cache.quarantine(key)?;
+    Ok(State::Waiting)
 }
 
 #[derive(Debug, Default)]
@@ -112,11 +140,11 @@ impl<'a> Schedule<'a> {
             .map_err(anyhow::Error::msg)?;
         let state: Vec<State> = (0..plan.graph.instances.len())
             .map(|i| match (need[i], cache.has(&plan.keys[i])) {
-                (false, _) => State::NotNeeded,
-                (true, true) => State::Done,
-                (true, false) => State::Waiting,
+                (false, _) => Ok(State::NotNeeded),
+                (true, true) => served(plan, i, cache, progress, opts.strict_cache),
+                (true, false) => Ok(State::Waiting),
             })
-            .collect();
+            .collect::<anyhow::Result<_>>()?;
         let summary = Summary {
             up_to_date: state.iter().filter(|s| **s == State::Done).count(),
             ..Default::default()
