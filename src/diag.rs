@@ -51,14 +51,15 @@ impl InputError {
 
 impl fmt::Display for InputError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}", self.path)?;
+        write!(f, "{}", clip(&self.path, 500))?;
         if let Some(l) = self.line {
             write!(f, ":{l}")?;
             if let Some(c) = self.col {
                 write!(f, ":{c}")?;
             }
         }
-        write!(f, ": {}", self.what)?;
+        // Messages may quote input; none needs more than this to say what is wrong.
+        write!(f, ": {}", clip(&self.what, 2000))?;
         if let Some(s) = &self.snippet {
             let shown: String = s.chars().take(160).collect();
             write!(f, "\n    | {shown}")?;
@@ -67,7 +68,7 @@ impl fmt::Display for InputError {
             }
         }
         if !self.fix.is_empty() {
-            write!(f, "\n  help: {}", self.fix)?;
+            write!(f, "\n  help: {}", clip(&self.fix, 2000))?;
         }
         Ok(())
     }
@@ -108,6 +109,16 @@ pub fn nearest<'a>(word: &str, candidates: impl IntoIterator<Item = &'a str>) ->
         .filter(|(d, c)| *d <= (c.len().max(word.len()) / 2).max(1))
         .min_by_key(|(d, _)| *d)
         .map(|(_, c)| c)
+}
+
+/// `s` cut to at most `n` characters, saying how much was left out.
+pub fn clip(s: &str, n: usize) -> String {
+    let count = s.chars().count();
+    if count <= n {
+        return s.to_string();
+    }
+    let head: String = s.chars().take(n).collect();
+    format!("{head}... ({} more characters)", count - n)
 }
 
 #[cfg(test)]

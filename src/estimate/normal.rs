@@ -71,8 +71,8 @@ impl Normal {
         let rhs = nalgebra::DVector::from_fn(k, |a, _| g[(cols[a], self.p)] / s[a]);
         let z = match m.clone().cholesky() {
             Some(c) => c.solve(&rhs),
-            None => m
-                .svd(true, true)
+            None => crate::numerics::svd(m, true, true)
+                .ok_or(EstimateError::Singular)?
                 .solve(&rhs, 1e-12)
                 .map_err(|_| EstimateError::Singular)?,
         };

@@ -222,8 +222,10 @@ pub(crate) fn summarise_with(
     let res = residuals(problem, theta);
     let ss: f64 = res.iter().zip(&w).map(|(r, w)| (r * w).powi(2)).sum();
     let s2 = ss / (n.saturating_sub(p).max(1)) as f64;
-    let svd = normal.clone().svd(false, false);
-    let (smax, smin) = (svd.singular_values.max(), svd.singular_values.min());
+    let (smax, smin) = match crate::numerics::svd(normal.clone(), false, false) {
+        Some(svd) => (svd.singular_values.max(), svd.singular_values.min()),
+        None => (f64::INFINITY, 0.0),
+    };
     // The normal matrix squares the regressor's condition number.
     let condition_number = (smax / smin.max(f64::MIN_POSITIVE)).sqrt();
     let cov = normal

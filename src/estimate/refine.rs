@@ -46,6 +46,9 @@ pub fn output_error_lm(
     };
     let mut a = DMatrix::<f64>::zeros(p, p);
     for _ in 0..iterations {
+        if crate::interrupt::requested() {
+            break;
+        }
         let jac = jacobian(oe, layout, &lm.theta, &lm.r);
         let g;
         (a, g) = normal_equations(&jac, &lm.r);

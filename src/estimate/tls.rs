@@ -53,7 +53,7 @@ impl Estimator for Tls {
 pub fn tls_solve(gram: &DMatrix<f64>) -> Result<Vec<f64>, EstimateError> {
     let q = gram.nrows();
     let p = q - 1;
-    let eig = gram.clone().symmetric_eigen();
+    let eig = crate::numerics::symmetric_eigen(gram.clone()).ok_or(EstimateError::Singular)?;
     let mut order: Vec<usize> = (0..q).collect();
     order.sort_by(|a, b| eig.eigenvalues[*a].total_cmp(&eig.eigenvalues[*b]));
     // Singular values are square roots of the Gram matrix's eigenvalues.

@@ -39,7 +39,11 @@ fn subset_lstsq(
                 .map(|j| reg.row(i)[j] * held[j])
                 .sum::<f64>()
     });
-    let svd = a.clone().svd(true, true);
+    let svd = crate::numerics::svd(a.clone(), true, true).ok_or_else(|| {
+        anyhow::anyhow!(
+            "least squares: the regressor has a non-finite entry or its SVD does not converge"
+        )
+    })?;
     let (smax, smin) = (svd.singular_values.max(), svd.singular_values.min());
     let x = svd
         .solve(&b, 1e-12 * smax)

@@ -184,11 +184,11 @@ pub fn roots(c: &[f64], lead: f64) -> Vec<[f64; 2]> {
     for i in 1..n {
         m[(i, i - 1)] = 1.0;
     }
-    let mut r: Vec<[f64; 2]> = m
-        .complex_eigenvalues()
-        .iter()
-        .map(|z| [z.re, z.im])
-        .collect();
+    // A non-finite polynomial has no roots to show (its coefficients are reported as such).
+    let Some(eig) = crate::numerics::complex_eigenvalues(m) else {
+        return Vec::new();
+    };
+    let mut r: Vec<[f64; 2]> = eig.iter().map(|z| [z.re, z.im]).collect();
     r.sort_by(|a, b| b[0].hypot(b[1]).total_cmp(&a[0].hypot(a[1])));
     r
 }

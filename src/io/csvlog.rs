@@ -2,6 +2,11 @@
 //! only. Every problem is an `InputError` naming file, line, column and the fix.
 
 use crate::diag::InputError;
+use crate::input::clip;
+
+/// No sensor or command value of a vehicle log comes near this in SI units (a time may: it can
+/// be a Unix stamp in microseconds); beyond it a value is damaged, not measured.
+const PLAUSIBLE: f64 = 1e9;
 
 /// A parsed log: the time column and the requested columns, in the requested order.
 #[derive(Debug, Clone, PartialEq)]
@@ -145,6 +150,8 @@ fn parse_columns_gaps(
     min_rows: usize,
     gaps: bool,
 ) -> Result<Log, InputError> {
+    let whole = crate::input::Text::new(text);
+    let (text, torn) = whole.complete_lines(path);
     let spec = Spec {
         path,
         text,
@@ -162,7 +169,7 @@ fn parse_columns_gaps(
     let mut log = Log {
         t: Vec::new(),
         cols: vec![Vec::new(); columns.len() - 1],
-        notes: spec.header_notes(&layout),
+        notes: spec.header_notes(&layout).into_iter().chain(torn).collect(),
         present: layout.present[1..].to_vec(),
     };
     let mut missing_values = 0usize;
@@ -233,6 +240,7 @@ impl Spec<'_> {
     fn read_header<'t>(&self, hline: usize, header: &'t str) -> Result<Layout<'t>, InputError> {
         let names: Vec<&str> = header.split(',').map(unquote).collect();
         self.check_delimiter(hline, header, &names)?;
+        self.check_repeated(hline, &names)?;
         let mut index = Vec::with_capacity(self.columns.len());
         let mut present = Vec::with_capacity(self.columns.len());
         for (ci, c) in self.columns.iter().enumerate() {
@@ -254,6 +262,27 @@ impl Spec<'_> {
             index,
             present,
         })
+    }
+
+    /// A column name used twice (ignoring case): which one is meant cannot be told.
+    fn check_repeated(&self, hline: usize, names: &[&str]) -> Result<(), InputError> {
+        for (i, n) in names.iter().enumerate() {
+            if let Some(j) = names[..i].iter().position(|m| m.eq_ignore_ascii_case(n)) {
+                let fields: Vec<&str> = names.to_vec();
+                return Err(self.err(
+                    hline,
+                    Some(column_of(&fields, i)),
+                    format!(
+                        "column `{}` appears twice in the header (columns {} and {})",
+                        clip(n, 60),
+                        j + 1,
+                        i + 1
+                    ),
+                    "rename or remove one of them: which one holds the data cannot be told".into(),
+                ));
+            }
+        }
+        Ok(())
     }
 
     /// A header of one column when more are expected: another delimiter, most likely.
@@ -296,7 +325,9 @@ impl Spec<'_> {
                 .copied()
                 .filter(|n| !columns.iter().any(|x| x.eq_ignore_ascii_case(n))),
         )
-        .map_or(String::new(), |n| format!(" (`{n}` is close; rename it)"));
+        .map_or(String::new(), |n| {
+            format!(" (`{}` is close; rename it)", clip(n, 60))
+        });
         self.err(
             hline,
             None,
@@ -346,15 +377,18 @@ impl Spec<'_> {
                 if missing.len() > 1 { "s" } else { "" }
             ));
         }
-        let extra: Vec<&str> = layout
+        let extra: Vec<String> = layout
             .names
             .iter()
             .enumerate()
             .filter(|(i, _)| !layout.index.contains(i))
-            .map(|(_, n)| *n)
+            .map(|(_, n)| clip(n, 60))
             .collect();
         if !extra.is_empty() {
-            notes.push(format!("{path}: ignored columns {}", extra.join(", ")));
+            notes.push(format!(
+                "{path}: ignored columns {}",
+                clip(&extra.join(", "), 400)
+            ));
         }
         notes
     }
@@ -408,7 +442,7 @@ impl Spec<'_> {
             self.err(
                 lno,
                 Some(col),
-                format!("`{raw}` in column `{name}` is not a number"),
+                format!("`{}` in column `{name}` is not a number", clip(raw, 40)),
                 fix,
             )
         })?;
@@ -418,6 +452,14 @@ impl Spec<'_> {
                 Some(col),
                 format!("`{raw}` in column `{name}` is not a finite number"),
                 "a sensor dropout should be a missing row, not NaN or inf: delete this row".into(),
+            ));
+        }
+        if name != self.columns[0] && v.abs() > PLAUSIBLE {
+            return Err(self.err(
+                lno,
+                Some(col),
+                format!("`{raw}` in column `{name}` is beyond any value this log can hold (|x| > {PLAUSIBLE:e})"),
+                "the value is damaged (a cut-off or merged number): fix or delete this row".into(),
             ));
         }
         Ok(v)
@@ -510,5 +552,34 @@ mod tests {
         }
         let e = p("t,x_m,y_m\n0,1,2\n").unwrap_err().to_string();
         assert!(e.contains("1 data rows"), "{e}");
+        for (text, want) in [
+            (
+                "t,x_m,X_M\n0,1,2\n1,1,2\n",
+                ":1:7: column `X_M` appears twice",
+            ),
+            (
+                "t,x_m,y_m\n0,1,2\n1,1e300,2\n",
+                ":3:3: `1e300` in column `x_m` is beyond",
+            ),
+        ] {
+            let e = p(text).unwrap_err().to_string();
+            assert!(e.contains(want), "{text:?}: {e}");
+        }
+        let long = format!("t,x_m,y_m,{}\n0,1,2,3\n", "z".repeat(1_000_000));
+        let e = p(&long).unwrap_err().to_string();
+        assert!(e.len() < 2_000, "{} bytes", e.len());
+    }
+
+    #[test]
+    fn a_byte_order_mark_is_read_and_a_torn_last_row_left_out() {
+        let log = p("\u{feff}t,x_m,y_m\n0,1,2\n0.1,1,2\n0.2,4.49034339e-1,1.1").unwrap();
+        assert_eq!(log.t, vec![0.0, 0.1]);
+        assert!(
+            log.notes
+                .iter()
+                .any(|n| n.contains(":4: the last line has no newline")),
+            "{:?}",
+            log.notes
+        );
     }
 }

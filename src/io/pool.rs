@@ -110,28 +110,33 @@ const KNOWN: [&str; 8] = [
 ];
 
 fn read(root: &Path, rel: &str) -> Result<String, InputError> {
-    let bytes = std::fs::read(root.join(rel)).map_err(|e| {
-        InputError::file(
-            rel,
-            format!("cannot read: {e}"),
-            "check the file's permissions",
-        )
-    })?;
-    String::from_utf8(bytes).map_err(|e| {
-        InputError::file(
-            rel,
-            format!(
-                "not UTF-8 text (byte {} is invalid)",
-                e.utf8_error().valid_up_to()
-            ),
-            "export the log as CSV text, not a binary or spreadsheet file",
-        )
-    })
+    Ok(crate::input::read(
+        root,
+        rel,
+        "export the log as CSV text, not a binary or spreadsheet file",
+    )?
+    .text)
+}
+
+/// A folder named like one of the run's files: it would otherwise count as a missing file.
+fn check_no_folders(root: &Path, dir: &str) -> Result<(), InputError> {
+    for n in KNOWN {
+        let rel = format!("{dir}/{n}");
+        if root.join(&rel).is_dir() {
+            return Err(InputError::file(
+                rel,
+                "is a folder, where the run's file of that name is expected",
+                "rename or remove the folder (put the file itself there, or nothing)",
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// Loads the run in folder `dir` (relative to `root`, `/`-separated) whose files are `files`.
 pub fn load(root: &Path, dir: &str, files: &[String]) -> Result<PoolRun, InputError> {
     let name = dir.rsplit('/').next().unwrap_or(dir).to_string();
+    check_no_folders(root, dir)?;
     let mut notes = unknown_files(files);
     let meta = read_meta(root, dir, files)?;
     let actuators = match find(files, "actuators.csv") {
@@ -220,16 +225,52 @@ fn read_meta(root: &Path, dir: &str, files: &[String]) -> Result<RunMeta, InputE
         )
     })?;
     let text = read(root, &meta_path)?;
-    serde_yaml_ng::from_str(&text).map_err(|e| {
-        let (line, col) = e.location().map_or((None, None), |l| (Some(l.line()), Some(l.column())));
-        let msg = e.to_string();
-        let msg = msg.rfind(" at line ").map_or(msg.as_str(), |i| &msg[..i]).to_string();
-        let mut err = InputError::file(&meta_path, msg, "run.yaml takes role (train | validate), description, pool {length_m, width_m, depth_m} and tether_anchor_m [x, y, z]");
-        if let Some(l) = line {
-            err = err.at(l, col).with_source(&text);
+    let meta: RunMeta = crate::input::yaml(
+        &meta_path,
+        &text,
+        "run.yaml takes role (train | validate), description, pool {length_m, width_m, depth_m} and tether_anchor_m [x, y, z]",
+    )?;
+    meta.check(&meta_path, &text)?;
+    Ok(meta)
+}
+
+impl RunMeta {
+    /// Every number is finite and the pool's sizes are positive.
+    fn check(&self, path: &str, text: &str) -> Result<(), InputError> {
+        let index = crate::input::locate::KeyIndex::new(text);
+        let err = |key: &str, what: String, fix: &str| {
+            let e = InputError::file(path, what, fix);
+            match index.find(key) {
+                Some((l, c)) => e.at(l, Some(c)).with_source(text),
+                None => e,
+            }
+        };
+        if let Some(p) = &self.pool {
+            for (k, v) in [
+                ("length_m", p.length_m),
+                ("width_m", p.width_m),
+                ("depth_m", p.depth_m),
+            ] {
+                if !(v.is_finite() && v > 0.0) {
+                    return Err(err(
+                        &format!("pool.{k}"),
+                        format!("pool.{k} is {v}; a pool's size is a positive number of metres"),
+                        "write the pool's inside length, width and water depth in metres",
+                    ));
+                }
+            }
         }
-        err
-    })
+        if let Some(a) = self.tether_anchor_m
+            && a.iter().any(|x| !x.is_finite())
+        {
+            return Err(err(
+                "tether_anchor_m",
+                format!("tether_anchor_m is {a:?}; it must be three finite coordinates"),
+                "write where the tether enters the water, [x, y, z] in metres in the pool frame",
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// The thrust log and its path, which every run needs. Its repeated time stamps are kept
@@ -428,6 +469,47 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("no run.yaml"), "{e}");
+    }
+
+    #[test]
+    fn a_bad_run_yaml_or_a_folder_for_a_file_is_located() {
+        let t = thrust();
+        let cases = [
+            (
+                "role: train\npool: {length_m: .nan, width_m: 2, depth_m: 1}\n",
+                "run.yaml:2:",
+            ),
+            (
+                "role: train\npool:\n  length_m: 10\n  width_m: -2\n  depth_m: 1\n",
+                "run.yaml:4:",
+            ),
+            (
+                "role: train\nrole: validate\n",
+                "run.yaml:2:1: duplicate entry",
+            ),
+            (
+                "role: train\ntether_anchor_m: [0, .inf, 0]\n",
+                "run.yaml:2:",
+            ),
+        ];
+        for (yaml, want) in cases {
+            let (d, files) = folder(&[("run.yaml", yaml), ("thrust.csv", &t)]);
+            let e = load(d.path(), "cases/pool/r1", &files)
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(want) && e.contains("help:"), "{yaml:?}: {e}");
+        }
+        let (d, files) = folder(&[("run.yaml", "\u{feff}role: train\n"), ("thrust.csv", &t)]);
+        std::fs::create_dir_all(d.path().join("cases/pool/r1/imu.csv")).unwrap();
+        let e = load(d.path(), "cases/pool/r1", &files)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("imu.csv: is a folder"), "{e}");
+        std::fs::remove_dir(d.path().join("cases/pool/r1/imu.csv")).unwrap();
+        assert!(
+            load(d.path(), "cases/pool/r1", &files).is_ok(),
+            "BOM in run.yaml"
+        );
     }
 
     /// A navigation log as a DVL writes it when it loses bottom lock: empty or `nan` values in

@@ -41,6 +41,32 @@ pub struct Response {
 }
 
 impl Response {
+    /// The first sample from `from_t` on whose time, force, velocity or acceleration (in the
+    /// DOFs `dofs`) is not a finite number, said as `t = 3.2 s: surge velocity is inf`. A
+    /// solver fed such a value returns nonsense or never returns.
+    pub fn non_finite(&self, dofs: &[Dof], from_t: f64) -> Option<String> {
+        for (k, &t) in self.t.iter().enumerate() {
+            if !t.is_finite() {
+                return Some(format!("sample {k}: the time is {t}"));
+            }
+            if t < from_t {
+                continue;
+            }
+            for (d, s) in self.dofs.iter().filter(|(d, _)| dofs.contains(d)) {
+                for (what, v) in [
+                    ("applied force", s.force[k]),
+                    ("velocity", s.velocity[k]),
+                    ("acceleration", s.accel[k]),
+                ] {
+                    if !v.is_finite() {
+                        return Some(format!("t = {t} s: the {d} {what} is {v}"));
+                    }
+                }
+            }
+        }
+        None
+    }
+
     /// `plant`'s velocities under this response's applied force, from its first measured state.
     pub fn simulate(&self, plant: &crate::model::Plant) -> Vec<crate::model::Vec6> {
         let tau: Vec<crate::model::Vec6> = (0..self.len()).map(|k| self.tau(k)).collect();

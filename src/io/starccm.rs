@@ -5,6 +5,11 @@ mod columns;
 
 use super::response::{Response, Series, Source, differentiate};
 use crate::diag::InputError;
+use crate::input::clip;
+
+/// No force (N, N m), velocity or acceleration of a vehicle's DFBI run comes near this in the
+/// export's units; beyond it a value is damaged, not computed.
+const PLAUSIBLE: f64 = 1e9;
 use crate::dof::Dof;
 use columns::{Header, Mapped, Role, check_dofs, map_columns, parse_header};
 use serde::{Deserialize, Serialize};
@@ -80,7 +85,8 @@ pub struct Imported {
 
 /// Parses one export. `path` is only used in messages.
 pub fn parse(path: &str, text: &str, opts: &ImportOptions) -> Result<Imported, InputError> {
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let whole = crate::input::Text::new(text);
+    let (text, torn) = whole.complete_lines(path);
     let mut lines = text
         .lines()
         .enumerate()
@@ -109,7 +115,8 @@ pub fn parse(path: &str, text: &str, opts: &ImportOptions) -> Result<Imported, I
         )
         .at(hline, None));
     }
-    let (response, notes) = build_response(&table, mapped, dofs, opts);
+    let (response, mut notes) = build_response(&table, mapped, dofs, opts);
+    notes.extend(torn);
     Ok(Imported {
         response,
         rows_read: table.rows_read,
@@ -146,7 +153,8 @@ fn read_header(
     }
     Ok(hfields
         .iter()
-        .map(|(c, n)| parse_header(n.trim(), *c))
+        // A name is only shown and matched: a damaged header's megabyte "name" is clipped.
+        .map(|(c, n)| parse_header(&clip(n.trim(), 300), *c))
         .collect())
 }
 
@@ -236,14 +244,26 @@ impl<'a> RowReader<'a> {
         let (col, raw) = &fields[i];
         let headers = self.headers;
         let v: f64 = raw.trim().parse().map_err(|_| {
-            self.err(ln, Some(*col), format!("cannot read \"{}\" in column \"{}\" as a number", raw.trim(), headers[i].name), "fix or delete this row (the export may have been written while the run was still going)")
+            self.err(ln, Some(*col), format!("cannot read \"{}\" in column \"{}\" as a number", clip(raw.trim(), 40), clip(&headers[i].name, 80)), "fix or delete this row (the export may have been written while the run was still going)")
         })?;
         if !v.is_finite() {
             return Err(self.err(
                 ln,
                 Some(*col),
-                format!("{} in column \"{}\"", raw.trim(), headers[i].name),
+                format!("{} in column \"{}\"", raw.trim(), clip(&headers[i].name, 80)),
                 "the solver diverged or the export is corrupt: rerun the case, or cut the export before this row",
+            ));
+        }
+        if i != self.time_idx && v.abs() > PLAUSIBLE {
+            return Err(self.err(
+                ln,
+                Some(*col),
+                format!(
+                    "{} in column \"{}\" is beyond any force, velocity or acceleration of a DFBI run (|x| > {PLAUSIBLE:e})",
+                    raw.trim(),
+                    clip(&headers[i].name, 80)
+                ),
+                "the value is damaged (a cut-off or merged number) or the solver diverged: fix or delete this row, or cut the export before it",
             ));
         }
         Ok(v)

@@ -10,7 +10,8 @@ use nalgebra::DMatrix;
 pub fn inverse(m: &Mat6, active: &[bool; 6]) -> Result<Mat6, String> {
     let ix: Vec<usize> = (0..6).filter(|&i| active[i]).collect();
     let sub = DMatrix::from_fn(ix.len(), ix.len(), |a, b| m[ix[a]][ix[b]]);
-    let eig = sub.clone().symmetric_eigen();
+    let eig = crate::numerics::symmetric_eigen(sub.clone())
+        .ok_or("the matrix has an entry that is not a finite number")?;
     let (k, &low) = eig
         .eigenvalues
         .iter()

@@ -113,10 +113,14 @@ pub fn growth_rate(plant: &Plant, nu: &[f64; 4]) -> f64 {
     if jac.iter().any(|x| !x.is_finite()) {
         return f64::INFINITY;
     }
-    jac.complex_eigenvalues()
-        .iter()
-        .map(|e| e.re)
-        .fold(f64::NEG_INFINITY, f64::max)
+    crate::numerics::complex_eigenvalues(nalgebra::DMatrix::from_iterator(
+        jac.nrows(),
+        jac.ncols(),
+        jac.iter().copied(),
+    ))
+    .map_or(f64::INFINITY, |ev| {
+        ev.iter().map(|e| e.re).fold(f64::NEG_INFINITY, f64::max)
+    })
 }
 
 /// The model's stability along a run: recorded velocities `vel` (u, v, w, r per sample at

@@ -100,6 +100,25 @@ impl Vehicle {
                 self.mass_kg
             ));
         }
+        for (axis, v) in [
+            ("xx", self.inertia_kg_m2.xx),
+            ("yy", self.inertia_kg_m2.yy),
+            ("zz", self.inertia_kg_m2.zz),
+        ] {
+            if !v.is_finite() || v < 0.0 {
+                out.push(format!(
+                    "inertia_kg_m2.{axis} must be a positive number of kg m^2, not {v}"
+                ));
+            }
+        }
+        if let Some(d) = self
+            .dofs
+            .iter()
+            .enumerate()
+            .find_map(|(i, d)| self.dofs[..i].contains(d).then_some(d))
+        {
+            out.push(format!("dofs lists {d} twice"));
+        }
         if self.dofs.is_empty() {
             out.push(
                 "dofs is empty: list the DOFs the vehicle moves in, e.g. [surge, sway, heave, yaw]"

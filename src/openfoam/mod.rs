@@ -149,16 +149,33 @@ pub fn read_setup(case: &Path, shown: &str) -> anyhow::Result<CaseSetup> {
         .into());
     };
     anyhow::ensure!(
-        *mass > 0.0,
+        mass.is_finite() && *mass > 0.0,
         InputError::file(
             format!("{shown}/constant/dynamicMeshDict"),
-            format!("body mass {mass} is not positive"),
+            format!("body mass {mass} is not a positive number"),
             fix
+        )
+    );
+    anyhow::ensure!(
+        [*gx, *gy, *gz, *rho].iter().all(|x| x.is_finite()) && *rho > 0.0,
+        InputError::file(
+            format!("{shown}/constant/dynamicMeshDict"),
+            format!("g ({gx} {gy} {gz}) and rhoInf ({rho}) must be finite, rhoInf positive"),
+            fix
+        )
+    );
+    let end_time = end.first().copied().unwrap_or(0.0);
+    anyhow::ensure!(
+        end_time.is_finite() && end_time > 0.0,
+        InputError::file(
+            format!("{shown}/system/controlDict"),
+            format!("endTime {end_time} is not a positive number of seconds"),
+            "set `endTime` to the simulated time, e.g. `endTime 3;`"
         )
     );
     Ok(CaseSetup {
         application,
-        end_time_s: end.first().copied().unwrap_or(0.0),
+        end_time_s: end_time,
         mass_kg: *mass,
         g: [*gx, *gy, *gz],
         rho: *rho,
@@ -241,12 +258,16 @@ pub fn read_track(dir: &Path, solver: &str) -> anyhow::Result<(Track, results::L
 
 /// The vector table `rel` of a run in `dir`, when the case writes it.
 fn read_table(dir: &Path, rel: &str) -> anyhow::Result<Option<VectorTable>> {
-    match std::fs::read_to_string(dir.join(rel)) {
+    let path = dir.join(rel);
+    if !path.exists() {
+        return Ok(None);
+    }
+    match crate::input::read_path(&path, rel, "the table is written by OpenFOAM as text") {
         Ok(text) => Ok(Some(
-            results::parse_vector_table(&text)
+            results::parse_vector_table(&text.text)
                 .map_err(|e| RunError::Results(format!("{rel}: {e}")))?,
         )),
-        Err(_) => Ok(None),
+        Err(e) => Err(e.into()),
     }
 }
 

@@ -147,6 +147,7 @@ pub struct TableError {
 pub fn parse_vector_table(text: &str) -> Result<VectorTable, TableError> {
     let mut table = VectorTable::default();
     let lines: Vec<&str> = text.lines().collect();
+    let mut line_of: Vec<usize> = Vec::new();
     for (i, line) in lines.iter().enumerate() {
         if let Some(h) = line.strip_prefix('#') {
             let h = h.trim();
@@ -175,8 +176,18 @@ pub fn parse_vector_table(text: &str) -> Result<VectorTable, TableError> {
         let last = i + 1 == lines.len() && !text.ends_with('\n');
         match parse_row(line) {
             Some((t, v)) if v.len() == table.columns.len() || table.columns.is_empty() => {
+                if !t.is_finite() || v.iter().flatten().any(|x| !x.is_finite()) {
+                    return Err(TableError {
+                        line: i + 1,
+                        msg: format!(
+                            "a value that is not a finite number: `{}`",
+                            crate::input::clip(line.trim(), 120)
+                        ),
+                    });
+                }
                 table.t.push(t);
                 table.rows.push(v);
+                line_of.push(i + 1);
             }
             _ if last => {}
             _ => {
@@ -185,12 +196,13 @@ pub fn parse_vector_table(text: &str) -> Result<VectorTable, TableError> {
                     msg: format!(
                         "expected a time and {} vectors, found `{}`",
                         table.columns.len(),
-                        line.trim()
+                        crate::input::clip(line.trim(), 120)
                     ),
                 });
             }
         }
     }
+    check_lone_times(&table.t, &line_of)?;
     // Restarted runs may repeat times: keep the last row of each, in time order.
     let mut keep: Vec<usize> = Vec::new();
     for k in 0..table.t.len() {
@@ -202,6 +214,42 @@ pub fn parse_vector_table(text: &str) -> Result<VectorTable, TableError> {
     table.t = keep.iter().map(|&k| table.t[k]).collect();
     table.rows = keep.iter().map(|&k| table.rows[k].clone()).collect();
     Ok(table)
+}
+
+/// A time below its predecessor whose successor is above that predecessor again is not a
+/// restart (which goes on from the earlier time) but one damaged row; the restart rule would
+/// drop every row before it.
+fn check_lone_times(t: &[f64], line_of: &[usize]) -> Result<(), TableError> {
+    for k in 1..t.len().saturating_sub(1) {
+        if t[k] < t[k - 1] && t[k + 1] > t[k - 1] {
+            return Err(TableError {
+                line: line_of[k],
+                msg: format!(
+                    "time {} is out of order between {} (line {}) and {} (line {}): the row is damaged, not a restart",
+                    t[k],
+                    t[k - 1],
+                    line_of[k - 1],
+                    t[k + 1],
+                    line_of[k + 1]
+                ),
+            });
+        }
+    }
+    // A restart that wrote a single row is far less likely than a damaged last time, and
+    // would drop every row after the time it names.
+    let n = t.len();
+    if n >= 2 && t[n - 1] < t[n - 2] {
+        return Err(TableError {
+            line: line_of[n - 1],
+            msg: format!(
+                "the last time, {}, goes back from {} (line {}): a damaged row, or a restart cut off after one row; delete the line if the run was restarted",
+                t[n - 1],
+                t[n - 2],
+                line_of[n - 2]
+            ),
+        });
+    }
+    Ok(())
 }
 
 fn split_header(h: &str) -> Vec<String> {

@@ -162,6 +162,26 @@ pub struct RunCtx<'a> {
 }
 
 impl RunCtx<'_> {
+    /// An error about this stage's setting `key` (the path below `settings`, dotted), at the
+    /// setting's line in `pipeline.yaml` (or its stage's, when the setting is a default).
+    pub fn setting_error(
+        &self,
+        key: &str,
+        what: impl Into<String>,
+        fix: impl Into<String>,
+    ) -> anyhow::Error {
+        let file = super::SPEC_FILE;
+        let e = crate::diag::InputError::file(file, what, fix);
+        let Ok(text) = std::fs::read_to_string(self.root.join(file)) else {
+            return e.into();
+        };
+        let index = super::locate::KeyIndex::new(&text);
+        match index.find(&format!("stages.{}.settings.{key}", self.stage)) {
+            Some((l, c)) => e.at(l, Some(c)).with_source(&text).into(),
+            None => e.into(),
+        }
+    }
+
     pub fn upstream_of(&self, a: Artifact) -> impl Iterator<Item = &Upstream> {
         self.upstream.iter().filter(move |u| u.produces == a)
     }

@@ -6,11 +6,10 @@ pub mod executor;
 pub mod explain;
 pub mod graph;
 pub mod key;
-pub mod locate;
+pub use crate::input::locate;
 pub mod lock;
 pub mod spec;
 
-use anyhow::Context as _;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -30,13 +29,15 @@ impl Plan {
     /// Reads the project at `root`, whose stages are of the kinds in `kinds`.
     pub fn load(root: &Path, kinds: contract::Registry) -> anyhow::Result<Plan> {
         let spec_path = root.join(SPEC_FILE);
-        let text = std::fs::read_to_string(&spec_path).with_context(|| {
-            format!(
-                "cannot read {} (is {} a hydrofit project? use --project DIR)",
-                spec_path.display(),
-                root.display()
-            )
-        })?;
+        anyhow::ensure!(
+            spec_path.exists(),
+            "cannot read {} (is {} a hydrofit project? use --project DIR)",
+            spec_path.display(),
+            root.display()
+        );
+        let text =
+            crate::input::read_path(&spec_path, SPEC_FILE, "save pipeline.yaml as UTF-8 text")?
+                .text;
         let spec = spec::parse(SPEC_FILE, &text, kinds)?;
         let graph = graph::Graph::expand(root, spec)?;
         let hashes = graph.hash_inputs(root)?;

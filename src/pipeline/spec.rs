@@ -136,12 +136,19 @@ impl<'a> Parser<'a> {
 
 /// Parses and checks `text` (the contents of `path`); stage kinds are looked up in `kinds`.
 pub fn parse(path: &str, text: &str, kinds: Registry) -> Result<Spec, InputError> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let p = Parser {
         path,
         kinds,
         text,
         index: KeyIndex::new(text),
     };
+    // Repeated keys first: serde keeps the last of a map's (a stage declared twice) silently.
+    crate::input::yaml::<serde_yaml_ng::Value>(
+        path,
+        text,
+        "see the README's description of pipeline.yaml",
+    )?;
     let raw: RawSpec = serde_yaml_ng::from_str(text).map_err(|e| p.serde_error("", &e))?;
     let problems = raw.vehicle.problems();
     if let Some(first) = problems.first() {
@@ -263,7 +270,59 @@ impl Declared<'_> {
             .settings
             .clone()
             .unwrap_or(serde_yaml_ng::Value::Mapping(Default::default()));
+        self.check_numbers(&format!("{}.settings", self.at), &settings)?;
         (kind.parse)(settings).map_err(|e| self.p.serde_error(&format!("{}.settings", self.at), &e))
+    }
+
+    /// Every number in the settings is finite, and a duration (a key ending in `_s`) is not
+    /// negative: `.nan` or `-1` there would otherwise surface far downstream, if at all.
+    fn check_numbers(&self, at: &str, v: &serde_yaml_ng::Value) -> Result<(), InputError> {
+        use serde_yaml_ng::Value;
+        match v {
+            Value::Mapping(m) => {
+                for (k, x) in m {
+                    let key = k.as_str().map_or_else(|| format!("{k:?}"), str::to_string);
+                    let path = format!("{at}.{key}");
+                    if let Some(f) = x.as_f64() {
+                        if !f.is_finite() {
+                            return Err(self.p.error(
+                                &path,
+                                format!("setting `{key}` is {f}, not a finite number"),
+                                "write a number",
+                            ));
+                        }
+                        if key.ends_with("_s") && f < 0.0 {
+                            return Err(self.p.error(
+                                &path,
+                                format!(
+                                    "setting `{key}` is {f} s; a time or duration is not negative"
+                                ),
+                                "write the time in seconds, 0 or more",
+                            ));
+                        }
+                    }
+                    self.check_numbers(&path, x)?;
+                }
+            }
+            Value::Sequence(items) => {
+                for x in items {
+                    if x.as_f64().is_some_and(|f| !f.is_finite()) {
+                        return Err(self.p.error(
+                            at,
+                            format!(
+                                "a list under `{at}` holds {}, not a finite number",
+                                x.as_f64().unwrap_or(f64::NAN)
+                            ),
+                            "write numbers",
+                        ));
+                    }
+                    self.check_numbers(at, x)?;
+                }
+            }
+            Value::Tagged(t) => self.check_numbers(at, &t.value)?,
+            _ => {}
+        }
+        Ok(())
     }
 
     /// A fan-out kind needs input globs, a kind that reads only other stages has none, and

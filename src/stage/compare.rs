@@ -46,6 +46,12 @@ impl StageImpl for Settings {
         let (mut responses, mut masses) = (Vec::new(), Vec::new());
         for up in ctx.upstream_of(Artifact::Responses) {
             let (meta, r) = response::load(&up.dir)?;
+            if let Some(bad) = r.non_finite(&ctx.vehicle.dofs, f64::NEG_INFINITY) {
+                anyhow::bail!(
+                    "{}: {bad}: no estimator can use it\n  help: fix or remove that sample in the input",
+                    meta.source.path
+                );
+            }
             responses.push(r);
             masses.push(meta.body_mass_kg);
         }

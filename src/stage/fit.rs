@@ -221,6 +221,23 @@ impl StageImpl for Settings {
         let (runs, pool_responses, mut notes) =
             training_runs(ctx, vehicle, self.common.median_filter.as_ref())?;
         notes.extend(ctx.failed_notes());
+        check_windows(ctx, &self.common, responses.iter().chain(&pool_responses))?;
+        let labelled = cases
+            .iter()
+            .map(|c| c.source.path.clone())
+            .zip(&responses)
+            .chain(
+                runs.iter()
+                    .map(|r| format!("pool run {}", r.run))
+                    .zip(&pool_responses),
+            );
+        for (source, r) in labelled {
+            if let Some(bad) = r.non_finite(&vehicle.dofs, self.common.skip_start_s) {
+                anyhow::bail!(
+                    "{source}: {bad}: no estimator can use it\n  help: fix or remove that sample in the input (or start the fit after it with skip_start_s)"
+                );
+            }
+        }
         let data = identify::Data {
             vehicle,
             cases: responses
@@ -280,6 +297,38 @@ impl StageImpl for Settings {
         };
         super::write_json(&ctx.out.join(RESULT), &result)
     }
+}
+
+/// `skip_start_s` (and the added-mass window after it) must leave samples to fit: a time
+/// beyond every run is a setting to fix, said at its line.
+fn check_windows<'r>(
+    ctx: &RunCtx,
+    common: &Common,
+    responses: impl Iterator<Item = &'r crate::io::Response>,
+) -> anyhow::Result<()> {
+    let end = responses
+        .filter_map(|r| r.t.last().copied())
+        .fold(f64::NEG_INFINITY, f64::max);
+    if end.is_finite() && common.skip_start_s >= end {
+        return Err(ctx.setting_error(
+            "skip_start_s",
+            format!(
+                "skip_start_s = {} s leaves no sample to fit: the longest run ends at {end} s",
+                common.skip_start_s
+            ),
+            "set skip_start_s below the runs' length (it drops each run's first seconds, the start-up transient)",
+        ));
+    }
+    if let Some(w) = common.added_mass_window_s
+        && (w.is_nan() || w <= 0.0)
+    {
+        return Err(ctx.setting_error(
+            "added_mass_window_s",
+            format!("added_mass_window_s = {w} s: the window must be longer than 0"),
+            "set the seconds after skip_start_s in which the body accelerates from rest",
+        ));
+    }
+    Ok(())
 }
 
 /// Whether the coefficients are per metre of span: every case is 2D. A 2D case's forces and

@@ -83,16 +83,10 @@ impl StageImpl for Settings {
 /// The export at `path` (relative to `root`) as text; an error located in the file when it is
 /// not UTF-8.
 fn read_text(root: &std::path::Path, path: &str) -> anyhow::Result<String> {
-    let text = std::fs::read(root.join(path))?;
-    let text = String::from_utf8(text).map_err(|e| {
-        crate::diag::InputError::file(
-            path,
-            format!(
-                "not UTF-8 text (byte {} is invalid)",
-                e.utf8_error().valid_up_to()
-            ),
-            "export as CSV text from STAR-CCM+, not a binary or spreadsheet file",
-        )
-    })?;
-    Ok(text)
+    Ok(crate::input::read(
+        root,
+        path,
+        "export as CSV text from STAR-CCM+, not a binary or spreadsheet file",
+    )?
+    .text)
 }

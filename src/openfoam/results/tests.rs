@@ -96,3 +96,16 @@ fn restarted_runs_keep_the_last_row_of_each_time() {
     assert_eq!(t.t, vec![0.1, 0.15, 0.2]);
     assert_eq!(t.rows[2][0], [3.0, 0.0, 0.0]);
 }
+
+#[test]
+fn a_time_overwritten_by_zero_or_a_nan_is_an_error_not_a_restart() {
+    let text =
+        "# Time\tvelocity\n0.1\t(1 0 0)\n0.2\t(2 0 0)\n0\t(2.5 0 0)\n0.4\t(3 0 0)\n0.5\t(3 0 0)\n";
+    let e = parse_vector_table(text).unwrap_err();
+    assert_eq!(e.line, 4, "{e}");
+    assert!(e.msg.contains("out of order"), "{e}");
+    let text = "# Time\tvelocity\n0.1\t(1 0 0)\n0.2\t(nan 0 0)\n0.3\t(3 0 0)\n";
+    let e = parse_vector_table(text).unwrap_err();
+    assert_eq!(e.line, 3, "{e}");
+    assert!(e.msg.contains("not a finite number"), "{e}");
+}
