@@ -1,7 +1,8 @@
-//! Ctrl-C during a build: the first asks long stages (the population estimators) to stop at
-//! their next iteration and the executor to start nothing new, so the build ends with the
-//! finished stages cached and the interrupted ones leaving nothing behind; a second Ctrl-C
-//! exits at once (also safe: results only ever appear by rename).
+//! Ctrl-C during a build: the first asks long stages (estimators, searches, the adaptive
+//! identifier, the estimator comparison) to stop at their next iteration and the executor to
+//! start nothing new, so the build ends with the finished stages cached and the interrupted
+//! ones leaving nothing behind; a second Ctrl-C exits at once (also safe: results only ever
+//! appear by rename).
 
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -22,6 +23,14 @@ pub fn install() {
 
 pub fn requested() -> bool {
     INTERRUPTED.load(Ordering::Relaxed)
+}
+
+/// An error once Ctrl-C was pressed: for `?` in a stage's long loops. A loop that cannot
+/// return an error breaks on [`requested`] instead; the executor then drops what the stage
+/// wrote, so a loop cut short is never cached.
+pub fn check() -> anyhow::Result<()> {
+    anyhow::ensure!(!requested(), "interrupted (Ctrl-C)");
+    Ok(())
 }
 
 /// For tests: behave as if Ctrl-C had been pressed.

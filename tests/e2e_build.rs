@@ -300,7 +300,12 @@ fn graph_and_clean() {
     );
     ok(dir, &["build"]);
     ok(dir, &["clean"]);
-    assert!(!dir.join(".hydrofit").exists());
+    // The lock file stays (a waiting build holds it); nothing else does.
+    let left: Vec<String> = std::fs::read_dir(dir.join(".hydrofit"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(left, vec!["lock".to_string()]);
     assert!(!dir.join("reports/index.html").exists());
     assert!(stdout(&run(dir, &["status"])).contains("never built"));
 }

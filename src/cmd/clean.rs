@@ -1,4 +1,5 @@
-//! `hydrofit clean`: remove the cache and the report files a build published.
+//! `hydrofit clean`: remove the cache and the report files a build published, holding the
+//! build lock throughout and leaving the lock file in place.
 
 use crate::pipeline::{Plan, STATE_DIR, lock};
 use std::path::Path;
@@ -42,7 +43,8 @@ pub fn run(root: &Path) -> anyhow::Result<ExitCode> {
             }
         }
     }
-    std::fs::remove_dir_all(&state)?;
-    crate::outln!("removed {STATE_DIR}/");
+    // The lock file stays: a build waiting on it holds that very file, and one removed
+    // under it would let the next build lock a new file and run beside it.
+    crate::outln!("removed the cache in {STATE_DIR}/");
     Ok(ExitCode::SUCCESS)
 }

@@ -65,6 +65,10 @@ pub fn nelder_mead(f: Cost, x0: &[f64], step: f64, iters: usize) -> (Vec<f64>, f
     let clamp = |x: Vec<f64>| -> Vec<f64> { x.into_iter().map(|v| v.clamp(0.0, 1.0)).collect() };
     let mut simplex = initial_simplex(f, x0, step);
     for _ in 0..iters {
+        // Ctrl-C: the stage's result is thrown away (see the executor), so stopping is safe.
+        if crate::interrupt::requested() {
+            break;
+        }
         simplex.sort_by(|a, b| a.1.total_cmp(&b.1));
         let spread = simplex
             .iter()
@@ -143,6 +147,9 @@ pub fn fit_one(
     let mut best = (vec![0.0; k], f64::INFINITY);
     let total = g.pow(k as u32);
     for idx in 0..total {
+        if crate::interrupt::requested() {
+            break;
+        }
         let u: Vec<f64> = (0..k)
             .map(|i| ((idx / g.pow(i as u32)) % g) as f64 / (g - 1) as f64)
             .collect();

@@ -21,6 +21,9 @@ pub const FIELDS_FILE: &str = ".fields.json";
 const PARTIAL_FILE: &str = ".partial";
 /// The blake3 of every other file of the object, by path relative to it.
 pub const MANIFEST_FILE: &str = ".manifest.json";
+/// Project files a result was read from besides its keyed inputs (the results an OpenFOAM
+/// run left in its case folder), with their blake3 (`null`: absent) when it was made.
+pub const WATCHED_FILE: &str = ".watched.json";
 const LOG: &str = "log";
 /// Rewrite the log keeping the last record per instance once it has this many lines.
 const COMPACT_AT: usize = 20_000;
@@ -113,6 +116,31 @@ impl Cache {
             std::fs::rename(tmp, &dest)?;
         }
         self.append(record)
+    }
+
+    /// The first file of the project the result was read from that changed since (see
+    /// [`WATCHED_FILE`]), said as `cases/x/log.pimpleFoam changed`; `None` when none did.
+    pub fn watched_change(&self, key: &str, root: &Path) -> Option<String> {
+        let text = std::fs::read_to_string(self.object(key).join(WATCHED_FILE)).ok()?;
+        let watched: std::collections::BTreeMap<String, Option<String>> =
+            serde_json::from_str(&text).ok()?;
+        watched.into_iter().find_map(|(rel, was)| {
+            let now = crate::fsutil::hash_file(&root.join(&rel)).ok();
+            match (was, now) {
+                (a, b) if a == b => None,
+                (None, Some(_)) => Some(format!("{rel} appeared")),
+                (Some(_), None) => Some(format!("{rel} was removed")),
+                _ => Some(format!("{rel} changed")),
+            }
+        })
+    }
+
+    /// Removes an object whose result is out of date, so it is built again.
+    pub fn discard(&self, key: &str) -> std::io::Result<()> {
+        match std::fs::remove_dir_all(self.object(key)) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(e),
+            _ => Ok(()),
+        }
     }
 
     /// Whether object `key`'s files are exactly those its manifest lists, with the same
@@ -234,6 +262,17 @@ fn write_manifest(dir: &Path) -> std::io::Result<()> {
     }
     let text = serde_json::to_string_pretty(&m).map_err(std::io::Error::other)?;
     crate::fsutil::write_atomic(&dir.join(MANIFEST_FILE), text.as_bytes())
+}
+
+/// Records in the result folder `out` the project files `paths` (relative to `root`) it was
+/// read from besides its inputs, as they are now: a later change to one reruns the stage.
+pub fn write_watched(out: &Path, root: &Path, paths: &[String]) -> std::io::Result<()> {
+    let watched: std::collections::BTreeMap<&String, Option<String>> = paths
+        .iter()
+        .map(|p| (p, crate::fsutil::hash_file(&root.join(p)).ok()))
+        .collect();
+    let text = serde_json::to_string_pretty(&watched).map_err(std::io::Error::other)?;
+    crate::fsutil::write_atomic(&out.join(WATCHED_FILE), text.as_bytes())
 }
 
 #[cfg(test)]

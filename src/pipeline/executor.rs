@@ -23,19 +23,27 @@ pub struct Options {
 }
 
 /// A cached result of instance `i` is served only when its files match its manifest; a
-/// damaged one is said, moved aside and rerun (or, strictly, stops the build).
+/// damaged one is said, moved aside and rerun (or, strictly, stops the build). One read from
+/// a project file that changed since is rerun, and says so (`true`: its content may change).
 fn served(
     plan: &Plan,
     i: usize,
     cache: &Cache,
     progress: &Progress,
     strict: bool,
-) -> anyhow::Result<State> {
+) -> anyhow::Result<(State, bool)> {
     let key = &plan.keys[i];
-    let Err(why) = cache.verify(key) else {
-        return Ok(State::Done);
-    };
     let id = &plan.graph.instances[i].id;
+    let Err(why) = cache.verify(key) else {
+        if let Some(change) = cache.watched_change(key, &plan.root) {
+            progress.println(format!(
+                "{id}: {change} since its result was read: built again"
+            ));
+            cache.discard(key)?;
+            return Ok((State::Waiting, true));
+        }
+        return Ok((State::Done, false));
+    };
     let short = &key[..key.len().min(16)];
     anyhow::ensure!(
         !strict,
@@ -45,7 +53,26 @@ fn served(
         "warning: the cached result of {id} (.hydrofit/objects/{short}...) is damaged ({why}): moved to .hydrofit/damaged/ and rebuilt"
     ));
     cache.quarantine(key)?;
-    Ok(State::Waiting)
+    Ok((State::Waiting, false))
+}
+
+/// A result rebuilt because a file it read changed (see [`Cache::watched_change`]) keeps its
+/// key but not its content: everything downstream of it that was served is rebuilt too.
+/// Instances are in dependency order, so one forward pass reaches the whole closure.
+fn rebuild_readers_of_changed(
+    plan: &Plan,
+    cache: &Cache,
+    state: &mut [State],
+    mut changed: Vec<bool>,
+) -> anyhow::Result<()> {
+    for j in 0..state.len() {
+        if state[j] == State::Done && plan.graph.instances[j].deps.iter().any(|&d| changed[d]) {
+            cache.discard(&plan.keys[j])?;
+            state[j] = State::Waiting;
+            changed[j] = true;
+        }
+    }
+    Ok(())
 }
 
 #[derive(Debug, Default)]
@@ -138,13 +165,20 @@ impl<'a> Schedule<'a> {
             .graph
             .closure(&opts.targets)
             .map_err(anyhow::Error::msg)?;
-        let state: Vec<State> = (0..plan.graph.instances.len())
+        let mut changed = vec![false; plan.graph.instances.len()];
+        let mut state: Vec<State> = (0..plan.graph.instances.len())
             .map(|i| match (need[i], cache.has(&plan.keys[i])) {
                 (false, _) => Ok(State::NotNeeded),
-                (true, true) => served(plan, i, cache, progress, opts.strict_cache),
+                (true, true) => {
+                    served(plan, i, cache, progress, opts.strict_cache).map(|(s, c)| {
+                        changed[i] = c;
+                        s
+                    })
+                }
                 (true, false) => Ok(State::Waiting),
             })
             .collect::<anyhow::Result<_>>()?;
+        rebuild_readers_of_changed(plan, cache, &mut state, changed)?;
         let summary = Summary {
             up_to_date: state.iter().filter(|s| **s == State::Done).count(),
             ..Default::default()
@@ -352,13 +386,17 @@ fn upstream(
 
 /// Runs the stage; a panic is a bug, but it must not take the other stages (or the cache)
 /// down with it, so it becomes this instance's error.
+/// A stage that returns while Ctrl-C is pending may have cut a loop short: its result is not
+/// kept (long loops stop at the next iteration rather than finishing the work).
 fn run_guarded(st: &StageSpec, ctx: &RunCtx) -> anyhow::Result<()> {
-    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| st.imp.run(ctx))).unwrap_or_else(|p| {
-        Err(anyhow::anyhow!(
-            "internal error (please report): {}",
-            panic_text(&p)
-        ))
-    })
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| st.imp.run(ctx)))
+        .unwrap_or_else(|p| {
+            Err(anyhow::anyhow!(
+                "internal error (please report): {}",
+                panic_text(&p)
+            ))
+        })
+        .and_then(|()| crate::interrupt::check())
 }
 
 fn log_time(spinner: &indicatif::ProgressBar, id: &str, start: Instant) {

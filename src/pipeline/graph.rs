@@ -86,7 +86,8 @@ fn matched_entries(
 ) -> Result<BTreeMap<String, Vec<String>>, GraphError> {
     let mut matched: BTreeMap<String, Vec<String>> = BTreeMap::new();
     for g in &st.inputs {
-        let pattern = root.join(g).to_string_lossy().into_owned();
+        // The project's own path is literal: `[`, `]`, `*` or `?` in it are not a pattern.
+        let pattern = format!("{}/{g}", glob::Pattern::escape(&root.to_string_lossy()));
         let paths = glob::glob(&pattern).expect("globs are checked when the spec is parsed");
         for p in paths {
             let p = p.map_err(|source| GraphError::Glob {

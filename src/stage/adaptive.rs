@@ -179,6 +179,10 @@ impl Settings {
         };
         let mut offset = 0.0;
         for pass in 0..self.passes {
+            // Ctrl-C: stop; the executor keeps nothing of a stage cut short.
+            if crate::interrupt::requested() {
+                break;
+            }
             for rec in train {
                 ctx.progress
                     .set_message(format!("pass {} on {}", pass + 1, rec.name));

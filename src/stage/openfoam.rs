@@ -40,6 +40,14 @@ impl StageImpl for Settings {
         let message = move |m: String| bar.set_message(m);
         let case = CaseRun::obtain(ctx.root, ctx.inputs, &message)?;
         case.keep_results(ctx.out, self.keep_results_in_case)?;
+        // The results left in the case folder are read, not keyed (a run writes them): an
+        // edit to one after this reruns the stage, as an edit to an input does.
+        let watched: Vec<String> = openfoam::result_files(&case.setup.application)
+            .into_iter()
+            .chain([openfoam::STAMP.to_string()])
+            .map(|rel| format!("{}/{rel}", case.rel))
+            .collect();
+        crate::pipeline::cache::write_watched(ctx.out, ctx.root, &watched)?;
         let (response, meta) = crate::io::openfoam::import(&case, &ctx.vehicle.dofs)?;
         response.write_parquet(&ctx.out.join(TABLE))?;
         super::write_json(&ctx.out.join(openfoam::TRACK), &case.track)?;

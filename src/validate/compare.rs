@@ -40,6 +40,9 @@ pub fn compare(data: &Data, candidates: &[Candidate], progress: &dyn Fn(String))
     let mut rows = Vec::new();
     let mut samples = 0;
     for (i, c) in candidates.iter().enumerate() {
+        if crate::interrupt::requested() {
+            break;
+        }
         progress(format!("{} ({}/{})", c.label, i + 1, candidates.len()));
         let start = std::time::Instant::now();
         let fit = identify(data, c).map(|id| {
