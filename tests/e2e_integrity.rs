@@ -102,3 +102,143 @@ fn a_damaged_cached_result_is_detected_moved_aside_and_rebuilt() {
     ok(dir, &["build"]);
     assert_eq!(reports(dir), first);
 }
+
+/// `[`, `]`, `*` in the project's own path are literal: the build reads its own cases, not a
+/// sibling's that the path would match as a pattern.
+#[test]
+fn glob_characters_in_the_project_path_are_literal() {
+    let parent = tempfile::tempdir().unwrap();
+    let src = example("tank_submarine");
+    let odd = parent.path().join("proj[12]*");
+    let sibling = parent.path().join("proj1");
+    for d in [&odd, &sibling] {
+        hydrofit::fsutil::copy_dir(src.path(), d).unwrap();
+    }
+    // The sibling has a run the odd-named project does not.
+    hydrofit::fsutil::copy_dir(
+        &sibling.join("cases/pool/test2"),
+        &sibling.join("cases/pool/sibling_only"),
+    )
+    .unwrap();
+    let graph = ok(&odd, &["graph"]);
+    assert!(
+        graph.contains("test1") && graph.contains("test2"),
+        "{graph}"
+    );
+    assert!(!graph.contains("sibling_only"), "{graph}");
+    ok(&odd, &["build"]);
+    assert!(odd.join("reports/index.html").exists());
+    assert!(ok(&odd, &["verify"]).contains("all intact"));
+}
+
+/// `clean` while a build runs waits for the lock, keeps the lock file, and a build started
+/// meanwhile runs after it, never beside it: the cache it leaves is whole and up to date.
+#[test]
+fn clean_during_a_build_waits_and_leaves_the_lock_usable() {
+    use std::process::{Command, Stdio};
+    let p = project();
+    let dir = p.path();
+    let spawn = |args: &[&str]| {
+        Command::new(BIN)
+            .arg("--project")
+            .arg(dir)
+            .args(args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap()
+    };
+    let first = spawn(&["build", "--jobs", "1"]);
+    let lock = dir.join(".hydrofit/lock");
+    let t0 = std::time::Instant::now();
+    while !std::fs::read_to_string(&lock).is_ok_and(|t| t.contains("pid")) {
+        assert!(t0.elapsed().as_secs() < 60, "the build never took the lock");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let clean = spawn(&["clean"]);
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let second = spawn(&["build"]);
+    let first = first.wait_with_output().unwrap();
+    let clean = clean.wait_with_output().unwrap();
+    let second = second.wait_with_output().unwrap();
+    assert!(first.status.success(), "{}", stderr(&first));
+    assert!(clean.status.success(), "{}", stderr(&clean));
+    assert!(
+        stderr(&clean).contains("waiting for a build to finish"),
+        "clean did not wait: {}",
+        stderr(&clean)
+    );
+    assert!(second.status.success(), "{}", stderr(&second));
+    assert!(lock.exists(), "clean removed the lock file");
+    assert!(ok(dir, &["verify"]).contains("all intact"));
+    // Either order is serial: the second build ran everything after the clean, or nothing
+    // before it (and the clean then removed what the first build cached).
+    let status = ok(dir, &["status"]);
+    if ran(&(stderr(&second) + &stdout(&second))) > 0 {
+        assert!(status.contains("up to date"), "{status}");
+    } else {
+        assert!(status.contains("never built"), "{status}");
+    }
+}
+
+/// The reported hang: one `1e300` in a STAR-CCM+ velocity column. The import now refuses it at
+/// its line, so neither the fit nor the estimator comparison ever sees it; a damaged OpenFOAM
+/// table (a time written over with 0) fails its case at its line and reruns when restored.
+#[test]
+fn a_damaged_number_fails_its_import_at_its_line() {
+    let p = project();
+    let dir = p.path();
+    let csv = dir.join("cases/cfd/starccm/surge_10N.csv");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    let mut fields: Vec<String> = lines[40].split(',').map(str::to_string).collect();
+    fields[3] = "1e300".into();
+    lines[40] = fields.join(",");
+    std::fs::write(&csv, lines.join("\n") + "\n").unwrap();
+    let o = run(dir, &["build"]);
+    assert!(!o.status.success());
+    let err = stderr(&o);
+    assert!(
+        err.contains("cases/cfd/starccm/surge_10N.csv:41:") && err.contains("1e300"),
+        "{err}"
+    );
+    assert!(err.contains("not run because they depend on it"), "{err}");
+    std::fs::write(&csv, &text).unwrap();
+    ok(dir, &["build"]);
+
+    let table = dir.join(format!(
+        "cases/cfd/openfoam/cylinder_1N/{}",
+        hydrofit::openfoam::STATE
+    ));
+    let good = std::fs::read_to_string(&table).unwrap();
+    let bad: String = good
+        .split_inclusive('\n')
+        .enumerate()
+        .map(|(i, l)| {
+            if i == 30 {
+                let rest = &l[l.find(char::is_whitespace).unwrap()..];
+                format!("0{rest}")
+            } else {
+                l.to_string()
+            }
+        })
+        .collect();
+    std::fs::write(&table, bad).unwrap();
+    let status = ok(dir, &["status"]);
+    assert!(
+        status.contains("sixDoFRigidBodyState.dat changed since its result was read")
+            && status.contains("cylinder: it reads openfoam[cylinder_1N]"),
+        "{status}"
+    );
+    let o = run(dir, &["build"]);
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("line 31: time 0 is out of order"),
+        "{}",
+        stderr(&o)
+    );
+    std::fs::write(&table, &good).unwrap();
+    let out = ok(dir, &["build"]);
+    assert!(ran(&out) >= 3, "{out}");
+    assert!(ok(dir, &["status"]).contains("up to date"));
+}
