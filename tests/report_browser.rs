@@ -224,8 +224,9 @@ addEventListener('load', () => {
     );
 }
 
-/// The field-trial examples' reports (ARX, integrated LS / RLS, adaptive identification) laid
-/// out in Chromium: every figure captioned and drawn, no table past the text column.
+/// The field-trial examples' reports (ARX, integrated LS / RLS, adaptive identification) and
+/// the discovery example's laid out in Chromium: every figure captioned and drawn, no table
+/// past the text column.
 #[test]
 fn the_field_identifier_reports_are_readable_in_chromium() {
     let Some(bin) = chromium() else {
@@ -240,6 +241,8 @@ fn the_field_identifier_reports_are_readable_in_chromium() {
         ("tank_submarine", 4, 6),
         ("dsrv", 8, 4),
         ("iver3_auv", 9, 4),
+        // Discovery beyond the named effects: its residual-against-term and spectrum figures.
+        ("pool_wave", 13, 20),
     ] {
         let p = example(name);
         let dir = p.path();

@@ -17,6 +17,7 @@
 //! so surge (m/s) and yaw (rad/s) weigh alike; the noise floor is the same sum over the fused
 //! velocities' own variances.
 
+pub mod discover;
 pub mod effects;
 mod figures;
 mod locate;
@@ -135,6 +136,8 @@ impl Run {
 pub struct Augmentation {
     pub terms: Vec<Arc<dyn effects::Term>>,
     pub delay_s: f64,
+    /// A term found by [`discover`] beyond the named effects, added as a force.
+    pub discovered: Option<Arc<discover::Discovered>>,
 }
 
 /// A set of effects with their parameter values.
@@ -241,6 +244,7 @@ fn simulate_checked(
     let mut out = Vec::with_capacity(n);
     let anchors = crate::model::stability::anchors(&run.t, &run.anchors_s);
     let mut next_anchor = 1;
+    let discovered = aug.discovered.as_ref().map(|d| (d, d.prepare(run)));
     for k in 0..n {
         if anchors.get(next_anchor) == Some(&k) {
             // Multiple shooting: the window starts again from the fused state (thruster
@@ -257,8 +261,11 @@ fn simulate_checked(
         let span = run.t[k + 1] - run.t[k];
         let m = crate::model::dynamics::substeps(span, STEP);
         let c = cmd6(k);
+        let external = discovered
+            .as_ref()
+            .map_or([0.0; 6], |(d, pre)| d.force(run, pre, k, &s));
         for _ in 0..m {
-            s = w.step(&s, &c, span / m as f64);
+            s = w.step_with(&s, &c, span / m as f64, &external);
         }
         if s.nu.iter().any(|x| !x.is_finite() || x.abs() > 50.0) {
             // Diverged: hold the last finite state so the cost is large but finite.

@@ -46,6 +46,10 @@ pub struct Found {
     /// alike on a linear enough vehicle).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub alike: Vec<Alike>,
+    /// For what no named effect explains: the closed form discovery proposed and proved on the
+    /// held-out runs ([`super::discover`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub candidate: Option<super::discover::Candidate>,
 }
 
 /// A candidate as good as a named effect on the held-out runs, to within their noise.

@@ -31,6 +31,9 @@ pub struct Criteria {
     /// and stable runs are simulated whole, where slow effects stay visible), `whole_run`, or
     /// seconds.
     pub horizon_s: crate::model::stability::Horizon,
+    /// Propose a closed form for a structured residual no named effect explains
+    /// ([`super::discover`]); `false` leaves it `unexplained` without one.
+    pub discover: bool,
 }
 
 impl Default for Criteria {
@@ -43,6 +46,7 @@ impl Default for Criteria {
             max_effects: 3,
             unexplained_noise_multiple: 5.0,
             horizon_s: crate::model::stability::Horizon::Auto,
+            discover: true,
         }
     }
 }

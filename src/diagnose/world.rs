@@ -78,7 +78,7 @@ impl World {
     /// ([`World::step`] advances it): over one step (at most 0.025 s) it moves by millimetres,
     /// which no effect's force can tell apart, so the heading's sine and cosine and the
     /// geometry are computed once a step, not four times.
-    fn deriv(&self, s: &State, target: &Vec6, env: &Env) -> State {
+    fn deriv(&self, s: &State, target: &Vec6, env: &Env, external: &Vec6) -> State {
         let (thrust, thrust_dot) = match self.lag_s {
             Some(tc) => (
                 s.thrust,
@@ -86,7 +86,7 @@ impl World {
             ),
             None => (*target, [0.0; 6]),
         };
-        let mut tau = thrust;
+        let mut tau: Vec6 = std::array::from_fn(|i| thrust[i] + external[i]);
         for t in &self.terms {
             t.add_force(env, s, &mut tau);
         }
@@ -98,13 +98,26 @@ impl World {
         }
     }
 
+    /// The acceleration at state `s` under `cmd` (the thrusters' state as `s` holds it).
+    pub fn accel(&self, s: &State, cmd: &Vec6) -> Vec6 {
+        let target = self.shape_command(cmd);
+        let env = self.env_at(s);
+        self.deriv(s, &target, &env, &[0.0; 6]).nu
+    }
+
     /// One RK4 step of length `h` with the command held. The pose (when tracked) advances by
     /// the step's mean body velocity (trapezoid), turned into the pool frame at the step's
     /// starting heading.
     pub fn step(&self, s: &State, cmd: &Vec6, h: f64) -> State {
+        self.step_with(s, cmd, h, &[0.0; 6])
+    }
+
+    /// [`World::step`] with an `external` generalised force added (a discovered term's, held
+    /// over the step).
+    pub fn step_with(&self, s: &State, cmd: &Vec6, h: f64, external: &Vec6) -> State {
         let target = self.shape_command(cmd);
         let env = self.env_at(s);
-        let mut out = rk4(s, h, |x| self.deriv(x, &target, &env));
+        let mut out = rk4(s, h, |x| self.deriv(x, &target, &env, external));
         if self.track_pose {
             let (c, sn) = (env.cos_psi, env.sin_psi);
             let mean = |i: usize| 0.5 * (s.nu[i] + out.nu[i]);

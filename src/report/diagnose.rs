@@ -41,6 +41,7 @@ pub fn section(d: &Diagnosis, figures: &[Figure]) -> String {
     refused(&mut h, d);
     cost_table(&mut h, d);
     effects_table(&mut h, d);
+    candidates(&mut h, d);
     reestimated_parameters(&mut h, d);
     mismatch_table(&mut h, d);
     regimes_table(&mut h, d);
@@ -169,6 +170,52 @@ fn effects_table(h: &mut String, d: &Diagnosis) {
         );
     }
     h.push_str("</table>\n");
+}
+
+/// The closed form discovery proposed for what no named effect explains: the expression, each
+/// term with its interval and how often it was selected, and the held-out errors.
+fn candidates(h: &mut String, d: &Diagnosis) {
+    for e in &d.effects {
+        let Some(c) = &e.candidate else {
+            continue;
+        };
+        let _ = writeln!(
+            h,
+            "<h3>Discovered beyond the named effects</h3>\n<p>Sparse regression of the residual force on {} candidate terms (velocities and their products, commands and their lags, position, depth, walls, tether, heading, a constant, and sines at the residual's spectral peaks), kept only where the block-bootstrap resamples and the training runs agree, then proved on the held-out runs:</p>\n<p class=\"verdict\"><code>{}</code>{}</p>",
+            c.library_terms,
+            esc(&c.expression),
+            c.named_as.as_ref().map_or(String::new(), |n| format!(
+                " — the form of <code>{}</code>",
+                esc(n)
+            ))
+        );
+        h.push_str("<table><tr><th>term</th><th>coefficient</th><th>95 % interval</th><th>frequency (Hz)</th><th>phase (rad)</th><th>selected on resamples</th><th>runs that select it</th></tr>\n");
+        for t in &c.terms {
+            let opt = |x: Option<f64>, p: usize| x.map_or("-".to_string(), |v| format!("{v:.p$}"));
+            let _ = writeln!(
+                h,
+                "<tr><td><code>{}</code></td><td>{:.4}</td><td>{:.4} to {:.4}</td><td>{}</td><td>{}</td><td>{}</td><td>{} of {}</td></tr>",
+                esc(&t.term),
+                t.coefficient,
+                t.interval[0],
+                t.interval[1],
+                opt(t.frequency_hz, 3),
+                opt(t.phase_rad, 2),
+                share(t.selected_share),
+                t.runs_selected[0],
+                t.runs_selected[1]
+            );
+        }
+        h.push_str("</table>\n");
+        let _ = writeln!(
+            h,
+            "<p>Held-out error cost {:.4} → {:.4}; held-out NMAE {} → {}.</p>",
+            c.validation_cost_before,
+            c.validation_cost_after,
+            nmae(&c.validation_nmae_before),
+            nmae(&c.validation_nmae_after)
+        );
+    }
 }
 
 /// The model's parameters re-estimated on the training runs, when they were.

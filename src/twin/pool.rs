@@ -250,8 +250,8 @@ pub fn simulate(world: &WorldPlant, spec: &RunSpec, seed: u64) -> Truth {
         }
         truth.t.push(t);
         truth.states.push(s);
-        truth.accel.push(world.accel(&s, &cmd));
-        s = world.step(&s, &cmd, STEP);
+        truth.accel.push(world.accel(&s, &cmd, t));
+        s = world.step(&s, &cmd, STEP, t);
     }
     truth
 }

@@ -52,7 +52,25 @@ pub enum Effect {
     /// Position, attitude and depth sensors report late by `delay_s` and through a first-order
     /// low-pass of time constant `filter_s` (their total latency is about the sum).
     SensorDelay { delay_s: f64, filter_s: f64 },
+    // Outside the diagnosis's vocabulary: physics no named effect describes, for proving that
+    // discovery finds a closed form (each written here, apart from the discovery's library).
+    /// A vertical force oscillating at a wave maker's or a pump's frequency, in phase with
+    /// the run's clock (the logger and the wave maker start together): F sin(2 pi f t + phase).
+    Wave {
+        force_n: f64,
+        frequency_hz: f64,
+        phase_rad: f64,
+    },
+    /// A surge thruster mounted askew: its thrust line passes `arm_m` beside the centre of
+    /// gravity, so the surge thrust it delivers also turns the vehicle (N += arm X).
+    SkewedThruster { arm_m: f64 },
+    /// Extra drag near the free surface (waves made, ventilation): surge and sway drag grow by
+    /// c |v| v exp(-(z / depth_m)^2), z the depth below the surface.
+    SurfaceDrag { coefficient: f64, depth_m: f64 },
 }
+
+/// The effects outside the diagnosis's vocabulary, as `from_arg` takes them.
+pub const OUTSIDE: [&str; 3] = ["wave", "skewed_thruster", "surface_drag"];
 
 pub const NAMES: [&str; 9] = [
     "net_buoyancy",
@@ -78,6 +96,9 @@ impl Effect {
             Effect::WallEffect { .. } => NAMES[6],
             Effect::CoupledDrag { .. } => NAMES[7],
             Effect::SensorDelay { .. } => NAMES[8],
+            Effect::Wave { .. } => OUTSIDE[0],
+            Effect::SkewedThruster { .. } => OUTSIDE[1],
+            Effect::SurfaceDrag { .. } => OUTSIDE[2],
         }
     }
 
@@ -113,12 +134,23 @@ impl Effect {
                 delay_s: x,
                 filter_s: 0.5 * x,
             },
+            "wave" => Effect::Wave {
+                force_n: x,
+                frequency_hz: 0.42,
+                phase_rad: 0.3,
+            },
+            "skewed_thruster" => Effect::SkewedThruster { arm_m: x },
+            "surface_drag" => Effect::SurfaceDrag {
+                coefficient: x,
+                depth_m: 1.0,
+            },
             _ => {
-                let hint = crate::diag::nearest(name, NAMES)
+                let hint = crate::diag::nearest(name, NAMES.into_iter().chain(OUTSIDE))
                     .map_or(String::new(), |s| format!(" (did you mean `{s}`?)"));
                 return Err(format!(
-                    "unknown effect `{name}`{hint}; known: {}",
-                    NAMES.join(", ")
+                    "unknown effect `{name}`{hint}; known: {}, and outside the diagnosis's vocabulary {}",
+                    NAMES.join(", "),
+                    OUTSIDE.join(", ")
                 ));
             }
         })
@@ -184,7 +216,10 @@ impl WorldPlant {
         self.effects.iter().any(|e| {
             matches!(
                 e,
-                Effect::TetherDrag { .. } | Effect::WaterCurrent { .. } | Effect::WallEffect { .. }
+                Effect::TetherDrag { .. }
+                    | Effect::WaterCurrent { .. }
+                    | Effect::WallEffect { .. }
+                    | Effect::SurfaceDrag { .. }
             )
         })
     }
@@ -223,13 +258,13 @@ impl WorldPlant {
         out
     }
 
-    /// Forces of the environmental effects on the vehicle, body frame.
-    pub fn extra_force(&self, s: &State) -> Vec6 {
-        self.extra_force_at(s, s.psi.cos(), s.psi.sin())
+    /// Forces of the environmental effects on the vehicle at time `t`, body frame.
+    pub fn extra_force(&self, s: &State, t: f64) -> Vec6 {
+        self.extra_force_at(s, s.psi.cos(), s.psi.sin(), t)
     }
 
     /// [`Self::extra_force`] with the heading's cosine and sine already computed.
-    fn extra_force_at(&self, s: &State, c: f64, sn: f64) -> Vec6 {
+    fn extra_force_at(&self, s: &State, c: f64, sn: f64, t: f64) -> Vec6 {
         let mut f = [0.0; 6];
         if self.effects.is_empty() {
             return f;
@@ -285,13 +320,39 @@ impl WorldPlant {
                     f[0] -= coefficient * (speed - s.nu[0].abs()) * s.nu[0];
                     f[1] -= coefficient * (speed - s.nu[1].abs()) * s.nu[1];
                 }
+                Effect::Wave {
+                    force_n,
+                    frequency_hz,
+                    phase_rad,
+                } => {
+                    f[2] += force_n * (std::f64::consts::TAU * frequency_hz * t + phase_rad).sin();
+                }
+                Effect::SurfaceDrag {
+                    coefficient,
+                    depth_m,
+                } => {
+                    let near = (-(s.pos[2].max(0.0) / depth_m).powi(2)).exp();
+                    f[0] -= coefficient * near * s.nu[0].abs() * s.nu[0];
+                    f[1] -= coefficient * near * s.nu[1].abs() * s.nu[1];
+                }
                 _ => {}
             }
         }
         f
     }
 
-    fn deriv(&self, s: &State, cmd: &Vec6) -> State {
+    /// The askew surge thruster's yaw moment for the surge thrust delivered.
+    fn skew_moment(&self, thrust: &Vec6) -> f64 {
+        self.effects
+            .iter()
+            .map(|e| match e {
+                Effect::SkewedThruster { arm_m } => arm_m * thrust[0],
+                _ => 0.0,
+            })
+            .sum()
+    }
+
+    fn deriv(&self, s: &State, cmd: &Vec6, t: f64) -> State {
         let target = self.shape_command(cmd);
         // With a lag, the state's `thrust` holds the motors' signed speeds, in sqrt(N).
         let (thrust, thrust_dot) = match self.lag() {
@@ -303,8 +364,9 @@ impl WorldPlant {
         };
         if !self.track_pose {
             // No effect reads the pose (the caller checked): heading unused, pose held.
-            let extra = self.extra_force_at(s, 0.0, 0.0);
-            let tau: Vec6 = std::array::from_fn(|i| thrust[i] + extra[i]);
+            let extra = self.extra_force_at(s, 0.0, 0.0, t);
+            let mut tau: Vec6 = std::array::from_fn(|i| thrust[i] + extra[i]);
+            tau[5] += self.skew_moment(&thrust);
             return State {
                 nu: self.plant.accel(&s.nu, &tau),
                 pos: [0.0; 3],
@@ -313,8 +375,9 @@ impl WorldPlant {
             };
         }
         let (c, sn) = (s.psi.cos(), s.psi.sin());
-        let extra = self.extra_force_at(s, c, sn);
-        let tau: Vec6 = std::array::from_fn(|i| thrust[i] + extra[i]);
+        let extra = self.extra_force_at(s, c, sn, t);
+        let mut tau: Vec6 = std::array::from_fn(|i| thrust[i] + extra[i]);
+        tau[5] += self.skew_moment(&thrust);
         let nu_dot = self.plant.accel(&s.nu, &tau);
         State {
             nu: nu_dot,
@@ -328,9 +391,10 @@ impl WorldPlant {
         }
     }
 
-    /// The body-frame acceleration at a state under a command (what an IMU would sense, less gravity).
-    pub fn accel(&self, s: &State, cmd: &Vec6) -> Vec6 {
-        self.deriv(s, cmd).nu
+    /// The body-frame acceleration at a state under a command at time `t` (what an IMU would
+    /// sense, less gravity).
+    pub fn accel(&self, s: &State, cmd: &Vec6, t: f64) -> Vec6 {
+        self.deriv(s, cmd, t).nu
     }
 
     /// The force and moment the thrusters deliver in a state (body frame).
@@ -341,9 +405,11 @@ impl WorldPlant {
         }
     }
 
-    /// One RK4 step of length `h` with the command held.
-    pub fn step(&self, s: &State, cmd: &Vec6, h: f64) -> State {
-        let mut out = rk4(s, h, |x| self.deriv(x, cmd));
+    /// One RK4 step of length `h` from time `t` with the command held (a time-dependent
+    /// force is taken at the step's middle).
+    pub fn step(&self, s: &State, cmd: &Vec6, h: f64, t: f64) -> State {
+        let mid = t + 0.5 * h;
+        let mut out = rk4(s, h, |x| self.deriv(x, cmd, mid));
         if self.lag().is_none() {
             out.thrust = self.shape_command(cmd);
         }
@@ -361,8 +427,9 @@ impl WorldPlant {
             }
             let span = t[k + 1] - t[k];
             let n = crate::model::dynamics::substeps(span, max_step);
-            for _ in 0..n {
-                s = self.step(&s, &cmd[k], span / n as f64);
+            for q in 0..n {
+                let h = span / n as f64;
+                s = self.step(&s, &cmd[k], h, t[k] + q as f64 * h);
             }
         }
         out
