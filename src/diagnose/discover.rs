@@ -7,7 +7,9 @@
 //!    inside the model, in integrated form (seed 000's idea): over windows of `WINDOW_S`, the
 //!    measured velocity change against the model's acceleration integrated at the measured
 //!    state, and every library term averaged over the same window. No noisy velocity is
-//!    differentiated, and no smoothing shifts one side against the other.
+//!    differentiated, and no smoothing shifts one side against the other. Each row is
+//!    weighted by its uncertainty from the fusion (the fused velocities' variances at the
+//!    window's ends, through the difference quotient and the mass).
 //! 2. **A library** for the DOF: velocities, `|x| x` and cross products, the commands, each
 //!    command's first-order lag deficit (`lowpass(X) - X`), the own command's sign, products of
 //!    commands across DOFs, pool-frame position, depth and depth-shaped drag, distance to the
@@ -327,6 +329,9 @@ struct Rows {
     at: Vec<(usize, usize, usize)>,
     /// Residual force per DOF, averaged over the window.
     y: [Vec<f64>; 4],
+    /// Its standard deviation from the fusion: the fused velocities' at the window's ends,
+    /// through the difference quotient and the mass.
+    sigma: [Vec<f64>; 4],
 }
 
 /// Length of a row's window, s.
@@ -353,6 +358,7 @@ fn residual_rows(plant: &Plant, aug: &Augmentation, data: &Data) -> Rows {
     let mut rows = Rows {
         at: Vec::new(),
         y: Default::default(),
+        sigma: Default::default(),
     };
     for (ri, run) in data.train.iter().enumerate() {
         let n = run.t.len();
@@ -394,6 +400,8 @@ fn residual_rows(plant: &Plant, aug: &Augmentation, data: &Data) -> Rows {
             });
             for (j, &i) in NU.iter().enumerate() {
                 rows.y[j].push((0..6).map(|q| mass[i][q] * dv[q]).sum());
+                let sd = run.std[j][a].hypot(run.std[j][b]) / (run.t[b] - run.t[a]);
+                rows.sigma[j].push(mass[i][i].abs() * sd);
             }
             rows.at.push((ri, a, b));
             a += every;
@@ -604,8 +612,36 @@ fn propose(data: &Data, pre: &[Prepared], rows: &Rows, j: usize) -> Option<Propo
     let (peaks_hz, grid, spectrum) = peaks(data, rows, j);
     let features = library(j, &peaks_hz, data);
     let (x, width) = design(data, pre, rows, &features);
-    let y = &rows.y[j];
     let n = rows.at.len();
+    // Weighted by the fusion's uncertainty (1 / sigma^2, normalised to a mean of 1; a sigma
+    // below a tenth of the median is taken as that, so no row decides alone).
+    let mut sorted: Vec<f64> = rows.sigma[j]
+        .iter()
+        .copied()
+        .filter(|s| s.is_finite())
+        .collect();
+    sorted.sort_by(f64::total_cmp);
+    let floor = 0.1
+        * sorted
+            .get(sorted.len() / 2)
+            .copied()
+            .unwrap_or(1.0)
+            .max(1e-300);
+    let w: Vec<f64> = rows.sigma[j]
+        .iter()
+        .map(|s| {
+            if s.is_finite() {
+                s.max(floor).powi(-2)
+            } else {
+                floor.powi(-2)
+            }
+        })
+        .collect();
+    let mean_w = w.iter().sum::<f64>() / n.max(1) as f64;
+    let sw: Vec<f64> = w.iter().map(|x| (x / mean_w).sqrt()).collect();
+    let x: Vec<f64> = (0..n * width).map(|i| x[i] * sw[i / width]).collect();
+    let yw: Vec<f64> = rows.y[j].iter().zip(&sw).map(|(a, b)| a * b).collect();
+    let y = &yw;
     // Columns scaled to unit RMS (the threshold is then the same for every term).
     let mut scale = vec![0.0; width];
     for r in 0..n {
