@@ -242,3 +242,20 @@ fn a_damaged_number_fails_its_import_at_its_line() {
     assert!(ran(&out) >= 3, "{out}");
     assert!(ok(dir, &["status"]).contains("up to date"));
 }
+
+/// A folder where a stage takes files (`surge_1N.csv/` among the exports) is said as such,
+/// not read as a file with nothing in it.
+#[test]
+fn a_folder_named_like_an_input_file_is_refused() {
+    let p = project();
+    let dir = p.path();
+    std::fs::create_dir(dir.join("cases/cfd/starccm/surge_1N.csv")).unwrap();
+    let o = run(dir, &["build"]);
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o)
+            .contains("cases/cfd/starccm/surge_1N.csv: is a folder, where stage `cfd` takes files"),
+        "{}",
+        stderr(&o)
+    );
+}

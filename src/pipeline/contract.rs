@@ -86,6 +86,9 @@ pub struct Kind {
     /// For a fan-out over folders: which files of a matched folder (path relative to it) are
     /// inputs; None takes them all. An OpenFOAM case folder also holds the results of its runs.
     pub input_filter: Option<fn(&str) -> bool>,
+    /// A fan-out over files (one export each): a folder its globs match is an error, not a
+    /// file to look inside.
+    pub file_inputs: bool,
     pub produces: Artifact,
     /// What it may read from (`from`), and what it must read from.
     pub consumes: &'static [Artifact],
@@ -115,6 +118,7 @@ impl Kind {
             fan_out: false,
             reads_files: false,
             input_filter: None,
+            file_inputs: false,
             produces,
             consumes: &[],
             requires: &[],

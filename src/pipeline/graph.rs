@@ -34,6 +34,10 @@ pub enum GraphError {
         pattern: String,
         source: glob::GlobError,
     },
+    #[error(
+        "{path}: is a folder, where stage `{stage}` takes files\n  help: rename or remove the folder, or narrow the glob under stages.{stage}.inputs in pipeline.yaml"
+    )]
+    FolderForFile { stage: String, path: String },
     #[error("cannot read input {path}: {source}")]
     Read {
         path: String,
@@ -111,6 +115,12 @@ fn matched_entries(
 /// input; a folder gives the files under it that the stage's kind keeps.
 fn entry_files(root: &Path, st: &StageSpec, p: &Path, r: &str) -> Result<Vec<String>, GraphError> {
     let mut files = Vec::new();
+    if p.is_dir() && st.kind.file_inputs {
+        return Err(GraphError::FolderForFile {
+            stage: st.name.clone(),
+            path: r.to_string(),
+        });
+    }
     if p.is_dir() {
         files_under(root, p, &mut files).map_err(|source| GraphError::Read {
             path: r.to_string(),

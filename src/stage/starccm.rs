@@ -9,6 +9,7 @@ use std::collections::BTreeMap;
 
 pub static KIND: Kind = Kind {
     fan_out: true,
+    file_inputs: true,
     uses_vehicle: super::VehicleUse::Dofs,
     ..Kind::new("starccm", Artifact::Responses, parse_as::<Settings>)
 };
