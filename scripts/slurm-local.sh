@@ -13,10 +13,18 @@ set -euo pipefail
 cmd=${1:?usage: slurm-local.sh up|down DIR}
 dir=$(realpath -m "${2:?usage: slurm-local.sh up|down DIR}")
 
+# Root for the installation and munge's key and socket; sudo when not root already.
+as_root() {
+    if [[ $(id -u) == 0 ]]; then "$@"; else sudo "$@"; fi
+}
+
 down() {
     for d in slurmd slurmctld munged; do
         if [[ -f "$dir/$d.pid" ]]; then
-            kill "$(cat "$dir/$d.pid")" 2>/dev/null || true
+            pid=$(cat "$dir/$d.pid")
+            as_root kill "$pid" 2>/dev/null || true
+            for _ in $(seq 30); do kill -0 "$pid" 2>/dev/null || break; sleep 0.1; done
+            as_root kill -9 "$pid" 2>/dev/null || true
             rm -f "$dir/$d.pid"
         fi
     done
@@ -29,23 +37,28 @@ fi
 [[ $cmd == up ]] || { echo "usage: slurm-local.sh up|down DIR" >&2; exit 2; }
 
 if ! command -v slurmctld >/dev/null || ! command -v munged >/dev/null; then
-    export DEBIAN_FRONTEND=noninteractive
-    apt-get install -y --no-install-recommends slurm-wlm munge >/dev/null
+    as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends slurm-wlm munge >/dev/null
 fi
 
 mkdir -p "$dir"/{state,spool,log}
 host=$(hostname -s)
 # Munge: a key, and its socket directory owned by the munge user.
-if [[ ! -s /etc/munge/munge.key ]]; then
-    dd if=/dev/urandom bs=1 count=1024 of=/etc/munge/munge.key 2>/dev/null
+if ! as_root test -s /etc/munge/munge.key; then
+    as_root dd if=/dev/urandom bs=1 count=1024 of=/etc/munge/munge.key 2>/dev/null
 fi
-chown munge:munge /etc/munge/munge.key && chmod 400 /etc/munge/munge.key
-mkdir -p /run/munge /var/log/munge /var/lib/munge
-chown munge:munge /run/munge /var/log/munge /var/lib/munge
+as_root chown munge:munge /etc/munge/munge.key
+as_root chmod 400 /etc/munge/munge.key
+as_root mkdir -p /run/munge /var/log/munge /var/lib/munge
+as_root chown munge:munge /run/munge /var/log/munge /var/lib/munge
 if ! pgrep -x munged >/dev/null; then
-    su -s /bin/sh munge -c "munged --foreground" >"$dir/log/munged.out" 2>&1 &
-    echo $! >"$dir/munged.pid"
-    for _ in $(seq 50); do [[ -S /run/munge/munge.socket.2 ]] && break; sleep 0.1; done
+    as_root su -s /bin/sh munge -c "munged --foreground" >"$dir/log/munged.out" 2>&1 &
+    # Ready when it answers (a socket file may be left from an earlier daemon).
+    for _ in $(seq 100); do
+        munge -n </dev/null 2>/dev/null | unmunge >/dev/null 2>&1 && break
+        sleep 0.1
+    done
+    # The daemon's own PID (the shell's child is su).
+    pgrep -n -x munged >"$dir/munged.pid"
 fi
 
 node=$(slurmd -C | head -1)

@@ -27,6 +27,7 @@ impl CaseRun {
         root: &Path,
         inputs: &[InputFile],
         message: &dyn Fn(String),
+        slurm: Option<&super::slurm::SlurmOptions>,
     ) -> anyhow::Result<CaseRun> {
         let rel = case_folder(inputs)?;
         let dir = root.join(&rel);
@@ -37,7 +38,12 @@ impl CaseRun {
         let identity = super::inputs_hash(&local);
         let setup = super::read_setup(&dir, &rel)?;
         let files: Vec<String> = local.iter().map(|(p, _)| p.clone()).collect();
-        let results = super::obtain_results(&dir, &rel, &files, &setup, &identity, message)?;
+        let state_dir = root.join(crate::pipeline::STATE_DIR);
+        let exec = super::Executor {
+            slurm,
+            state_dir: &state_dir,
+        };
+        let results = super::obtain_results(&dir, &rel, &files, &setup, &identity, message, exec)?;
         let (track, log, _) = super::read_track(&results.dir, &setup.application)
             .map_err(|e| anyhow::anyhow!("case {rel}: {e}"))?;
         Ok(CaseRun {
@@ -98,6 +104,8 @@ impl CaseRun {
             applied_force_n: setup.applied_force(),
             mass_kg: setup.mass_kg,
             rho: setup.rho,
+            slurm_job: self.results.ran.then(|| stamp.slurm_job.clone()).flatten(),
+            node: self.results.ran.then(|| stamp.node.clone()).flatten(),
         }
     }
 }

@@ -6,12 +6,13 @@ pub mod case;
 pub mod case_run;
 pub mod dict;
 pub mod results;
+pub mod slurm;
 mod solve;
 
 use crate::diag::InputError;
 use results::{LogEnd, VectorTable};
 use serde::{Deserialize, Serialize};
-pub use solve::{Results, obtain_results, run, solver_available};
+pub use solve::{Executor, Results, obtain_results, run, solver_available};
 use std::path::Path;
 
 /// Written into a case folder next to the results of a run by hydrofit: which inputs they
@@ -58,6 +59,11 @@ pub struct Stamp {
     /// CPU and wall-clock seconds of the solver as it reported them.
     pub execution_time_s: Option<f64>,
     pub clock_time_s: Option<f64>,
+    /// The Slurm job that ran it, and its node, when one did.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub slurm_job: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub node: Option<String>,
 }
 
 /// Identity of a case's inputs: independent of where the case folder is.
@@ -415,6 +421,11 @@ pub struct RunInfo {
     pub applied_force_n: [f64; 3],
     pub mass_kg: f64,
     pub rho: f64,
+    /// The Slurm job that ran the case in this build, and its node.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub slurm_job: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub node: Option<String>,
 }
 
 /// The body's path and the fluid force on it, for the report's drag analysis.

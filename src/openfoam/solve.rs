@@ -42,7 +42,30 @@ pub struct Results {
     /// True when this build ran the solver.
     pub ran: bool,
     pub notes: Vec<String>,
-    _scratch: Option<tempfile::TempDir>,
+    _scratch: Option<Scratch>,
+}
+
+/// Where a fresh run's files live until they are kept: a temporary folder (local runs), or a
+/// folder under the project's state that compute nodes share (Slurm), removed when done.
+enum Scratch {
+    Temp(#[allow(dead_code)] tempfile::TempDir),
+    Shared(PathBuf),
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        if let Scratch::Shared(p) = self {
+            let _ = std::fs::remove_dir_all(p);
+        }
+    }
+}
+
+/// How a fresh run is executed: here, or as a Slurm job whose scratch folder is under
+/// `state_dir` (the project's `.hydrofit/`, on the filesystem the cluster shares).
+#[derive(Clone, Copy)]
+pub struct Executor<'a> {
+    pub slurm: Option<&'a super::slurm::SlurmOptions>,
+    pub state_dir: &'a Path,
 }
 
 /// The case's results: those left in the case when its stamp names exactly these inputs;
@@ -56,6 +79,7 @@ pub fn obtain_results(
     setup: &CaseSetup,
     identity: &str,
     message: &dyn Fn(String),
+    exec: Executor,
 ) -> anyhow::Result<Results> {
     let solver = &setup.application;
     let stamp: Option<Stamp> = std::fs::read_to_string(case_dir.join(STAMP))
@@ -72,7 +96,7 @@ pub fn obtain_results(
     if stamp.as_ref().is_some_and(|s| s.inputs == identity) && has_results {
         Ok(left(stamp.expect("checked"), Vec::new()))
     } else if solver_available(solver) {
-        run_fresh(case_dir, case_rel, files, setup, identity, message)
+        run_fresh(case_dir, case_rel, files, setup, identity, message, exec)
     } else if has_results && stamp.is_none() {
         let note = format!(
             "results in {case_rel} were not produced by hydrofit (no {}): used as they are, unverified against the case's inputs",
@@ -102,11 +126,27 @@ fn run_fresh(
     setup: &CaseSetup,
     identity: &str,
     message: &dyn Fn(String),
+    exec: Executor,
 ) -> anyhow::Result<Results> {
     let solver = setup.application.clone();
-    let scratch = tempfile::Builder::new()
-        .prefix("hydrofit-openfoam-")
-        .tempdir()?;
+    let (scratch, path) = match exec.slurm {
+        None => {
+            let t = tempfile::Builder::new()
+                .prefix("hydrofit-openfoam-")
+                .tempdir()?;
+            let p = t.path().to_path_buf();
+            (Scratch::Temp(t), p)
+        }
+        // One folder per case identity: a build killed while its job ran finds the job again.
+        Some(_) => {
+            let p = exec
+                .state_dir
+                .join("slurm")
+                .join(&identity[..16.min(identity.len())]);
+            std::fs::create_dir_all(&p)?;
+            (Scratch::Shared(p.clone()), p)
+        }
+    };
     let end = setup.end_time_s;
     message(format!("{solver}: meshing"));
     let progress = move |t: f64| {
@@ -115,10 +155,18 @@ fn run_fresh(
             100.0 * t / end.max(1e-12)
         ))
     };
-    let stamp = run(case_dir, files, scratch.path(), setup, &progress, identity)
-        .map_err(|e| anyhow::anyhow!("case {case_rel}: {e}"))?;
+    let name = Path::new(case_rel)
+        .file_name()
+        .map_or(case_rel.to_string(), |n| n.to_string_lossy().into_owned());
+    let stamp = match exec.slurm {
+        None => run(case_dir, files, &path, setup, &progress, identity),
+        Some(opts) => run_on_slurm(
+            case_dir, files, &path, setup, &progress, identity, opts, &name,
+        ),
+    }
+    .map_err(|e| anyhow::anyhow!("case {case_rel}: {e}"))?;
     Ok(Results {
-        dir: scratch.path().to_path_buf(),
+        dir: path,
         stamp,
         ran: true,
         notes: Vec::new(),
@@ -135,6 +183,8 @@ fn unstamped(identity: &str, solver: &str) -> Stamp {
         steps: 0,
         execution_time_s: None,
         clock_time_s: None,
+        slurm_job: None,
+        node: None,
     }
 }
 
@@ -170,6 +220,136 @@ pub fn run(
         steps: log.steps.len(),
         execution_time_s: log.execution_time_s,
         clock_time_s: log.clock_time_s,
+        slurm_job: None,
+        node: None,
+    })
+}
+
+/// The job record a Slurm run leaves in its scratch folder while it runs.
+const JOB_FILE: &str = "hydrofit.job";
+const JOB_SCRIPT: &str = "hydrofit-job.sh";
+
+/// As [`run`], as a Slurm batch job: the tools run by a job script in `scratch` (which the
+/// compute node must see), the job polled until it ends. A job left running by a build that
+/// was killed is found again through the record in `scratch` and waited for, not resubmitted.
+#[allow(clippy::too_many_arguments)]
+fn run_on_slurm(
+    case: &Path,
+    inputs: &[String],
+    scratch: &Path,
+    setup: &CaseSetup,
+    progress: &dyn Fn(f64),
+    stamp_inputs: &str,
+    opts: &super::slurm::SlurmOptions,
+    name: &str,
+) -> anyhow::Result<Stamp> {
+    use super::slurm;
+    let wm = project_dir().ok_or_else(|| {
+        anyhow::anyhow!("OpenFOAM's etc folder was not found (set WM_PROJECT_DIR); {INSTALL_HINT}")
+    })?;
+    let mut tools: Vec<&str> = Vec::new();
+    if inputs.iter().any(|i| i == "system/blockMeshDict") {
+        tools.push("blockMesh");
+    }
+    tools.push(&setup.application);
+    let earlier = std::fs::read_to_string(scratch.join(JOB_FILE))
+        .ok()
+        .map(|t| t.trim().to_string())
+        .filter(|id| {
+            slurm::query(id)
+                .ok()
+                .flatten()
+                .is_some_and(|s| !s.finished() || s.state == "COMPLETED")
+        });
+    let id = match earlier {
+        Some(id) => id,
+        None => {
+            // A fresh copy of the inputs and the job script, then the job.
+            for e in std::fs::read_dir(scratch)? {
+                let p = e?.path();
+                if p.is_dir() {
+                    std::fs::remove_dir_all(&p)?;
+                } else {
+                    std::fs::remove_file(&p)?;
+                }
+            }
+            copy_inputs(case, inputs, scratch)?;
+            let mut script = format!(
+                "#!/bin/sh\n# Written by hydrofit: the case's tools, as a local run runs them.\nexport WM_PROJECT_DIR='{wm}'\n"
+            );
+            for (i, tool) in tools.iter().enumerate() {
+                script.push_str(&format!("{tool} > log.{tool} 2>&1 || exit {}\n", 10 + i));
+            }
+            std::fs::write(scratch.join(JOB_SCRIPT), script)?;
+            let id = slurm::submit(scratch, JOB_SCRIPT, name, opts)?;
+            crate::fsutil::write_atomic(&scratch.join(JOB_FILE), id.as_bytes())?;
+            id
+        }
+    };
+    let log_path = scratch.join(format!("log.{}", setup.application));
+    let state = slurm::wait(&id, &|_| {
+        if let Some(t) = last_time(&log_path) {
+            progress(t);
+        }
+    })?;
+    let mut build_line = String::new();
+    for (i, tool) in tools.iter().enumerate() {
+        let text = std::fs::read_to_string(scratch.join(format!("log.{tool}"))).unwrap_or_default();
+        if let Some(b) = text.lines().find_map(|l| l.strip_prefix("Build  :")) {
+            build_line = b.trim().to_string();
+        }
+        let failed_here = state.exit_code.split(':').next() == Some(&(10 + i).to_string());
+        if state.state == "COMPLETED" || failed_here {
+            use std::os::unix::process::ExitStatusExt;
+            let code = if failed_here { 1 } else { 0 };
+            check_outcome(
+                tool,
+                *tool == setup.application,
+                Some(ExitStatus::from_raw(code << 8)),
+                &text,
+            )
+            .map_err(|e| anyhow::anyhow!("Slurm job {id} {}: {e}", state.describe()))?;
+        }
+    }
+    if state.state != "COMPLETED" {
+        let out =
+            std::fs::read_to_string(scratch.join(format!("slurm-{id}.out"))).unwrap_or_default();
+        let solver_log = std::fs::read_to_string(&log_path).unwrap_or_default();
+        let tail = if solver_log.is_empty() {
+            results::tail(&out, 15)
+        } else {
+            results::tail(&solver_log, 15)
+        };
+        anyhow::bail!(
+            "Slurm job {id} ended {}; last lines:\n{tail}",
+            state.describe()
+        );
+    }
+    let _ = std::fs::remove_file(scratch.join(JOB_FILE));
+    let (_, log, _) = read_track(scratch, &setup.application)?;
+    Ok(Stamp {
+        inputs: stamp_inputs.into(),
+        solver: setup.application.clone(),
+        openfoam: build_line,
+        steps: log.steps.len(),
+        execution_time_s: log.execution_time_s,
+        clock_time_s: log.clock_time_s,
+        slurm_job: Some(id),
+        node: Some(state.node),
+    })
+}
+
+/// The last simulated time a solver log reports (its last 4 kB read).
+fn last_time(path: &Path) -> Option<f64> {
+    use std::io::{Read, Seek, SeekFrom};
+    let mut f = std::fs::File::open(path).ok()?;
+    let len = f.metadata().ok()?.len();
+    f.seek(SeekFrom::Start(len.saturating_sub(4096))).ok()?;
+    let mut buf = String::new();
+    f.take(4096).read_to_string(&mut buf).ok()?;
+    buf.lines().rev().find_map(|l| {
+        l.strip_prefix("Time = ")
+            .and_then(|t| t.trim().parse().ok())
     })
 }
 

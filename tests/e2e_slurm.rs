@@ -1,0 +1,281 @@
+//! End-to-end on a real Slurm: `scripts/slurm-local.sh` installs (Debian's slurm-wlm, munge)
+//! and starts a one-node cluster on this machine, and the OpenFOAM stage with
+//! `executor: slurm` runs the short cylinder case as a batch job. Its cached response is the
+//! same, byte for byte, as the local run's; the stamp names the job and the node; a crashing
+//! case fails its stage with Slurm's state and the solver log's tail. Skipped, with a
+//! message, without OpenFOAM or where the cluster cannot be started (never in CI).
+
+mod common;
+use common::*;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn openfoam_installed() -> bool {
+    let on_path = |exe: &str| {
+        std::env::var_os("PATH")
+            .is_some_and(|p| std::env::split_paths(&p).any(|d| d.join(exe).is_file()))
+    };
+    on_path("pimpleFoam")
+        && on_path("blockMesh")
+        && Path::new("/usr/share/openfoam/etc/controlDict").exists()
+}
+
+/// A one-node cluster for the test's lifetime, stopped (by PID) when dropped.
+struct Cluster {
+    dir: tempfile::TempDir,
+    conf: PathBuf,
+}
+
+impl Cluster {
+    fn start() -> Option<Cluster> {
+        let dir = tempfile::tempdir().unwrap();
+        let script = manifest_dir().join("scripts/slurm-local.sh");
+        let o = Command::new("bash")
+            .arg(&script)
+            .arg("up")
+            .arg(dir.path())
+            .output()
+            .unwrap();
+        if !o.status.success() {
+            let why = String::from_utf8_lossy(&o.stderr).into_owned();
+            assert!(
+                std::env::var_os("CI").is_none(),
+                "CI must be able to start the local Slurm: {why}"
+            );
+            eprintln!("skipped: no local Slurm here ({why})");
+            return None;
+        }
+        let conf = dir.path().join("slurm.conf");
+        Some(Cluster { dir, conf })
+    }
+}
+
+impl Drop for Cluster {
+    fn drop(&mut self) {
+        let _ = Command::new("bash")
+            .arg(manifest_dir().join("scripts/slurm-local.sh"))
+            .arg("down")
+            .arg(self.dir.path())
+            .output();
+    }
+}
+
+fn pipeline(executor: &str) -> String {
+    format!(
+        r#"
+vehicle: {{name: test, mass_kg: 35.2, dofs: [surge]}}
+stages:
+  openfoam:
+    kind: openfoam
+    inputs: ["cases/cfd/openfoam/*/"]
+    settings:
+      executor: {executor}
+      slurm: {{time: "00:10:00", cpus: 1, mem: 1G}}
+"#
+    )
+}
+
+fn hydrofit(dir: &Path, conf: &Path, args: &[&str]) -> std::process::Output {
+    Command::new(BIN)
+        .arg("--project")
+        .arg(dir)
+        .args(args)
+        .env("SLURM_CONF", conf)
+        .env("WM_PROJECT_DIR", "/usr/share/openfoam")
+        .output()
+        .unwrap()
+}
+
+/// The project with the short case, built with `executor`; returns the folder.
+fn project_with_case(
+    executor: &str,
+    conf: &Path,
+    broken: bool,
+) -> (tempfile::TempDir, std::process::Output) {
+    let p = tempfile::tempdir().unwrap();
+    let dir = p.path();
+    std::fs::write(dir.join("pipeline.yaml"), pipeline(executor)).unwrap();
+    ok(
+        dir,
+        &[
+            "openfoam",
+            "new",
+            "cases/cfd/openfoam/short",
+            "--force",
+            "2",
+            "--end-time",
+            "1",
+        ],
+    );
+    if broken {
+        std::fs::remove_file(dir.join("cases/cfd/openfoam/short/0/p")).unwrap();
+    }
+    let o = hydrofit(dir, conf, &["build"]);
+    (p, o)
+}
+
+/// The cached response table of the project's one OpenFOAM instance.
+fn response_table(dir: &Path) -> Vec<u8> {
+    for e in std::fs::read_dir(dir.join(".hydrofit/objects")).unwrap() {
+        let p = e.unwrap().path().join("response.parquet");
+        if p.exists() {
+            return std::fs::read(p).unwrap();
+        }
+    }
+    panic!("no cached response in {}", dir.display());
+}
+
+/// One cluster for both checks (two would share this machine's ports).
+#[test]
+fn openfoam_cases_run_as_slurm_jobs() {
+    if !openfoam_installed() {
+        eprintln!("skipped: OpenFOAM is not installed here (.ci/run installs it)");
+        return;
+    }
+    let Some(cluster) = Cluster::start() else {
+        return;
+    };
+    the_short_case_runs_as_a_slurm_job_and_matches_the_local_run(&cluster);
+    a_failing_job_fails_its_stage_with_slurms_state_and_the_log_tail(&cluster);
+    ctrl_c_cancels_the_job_and_a_killed_build_picks_its_job_up_again(&cluster);
+}
+
+/// The id of the one job Slurm has queued or running, once it has one.
+fn running_job(conf: &Path) -> String {
+    let t0 = std::time::Instant::now();
+    loop {
+        let o = Command::new("squeue")
+            .args(["-h", "-o", "%i %T"])
+            .env("SLURM_CONF", conf)
+            .output()
+            .unwrap();
+        let text = String::from_utf8_lossy(&o.stdout).into_owned();
+        if let Some(line) = text.lines().find(|l| l.ends_with("RUNNING")) {
+            return line.split_whitespace().next().unwrap().to_string();
+        }
+        assert!(t0.elapsed().as_secs() < 60, "no job started: {text}");
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+}
+
+fn job_state(conf: &Path, id: &str) -> String {
+    let o = Command::new("scontrol")
+        .args(["show", "job", "-o", id])
+        .env("SLURM_CONF", conf)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&o.stdout).into_owned();
+    text.split_whitespace()
+        .find_map(|kv| kv.strip_prefix("JobState="))
+        .unwrap_or("")
+        .to_string()
+}
+
+fn ctrl_c_cancels_the_job_and_a_killed_build_picks_its_job_up_again(cluster: &Cluster) {
+    let p = tempfile::tempdir().unwrap();
+    let dir = p.path();
+    std::fs::write(dir.join("pipeline.yaml"), pipeline("slurm")).unwrap();
+    ok(
+        dir,
+        &[
+            "openfoam",
+            "new",
+            "cases/cfd/openfoam/long",
+            "--force",
+            "2",
+            "--end-time",
+            "4",
+        ],
+    );
+    let spawn = || {
+        Command::new(BIN)
+            .arg("--project")
+            .arg(dir)
+            .arg("build")
+            .env("SLURM_CONF", &cluster.conf)
+            .env("WM_PROJECT_DIR", "/usr/share/openfoam")
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap()
+    };
+    // Ctrl-C: the build stops and cancels its job.
+    let build = spawn();
+    let id = running_job(&cluster.conf);
+    let _ = Command::new("kill")
+        .args(["-INT", &build.id().to_string()])
+        .status();
+    let o = build.wait_with_output().unwrap();
+    assert!(!o.status.success());
+    let t0 = std::time::Instant::now();
+    while job_state(&cluster.conf, &id) != "CANCELLED" {
+        assert!(
+            t0.elapsed().as_secs() < 20,
+            "job {id}: {}",
+            job_state(&cluster.conf, &id)
+        );
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    // kill -9: the job goes on; the next build waits for that job instead of a new one.
+    let mut build = spawn();
+    let id = running_job(&cluster.conf);
+    build.kill().unwrap();
+    let _ = build.wait();
+    let o = hydrofit(dir, &cluster.conf, &["build"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stamp = json(dir, "cases/cfd/openfoam/long/hydrofit.run.json");
+    assert_eq!(stamp["slurm_job"].as_str(), Some(id.as_str()), "{stamp}");
+}
+
+fn the_short_case_runs_as_a_slurm_job_and_matches_the_local_run(cluster: &Cluster) {
+    let (local, o) = project_with_case("local", &cluster.conf, false);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (on_slurm, o) = project_with_case("slurm", &cluster.conf, false);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(
+        response_table(local.path()),
+        response_table(on_slurm.path()),
+        "the cached response of the Slurm run is the local run's"
+    );
+    let state =
+        "cases/cfd/openfoam/short/postProcessing/sixDoFRigidBodyState/0/sixDoFRigidBodyState.dat";
+    assert_eq!(read(local.path(), state), read(on_slurm.path(), state));
+    let stamp = json(
+        on_slurm.path(),
+        "cases/cfd/openfoam/short/hydrofit.run.json",
+    );
+    assert!(
+        stamp["slurm_job"].as_str().is_some_and(|j| !j.is_empty()),
+        "{stamp}"
+    );
+    assert!(
+        stamp["node"].as_str().is_some_and(|n| !n.is_empty()),
+        "{stamp}"
+    );
+    assert!(
+        json(local.path(), "cases/cfd/openfoam/short/hydrofit.run.json")["slurm_job"].is_null()
+    );
+    // The scratch folder the job ran in is gone; nothing is stale.
+    assert!(
+        std::fs::read_dir(on_slurm.path().join(".hydrofit/slurm"))
+            .map_or(true, |mut d| d.next().is_none()),
+        "scratch left behind"
+    );
+    let again = hydrofit(on_slurm.path(), &cluster.conf, &["build"]);
+    assert_eq!(ran(&String::from_utf8_lossy(&again.stderr)), 0);
+}
+
+fn a_failing_job_fails_its_stage_with_slurms_state_and_the_log_tail(cluster: &Cluster) {
+    let (p, o) = project_with_case("slurm", &cluster.conf, true);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("Slurm job") && err.contains("FAILED") && err.contains("FOAM FATAL"),
+        "{err}"
+    );
+    assert!(
+        !p.path()
+            .join("cases/cfd/openfoam/short/hydrofit.run.json")
+            .exists()
+    );
+}
