@@ -203,16 +203,34 @@ pub fn run(
         anyhow::anyhow!("OpenFOAM's etc folder was not found (set WM_PROJECT_DIR); {INSTALL_HINT}")
     })?;
     let mut build_line = String::new();
+    for tool in tools(inputs, setup) {
+        let (status, text) = run_tool(tool, scratch, &wm, progress, &mut build_line)?;
+        check_outcome(tool, tool == setup.application, status, &text)?;
+    }
+    stamp_of(scratch, setup, stamp_inputs, build_line, None)
+}
+
+/// The tools a case runs, in order: blockMesh when it has a blockMeshDict, then its solver.
+fn tools<'a>(inputs: &[String], setup: &'a CaseSetup) -> Vec<&'a str> {
     let mut tools: Vec<&str> = Vec::new();
     if inputs.iter().any(|i| i == "system/blockMeshDict") {
         tools.push("blockMesh");
     }
     tools.push(&setup.application);
-    for tool in tools {
-        let (status, text) = run_tool(tool, scratch, &wm, progress, &mut build_line)?;
-        check_outcome(tool, tool == setup.application, status, &text)?;
-    }
-    let (_, log, _) = read_track(scratch, &setup.application)?;
+    tools
+}
+
+/// The stamp of a finished run in `dir`: its inputs, the solver's log, the Slurm job (id and
+/// node) when one ran it.
+fn stamp_of(
+    dir: &Path,
+    setup: &CaseSetup,
+    stamp_inputs: &str,
+    build_line: String,
+    job: Option<(String, String)>,
+) -> anyhow::Result<Stamp> {
+    let (_, log, _) = read_track(dir, &setup.application)?;
+    let (slurm_job, node) = job.map_or((None, None), |(j, n)| (Some(j), Some(n)));
     Ok(Stamp {
         inputs: stamp_inputs.into(),
         solver: setup.application.clone(),
@@ -220,8 +238,8 @@ pub fn run(
         steps: log.steps.len(),
         execution_time_s: log.execution_time_s,
         clock_time_s: log.clock_time_s,
-        slurm_job: None,
-        node: None,
+        slurm_job,
+        node,
     })
 }
 
@@ -247,11 +265,7 @@ fn run_on_slurm(
     let wm = project_dir().ok_or_else(|| {
         anyhow::anyhow!("OpenFOAM's etc folder was not found (set WM_PROJECT_DIR); {INSTALL_HINT}")
     })?;
-    let mut tools: Vec<&str> = Vec::new();
-    if inputs.iter().any(|i| i == "system/blockMeshDict") {
-        tools.push("blockMesh");
-    }
-    tools.push(&setup.application);
+    let tools = tools(inputs, setup);
     let earlier = std::fs::read_to_string(scratch.join(JOB_FILE))
         .ok()
         .map(|t| t.trim().to_string())
@@ -326,17 +340,13 @@ fn run_on_slurm(
         );
     }
     let _ = std::fs::remove_file(scratch.join(JOB_FILE));
-    let (_, log, _) = read_track(scratch, &setup.application)?;
-    Ok(Stamp {
-        inputs: stamp_inputs.into(),
-        solver: setup.application.clone(),
-        openfoam: build_line,
-        steps: log.steps.len(),
-        execution_time_s: log.execution_time_s,
-        clock_time_s: log.clock_time_s,
-        slurm_job: Some(id),
-        node: Some(state.node),
-    })
+    stamp_of(
+        scratch,
+        setup,
+        stamp_inputs,
+        build_line,
+        Some((id, state.node)),
+    )
 }
 
 /// The last simulated time a solver log reports (its last 4 kB read).
