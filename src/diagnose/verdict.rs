@@ -52,16 +52,7 @@ pub fn diagnose(
     let (effects, mut figures, conclusion) = conclude(plant, &data, crit, &search, &costs)?;
     let mut verdict = verdict_sentence(&effects, conclusion.unexplained, conclusion.drift, &costs);
     if let Some(c) = effects.iter().find_map(|e| e.candidate.as_ref()) {
-        let _ = write!(
-            verdict,
-            " Discovery proposes a closed form for it: {}{}, which lowers the held-out error cost from {:.4} to {:.4}.",
-            c.expression,
-            c.named_as
-                .as_ref()
-                .map_or(String::new(), |n| format!(" (the form of {n})")),
-            c.validation_cost_before,
-            c.validation_cost_after
-        );
+        verdict.push_str(&c.verdict_sentence());
     }
     if let Some(fig) = figures::overlay_figure(plant, &data, &mismatch, &search.selected, model)? {
         figures.insert(0, fig);
@@ -226,7 +217,7 @@ fn conclude(
                 crit,
             )?
         {
-            found = with_candidate(found, c);
+            found = c.into_found(found);
             figures.extend(figs);
         }
         effects.push(found);
@@ -393,61 +384,6 @@ fn unexplained_residual(
         validation_cost_after: explained_cost,
         alike: Vec::new(),
         candidate: None,
-    }
-}
-
-/// The `unexplained` entry with the closed form discovery proposed: named as the effect it is
-/// in disguise when it is one, its held-out errors after the term, its evidence said.
-fn with_candidate(mut found: Found, c: super::discover::Candidate) -> Found {
-    let terms: Vec<String> = c
-        .terms
-        .iter()
-        .map(|t| {
-            format!(
-                "{} (95 % interval {:.4} to {:.4}; kept on {} of the resamples and {} of {} runs)",
-                t.term,
-                t.interval[0],
-                t.interval[1],
-                pct(t.selected_share),
-                t.runs_selected[0],
-                t.runs_selected[1]
-            )
-        })
-        .collect();
-    let _ = write!(
-        found.evidence,
-        " Discovery, a sparse regression of the residual force on {} candidate terms, proposes {} from {}; added to the model it lowers the held-out error cost from {:.4} to {:.4} ({}).",
-        c.library_terms,
-        c.expression,
-        terms.join(" and "),
-        c.validation_cost_before,
-        c.validation_cost_after,
-        dx_nmae_change(&c.validation_nmae_before, &c.validation_nmae_after, c.dof)
-    );
-    if let Some(n) = &c.named_as {
-        let _ = write!(
-            found.evidence,
-            " The term is the form of {n}: reported under that name."
-        );
-        found.name = n.clone();
-        found.parameters = c
-            .terms
-            .iter()
-            .map(|t| (t.term.clone(), t.coefficient))
-            .collect();
-    }
-    found.dofs = vec![c.dof];
-    found.validation_nmae_after = c.validation_nmae_after.clone();
-    found.validation_cost_after = c.validation_cost_after;
-    found.candidate = Some(c);
-    found
-}
-
-/// `held-out heave NMAE 0.310 -> 0.070`.
-fn dx_nmae_change(before: &BTreeMap<Dof, f64>, after: &BTreeMap<Dof, f64>, d: Dof) -> String {
-    match (before.get(&d), after.get(&d)) {
-        (Some(b), Some(a)) => format!("held-out {d} NMAE {b:.3} -> {a:.3}"),
-        _ => "no held-out NMAE".into(),
     }
 }
 

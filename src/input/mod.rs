@@ -8,6 +8,12 @@ pub mod locate;
 
 use crate::diag::InputError;
 pub use crate::diag::clip;
+
+/// No data value of a vehicle log (sensor, command) or a DFBI export (force, velocity,
+/// acceleration) comes near this in SI units or the export's; beyond it a value is damaged
+/// (a cut-off or merged number), not measured. Times are exempt: a time may be a Unix stamp
+/// in microseconds.
+pub const PLAUSIBLE: f64 = 1e9;
 use std::path::Path;
 
 /// An input file's text, its byte-order mark removed.

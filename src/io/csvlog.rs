@@ -2,11 +2,7 @@
 //! only. Every problem is an `InputError` naming file, line, column and the fix.
 
 use crate::diag::InputError;
-use crate::input::clip;
-
-/// No sensor or command value of a vehicle log comes near this in SI units (a time may: it can
-/// be a Unix stamp in microseconds); beyond it a value is damaged, not measured.
-const PLAUSIBLE: f64 = 1e9;
+use crate::input::{PLAUSIBLE, clip};
 
 /// A parsed log: the time column and the requested columns, in the requested order.
 #[derive(Debug, Clone, PartialEq)]

@@ -5,12 +5,8 @@ mod columns;
 
 use super::response::{Response, Series, Source, differentiate};
 use crate::diag::InputError;
-use crate::input::clip;
-
-/// No force (N, N m), velocity or acceleration of a vehicle's DFBI run comes near this in the
-/// export's units; beyond it a value is damaged, not computed.
-const PLAUSIBLE: f64 = 1e9;
 use crate::dof::Dof;
+use crate::input::{PLAUSIBLE, clip};
 use columns::{Header, Mapped, Role, check_dofs, map_columns, parse_header};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;

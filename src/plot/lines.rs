@@ -121,3 +121,46 @@ pub fn figure(id: &str, caption: &str, c: &Chart) -> anyhow::Result<String> {
         chart(c)?
     ))
 }
+
+/// An autocorrelation by lag with the band of a white sequence (a residual test), drawn as
+/// stems with the band dotted.
+pub struct Correlogram<'a> {
+    pub title: &'a str,
+    pub x_desc: &'a str,
+    pub label: &'a str,
+    pub lags: &'a [f64],
+    pub acf: &'a [f64],
+    pub band: f64,
+}
+
+impl Correlogram<'_> {
+    /// Lags past zero whose autocorrelation is outside the band.
+    pub fn outside(&self) -> usize {
+        self.acf
+            .iter()
+            .skip(1)
+            .filter(|a| a.abs() > self.band)
+            .count()
+    }
+
+    /// As an HTML figure (see [`figure`]).
+    pub fn figure(&self, id: &str, caption: &str) -> anyhow::Result<String> {
+        figure(
+            id,
+            caption,
+            &Chart {
+                title: self.title,
+                x_desc: self.x_desc,
+                y_desc: "autocorrelation",
+                series: vec![Series {
+                    label: self.label,
+                    x: self.lags,
+                    y: self.acf,
+                    reference: false,
+                }],
+                hlines: vec![-self.band, self.band],
+                stems: true,
+            },
+        )
+    }
+}

@@ -6,7 +6,7 @@
 use super::html::esc;
 use crate::field::FieldResult;
 use crate::field::arx::{Detail as ArxDetail, Model};
-use crate::plot::lines::{Chart, Series, figure};
+use crate::plot::lines::{Chart, Correlogram, Series, figure};
 use std::collections::BTreeMap;
 use std::fmt::Write;
 
@@ -142,46 +142,32 @@ fn arx_section(r: &FieldResult, truth: &Truth) -> anyhow::Result<String> {
         )?;
     }
     let lags: Vec<f64> = (0..d.residual_acf.len()).map(|l| l as f64).collect();
-    let outside = d
-        .residual_acf
-        .iter()
-        .skip(1)
-        .filter(|a| a.abs() > d.residual_band)
-        .count();
+    let title = format!(
+        "autocorrelation of the prediction error ({})",
+        d.residual_run
+    );
+    let acf = Correlogram {
+        title: &title,
+        x_desc: "lag (samples)",
+        label: "selected",
+        lags: &lags,
+        acf: &d.residual_acf,
+        band: d.residual_band,
+    };
     let _ = writeln!(
         h,
         "<p>Residual test (MATLAB <code>resid</code>): the selected model's one-step prediction error on {} has {} of {} lags outside the 99 % band ±{:.3} of a white sequence.</p>",
         esc(&d.residual_run),
-        outside,
+        acf.outside(),
         d.residual_acf.len().saturating_sub(1),
         d.residual_band
-    );
-    let title = format!(
-        "autocorrelation of the prediction error ({})",
-        d.residual_run
     );
     let fig_id = format!("field-{}-resid", esc(&r.stage));
     let caption = format!(
         "Autocorrelation of the selected model's one-step prediction error on <code>{}</code> by lag, with the 99 % band of a white sequence (dotted).",
         esc(&d.residual_run)
     );
-    h += &figure(
-        &fig_id,
-        &caption,
-        &Chart {
-            title: &title,
-            x_desc: "lag (samples)",
-            y_desc: "autocorrelation",
-            series: vec![Series {
-                label: "selected",
-                x: &lags,
-                y: &d.residual_acf,
-                reference: false,
-            }],
-            hlines: vec![-d.residual_band, d.residual_band],
-            stems: true,
-        },
-    )?;
+    h += &acf.figure(&fig_id, &caption)?;
     h += &ranking_table(&d);
     Ok(h)
 }

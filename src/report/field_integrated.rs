@@ -7,7 +7,7 @@ use super::field::Truth;
 use super::html::esc;
 use crate::field::FieldResult;
 use crate::field::integrated::{Detail, RunTrace};
-use crate::plot::lines::{Chart, Series, figure};
+use crate::plot::lines::{Chart, Correlogram, Series, figure};
 use std::fmt::Write;
 
 pub fn section(r: &FieldResult, truth: &Truth) -> anyhow::Result<String> {
@@ -100,19 +100,26 @@ pub fn section(r: &FieldResult, truth: &Truth) -> anyhow::Result<String> {
                 stems: false,
             },
         )?;
-        let outside = p.acf.iter().skip(1).filter(|a| a.abs() > p.band).count();
+        let title = format!(
+            "autocorrelation of the prediction error, {} ({})",
+            p.state, p.run
+        );
+        let acf = Correlogram {
+            title: &title,
+            x_desc: "lag (s)",
+            label: &p.state,
+            lags: &p.lag_s,
+            acf: &p.acf,
+            band: p.band,
+        };
         let _ = writeln!(
             h,
             "<p>Prediction error of d{}/dt on {}: {} of {} lags outside the 95 % band ±{:.3} of a white sequence.</p>",
             esc(&p.state),
             esc(&p.run),
-            outside,
+            acf.outside(),
             p.acf.len().saturating_sub(1),
             p.band
-        );
-        let title = format!(
-            "autocorrelation of the prediction error, {} ({})",
-            p.state, p.run
         );
         let fig_id = format!(
             "field-{}-acf-{}-{}",
@@ -125,23 +132,7 @@ pub fn section(r: &FieldResult, truth: &Truth) -> anyhow::Result<String> {
             esc(&p.state),
             esc(&p.run)
         );
-        h += &figure(
-            &fig_id,
-            &caption,
-            &Chart {
-                title: &title,
-                x_desc: "lag (s)",
-                y_desc: "autocorrelation",
-                series: vec![Series {
-                    label: &p.state,
-                    x: &p.lag_s,
-                    y: &p.acf,
-                    reference: false,
-                }],
-                hlines: vec![-p.band, p.band],
-                stems: true,
-            },
-        )?;
+        h += &acf.figure(&fig_id, &caption)?;
     }
     Ok(h)
 }

@@ -1,0 +1,211 @@
+//! The library of candidate terms: what each reads of the recording (time, commands, pose)
+//! and of the velocity, how it is written, and which named effect it is in disguise.
+
+use super::super::{Data, Run};
+use std::f64::consts::TAU;
+
+/// First-order lags tried on the commands, s.
+const LAGS_S: [f64; 2] = [0.3, 1.0];
+/// Depth scales of the near-surface drag terms, m.
+const DEPTH_SCALES_M: [f64; 2] = [0.5, 1.0];
+
+/// One library term, a function of the recording (time, command, pose) and the velocity.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Feature {
+    Constant,
+    Velocity(usize),
+    /// |x| x.
+    Quadratic(usize),
+    /// x_a x_b.
+    Product(usize, usize),
+    /// |x_a| x_b.
+    AbsProduct(usize, usize),
+    Command(usize),
+    /// lowpass_tau(X) - X: what a first-order lag with this time constant takes off.
+    LagDeficit(usize, f64),
+    CommandSign(usize),
+    CommandProduct(usize, usize),
+    PoolX,
+    PoolY,
+    Depth,
+    /// |x| x exp(-depth / scale).
+    NearSurfaceDrag(usize, f64),
+    WallDistance,
+    TetherLength,
+    CosHeading,
+    SinHeading,
+    /// sin and cos of 2 pi f t (two columns: amplitude and phase).
+    Sine(f64),
+}
+
+pub(super) const V: [&str; 4] = ["u", "v", "w", "r"];
+pub(super) const C: [&str; 4] = ["X", "Y", "Z", "N"];
+
+impl Feature {
+    pub(super) fn columns(self) -> usize {
+        if matches!(self, Feature::Sine(_)) {
+            2
+        } else {
+            1
+        }
+    }
+
+    /// The term as it is written in an expression.
+    pub fn label(self) -> String {
+        match self {
+            Feature::Constant => "1".into(),
+            Feature::Velocity(j) => V[j].into(),
+            Feature::Quadratic(j) => format!("|{0}| {0}", V[j]),
+            Feature::Product(a, b) => format!("{} {}", V[a], V[b]),
+            Feature::AbsProduct(a, b) => format!("|{}| {}", V[a], V[b]),
+            Feature::Command(q) => C[q].into(),
+            Feature::LagDeficit(q, tau) => format!("(lag_{tau}s({0}) - {0})", C[q]),
+            Feature::CommandSign(q) => format!("sign({})", C[q]),
+            Feature::CommandProduct(a, b) => format!("{} {}", C[a], C[b]),
+            Feature::PoolX => "x".into(),
+            Feature::PoolY => "y".into(),
+            Feature::Depth => "z".into(),
+            Feature::NearSurfaceDrag(j, l) => format!("|{0}| {0} exp(-z/{l} m)", V[j]),
+            Feature::WallDistance => "d_wall".into(),
+            Feature::TetherLength => "L_tether".into(),
+            Feature::CosHeading => "cos(psi)".into(),
+            Feature::SinHeading => "sin(psi)".into(),
+            Feature::Sine(f) => format!("sin(2 pi {f:.3} t + phase)"),
+        }
+    }
+
+    /// The named effect this term is, for the DOF `j` it acts in, if it is one in disguise.
+    pub(super) fn named(self, j: usize) -> Option<&'static str> {
+        match self {
+            Feature::Constant if j == 2 => Some("net_buoyancy"),
+            Feature::LagDeficit(q, _) if q == j => Some("thruster_lag"),
+            Feature::CommandSign(q) if q == j => Some("thruster_deadband"),
+            Feature::AbsProduct(a, b) | Feature::Product(a, b) if a < 2 && b < 2 && a != b => {
+                Some("coupled_drag")
+            }
+            Feature::CosHeading | Feature::SinHeading => Some("water_current"),
+            Feature::WallDistance => Some("wall_effect"),
+            Feature::TetherLength => Some("tether_drag"),
+            _ => None,
+        }
+    }
+
+    /// Column values at sample `k` of `run` with velocity `vel` [u, v, w, r].
+    pub(super) fn eval(
+        self,
+        run: &Run,
+        pre: &Prepared,
+        k: usize,
+        vel: &[f64; 4],
+        out: &mut Vec<f64>,
+    ) {
+        let cmd = run.cmd[k];
+        let x = match self {
+            Feature::Constant => 1.0,
+            Feature::Velocity(j) => vel[j],
+            Feature::Quadratic(j) => vel[j].abs() * vel[j],
+            Feature::Product(a, b) => vel[a] * vel[b],
+            Feature::AbsProduct(a, b) => vel[a].abs() * vel[b],
+            Feature::Command(q) => cmd[q],
+            Feature::LagDeficit(q, tau) => {
+                let i = LAGS_S.iter().position(|l| *l == tau).unwrap_or(0);
+                pre.lagged[i][k][q] - cmd[q]
+            }
+            Feature::CommandSign(q) => {
+                if cmd[q].abs() < 1e-9 {
+                    0.0
+                } else {
+                    cmd[q].signum()
+                }
+            }
+            Feature::CommandProduct(a, b) => cmd[a] * cmd[b],
+            Feature::PoolX => run.pos[0][k],
+            Feature::PoolY => run.pos[1][k],
+            Feature::Depth => run.pos[2][k],
+            Feature::NearSurfaceDrag(j, l) => {
+                vel[j].abs() * vel[j] * (-run.pos[2][k].max(0.0) / l).exp()
+            }
+            Feature::WallDistance => run.wall_distance(k).unwrap_or(0.0),
+            Feature::TetherLength => run.tether_length(k).unwrap_or(0.0),
+            Feature::CosHeading => run.psi[k].cos(),
+            Feature::SinHeading => run.psi[k].sin(),
+            Feature::Sine(f) => {
+                // On the logs' own clock (a run trimmed to its logs' overlap keeps it).
+                let (s, c) = (TAU * f * run.t[k]).sin_cos();
+                out.push(s);
+                out.push(c);
+                return;
+            }
+        };
+        out.push(x);
+    }
+}
+
+/// What a run's features need besides the sample: its commands through each lag.
+#[derive(Debug, Clone)]
+pub struct Prepared {
+    lagged: Vec<Vec<[f64; 4]>>,
+}
+
+pub(super) fn prepare(run: &Run) -> Prepared {
+    let lagged = LAGS_S
+        .iter()
+        .map(|&tau| {
+            let mut y = run.cmd.first().copied().unwrap_or([0.0; 4]);
+            let mut out = Vec::with_capacity(run.t.len());
+            for k in 0..run.t.len() {
+                if k > 0 {
+                    let a = 1.0 - (-(run.t[k] - run.t[k - 1]) / tau).exp();
+                    for (yq, cq) in y.iter_mut().zip(run.cmd[k - 1]) {
+                        *yq += a * (cq - *yq);
+                    }
+                }
+                out.push(y);
+            }
+            out
+        })
+        .collect();
+    Prepared { lagged }
+}
+
+/// The library for DOF `j`, with the sines at `peaks` (Hz).
+pub(super) fn library(j: usize, peaks: &[f64], data: &Data) -> Vec<Feature> {
+    let mut f = vec![Feature::Constant];
+    for a in 0..4 {
+        f.push(Feature::Velocity(a));
+        f.push(Feature::Quadratic(a));
+    }
+    for a in 0..4 {
+        for b in 0..4 {
+            if a < b {
+                f.push(Feature::Product(a, b));
+            }
+            if a != b {
+                f.push(Feature::AbsProduct(a, b));
+            }
+        }
+    }
+    for q in 0..4 {
+        f.push(Feature::Command(q));
+        for tau in LAGS_S {
+            f.push(Feature::LagDeficit(q, tau));
+        }
+        for b in q + 1..4 {
+            f.push(Feature::CommandProduct(q, b));
+        }
+    }
+    f.push(Feature::CommandSign(j));
+    f.extend([Feature::PoolX, Feature::PoolY, Feature::Depth]);
+    for l in DEPTH_SCALES_M {
+        f.push(Feature::NearSurfaceDrag(j, l));
+    }
+    if data.train.iter().all(|r| r.pool.is_some()) {
+        f.push(Feature::WallDistance);
+    }
+    if data.train.iter().all(|r| r.anchor.is_some()) {
+        f.push(Feature::TetherLength);
+    }
+    f.extend([Feature::CosHeading, Feature::SinHeading]);
+    f.extend(peaks.iter().map(|&p| Feature::Sine(p)));
+    f
+}

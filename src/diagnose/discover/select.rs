@@ -1,0 +1,294 @@
+//! Sparse selection that holds up: forward stepwise least squares, repeated on block-bootstrap
+//! resamples and on each training run alone, and every subset of the kept terms refitted for
+//! the held-out runs to choose among.
+
+use super::super::Data;
+use super::library::{Feature, Prepared, library};
+use super::rows::{EVERY_S, Rows, design, peaks};
+use super::{Discovered, DiscoveredTerm};
+
+/// The most terms a discovered closed form has (a sine with its phase counts as one).
+pub const MAX_TERMS: usize = 2;
+/// A term enters the stepwise fit only if it removes this share of the residual left.
+const MIN_DROP: f64 = 0.05;
+/// Block-bootstrap resamples of the training runs, and the block length, s.
+const RESAMPLES: usize = 40;
+const BLOCK_S: f64 = 10.0;
+/// Share of the resamples that must select a term for it to be kept.
+pub const KEEP_SHARE: f64 = 0.7;
+
+/// Least squares of `y` on the columns `cols` of `x` over the rows `idx`; coefficients and RSS.
+fn lstsq(x: &[f64], width: usize, y: &[f64], idx: &[usize], cols: &[usize]) -> (Vec<f64>, f64) {
+    let p = cols.len();
+    if p == 0 {
+        return (Vec::new(), idx.iter().map(|&i| y[i] * y[i]).sum());
+    }
+    let a = nalgebra::DMatrix::from_fn(idx.len(), p, |r, c| x[idx[r] * width + cols[c]]);
+    let b = nalgebra::DVector::from_fn(idx.len(), |r, _| y[idx[r]]);
+    let Some(svd) = crate::numerics::svd(a.clone(), true, true) else {
+        return (vec![0.0; p], f64::INFINITY);
+    };
+    let smax = svd.singular_values.max();
+    let Ok(sol) = svd.solve(&b, 1e-10 * smax.max(1e-300)) else {
+        return (vec![0.0; p], f64::INFINITY);
+    };
+    let rss = (&b - &a * &sol).norm_squared();
+    (sol.iter().copied().collect(), rss)
+}
+
+/// Forward stepwise selection of feature groups on rows `idx`: the groups chosen.
+fn stepwise(
+    x: &[f64],
+    width: usize,
+    y: &[f64],
+    idx: &[usize],
+    groups: &[Vec<usize>],
+) -> Vec<usize> {
+    let mut chosen: Vec<usize> = Vec::new();
+    let mut rss = idx.iter().map(|&i| y[i] * y[i]).sum::<f64>();
+    while chosen.len() < MAX_TERMS {
+        let best = (0..groups.len())
+            .filter(|g| !chosen.contains(g))
+            .map(|g| {
+                let cols: Vec<usize> = chosen
+                    .iter()
+                    .chain(std::iter::once(&g))
+                    .flat_map(|&c| groups[c].iter().copied())
+                    .collect();
+                (g, lstsq(x, width, y, idx, &cols).1)
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        match best {
+            Some((g, r)) if r < (1.0 - MIN_DROP) * rss => {
+                chosen.push(g);
+                rss = r;
+            }
+            _ => break,
+        }
+    }
+    chosen
+}
+
+/// A block-bootstrap resample of the row indices: blocks of `BLOCK_S` within runs.
+fn resample(rows: &Rows, rng: &mut crate::rng::Rng) -> Vec<usize> {
+    let block = (BLOCK_S / EVERY_S).round().max(1.0) as usize;
+    let starts: Vec<usize> = (0..rows.at.len()).step_by(block).collect();
+    let mut out = Vec::with_capacity(rows.at.len());
+    while out.len() < rows.at.len() {
+        let s = starts[rng.below(starts.len())];
+        let run = rows.at[s].0;
+        out.extend((s..(s + block).min(rows.at.len())).take_while(|&i| rows.at[i].0 == run));
+    }
+    out
+}
+
+/// What discovery found for one DOF before the held-out proof.
+pub(super) struct Proposal {
+    pub dof: usize,
+    /// The kept terms and each non-empty subset of them, refitted.
+    pub variants: Vec<Variant>,
+    pub library_terms: usize,
+    pub peaks: Vec<f64>,
+    pub spectrum: (Vec<f64>, Vec<f64>),
+}
+
+/// One closed form: the term the simulator adds and what the report says of it.
+#[derive(Clone)]
+pub(super) struct Variant {
+    pub term: Discovered,
+    pub terms: Vec<DiscoveredTerm>,
+}
+
+/// Sparse, stability-selected regression of DOF `j`'s residual on its library.
+pub(super) fn propose(data: &Data, pre: &[Prepared], rows: &Rows, j: usize) -> Option<Proposal> {
+    let (peaks_hz, grid, spectrum) = peaks(data, rows, j);
+    let features = library(j, &peaks_hz, data);
+    let (x, width) = design(data, pre, rows, &features);
+    let n = rows.at.len();
+    // Weighted by the fusion's uncertainty (1 / sigma^2, normalised to a mean of 1; a sigma
+    // below a tenth of the median is taken as that, so no row decides alone).
+    let mut sorted: Vec<f64> = rows.sigma[j]
+        .iter()
+        .copied()
+        .filter(|s| s.is_finite())
+        .collect();
+    sorted.sort_by(f64::total_cmp);
+    let floor = 0.1
+        * sorted
+            .get(sorted.len() / 2)
+            .copied()
+            .unwrap_or(1.0)
+            .max(1e-300);
+    let w: Vec<f64> = rows.sigma[j]
+        .iter()
+        .map(|s| {
+            if s.is_finite() {
+                s.max(floor).powi(-2)
+            } else {
+                floor.powi(-2)
+            }
+        })
+        .collect();
+    let mean_w = w.iter().sum::<f64>() / n.max(1) as f64;
+    let sw: Vec<f64> = w.iter().map(|x| (x / mean_w).sqrt()).collect();
+    let x: Vec<f64> = (0..n * width).map(|i| x[i] * sw[i / width]).collect();
+    let yw: Vec<f64> = rows.y[j].iter().zip(&sw).map(|(a, b)| a * b).collect();
+    let y = &yw;
+    // Columns scaled to unit RMS (the threshold is then the same for every term).
+    let mut scale = vec![0.0; width];
+    for r in 0..n {
+        for c in 0..width {
+            scale[c] += x[r * width + c].powi(2);
+        }
+    }
+    let scale: Vec<f64> = scale.iter().map(|s| (s / n as f64).sqrt()).collect();
+    let xs: Vec<f64> = (0..n * width)
+        .map(|i| {
+            let s = scale[i % width];
+            if s > 0.0 { x[i] / s } else { 0.0 }
+        })
+        .collect();
+    let mut groups: Vec<Vec<usize>> = Vec::new();
+    let mut c0 = 0;
+    for f in &features {
+        groups.push((c0..c0 + f.columns()).collect());
+        c0 += f.columns();
+    }
+    let all: Vec<usize> = (0..n).collect();
+    let chosen = stepwise(&xs, width, y, &all, &groups);
+    if chosen.is_empty() {
+        return None;
+    }
+    let mut rng = crate::rng::Rng::derive(17, &format!("discover/{j}"));
+    let mut count = vec![0usize; groups.len()];
+    let cols_of = |gs: &[usize]| -> Vec<usize> {
+        gs.iter().flat_map(|&g| groups[g].iter().copied()).collect()
+    };
+    for _ in 0..RESAMPLES {
+        if crate::interrupt::requested() {
+            return None;
+        }
+        let idx = resample(rows, &mut rng);
+        for g in stepwise(&xs, width, y, &idx, &groups) {
+            count[g] += 1;
+        }
+    }
+    // Each training run alone, for the runs where the group varies.
+    let runs: Vec<Vec<usize>> = (0..data.train.len())
+        .map(|ri| (0..n).filter(|&r| rows.at[r].0 == ri).collect())
+        .collect();
+    let varies = |g: usize, idx: &[usize]| {
+        groups[g].iter().any(|&c| {
+            let m = idx.iter().map(|&r| xs[r * width + c]).sum::<f64>() / idx.len().max(1) as f64;
+            let v = idx
+                .iter()
+                .map(|&r| (xs[r * width + c] - m).powi(2))
+                .sum::<f64>()
+                / idx.len().max(1) as f64;
+            v.sqrt() > 0.2 || matches!(features[g], Feature::Constant)
+        })
+    };
+    let per_run: Vec<Vec<usize>> = runs
+        .iter()
+        .map(|idx| {
+            if idx.len() < 50 {
+                Vec::new()
+            } else {
+                stepwise(&xs, width, y, idx, &groups)
+            }
+        })
+        .collect();
+    let mut keep = Vec::new();
+    let mut terms_runs = Vec::new();
+    for &g in &chosen {
+        let share = count[g] as f64 / RESAMPLES as f64;
+        let informative: Vec<usize> = (0..runs.len())
+            .filter(|&ri| runs[ri].len() >= 50 && varies(g, &runs[ri]))
+            .collect();
+        let selected = informative
+            .iter()
+            .filter(|&&ri| per_run[ri].contains(&g))
+            .count();
+        if share >= KEEP_SHARE && !informative.is_empty() && 2 * selected > informative.len() {
+            keep.push(g);
+            terms_runs.push((share, [selected, informative.len()]));
+        }
+    }
+    if keep.is_empty() {
+        return None;
+    }
+    // Every non-empty subset of the kept terms, refitted: the held-out runs choose among them
+    // as they choose among named effects (a term stable on the training runs can still be an
+    // artefact the held-out runs do not share).
+    let variants = (1..1usize << keep.len())
+        .map(|mask| {
+            let sub: Vec<usize> = (0..keep.len()).filter(|q| mask >> q & 1 == 1).collect();
+            let groups_sub: Vec<usize> = sub.iter().map(|&q| keep[q]).collect();
+            let cols = cols_of(&groups_sub);
+            let (coef_s, _) = lstsq(&xs, width, y, &all, &cols);
+            // Back to the features' own units; intervals from the resamples refitted.
+            let coef: Vec<f64> = cols
+                .iter()
+                .zip(&coef_s)
+                .map(|(&c, b)| if scale[c] > 0.0 { b / scale[c] } else { 0.0 })
+                .collect();
+            let boot: Vec<Vec<f64>> = (0..RESAMPLES)
+                .map(|_| lstsq(&xs, width, y, &resample(rows, &mut rng), &cols).0)
+                .collect();
+            let mut terms = Vec::new();
+            let mut at = 0;
+            for &q in &sub {
+                let f = features[keep[q]];
+                let (share, runs_selected) = terms_runs[q];
+                let k = f.columns();
+                let unscale = |v: &[f64]| -> Vec<f64> {
+                    (0..k)
+                        .map(|i| v[at + i] / scale[cols[at + i]].max(1e-300))
+                        .collect()
+                };
+                let value = |v: &[f64]| -> f64 {
+                    let u = unscale(v);
+                    if k == 2 { u[0].hypot(u[1]) } else { u[0] }
+                };
+                let mut samples: Vec<f64> = boot.iter().map(|b| value(b)).collect();
+                samples.sort_by(f64::total_cmp);
+                let pick = |p: f64| samples[(p * (samples.len() - 1) as f64).round() as usize];
+                let full = unscale(&coef_s);
+                let (coefficient, frequency_hz, phase_rad) = match f {
+                    // a sin + b cos = A sin(x + phase), A = hypot(a, b), phase = atan2(b, a).
+                    Feature::Sine(hz) => (
+                        full[0].hypot(full[1]),
+                        Some(hz),
+                        Some(full[1].atan2(full[0])),
+                    ),
+                    _ => (full[0], None, None),
+                };
+                terms.push(DiscoveredTerm {
+                    term: f.label(),
+                    coefficient,
+                    interval: [pick(0.025), pick(0.975)],
+                    frequency_hz,
+                    phase_rad,
+                    selected_share: share,
+                    runs_selected,
+                });
+                at += k;
+            }
+            Variant {
+                term: Discovered {
+                    dof: j,
+                    features: groups_sub.iter().map(|&g| features[g]).collect(),
+                    coef,
+                },
+                terms,
+            }
+        })
+        .collect();
+    Some(Proposal {
+        dof: j,
+        variants,
+        library_terms: features.len(),
+        peaks: peaks_hz,
+        spectrum: (grid, spectrum),
+    })
+}
