@@ -156,6 +156,9 @@ pub struct RunCtx<'a> {
     pub root: &'a Path,
     pub vehicle: &'a Vehicle,
     pub inputs: &'a [InputFile],
+    /// The instance's own parameters, for a stage that fans out over settings (a case
+    /// series): the entries set in its case, in order. Empty otherwise.
+    pub params: &'a [(String, String)],
     pub upstream: Vec<Upstream>,
     /// Upstream instances that failed and that this stage goes on without (pool runs that
     /// could not be imported or fused), with their errors: list them, use the rest.
@@ -210,4 +213,39 @@ pub trait StageImpl: Send + Sync {
     fn settings(&self) -> serde_json::Value;
     /// Runs the stage, writing its artifacts into `ctx.out`.
     fn run(&self, ctx: &RunCtx) -> anyhow::Result<()>;
+
+    /// For a fan-out kind whose settings define its instances (a case series swept over
+    /// parameters): one [`Variant`] per instance, all reading the files the stage's globs
+    /// match. `None` fans out over the matched files as usual. An error says what is wrong
+    /// with the settings.
+    fn variants(&self) -> Result<Option<Vec<Variant>>, String> {
+        Ok(None)
+    }
+
+    /// Called once per build with the stage's instances that are about to run, before any
+    /// of them does: a kind that can hand them to a scheduler together (one Slurm array job)
+    /// does so here. What it returns is kept until the build ends and then dropped.
+    fn prepare(
+        &self,
+        _pending: &[Pending],
+    ) -> anyhow::Result<Option<Box<dyn std::any::Any + Send + Sync>>> {
+        Ok(None)
+    }
+}
+
+/// One instance of a stage defined by its settings: its name (`stage[name]`) and its
+/// parameters, which are part of its key.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Variant {
+    pub name: String,
+    pub params: Vec<(String, String)>,
+}
+
+/// An instance about to run, as [`StageImpl::prepare`] sees it.
+pub struct Pending<'a> {
+    pub id: &'a str,
+    pub stage: &'a str,
+    pub root: &'a Path,
+    pub inputs: Vec<InputFile>,
+    pub params: &'a [(String, String)],
 }

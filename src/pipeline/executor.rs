@@ -101,6 +101,7 @@ enum State {
 pub fn build(plan: &Plan, opts: &Options, progress: &Progress) -> anyhow::Result<Summary> {
     let cache = plan.cache();
     let mut schedule = Schedule::new(plan, opts, progress, &cache)?;
+    let batches = prepare_batches(plan, &schedule.state, progress);
     let bar = progress.bar(schedule.waiting() as u64, "building");
     let jobs = opts.jobs.max(1);
     let (tx, rx) = mpsc::channel::<(usize, Result<(), String>)>();
@@ -132,6 +133,8 @@ pub fn build(plan: &Plan, opts: &Options, progress: &Progress) -> anyhow::Result
         }
     });
     bar.finish_and_clear();
+    // After every worker: a batch's guard may cancel what was not waited for (Ctrl-C).
+    drop(batches);
     let Schedule {
         state, mut summary, ..
     } = schedule;
@@ -140,6 +143,41 @@ pub fn build(plan: &Plan, opts: &Options, progress: &Progress) -> anyhow::Result
         summary.published.extend(publish(plan, i, &cache)?);
     }
     Ok(summary)
+}
+
+/// Lets each stage see its instances that are about to run together, before any runs (a
+/// series of CFD cases goes to Slurm as one array job). A stage that cannot batch them says
+/// why and its instances run one by one. Returns what the stages keep until the build ends.
+fn prepare_batches(
+    plan: &Plan,
+    state: &[State],
+    progress: &Progress,
+) -> Vec<Box<dyn std::any::Any + Send + Sync>> {
+    let mut kept = Vec::new();
+    for (si, st) in plan.graph.spec.stages.iter().enumerate() {
+        let pending: Vec<super::contract::Pending> = (0..state.len())
+            .filter(|&i| state[i] == State::Waiting && plan.graph.instances[i].stage == si)
+            .map(|i| super::contract::Pending {
+                id: &plan.graph.instances[i].id,
+                stage: &st.name,
+                root: &plan.root,
+                inputs: input_files(plan, i),
+                params: &plan.graph.instances[i].params,
+            })
+            .collect();
+        if pending.is_empty() {
+            continue;
+        }
+        match st.imp.prepare(&pending) {
+            Ok(Some(k)) => kept.push(k),
+            Ok(None) => {}
+            Err(e) => progress.println(format!(
+                "warning: {}: its instances could not be prepared together ({e:#}); each runs on its own",
+                st.name
+            )),
+        }
+    }
+    kept
 }
 
 /// A build in progress: where each instance stands and what has been counted so far.
@@ -320,6 +358,7 @@ fn run_one(
         root: &plan.root,
         vehicle: &plan.graph.spec.vehicle,
         inputs: &inputs,
+        params: &inst.params,
         upstream: upstream(plan, i, cache, &failed_upstream),
         failed_upstream: failed_upstream.clone(),
         out: &tmp,

@@ -15,6 +15,9 @@ pub struct Instance {
     pub inputs: Vec<String>,
     /// Indices of the instances it reads from (earlier in `instances`).
     pub deps: Vec<usize>,
+    /// Parameters of an instance its stage's settings define (a case of a series); part of
+    /// its key.
+    pub params: Vec<(String, String)>,
 }
 
 pub struct Graph {
@@ -38,6 +41,18 @@ pub enum GraphError {
         "{path}: is a folder, where stage `{stage}` takes files\n  help: rename or remove the folder, or narrow the glob under stages.{stage}.inputs in pipeline.yaml"
     )]
     FolderForFile { stage: String, path: String },
+    #[error(
+        "stage `{stage}`: {why}\n  help: see the README's section on case series (stages.{stage}.settings in pipeline.yaml)"
+    )]
+    Variants { stage: String, why: String },
+    #[error(
+        "stage `{stage}` defines a case series, so its inputs must match one template case folder; they match {count}: {list}\n  help: narrow stages.{stage}.inputs in pipeline.yaml to the template"
+    )]
+    Template {
+        stage: String,
+        count: usize,
+        list: String,
+    },
     #[error("cannot read input {path}: {source}")]
     Read {
         path: String,
@@ -136,6 +151,23 @@ fn entry_files(root: &Path, st: &StageSpec, p: &Path, r: &str) -> Result<Vec<Str
     Ok(files)
 }
 
+/// The files of the one template case a stage's settings fan out over.
+fn template_files(root: &Path, st: &StageSpec) -> Result<Vec<String>, GraphError> {
+    let matched = fan_out(root, st)?;
+    if matched.len() != 1 {
+        return Err(GraphError::Template {
+            stage: st.name.clone(),
+            count: matched.len(),
+            list: matched
+                .iter()
+                .map(|(n, _)| n.as_str())
+                .collect::<Vec<_>>()
+                .join(", "),
+        });
+    }
+    Ok(matched.into_iter().flat_map(|(_, f)| f).collect())
+}
+
 /// Names each entry by its file stem; falls back to the path where stems collide.
 fn named_by_stem(matched: BTreeMap<String, Vec<String>>) -> Vec<(String, Vec<String>)> {
     let stem = |r: &str| {
@@ -172,20 +204,31 @@ impl Graph {
                 .iter()
                 .flat_map(|f| of_stage[f.as_str()].iter().copied())
                 .collect();
-            let entries = if st.kind.fan_out {
-                fan_out(root, st)?
+            let variants = st.imp.variants().map_err(|why| GraphError::Variants {
+                stage: st.name.clone(),
+                why,
+            })?;
+            let entries = if let Some(variants) = variants {
+                let files = template_files(root, st)?;
+                variants
+                    .into_iter()
+                    .map(|v| (v.name, files.clone(), v.params))
+                    .collect()
+            } else if st.kind.fan_out {
+                let plain = |(n, f)| (n, f, vec![]);
+                fan_out(root, st)?.into_iter().map(plain).collect()
             } else if st.inputs.is_empty() {
-                vec![(String::new(), vec![])]
+                vec![(String::new(), vec![], vec![])]
             } else {
                 let files = match fan_out(root, st) {
                     Ok(m) => m.into_iter().flat_map(|(_, f)| f).collect(),
                     Err(GraphError::NoInputs { .. }) => vec![],
                     Err(e) => return Err(e),
                 };
-                vec![(String::new(), files)]
+                vec![(String::new(), files, vec![])]
             };
             let mut mine = Vec::new();
-            for (name, inputs) in entries {
+            for (name, inputs, params) in entries {
                 let id = if name.is_empty() {
                     st.name.clone()
                 } else {
@@ -197,6 +240,7 @@ impl Graph {
                     stage: si,
                     inputs,
                     deps: deps.clone(),
+                    params,
                 });
             }
             of_stage.insert(&st.name, mine);

@@ -76,6 +76,9 @@ pub fn fields(
     for p in &inst.inputs {
         f.push(format!("input {p}"), hashes[p].clone());
     }
+    for (name, value) in &inst.params {
+        f.push(format!("parameter {name}"), value.clone());
+    }
     for &d in &inst.deps {
         f.push(
             format!("upstream {}", graph.instances[d].id),
