@@ -29,15 +29,13 @@ impl CaseRun {
         message: &dyn Fn(String),
         slurm: Option<&super::slurm::SlurmOptions>,
     ) -> anyhow::Result<CaseRun> {
-        let rel = case_folder(inputs)?;
-        let dir = root.join(&rel);
-        let local: Vec<(String, String)> = inputs
-            .iter()
-            .map(|i| (i.path[rel.len() + 1..].to_string(), i.blake3.clone()))
-            .collect();
-        let identity = super::inputs_hash(&local);
-        let setup = super::read_setup(&dir, &rel)?;
-        let files: Vec<String> = local.iter().map(|(p, _)| p.clone()).collect();
+        let Located {
+            rel,
+            dir,
+            files,
+            identity,
+            setup,
+        } = Located::new(root, inputs)?;
         let state_dir = root.join(crate::pipeline::STATE_DIR);
         let exec = super::Executor {
             slurm,
@@ -55,6 +53,15 @@ impl CaseRun {
             track,
             log,
         })
+    }
+
+    /// Whether the case is 2D (an `empty` patch in its mesh, one cell thick): its forces and
+    /// masses are then per metre of span.
+    pub fn two_dimensional(&self) -> bool {
+        ["system/blockMeshDict", "constant/polyMesh/boundary"]
+            .iter()
+            .filter_map(|rel| std::fs::read_to_string(self.dir.join(rel)).ok())
+            .any(|t| super::dict::has_empty_patch(&t))
     }
 
     /// The case's name: its folder's.
@@ -108,6 +115,68 @@ impl CaseRun {
             node: self.results.ran.then(|| stamp.node.clone()).flatten(),
         }
     }
+}
+
+/// A case folder with what identifies its inputs and what it says about the run.
+struct Located {
+    rel: String,
+    dir: PathBuf,
+    /// Input files relative to the case.
+    files: Vec<String>,
+    identity: String,
+    setup: CaseSetup,
+}
+
+impl Located {
+    fn new(root: &Path, inputs: &[InputFile]) -> anyhow::Result<Located> {
+        let rel = case_folder(inputs)?;
+        let dir = root.join(&rel);
+        let local: Vec<(String, String)> = inputs
+            .iter()
+            .map(|i| (i.path[rel.len() + 1..].to_string(), i.blake3.clone()))
+            .collect();
+        let identity = super::inputs_hash(&local);
+        let setup = super::read_setup(&dir, &rel)?;
+        let files = local.into_iter().map(|(p, _)| p).collect();
+        Ok(Located {
+            rel,
+            dir,
+            files,
+            identity,
+            setup,
+        })
+    }
+}
+
+/// Submits the cases (each given by its input files) that have to run, with no results of
+/// these inputs left in their folders, as one Slurm array job named after `stage`; see
+/// [`super::submit_array`]. A case that cannot be read or run here is left to its own
+/// instance, which says why.
+pub fn submit_series(
+    root: &Path,
+    cases: &[Vec<InputFile>],
+    opts: &super::slurm::SlurmOptions,
+    stage: &str,
+) -> anyhow::Result<Option<super::ArrayJob>> {
+    let located: Vec<Located> = cases
+        .iter()
+        .filter_map(|inputs| Located::new(root, inputs).ok())
+        .filter(|c| {
+            !super::solve::results_left(&c.dir, &c.setup, &c.identity)
+                && super::solver_available(&c.setup.application)
+        })
+        .collect();
+    let list: Vec<super::ArrayCase> = located
+        .iter()
+        .map(|c| super::ArrayCase {
+            dir: &c.dir,
+            files: &c.files,
+            setup: &c.setup,
+            identity: &c.identity,
+        })
+        .collect();
+    let state_dir = root.join(crate::pipeline::STATE_DIR);
+    super::submit_array(&state_dir, &list, opts, stage)
 }
 
 /// The case folder of a stage's input files: the one holding `system/controlDict`.

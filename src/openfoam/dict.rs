@@ -53,6 +53,14 @@ fn strip_comments(text: &str) -> String {
     out
 }
 
+/// Whether a mesh description (a blockMeshDict or a polyMesh boundary file) has a patch of
+/// type `empty`: the mark of a 2D (one cell thick) OpenFOAM case.
+pub fn has_empty_patch(text: &str) -> bool {
+    tokenize(text)
+        .windows(2)
+        .any(|w| w[0] == "type" && w[1] == "empty")
+}
+
 /// Tokens: words, `"strings"`, and the punctuation `{ } ( ) ;`; `#eval{...}` is one token.
 fn tokenize(text: &str) -> Vec<String> {
     let text = strip_comments(text);

@@ -6,13 +6,16 @@ pub mod case;
 pub mod case_run;
 pub mod dict;
 pub mod results;
+pub mod series;
 pub mod slurm;
 mod solve;
 
 use crate::diag::InputError;
 use results::{LogEnd, VectorTable};
 use serde::{Deserialize, Serialize};
-pub use solve::{Executor, Results, obtain_results, run, solver_available};
+pub use solve::{
+    ArrayCase, ArrayJob, Executor, Results, obtain_results, run, solver_available, submit_array,
+};
 use std::path::Path;
 
 /// Written into a case folder next to the results of a run by hydrofit: which inputs they

@@ -89,12 +89,16 @@ pub fn parse_job(line: &str) -> JobState {
     }
 }
 
-/// Submits `script` (a file in `scratch`) and returns the job id.
+/// Submits `script` (a file in `scratch`, which is also the job's working folder) with the
+/// stage's options and `extra` ones (`--array=0-3`), its output in `scratch/<output>`
+/// (`slurm-%j.out`), and returns the job id.
 pub fn submit(
     scratch: &Path,
     script: &str,
     name: &str,
     opts: &SlurmOptions,
+    extra: &[String],
+    output: &str,
 ) -> anyhow::Result<String> {
     // Absolute: the job starts in its own working directory.
     let scratch = &scratch.canonicalize()?;
@@ -102,8 +106,9 @@ pub fn submit(
         "--parsable".into(),
         format!("--job-name=hydrofit-{name}"),
         format!("--chdir={}", scratch.display()),
-        format!("--output={}", scratch.join("slurm-%j.out").display()),
+        format!("--output={}", scratch.join(output).display()),
     ];
+    args.extend(extra.iter().cloned());
     if let Some(p) = &opts.partition {
         args.push(format!("--partition={p}"));
     }

@@ -68,6 +68,18 @@ pub struct Executor<'a> {
     pub state_dir: &'a Path,
 }
 
+fn read_stamp(case_dir: &Path) -> Option<Stamp> {
+    std::fs::read_to_string(case_dir.join(STAMP))
+        .ok()
+        .and_then(|t| serde_json::from_str(&t).ok())
+}
+
+/// Whether a run of exactly these inputs (`identity`) left its results in the case.
+pub fn results_left(case_dir: &Path, setup: &CaseSetup, identity: &str) -> bool {
+    read_stamp(case_dir).is_some_and(|s| s.inputs == identity)
+        && case_dir.join(format!("log.{}", setup.application)).exists()
+}
+
 /// The case's results: those left in the case when its stamp names exactly these inputs;
 /// otherwise a fresh run in a scratch copy when the solver is installed; otherwise results
 /// run by hand (without a stamp), with a note; otherwise an error that says how to install
@@ -82,9 +94,7 @@ pub fn obtain_results(
     exec: Executor,
 ) -> anyhow::Result<Results> {
     let solver = &setup.application;
-    let stamp: Option<Stamp> = std::fs::read_to_string(case_dir.join(STAMP))
-        .ok()
-        .and_then(|t| serde_json::from_str(&t).ok());
+    let stamp = read_stamp(case_dir);
     let has_results = case_dir.join(format!("log.{solver}")).exists();
     let left = |stamp: Stamp, notes: Vec<String>| Results {
         dir: case_dir.to_path_buf(),
@@ -93,7 +103,7 @@ pub fn obtain_results(
         notes,
         _scratch: None,
     };
-    if stamp.as_ref().is_some_and(|s| s.inputs == identity) && has_results {
+    if results_left(case_dir, setup, identity) {
         Ok(left(stamp.expect("checked"), Vec::new()))
     } else if solver_available(solver) {
         run_fresh(case_dir, case_rel, files, setup, identity, message, exec)
@@ -139,10 +149,7 @@ fn run_fresh(
         }
         // One folder per case identity: a build killed while its job ran finds the job again.
         Some(_) => {
-            let p = exec
-                .state_dir
-                .join("slurm")
-                .join(&identity[..16.min(identity.len())]);
+            let p = slurm_scratch(exec.state_dir, identity);
             std::fs::create_dir_all(&p)?;
             (Scratch::Shared(p.clone()), p)
         }
@@ -266,36 +273,11 @@ fn run_on_slurm(
         anyhow::anyhow!("OpenFOAM's etc folder was not found (set WM_PROJECT_DIR); {INSTALL_HINT}")
     })?;
     let tools = tools(inputs, setup);
-    let earlier = std::fs::read_to_string(scratch.join(JOB_FILE))
-        .ok()
-        .map(|t| t.trim().to_string())
-        .filter(|id| {
-            slurm::query(id)
-                .ok()
-                .flatten()
-                .is_some_and(|s| !s.finished() || s.state == "COMPLETED")
-        });
-    let id = match earlier {
+    let id = match live_job(scratch) {
         Some(id) => id,
         None => {
-            // A fresh copy of the inputs and the job script, then the job.
-            for e in std::fs::read_dir(scratch)? {
-                let p = e?.path();
-                if p.is_dir() {
-                    std::fs::remove_dir_all(&p)?;
-                } else {
-                    std::fs::remove_file(&p)?;
-                }
-            }
-            copy_inputs(case, inputs, scratch)?;
-            let mut script = format!(
-                "#!/bin/sh\n# Written by hydrofit: the case's tools, as a local run runs them.\nexport WM_PROJECT_DIR='{wm}'\n"
-            );
-            for (i, tool) in tools.iter().enumerate() {
-                script.push_str(&format!("{tool} > log.{tool} 2>&1 || exit {}\n", 10 + i));
-            }
-            std::fs::write(scratch.join(JOB_SCRIPT), script)?;
-            let id = slurm::submit(scratch, JOB_SCRIPT, name, opts)?;
+            stage_job(case, inputs, scratch, &tools, &wm)?;
+            let id = slurm::submit(scratch, JOB_SCRIPT, name, opts, &[], "slurm-%j.out")?;
             crate::fsutil::write_atomic(&scratch.join(JOB_FILE), id.as_bytes())?;
             id
         }
@@ -347,6 +329,155 @@ fn run_on_slurm(
         build_line,
         Some((id, state.node)),
     )
+}
+
+/// The job (or array task) recorded in `scratch` when Slurm still runs it or finished it
+/// well: a build killed while it ran waits for it instead of submitting it again.
+fn live_job(scratch: &Path) -> Option<String> {
+    std::fs::read_to_string(scratch.join(JOB_FILE))
+        .ok()
+        .map(|t| t.trim().to_string())
+        .filter(|id| {
+            super::slurm::query(id)
+                .ok()
+                .flatten()
+                .is_some_and(|s| !s.finished() || s.state == "COMPLETED")
+        })
+}
+
+/// A fresh copy of the case's inputs in `scratch` and the job script that runs its tools
+/// there as a local run does (exit status 10 + i when tool i fails).
+fn stage_job(
+    case: &Path,
+    inputs: &[String],
+    scratch: &Path,
+    tools: &[&str],
+    wm: &str,
+) -> anyhow::Result<()> {
+    for e in std::fs::read_dir(scratch)? {
+        let p = e?.path();
+        if p.is_dir() {
+            std::fs::remove_dir_all(&p)?;
+        } else {
+            std::fs::remove_file(&p)?;
+        }
+    }
+    copy_inputs(case, inputs, scratch)?;
+    let mut script = format!(
+        "#!/bin/sh\n# Written by hydrofit: the case's tools, as a local run runs them.\nexport WM_PROJECT_DIR='{wm}'\n"
+    );
+    for (i, tool) in tools.iter().enumerate() {
+        script.push_str(&format!("{tool} > log.{tool} 2>&1 || exit {}\n", 10 + i));
+    }
+    std::fs::write(scratch.join(JOB_SCRIPT), script)?;
+    Ok(())
+}
+
+/// The scratch folder of the case whose inputs hash to `identity`, for Slurm runs: one per
+/// identity, so a build killed while its job ran finds the job again.
+fn slurm_scratch(state_dir: &Path, identity: &str) -> PathBuf {
+    state_dir
+        .join("slurm")
+        .join(&identity[..16.min(identity.len())])
+}
+
+/// A case of a series that has to run, for [`submit_array`].
+pub struct ArrayCase<'a> {
+    pub dir: &'a Path,
+    pub files: &'a [String],
+    pub setup: &'a CaseSetup,
+    pub identity: &'a str,
+}
+
+/// Cases submitted together as one Slurm array job, dropped when the build ends: a task no
+/// case waited for (Ctrl-C stopped the build first) is cancelled, and the array's script,
+/// list and outputs are removed.
+pub struct ArrayJob {
+    pub id: String,
+    pub tasks: usize,
+    files: Vec<PathBuf>,
+}
+
+impl Drop for ArrayJob {
+    fn drop(&mut self) {
+        let unfinished = (0..self.tasks).any(|i| {
+            super::slurm::query(&format!("{}_{i}", self.id))
+                .ok()
+                .flatten()
+                .is_some_and(|s| !s.finished())
+        });
+        if unfinished {
+            super::slurm::cancel(&self.id);
+        }
+        for f in &self.files {
+            let _ = std::fs::remove_file(f);
+        }
+        if let Some(dir) = self.files.first().and_then(|f| f.parent()) {
+            for i in 0..self.tasks {
+                let _ = std::fs::remove_file(dir.join(format!("slurm-{}_{i}.out", self.id)));
+            }
+            // Only when empty: another build's array may be there.
+            let _ = std::fs::remove_dir(dir);
+        }
+    }
+}
+
+/// Submits `cases` as one array job, task i running case i's job script in its scratch
+/// folder, and records `<array>_<i>` there, where the case's own run finds and waits for
+/// it. Cases whose job is still known to Slurm (a build killed while they ran) are left to
+/// it. Fewer than two cases to submit: nothing is submitted, each case goes on its own.
+pub fn submit_array(
+    state_dir: &Path,
+    cases: &[ArrayCase],
+    opts: &super::slurm::SlurmOptions,
+    name: &str,
+) -> anyhow::Result<Option<ArrayJob>> {
+    let wm = project_dir().ok_or_else(|| {
+        anyhow::anyhow!("OpenFOAM's etc folder was not found (set WM_PROJECT_DIR); {INSTALL_HINT}")
+    })?;
+    let mut dirs: Vec<PathBuf> = Vec::new();
+    for c in cases {
+        let scratch = slurm_scratch(state_dir, c.identity);
+        std::fs::create_dir_all(&scratch)?;
+        if live_job(&scratch).is_some() || dirs.contains(&scratch) {
+            continue;
+        }
+        stage_job(c.dir, c.files, &scratch, &tools(c.files, c.setup), &wm)?;
+        dirs.push(scratch.canonicalize()?);
+    }
+    if dirs.len() < 2 {
+        return Ok(None);
+    }
+    let arrays = state_dir.join("slurm").join("arrays");
+    std::fs::create_dir_all(&arrays)?;
+    let listing: String = dirs.iter().map(|d| format!("{}\n", d.display())).collect();
+    let tag = &blake3::hash(listing.as_bytes()).to_hex()[..16];
+    let arrays = arrays.canonicalize()?;
+    let list = arrays.join(format!("{tag}.cases"));
+    std::fs::write(&list, &listing)?;
+    let script = format!(
+        "#!/bin/sh\n# Written by hydrofit: task i runs the case in line i + 1 of the list.\ndir=$(sed -n \"$((SLURM_ARRAY_TASK_ID + 1))p\" '{}')\ncd \"$dir\" || exit 2\nexec sh {JOB_SCRIPT} > \"slurm-${{SLURM_ARRAY_JOB_ID}}_${{SLURM_ARRAY_TASK_ID}}.out\" 2>&1\n",
+        list.display()
+    );
+    let script_name = format!("{tag}.sh");
+    std::fs::write(arrays.join(&script_name), script)?;
+    let array = format!("--array=0-{}", dirs.len() - 1);
+    let id = super::slurm::submit(
+        &arrays,
+        &script_name,
+        name,
+        opts,
+        &[array],
+        "slurm-%A_%a.out",
+    )?;
+    for (i, d) in dirs.iter().enumerate() {
+        crate::fsutil::write_atomic(&d.join(JOB_FILE), format!("{id}_{i}").as_bytes())?;
+    }
+    Ok(Some(ArrayJob {
+        id,
+        tasks: dirs.len(),
+        files: vec![list, arrays.join(script_name)],
+    }))
 }
 
 /// The last simulated time a solver log reports (its last 4 kB read).

@@ -4,8 +4,11 @@
 
 use super::{Artifact, Kind, RunCtx, StageImpl, parse_as};
 use crate::io::response::{META, TABLE};
+use crate::openfoam::series::Series;
 use crate::openfoam::slurm::SlurmOptions;
 use crate::openfoam::{self, case_run::CaseRun};
+use crate::pipeline::contract::{Pending, Variant};
+use crate::provenance::InputFile;
 use serde::{Deserialize, Serialize};
 
 pub static KIND: Kind = Kind {
@@ -28,6 +31,11 @@ pub struct Settings {
     /// What `sbatch` is asked for: `partition`, `time`, `cpus`, `mem`, and `sbatch` (further
     /// options, one argument each).
     pub slurm: SlurmOptions,
+    /// A case series: the stage's inputs are one template case, and each combination of the
+    /// swept entries is a case of its own, written under `series.cases` (see [`Series`]).
+    /// The sweep is not part of the key as a whole: each case is keyed on its own values.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub series: Option<Series>,
 }
 
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -44,7 +52,38 @@ impl Default for Settings {
             keep_results_in_case: true,
             executor: ExecutorKind::Local,
             slurm: SlurmOptions::default(),
+            series: None,
         }
+    }
+}
+
+impl Settings {
+    /// The input files of the case instance `id` runs: its case folder's, or for a series
+    /// the case written from the template with the instance's parameters.
+    fn case_inputs(
+        &self,
+        root: &std::path::Path,
+        stage: &str,
+        id: &str,
+        inputs: &[InputFile],
+        params: &[(String, String)],
+    ) -> anyhow::Result<Vec<InputFile>> {
+        let Some(series) = &self.series else {
+            return Ok(inputs.to_vec());
+        };
+        let name = id
+            .strip_prefix(stage)
+            .and_then(|s| s.strip_prefix('['))
+            .and_then(|s| s.strip_suffix(']'))
+            .unwrap_or(id);
+        let template = openfoam::series::template_folder(inputs)?;
+        let case = format!("{}/{name}", series.cases_dir(stage));
+        anyhow::ensure!(
+            !case.starts_with(&format!("{template}/")),
+            "the series' cases ({}) cannot be written inside its template {template}",
+            series.cases_dir(stage)
+        );
+        openfoam::series::write_case(root, inputs, &template, &case, params)
     }
 }
 
@@ -54,18 +93,44 @@ impl StageImpl for Settings {
         serde_json::json!({"keep_results_in_case": self.keep_results_in_case})
     }
 
+    fn variants(&self) -> Result<Option<Vec<Variant>>, String> {
+        self.series.as_ref().map(Series::variants).transpose()
+    }
+
+    /// With `executor: slurm`, the cases that have to run go to Slurm as one array job.
+    fn prepare(
+        &self,
+        pending: &[Pending],
+    ) -> anyhow::Result<Option<Box<dyn std::any::Any + Send + Sync>>> {
+        if self.executor != ExecutorKind::Slurm || pending.len() < 2 {
+            return Ok(None);
+        }
+        let mut cases = Vec::new();
+        for p in pending {
+            let inputs = self.case_inputs(p.root, p.stage, p.id, &p.inputs, p.params)?;
+            cases.push(inputs);
+        }
+        let root = pending[0].root;
+        let array = openfoam::case_run::submit_series(root, &cases, &self.slurm, pending[0].stage)?;
+        Ok(array.map(|a| Box::new(a) as Box<dyn std::any::Any + Send + Sync>))
+    }
+
     fn run(&self, ctx: &RunCtx) -> anyhow::Result<()> {
         let bar = ctx.progress;
         let message = move |m: String| bar.set_message(m);
         let slurm = (self.executor == ExecutorKind::Slurm).then_some(&self.slurm);
-        let case = CaseRun::obtain(ctx.root, ctx.inputs, &message, slurm)?;
+        let inputs = self.case_inputs(ctx.root, ctx.stage, ctx.id, ctx.inputs, ctx.params)?;
+        let case = CaseRun::obtain(ctx.root, &inputs, &message, slurm)?;
         case.keep_results(ctx.out, self.keep_results_in_case)?;
         // The results left in the case folder are read, not keyed (a run writes them): an
-        // edit to one after this reruns the stage, as an edit to an input does.
+        // edit to one after this reruns the stage, as an edit to an input does. So does an
+        // edit to a case of a series, which the series writes.
+        let written = self.series.is_some().then_some(&inputs);
         let watched: Vec<String> = openfoam::result_files(&case.setup.application)
             .into_iter()
             .chain([openfoam::STAMP.to_string()])
             .map(|rel| format!("{}/{rel}", case.rel))
+            .chain(written.into_iter().flatten().map(|i| i.path.clone()))
             .collect();
         crate::pipeline::cache::write_watched(ctx.out, ctx.root, &watched)?;
         let (response, meta) = crate::io::openfoam::import(&case, &ctx.vehicle.dofs)?;
