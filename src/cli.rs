@@ -98,25 +98,68 @@ pub enum Command {
 
 #[derive(Debug, Subcommand)]
 pub enum OpenfoamCommand {
-    /// A new surge case of a 2D circular cylinder (per metre of span) pushed by a constant
-    /// force from rest in still water: mesh (blockMesh), pimpleFoam, sixDoFRigidBodyMotion.
+    /// A new case of a body pushed by a constant force from rest in still water: mesh
+    /// (blockMesh), pimpleFoam, sixDoFRigidBodyMotion. A 2D circular cylinder in surge (per
+    /// metre of span), or a 3D sphere along any direction.
     New {
         /// The case folder to create (relative to the project), e.g. cases/cfd/openfoam/cylinder_2N.
         dir: PathBuf,
-        /// Applied force along +x, N per metre of span.
+        /// The body: `cylinder` (2D, per metre of span) or `sphere` (3D).
+        #[arg(long, value_enum, default_value_t = Shape::Cylinder)]
+        shape: Shape,
+        /// Applied force, N (per metre of span for the cylinder), along +x or `--direction`.
         #[arg(long)]
         force: f64,
-        /// Body mass, kg per metre of span (default: twice the displaced water, 62.83 kg).
+        /// Body mass, kg (default: twice the displaced water: 62.83 kg per metre for the
+        /// cylinder of radius 0.1 m, 8.38 kg for the sphere).
         #[arg(long)]
         mass: Option<f64>,
-        /// Cylinder radius, m (the body's mesh and the time step follow it; the 27 x 22 m box
-        /// does not).
+        /// Radius, m (the body's mesh and the time step follow it; for the cylinder the
+        /// 27 x 22 m box does not, the sphere's box is 40 radii wide).
         #[arg(long, default_value_t = 0.1)]
         radius: f64,
-        /// Simulated time, s (default: long enough for about 2.5 m of travel).
+        /// The sphere's direction of force and motion: x, y, z or three numbers `1,0,1`.
+        #[arg(long, default_value = "x")]
+        direction: String,
+        /// Simulated time, s (default: long enough for about 2.5 m of travel for the
+        /// cylinder, about 6 radii for the sphere).
         #[arg(long)]
         end_time: Option<f64>,
     },
+}
+
+/// The body of a new OpenFOAM case.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Shape {
+    Cylinder,
+    Sphere,
+}
+
+/// `x`, `y`, `z` (or with a sign, `-z`), or three numbers `1,0,1`.
+fn parse_direction(s: &str) -> anyhow::Result<[f64; 3]> {
+    let axis = |a: &str| match a {
+        "x" => Some([1.0, 0.0, 0.0]),
+        "y" => Some([0.0, 1.0, 0.0]),
+        "z" => Some([0.0, 0.0, 1.0]),
+        _ => None,
+    };
+    if let Some(v) = axis(s) {
+        return Ok(v);
+    }
+    if let Some(v) = s.strip_prefix('-').and_then(axis) {
+        return Ok(v.map(|x| -x));
+    }
+    let parts: Vec<f64> = s
+        .split(',')
+        .map(|p| p.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| {
+            anyhow::anyhow!("--direction {s}: give x, y, z, -z or three numbers like 1,0,1")
+        })?;
+    let [x, y, z] = parts[..] else {
+        anyhow::bail!("--direction {s}: give three numbers like 1,0,1");
+    };
+    Ok([x, y, z])
 }
 
 /// Where twin runs are written, and their seed.
@@ -236,12 +279,50 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             what:
                 OpenfoamCommand::New {
                     dir,
+                    shape: Shape::Sphere,
                     force,
                     mass,
                     radius,
+                    direction,
                     end_time,
                 },
         } => {
+            let direction = parse_direction(&direction)?;
+            let mut c = crate::openfoam::case::SphereCase {
+                force_n: force,
+                mass_kg: 0.0,
+                radius_m: radius,
+                direction,
+                end_time_s: end_time,
+            };
+            c.mass_kg = mass.unwrap_or(2.0 * c.displaced_mass());
+            let dir = root.join(dir);
+            c.write(&dir)?;
+            println!(
+                "wrote {} (sphere, force {force} N along {direction:?}, mass {:.3} kg, end time {} s; potential-flow added mass {:.3} kg)",
+                dir.display(),
+                c.mass_kg,
+                c.end_time(),
+                c.added_mass()
+            );
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Openfoam {
+            what:
+                OpenfoamCommand::New {
+                    dir,
+                    shape: Shape::Cylinder,
+                    force,
+                    mass,
+                    radius,
+                    direction,
+                    end_time,
+                },
+        } => {
+            anyhow::ensure!(
+                direction == "x",
+                "the cylinder case moves along x only; --direction is for --shape sphere"
+            );
             let mut c = crate::openfoam::case::CylinderCase {
                 force_n: force,
                 mass_kg: 0.0,

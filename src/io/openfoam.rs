@@ -34,7 +34,7 @@ pub fn import(case: &CaseRun, dofs: &[Dof]) -> anyhow::Result<(Response, Respons
         rows_kept: response.len(),
         notes: case.results.notes.clone(),
         body_mass_kg: Some(case.setup.mass_kg),
-        per_metre_of_span: true,
+        per_metre_of_span: case.two_dimensional(),
         all_inputs: case.inputs.clone(),
         openfoam: Some(case.info()),
     };

@@ -28,6 +28,8 @@ pub struct Case {
     pub mass: Option<f64>,
     pub openfoam: Option<crate::openfoam::RunInfo>,
     pub track: Option<crate::openfoam::Track>,
+    /// A 2D case (forces and masses per metre of span).
+    pub two_dimensional: bool,
 }
 
 /// Everything the report is made from.
@@ -160,7 +162,7 @@ fn fusion_json(inp: &Inputs, accuracy: &[super::pool::FusionAccuracy]) -> serde_
 struct OwnCase {
     index: usize,
     nmae: f64,
-    surge: Vec<f64>,
+    sim: Vec<Vec6>,
 }
 
 /// Model `f` scored on every CFD case it may be scored on (its own body's) and on the pool
@@ -208,7 +210,7 @@ fn case_scores(
             own_cases.push(OwnCase {
                 index: ci,
                 nmae: scores.first().map_or(f64::NAN, |(_, m)| m.nmae),
-                surge: sim.iter().map(|nu| nu[0]).collect::<Vec<f64>>(),
+                sim: sim.clone(),
             });
         }
         runs.push(case_score(c, role, scores));
@@ -260,16 +262,28 @@ fn openfoam_section(
         .into_iter()
         .filter_map(|o| {
             let c = &inp.cases[o.index];
-            let s = c.response.dofs.get(&Dof::Surge)?;
+            let info = c.openfoam.as_ref()?;
+            // The DOF the case pushes the body in (its largest force component).
+            let axis = (0..3)
+                .max_by(|&a, &b| {
+                    info.applied_force_n[a]
+                        .abs()
+                        .total_cmp(&info.applied_force_n[b].abs())
+                })
+                .expect("three axes");
+            let dof = [Dof::Surge, Dof::Sway, Dof::Heave][axis];
+            let s = c.response.dofs.get(&dof)?;
             Some(crate::report::openfoam::Case {
                 name: &c.name,
-                info: c.openfoam.as_ref()?,
+                dof,
+                info,
                 t: &c.response.t,
                 velocity: &s.velocity,
                 accel: &s.accel,
-                simulated: o.surge,
+                simulated: o.sim.iter().map(|nu| nu[dof.index()]).collect(),
                 nmae: o.nmae,
                 track: c.track.as_ref(),
+                two_dimensional: c.two_dimensional,
             })
         })
         .collect();

@@ -1,8 +1,9 @@
-//! The report's section on a fit of a CFD test body run in OpenFOAM (the 2D cylinder): how
-//! each case ran, the identified parameters against their reference values (potential-flow
+//! The report's section on a fit of a CFD test body run in OpenFOAM (the 2D cylinder, the 3D
+//! sphere): how each case ran, the identified parameters against their reference values (potential-flow
 //! added mass), and the drag the runs show against what a constant-coefficient model can say.
 
 use super::html::esc;
+use crate::dof::Dof;
 use crate::estimate::result::FitResult;
 use crate::openfoam::RunInfo;
 use crate::openfoam::Track;
@@ -12,6 +13,9 @@ use std::fmt::Write;
 /// One OpenFOAM case of the fit, with the model simulated under its applied force.
 pub struct Case<'a> {
     pub name: &'a str,
+    /// The DOF the case pushes the body in; velocity, acceleration and the model's velocity
+    /// are in it.
+    pub dof: Dof,
     pub info: &'a RunInfo,
     pub t: &'a [f64],
     pub velocity: &'a [f64],
@@ -19,6 +23,31 @@ pub struct Case<'a> {
     pub simulated: Vec<f64>,
     pub nmae: f64,
     pub track: Option<&'a Track>,
+    /// Forces and masses per metre of span (a 2D case): drag per ½ ρ u² L, not ½ ρ u² A.
+    pub two_dimensional: bool,
+}
+
+impl Case<'_> {
+    /// The fit's parameter of this case's DOF: `dot` (X_udot), `lin` (X_u) or `quad` (X_uu).
+    fn param(&self, f: &FitResult, which: &str) -> f64 {
+        let (x, u) = (self.dof.force(), self.dof.velocity());
+        let name = match which {
+            "dot" => format!("{x}_{u}dot"),
+            "lin" => format!("{x}_{u}"),
+            _ => format!("{x}_{u}{u}"),
+        };
+        value(f, &name).map_or(0.0, |v| v.0)
+    }
+
+    /// The reference area of the drag coefficient: the length per metre of span (2D), the
+    /// disc of diameter `length` (3D).
+    fn reference_area(&self, length: f64) -> f64 {
+        if self.two_dimensional {
+            length
+        } else {
+            std::f64::consts::PI * length * length / 4.0
+        }
+    }
 }
 
 /// Drag coefficient along a run, from the fluid force on the body less the added-mass
@@ -39,13 +68,12 @@ fn value(f: &FitResult, name: &str) -> Option<(f64, f64)> {
 }
 
 pub fn drag_curve(c: &Case, f: &FitResult, length: f64) -> DragCurve {
-    let ma = -value(f, "X_udot").map_or(0.0, |v| v.0);
-    let (xu, xuu) = (
-        value(f, "X_u").map_or(0.0, |v| v.0),
-        value(f, "X_uu").map_or(0.0, |v| v.0),
-    );
+    let ma = -c.param(f, "dot");
+    let (xu, xuu) = (c.param(f, "lin"), c.param(f, "quad"));
+    let axis = c.dof.index();
     let umax = c.velocity.iter().fold(0.0f64, |a, v| a.max(v.abs()));
-    let q = |u: f64| 0.5 * c.info.rho * length * u * u;
+    let area = c.reference_area(length);
+    let q = |u: f64| 0.5 * c.info.rho * area * u * u;
     let mut out = DragCurve {
         travel: Vec::new(),
         measured: Vec::new(),
@@ -60,19 +88,16 @@ pub fn drag_curve(c: &Case, f: &FitResult, length: f64) -> DragCurve {
         }
         let (x, drag) = match track {
             Some(tr) => {
-                let fx = tr.fluid_force.as_ref().map(|f| f[k - 1][0]);
+                let fx = tr.fluid_force.as_ref().map(|f| f[k - 1][axis]);
                 let drag = fx.map_or(
-                    c.info.applied_force_n[0] - (c.info.mass_kg + ma) * c.accel[k],
+                    c.info.applied_force_n[axis] - (c.info.mass_kg + ma) * c.accel[k],
                     |fx| -fx - ma * c.accel[k],
                 );
-                (
-                    tr.position[k - 1][0] - tr.position[0][0] + (tr.position[0][0]),
-                    drag,
-                )
+                (tr.position[k - 1][axis], drag)
             }
             None => (
                 f64::NAN,
-                c.info.applied_force_n[0] - (c.info.mass_kg + ma) * c.accel[k],
+                c.info.applied_force_n[axis] - (c.info.mass_kg + ma) * c.accel[k],
             ),
         };
         out.travel.push(x / length);
@@ -96,7 +121,15 @@ pub fn section(f: &FitResult, cases: &[Case]) -> anyhow::Result<String> {
         s = esc(&f.stage),
         b = esc(&body)
     );
-    h.push_str("<p>Each case was run by OpenFOAM (pimpleFoam, laminar, sixDoFRigidBodyMotion on a morphing mesh): a constant force pushes the body from rest in still water. Masses and forces are per metre of span.</p>\n");
+    let per_span = if cases.iter().all(|c| c.two_dimensional) {
+        " Masses and forces are per metre of span (2D cases)."
+    } else {
+        ""
+    };
+    let _ = writeln!(
+        h,
+        "<p>Each case was run by OpenFOAM (pimpleFoam, laminar, sixDoFRigidBodyMotion on a morphing mesh): a constant force pushes the body from rest in still water, along the direction of its DOF.{per_span}</p>"
+    );
     runs_table(&mut h, cases);
     if let Some(w) = f
         .settings
@@ -123,14 +156,15 @@ pub fn section(f: &FitResult, cases: &[Case]) -> anyhow::Result<String> {
 /// How each case ran (force, mass, steps, solver time, where its results came from, peak speed,
 /// the model's error), and the OpenFOAM build that ran them.
 fn runs_table(h: &mut String, cases: &[Case]) {
-    h.push_str("<table><tr><th>case</th><th>force (N)</th><th>mass (kg)</th><th>end time (s)</th><th>steps</th><th>solver CPU (s)</th><th>wall (s)</th><th>results</th><th>peak speed (m/s)</th><th>model NMAE</th></tr>\n");
+    h.push_str("<table><tr><th>case</th><th>DOF</th><th>force (N)</th><th>mass (kg)</th><th>end time (s)</th><th>steps</th><th>solver CPU (s)</th><th>wall (s)</th><th>results</th><th>peak speed (m/s)</th><th>model NMAE</th></tr>\n");
     for c in cases {
         let i = c.info;
         let _ = writeln!(
             h,
-            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.4}</td><td>{:.3}</td></tr>",
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.4}</td><td>{:.3}</td></tr>",
             esc(c.name),
-            i.applied_force_n[0],
+            c.dof.name(),
+            i.applied_force_n[c.dof.index()],
             i.mass_kg,
             i.end_time_s,
             i.steps,
@@ -208,10 +242,23 @@ fn reference_table(h: &mut String, f: &FitResult) {
     h.push_str("</table>\n");
 }
 
-/// The figure of each case's surge velocity against the identified model's.
+/// The figure of each case's velocity in its DOF against the identified model's (one figure
+/// per DOF the cases are pushed in).
 fn velocity_figure(h: &mut String, cases: &[Case]) -> anyhow::Result<()> {
+    let mut dofs: Vec<Dof> = cases.iter().map(|c| c.dof).collect();
+    dofs.dedup();
+    dofs.sort_by_key(|d| d.index());
+    dofs.dedup();
+    for dof in dofs {
+        velocity_figure_of(h, cases, dof)?;
+    }
+    Ok(())
+}
+
+fn velocity_figure_of(h: &mut String, cases: &[Case], dof: Dof) -> anyhow::Result<()> {
     let mut traces: Vec<Trace> = cases
         .iter()
+        .filter(|c| c.dof == dof)
         .map(|c| Trace {
             label: c.name,
             t: c.t,
@@ -221,15 +268,21 @@ fn velocity_figure(h: &mut String, cases: &[Case]) -> anyhow::Result<()> {
         .collect();
     plots::sort_by_final_value(&mut traces);
     let svg = plots::curves(
-        "surge velocity: OpenFOAM and the identified model",
+        &format!("{} velocity: OpenFOAM and the identified model", dof.name()),
         "time (s)",
-        "u (m/s)",
+        &format!("{} (m/s)", dof.velocity()),
         &traces,
         "identified model (dashed)",
     )?;
+    let id = if dof == Dof::Surge {
+        "openfoam-velocity".to_string()
+    } else {
+        format!("openfoam-velocity-{}", dof.name())
+    };
     let _ = writeln!(
         h,
-        "<figure id=\"openfoam-velocity\">{svg}<figcaption>Velocity of each OpenFOAM case (colour; the legend in the order the curves end, top to bottom) and of the identified constant-coefficient model under the same force (dashed).</figcaption></figure>"
+        "<figure id=\"{id}\">{svg}<figcaption>{} velocity of each OpenFOAM case (colour; the legend in the order the curves end, top to bottom) and of the identified constant-coefficient model under the same force (dashed).</figcaption></figure>",
+        capitalised(dof.name())
     );
     Ok(())
 }
@@ -261,12 +314,24 @@ fn drag_figure(h: &mut String, f: &FitResult, cases: &[Case], length: f64) -> an
         &traces,
         "constant-coefficient model",
     )?;
+    let reference = if cases.iter().all(|c| c.two_dimensional) {
+        format!("Cd = drag / (½ ρ u² L), L = {length} m per metre of span")
+    } else {
+        format!("Cd = drag / (½ ρ u² A), A = π L² / 4, L = {length} m")
+    };
     let _ = writeln!(
         h,
-        "<figure id=\"openfoam-drag\">{svg}<figcaption>Drag coefficient Cd = drag / (½ ρ u² L), L = {length} m, from the fluid force on the body less the added-mass reaction, at speeds above a fifth of each run's peak (colour); the identified model's Cd at the same speed (dashed).</figcaption></figure>"
+        "<figure id=\"openfoam-drag\">{svg}<figcaption>Drag coefficient {reference}, from the fluid force on the body less the added-mass reaction, at speeds above a fifth of each run's peak (colour); the identified model's Cd at the same speed (dashed).</figcaption></figure>"
     );
     h.push_str(&finding(&curves, f));
     Ok(())
+}
+
+fn capitalised(s: &str) -> String {
+    let mut c = s.chars();
+    c.next().map_or(String::new(), |f| {
+        f.to_uppercase().collect::<String>() + c.as_str()
+    })
 }
 
 /// What the drag curves say about a constant-coefficient model, in numbers.

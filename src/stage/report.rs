@@ -109,6 +109,7 @@ fn cfd_cases(ctx: &RunCtx) -> anyhow::Result<Vec<build::Case>> {
             mass: meta.body_mass_kg,
             openfoam: meta.openfoam,
             track,
+            two_dimensional: meta.per_metre_of_span,
         });
     }
     Ok(cases)
