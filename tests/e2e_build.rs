@@ -10,6 +10,7 @@ fn cold_build_then_nothing_to_do() {
     let out = ok(dir, &["build"]);
     let n = count(dir, "cases/cfd/starccm")
         + count(dir, "cases/cfd/openfoam")
+        + count(dir, "cases/cfd/sphere")
         + count(dir, "cases/pool");
     assert_eq!(ran(&out), n + SINGLE_STAGES, "{out}");
     for f in [
@@ -216,12 +217,12 @@ fn a_changed_setting_reruns_the_fit_but_not_the_imports() {
     );
     assert_eq!(status.lines().count(), 4, "{status}");
     assert_eq!(ran(&ok(dir, &["build"])), 4);
-    // A new vehicle mass reruns the fits (fit, compare, cylinder, and what reads them: a fit's key holds the
+    // A new vehicle mass reruns the fits (fit, compare, cylinder, sphere_fit, and what reads them: a fit's key holds the
     // vehicle section even when the fit names its own body), not the imports or the fusion
     // (they depend on the DOF list only).
     let spec = read(dir, "pipeline.yaml").replace("mass_kg: 35.2", "mass_kg: 35.3");
     std::fs::write(dir.join("pipeline.yaml"), spec).unwrap();
-    assert_eq!(ran(&ok(dir, &["build"])), 6);
+    assert_eq!(ran(&ok(dir, &["build"])), 7);
 }
 
 #[test]
@@ -267,7 +268,7 @@ fn provenance_traces_a_parameter_to_its_files() {
         "{out}"
     );
     assert!(
-        out.starts_with("X_uu is identified by 2 models (cylinder, fit)"),
+        out.starts_with("X_uu is identified by 3 models (cylinder, fit, sphere_fit)"),
         "{out}"
     );
     let one = stdout(&run(dir, &["provenance", "X_uu", "--model", "fit"]));

@@ -257,7 +257,10 @@ fn ctrl_c_stops_a_long_search_keeps_what_finished_and_the_next_build_resumes() {
         .unwrap();
     // Wait until the fit is searching: every import has finished and been logged.
     let start = Instant::now();
-    let imports = count(dir, "cases/cfd/starccm") + count(dir, "cases/pool");
+    let imports = count(dir, "cases/cfd/starccm")
+        + count(dir, "cases/cfd/openfoam")
+        + count(dir, "cases/cfd/sphere")
+        + count(dir, "cases/pool");
     while read_opt(dir, ".hydrofit/log").lines().count() < imports
         && start.elapsed() < Duration::from_secs(120)
     {

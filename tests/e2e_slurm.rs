@@ -138,6 +138,188 @@ fn openfoam_cases_run_as_slurm_jobs() {
     the_short_case_runs_as_a_slurm_job_and_matches_the_local_run(&cluster);
     a_failing_job_fails_its_stage_with_slurms_state_and_the_log_tail(&cluster);
     ctrl_c_cancels_the_job_and_a_killed_build_picks_its_job_up_again(&cluster);
+    a_series_runs_as_one_array_job_and_a_new_level_runs_alone(&cluster);
+    ctrl_c_cancels_every_task_of_the_array(&cluster);
+    the_shipped_sphere_series_runs_on_slurm_as_it_runs_locally(&cluster);
+}
+
+/// The shipped project's `sphere` stage as it is (executor slurm, the six-case sweep), with
+/// the template's end time cut to three steps so CI can afford it, against the same stage
+/// with `executor: local`.
+fn the_shipped_sphere_series_runs_on_slurm_as_it_runs_locally(cluster: &Cluster) {
+    let shorten = |dir: &Path| {
+        let control = dir.join("cases/cfd/templates/sphere/system/controlDict");
+        let text = std::fs::read_to_string(&control).unwrap();
+        assert!(text.contains("endTime         2.5;"), "{text}");
+        std::fs::write(
+            &control,
+            text.replace("endTime         2.5;", "endTime         0.06;"),
+        )
+        .unwrap();
+    };
+    let on_slurm = project();
+    shorten(on_slurm.path());
+    let local = project();
+    shorten(local.path());
+    let yaml = read(local.path(), "pipeline.yaml");
+    assert_eq!(
+        yaml.matches("executor: slurm").count(),
+        1,
+        "the sphere stage's"
+    );
+    std::fs::write(
+        local.path().join("pipeline.yaml"),
+        yaml.replace("executor: slurm", "executor: local"),
+    )
+    .unwrap();
+    for p in [&local, &on_slurm] {
+        let o = hydrofit(p.path(), &cluster.conf, &["build", "sphere"]);
+        let err = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert!(o.status.success(), "{err}");
+        assert_eq!(ran(&err), 6, "{err}");
+    }
+    let mut arrays = std::collections::BTreeSet::new();
+    for force in ["0.5", "1", "2"] {
+        for dir in ["x", "z"] {
+            let case = format!("cases/cfd/sphere/sphere_{force}N_{dir}");
+            let stamp = json(on_slurm.path(), &format!("{case}/hydrofit.run.json"));
+            let job = stamp["slurm_job"].as_str().unwrap_or("").to_string();
+            arrays.insert(job.split('_').next().unwrap().to_string());
+            assert!(job.contains('_'), "an array task: {stamp}");
+            assert_eq!(stamp["steps"].as_u64(), Some(3), "{stamp}");
+            for table in [SERIES_STATE, "postProcessing/forces/0/force.dat"] {
+                assert_eq!(
+                    read(local.path(), &format!("{case}/{table}")),
+                    read(on_slurm.path(), &format!("{case}/{table}")),
+                    "{case}/{table}"
+                );
+            }
+        }
+    }
+    assert_eq!(arrays.len(), 1, "{arrays:?}");
+}
+
+/// A series of the short cylinder case over three force levels, defined in pipeline.yaml.
+fn series_project(executor: &str, levels: &str, end_time: &str) -> tempfile::TempDir {
+    let p = tempfile::tempdir().unwrap();
+    let yaml = format!(
+        r#"
+vehicle: {{name: test, mass_kg: 35.2, dofs: [surge]}}
+stages:
+  series:
+    kind: openfoam
+    inputs: ["cases/cfd/templates/cyl/"]
+    settings:
+      executor: {executor}
+      slurm: {{time: "00:10:00", cpus: 1, mem: 1G}}
+      series:
+        name: "cyl_{{appliedForce}}N"
+        sweep:
+          appliedForce: {levels}
+"#
+    );
+    std::fs::write(p.path().join("pipeline.yaml"), yaml).unwrap();
+    let args = ["openfoam", "new", "cases/cfd/templates/cyl", "--force", "2"];
+    ok(p.path(), &[&args[..], &["--end-time", end_time]].concat());
+    p
+}
+
+const SERIES_STATE: &str = "postProcessing/sixDoFRigidBodyState/0/sixDoFRigidBodyState.dat";
+
+fn a_series_runs_as_one_array_job_and_a_new_level_runs_alone(cluster: &Cluster) {
+    let local = series_project("local", "[1, 2, 4]", "0.5");
+    let o = hydrofit(local.path(), &cluster.conf, &["build"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let slurm = series_project("slurm", "[1, 2, 4]", "0.5");
+    let dir = slurm.path();
+    let o = hydrofit(dir, &cluster.conf, &["build"]);
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(o.status.success(), "{err}");
+    assert_eq!(ran(&err), 3, "{err}");
+    let mut arrays = std::collections::BTreeSet::new();
+    let mut tasks = std::collections::BTreeSet::new();
+    for f in ["1", "2", "4"] {
+        let case = format!("cases/cfd/series/cyl_{f}N");
+        // The case is the template with its force set, and it ran as a task of one array.
+        let dict = read(dir, &format!("{case}/constant/dynamicMeshDict"));
+        assert!(dict.contains(&format!("appliedForce    {f};")), "{dict}");
+        let stamp = json(dir, &format!("{case}/hydrofit.run.json"));
+        let job = stamp["slurm_job"].as_str().unwrap_or("").to_string();
+        let (array, task) = job
+            .split_once('_')
+            .unwrap_or_else(|| panic!("not an array task: {stamp}"));
+        arrays.insert(array.to_string());
+        tasks.insert(task.to_string());
+        // The same motion as the local run's, to the byte.
+        assert_eq!(
+            read(local.path(), &format!("{case}/{SERIES_STATE}")),
+            read(dir, &format!("{case}/{SERIES_STATE}")),
+            "{case}"
+        );
+    }
+    assert_eq!(arrays.len(), 1, "one array job: {arrays:?}");
+    assert_eq!(tasks.len(), 3, "{tasks:?}");
+    assert!(
+        std::fs::read_dir(dir.join(".hydrofit/slurm")).map_or(true, |mut d| d.next().is_none()),
+        "scratch or array files left behind"
+    );
+    // One more force level: one case runs, the others are untouched.
+    let yaml = read(dir, "pipeline.yaml").replace("[1, 2, 4]", "[1, 2, 4, 3]");
+    std::fs::write(dir.join("pipeline.yaml"), yaml).unwrap();
+    let o = hydrofit(dir, &cluster.conf, &["build"]);
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(o.status.success(), "{err}");
+    assert_eq!(ran(&err), 1, "{err}");
+    assert!(
+        dir.join("cases/cfd/series/cyl_3N/hydrofit.run.json")
+            .exists()
+    );
+    // Without the cache, the results left in the cases are read: nothing runs.
+    ok(dir, &["clean"]);
+    let o = hydrofit(dir, &cluster.conf, &["build"]);
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(o.status.success(), "{err}");
+    assert!(!err.contains("Slurm"), "{err}");
+    let stamp = json(dir, "cases/cfd/series/cyl_1N/hydrofit.run.json");
+    assert!(
+        stamp["slurm_job"]
+            .as_str()
+            .unwrap()
+            .starts_with(arrays.first().unwrap().as_str())
+    );
+}
+
+fn ctrl_c_cancels_every_task_of_the_array(cluster: &Cluster) {
+    let p = series_project("slurm", "[1, 2, 3]", "6");
+    let build = Command::new(BIN)
+        .arg("--project")
+        .arg(p.path())
+        .arg("build")
+        .env("SLURM_CONF", &cluster.conf)
+        .env("WM_PROJECT_DIR", "/usr/share/openfoam")
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let task = running_job(&cluster.conf);
+    let array = task.split('_').next().unwrap().to_string();
+    let _ = Command::new("kill")
+        .args(["-INT", &build.id().to_string()])
+        .status();
+    let o = build.wait_with_output().unwrap();
+    assert!(!o.status.success());
+    let t0 = std::time::Instant::now();
+    for i in 0..3 {
+        let id = format!("{array}_{i}");
+        while job_state(&cluster.conf, &id) != "CANCELLED" {
+            assert!(
+                t0.elapsed().as_secs() < 30,
+                "task {id}: {}",
+                job_state(&cluster.conf, &id)
+            );
+            std::thread::sleep(std::time::Duration::from_millis(100));
+        }
+    }
 }
 
 /// The id of the one job Slurm has queued or running, once it has one.

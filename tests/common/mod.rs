@@ -37,7 +37,7 @@ pub fn example(name: &str) -> tempfile::TempDir {
 }
 
 /// Stage instances of the shipped pipeline besides the imports: fit, cylinder, validate, compare, report.
-pub const SINGLE_STAGES: usize = 6;
+pub const SINGLE_STAGES: usize = 7;
 
 pub fn count(dir: &Path, rel: &str) -> usize {
     std::fs::read_dir(dir.join(rel)).unwrap().count()
