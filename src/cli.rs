@@ -119,7 +119,7 @@ pub enum OpenfoamCommand {
         #[arg(long, default_value_t = 0.1)]
         radius: f64,
         /// The sphere's direction of force and motion: x, y, z or three numbers `1,0,1`.
-        #[arg(long, default_value = "x")]
+        #[arg(long, default_value = "x", allow_hyphen_values = true)]
         direction: String,
         /// Simulated time, s (default: long enough for about 2.5 m of travel for the
         /// cylinder, about 6 radii for the sphere).
@@ -147,7 +147,7 @@ fn parse_direction(s: &str) -> anyhow::Result<[f64; 3]> {
         return Ok(v);
     }
     if let Some(v) = s.strip_prefix('-').and_then(axis) {
-        return Ok(v.map(|x| -x));
+        return Ok(v.map(|x| -x + 0.0));
     }
     let parts: Vec<f64> = s
         .split(',')
@@ -279,7 +279,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             what:
                 OpenfoamCommand::New {
                     dir,
-                    shape: Shape::Sphere,
+                    shape,
                     force,
                     mass,
                     radius,
@@ -287,57 +287,47 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                     end_time,
                 },
         } => {
-            let direction = parse_direction(&direction)?;
-            let mut c = crate::openfoam::case::SphereCase {
-                force_n: force,
-                mass_kg: 0.0,
-                radius_m: radius,
-                direction,
-                end_time_s: end_time,
-            };
-            c.mass_kg = mass.unwrap_or(2.0 * c.displaced_mass());
             let dir = root.join(dir);
-            c.write(&dir)?;
-            println!(
-                "wrote {} (sphere, force {force} N along {direction:?}, mass {:.3} kg, end time {} s; potential-flow added mass {:.3} kg)",
-                dir.display(),
-                c.mass_kg,
-                c.end_time(),
-                c.added_mass()
-            );
-            Ok(ExitCode::SUCCESS)
-        }
-        Command::Openfoam {
-            what:
-                OpenfoamCommand::New {
-                    dir,
-                    shape: Shape::Cylinder,
-                    force,
-                    mass,
-                    radius,
-                    direction,
-                    end_time,
-                },
-        } => {
-            anyhow::ensure!(
-                direction == "x",
-                "the cylinder case moves along x only; --direction is for --shape sphere"
-            );
-            let mut c = crate::openfoam::case::CylinderCase {
-                force_n: force,
-                mass_kg: 0.0,
-                radius_m: radius,
-                end_time_s: end_time,
+            let what = match shape {
+                Shape::Sphere => {
+                    let direction = parse_direction(&direction)?;
+                    let mut c = crate::openfoam::case::SphereCase {
+                        force_n: force,
+                        mass_kg: 0.0,
+                        radius_m: radius,
+                        direction,
+                        end_time_s: end_time,
+                    };
+                    c.mass_kg = mass.unwrap_or(2.0 * c.displaced_mass());
+                    c.write(&dir)?;
+                    format!(
+                        "sphere, force {force} N along {direction:?}, mass {:.3} kg, end time {} s; potential-flow added mass {:.3} kg",
+                        c.mass_kg,
+                        c.end_time(),
+                        c.added_mass()
+                    )
+                }
+                Shape::Cylinder => {
+                    anyhow::ensure!(
+                        direction == "x",
+                        "the cylinder case moves along x only; --direction is for --shape sphere"
+                    );
+                    let mut c = crate::openfoam::case::CylinderCase {
+                        force_n: force,
+                        mass_kg: 0.0,
+                        radius_m: radius,
+                        end_time_s: end_time,
+                    };
+                    c.mass_kg = mass.unwrap_or(2.0 * c.displaced_mass());
+                    c.write(&dir)?;
+                    format!(
+                        "force {force} N/m, mass {:.3} kg/m, end time {} s",
+                        c.mass_kg,
+                        c.end_time()
+                    )
+                }
             };
-            c.mass_kg = mass.unwrap_or(2.0 * c.displaced_mass());
-            let dir = root.join(dir);
-            c.write(&dir)?;
-            println!(
-                "wrote {} (force {force} N/m, mass {:.3} kg/m, end time {} s)",
-                dir.display(),
-                c.mass_kg,
-                c.end_time()
-            );
+            println!("wrote {} ({what})", dir.display());
             Ok(ExitCode::SUCCESS)
         }
         Command::Twin {

@@ -303,22 +303,31 @@ fn ctrl_c_cancels_every_task_of_the_array(cluster: &Cluster) {
         .unwrap();
     let task = running_job(&cluster.conf);
     let array = task.split('_').next().unwrap().to_string();
+    ctrl_c(build);
+    for i in 0..3 {
+        await_cancelled(&cluster.conf, &format!("{array}_{i}"));
+    }
+}
+
+/// Ctrl-C on a running build: it stops with a failure.
+fn ctrl_c(build: std::process::Child) {
     let _ = Command::new("kill")
         .args(["-INT", &build.id().to_string()])
         .status();
     let o = build.wait_with_output().unwrap();
     assert!(!o.status.success());
+}
+
+/// Waits up to 30 s for Slurm to say job `id` was cancelled.
+fn await_cancelled(conf: &Path, id: &str) {
     let t0 = std::time::Instant::now();
-    for i in 0..3 {
-        let id = format!("{array}_{i}");
-        while job_state(&cluster.conf, &id) != "CANCELLED" {
-            assert!(
-                t0.elapsed().as_secs() < 30,
-                "task {id}: {}",
-                job_state(&cluster.conf, &id)
-            );
-            std::thread::sleep(std::time::Duration::from_millis(100));
-        }
+    while job_state(conf, id) != "CANCELLED" {
+        assert!(
+            t0.elapsed().as_secs() < 30,
+            "job {id}: {}",
+            job_state(conf, id)
+        );
+        std::thread::sleep(std::time::Duration::from_millis(100));
     }
 }
 
@@ -384,20 +393,8 @@ fn ctrl_c_cancels_the_job_and_a_killed_build_picks_its_job_up_again(cluster: &Cl
     // Ctrl-C: the build stops and cancels its job.
     let build = spawn();
     let id = running_job(&cluster.conf);
-    let _ = Command::new("kill")
-        .args(["-INT", &build.id().to_string()])
-        .status();
-    let o = build.wait_with_output().unwrap();
-    assert!(!o.status.success());
-    let t0 = std::time::Instant::now();
-    while job_state(&cluster.conf, &id) != "CANCELLED" {
-        assert!(
-            t0.elapsed().as_secs() < 20,
-            "job {id}: {}",
-            job_state(&cluster.conf, &id)
-        );
-        std::thread::sleep(std::time::Duration::from_millis(100));
-    }
+    ctrl_c(build);
+    await_cancelled(&cluster.conf, &id);
     // kill -9: the job goes on; the next build waits for that job instead of a new one.
     let mut build = spawn();
     let id = running_job(&cluster.conf);

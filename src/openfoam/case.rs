@@ -180,7 +180,8 @@ impl SphereCase {
         let relax = (self.mass_kg / (self.mass_kg + self.added_mass()) + 0.15).clamp(0.3, 1.0);
         let dt = (r / 12.0 / self.speed_estimate()).clamp(0.004, 0.02);
         let norm = self.direction.iter().map(|x| x * x).sum::<f64>().sqrt();
-        let d = self.direction.map(|x| x / norm);
+        // `+ 0.0` writes -0 as 0.
+        let d = self.direction.map(|x| x / norm + 0.0);
         let f = |x: f64| format!("{x}");
         vec![
             ("RADIUS", f(r)),

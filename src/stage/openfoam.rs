@@ -105,11 +105,14 @@ impl StageImpl for Settings {
         if self.executor != ExecutorKind::Slurm || pending.len() < 2 {
             return Ok(None);
         }
-        let mut cases = Vec::new();
-        for p in pending {
-            let inputs = self.case_inputs(p.root, p.stage, p.id, &p.inputs, p.params)?;
-            cases.push(inputs);
-        }
+        // A case that cannot be written is left out: its own instance fails and says why.
+        let cases: Vec<Vec<InputFile>> = pending
+            .iter()
+            .filter_map(|p| {
+                self.case_inputs(p.root, p.stage, p.id, &p.inputs, p.params)
+                    .ok()
+            })
+            .collect();
         let root = pending[0].root;
         let array = openfoam::case_run::submit_series(root, &cases, &self.slurm, pending[0].stage)?;
         Ok(array.map(|a| Box::new(a) as Box<dyn std::any::Any + Send + Sync>))
