@@ -21,6 +21,16 @@ fn cold_build_then_nothing_to_do() {
     ] {
         assert!(dir.join("reports").join(f).is_file(), "reports/{f} missing");
     }
+    // The shipped sphere cases were run as tasks of one Slurm array: the report says which.
+    let html = read(dir, "reports/index.html");
+    for case in ["sphere_0.5N_x", "sphere_2N_z"] {
+        let stamp = json(dir, &format!("cases/cfd/sphere/{case}/hydrofit.run.json"));
+        let job = stamp["slurm_job"].as_str().unwrap();
+        assert!(
+            html.contains(&format!("read from the case folder (Slurm job {job} on ")),
+            "{case}: {job}"
+        );
+    }
     let out = ok(dir, &["build"]);
     assert_eq!(ran(&out), 0, "{out}");
     assert!(out.contains("hydrofit: up to date"), "{out}");

@@ -201,6 +201,16 @@ fn the_shipped_sphere_series_runs_on_slurm_as_it_runs_locally(cluster: &Cluster)
 
 /// A series of the short cylinder case over three force levels, defined in pipeline.yaml.
 fn series_project(executor: &str, levels: &str, end_time: &str) -> tempfile::TempDir {
+    series_project_with(executor, levels, end_time, "")
+}
+
+/// As [`series_project`], with further `slurm` settings (`, max_running: 1`).
+fn series_project_with(
+    executor: &str,
+    levels: &str,
+    end_time: &str,
+    slurm: &str,
+) -> tempfile::TempDir {
     let p = tempfile::tempdir().unwrap();
     let yaml = format!(
         r#"
@@ -211,7 +221,7 @@ stages:
     inputs: ["cases/cfd/templates/cyl/"]
     settings:
       executor: {executor}
-      slurm: {{time: "00:10:00", cpus: 1, mem: 1G}}
+      slurm: {{time: "00:10:00", cpus: 1, mem: 1G{slurm}}}
       series:
         name: "cyl_{{appliedForce}}N"
         sweep:
@@ -236,6 +246,10 @@ fn a_series_runs_as_one_array_job_and_a_new_level_runs_alone(cluster: &Cluster) 
     let err = String::from_utf8_lossy(&o.stderr).into_owned();
     assert!(o.status.success(), "{err}");
     assert_eq!(ran(&err), 3, "{err}");
+    assert!(
+        err.contains("series: 3 cases submitted to Slurm as array job "),
+        "{err}"
+    );
     let mut arrays = std::collections::BTreeSet::new();
     let mut tasks = std::collections::BTreeSet::new();
     for f in ["1", "2", "4"] {
@@ -290,7 +304,7 @@ fn a_series_runs_as_one_array_job_and_a_new_level_runs_alone(cluster: &Cluster) 
 }
 
 fn ctrl_c_cancels_every_task_of_the_array(cluster: &Cluster) {
-    let p = series_project("slurm", "[1, 2, 3]", "6");
+    let p = series_project_with("slurm", "[1, 2, 3]", "6", ", max_running: 1");
     let build = Command::new(BIN)
         .arg("--project")
         .arg(p.path())
@@ -303,9 +317,41 @@ fn ctrl_c_cancels_every_task_of_the_array(cluster: &Cluster) {
         .unwrap();
     let task = running_job(&cluster.conf);
     let array = task.split('_').next().unwrap().to_string();
+    // `max_running: 1`: one task runs, the others wait for it.
+    for _ in 0..10 {
+        let o = Command::new("squeue")
+            .args(["-h", "-r", "-o", "%i %T", "-j", &array])
+            .env("SLURM_CONF", &cluster.conf)
+            .output()
+            .unwrap();
+        let text = String::from_utf8_lossy(&o.stdout).into_owned();
+        assert!(text.matches("RUNNING").count() <= 1, "{text}");
+        std::thread::sleep(std::time::Duration::from_millis(200));
+    }
     ctrl_c(build);
+    // The running task ends CANCELLED; the waiting ones never run (Slurm forgets a pending
+    // task cancelled on its own, so those are either CANCELLED or unknown).
+    await_cancelled(&cluster.conf, &task);
+    let t0 = std::time::Instant::now();
+    loop {
+        let o = Command::new("squeue")
+            .args(["-h", "-r", "-o", "%i %T", "-j", &array])
+            .env("SLURM_CONF", &cluster.conf)
+            .output()
+            .unwrap();
+        let left = String::from_utf8_lossy(&o.stdout).trim().to_string();
+        if left.is_empty() {
+            break;
+        }
+        assert!(t0.elapsed().as_secs() < 30, "still queued: {left}");
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
     for i in 0..3 {
-        await_cancelled(&cluster.conf, &format!("{array}_{i}"));
+        let state = job_state(&cluster.conf, &format!("{array}_{i}"));
+        assert!(
+            matches!(state.as_str(), "CANCELLED" | ""),
+            "task {i}: {state}"
+        );
     }
 }
 

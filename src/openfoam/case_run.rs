@@ -111,8 +111,8 @@ impl CaseRun {
             applied_force_n: setup.applied_force(),
             mass_kg: setup.mass_kg,
             rho: setup.rho,
-            slurm_job: self.results.ran.then(|| stamp.slurm_job.clone()).flatten(),
-            node: self.results.ran.then(|| stamp.node.clone()).flatten(),
+            slurm_job: stamp.slurm_job.clone(),
+            node: stamp.node.clone(),
         }
     }
 }

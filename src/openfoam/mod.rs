@@ -424,7 +424,8 @@ pub struct RunInfo {
     pub applied_force_n: [f64; 3],
     pub mass_kg: f64,
     pub rho: f64,
-    /// The Slurm job that ran the case in this build, and its node.
+    /// The Slurm job (or array task) that ran the case, in this build or when its results
+    /// were made, and its node.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub slurm_job: Option<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -24,6 +24,10 @@ pub struct SlurmOptions {
     /// `--mem` (`2G`, `500M`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub mem: Option<String>,
+    /// For a series submitted as an array job: at most this many of its tasks run at once
+    /// (`--array=0-N%max_running`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_running: Option<u32>,
     /// Further `sbatch` options, each one argument (`--qos=long`, `--account=cfd`).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub sbatch: Vec<String>,

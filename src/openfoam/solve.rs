@@ -389,43 +389,60 @@ pub struct ArrayCase<'a> {
     pub identity: &'a str,
 }
 
-/// Cases submitted together as one Slurm array job, dropped when the build ends: a task no
-/// case waited for (Ctrl-C stopped the build first) is cancelled, and the array's script,
+/// Cases submitted together as Slurm array jobs, dropped when the build ends: a task no
+/// case waited for (Ctrl-C stopped the build first) is cancelled, and each array's script,
 /// list and outputs are removed.
 pub struct ArrayJob {
-    pub id: String,
-    pub tasks: usize,
-    files: Vec<PathBuf>,
+    /// Each array's job id, its number of tasks and its files.
+    arrays: Vec<(String, usize, Vec<PathBuf>)>,
+}
+
+impl ArrayJob {
+    /// The arrays' job ids.
+    pub fn ids(&self) -> Vec<&str> {
+        self.arrays.iter().map(|(id, _, _)| id.as_str()).collect()
+    }
+
+    /// How many cases the arrays run.
+    pub fn tasks(&self) -> usize {
+        self.arrays.iter().map(|(_, n, _)| n).sum()
+    }
 }
 
 impl Drop for ArrayJob {
     fn drop(&mut self) {
-        let unfinished = (0..self.tasks).any(|i| {
-            super::slurm::query(&format!("{}_{i}", self.id))
-                .ok()
-                .flatten()
-                .is_some_and(|s| !s.finished())
-        });
-        if unfinished {
-            super::slurm::cancel(&self.id);
-        }
-        for f in &self.files {
-            let _ = std::fs::remove_file(f);
-        }
-        if let Some(dir) = self.files.first().and_then(|f| f.parent()) {
-            for i in 0..self.tasks {
-                let _ = std::fs::remove_file(dir.join(format!("slurm-{}_{i}.out", self.id)));
+        for (id, tasks, files) in &self.arrays {
+            let unfinished = (0..*tasks).any(|i| {
+                super::slurm::query(&format!("{id}_{i}"))
+                    .ok()
+                    .flatten()
+                    .is_some_and(|s| !s.finished())
+            });
+            if unfinished {
+                super::slurm::cancel(id);
             }
-            // Only when empty: another build's array may be there.
-            let _ = std::fs::remove_dir(dir);
+            for f in files {
+                let _ = std::fs::remove_file(f);
+            }
+            if let Some(dir) = files.first().and_then(|f| f.parent()) {
+                for i in 0..*tasks {
+                    let _ = std::fs::remove_file(dir.join(format!("slurm-{id}_{i}.out")));
+                }
+                // Only when empty: another build's array may be there.
+                let _ = std::fs::remove_dir(dir);
+            }
         }
     }
 }
 
-/// Submits `cases` as one array job, task i running case i's job script in its scratch
-/// folder, and records `<array>_<i>` there, where the case's own run finds and waits for
-/// it. Cases whose job is still known to Slurm (a build killed while they ran) are left to
-/// it. Fewer than two cases to submit: nothing is submitted, each case goes on its own.
+/// Tasks per array job: Slurm's default `MaxArraySize` (1001) allows indices 0-1000.
+const ARRAY_TASKS: usize = 1000;
+
+/// Submits `cases` as array jobs (of at most [`ARRAY_TASKS`] tasks), task i running case
+/// i's job script in its scratch folder, and records `<array>_<i>` there, where the case's
+/// own run finds and waits for it. Cases whose job is still known to Slurm (a build killed
+/// while they ran) are left to it. Fewer than two cases to submit: nothing is submitted,
+/// each case goes on its own.
 pub fn submit_array(
     state_dir: &Path,
     cases: &[ArrayCase],
@@ -448,36 +465,55 @@ pub fn submit_array(
     if dirs.len() < 2 {
         return Ok(None);
     }
-    let arrays = state_dir.join("slurm").join("arrays");
-    std::fs::create_dir_all(&arrays)?;
+    let folder = state_dir.join("slurm").join("arrays");
+    std::fs::create_dir_all(&folder)?;
+    let folder = folder.canonicalize()?;
+    let mut job = ArrayJob { arrays: Vec::new() };
+    for chunk in dirs.chunks(ARRAY_TASKS) {
+        // Kept in `job` at once: a failed submission of a later chunk cancels this one.
+        let (id, files) = submit_chunk(&folder, chunk, opts, name)?;
+        job.arrays.push((id, chunk.len(), files));
+    }
+    Ok(Some(job))
+}
+
+/// One array job over the scratch folders `dirs`; its id and the files written for it.
+fn submit_chunk(
+    folder: &Path,
+    dirs: &[PathBuf],
+    opts: &super::slurm::SlurmOptions,
+    name: &str,
+) -> anyhow::Result<(String, Vec<PathBuf>)> {
     let listing: String = dirs.iter().map(|d| format!("{}\n", d.display())).collect();
     let tag = &blake3::hash(listing.as_bytes()).to_hex()[..16];
-    let arrays = arrays.canonicalize()?;
-    let list = arrays.join(format!("{tag}.cases"));
+    let list = folder.join(format!("{tag}.cases"));
     std::fs::write(&list, &listing)?;
     let script = format!(
         "#!/bin/sh\n# Written by hydrofit: task i runs the case in line i + 1 of the list.\ndir=$(sed -n \"$((SLURM_ARRAY_TASK_ID + 1))p\" '{}')\ncd \"$dir\" || exit 2\nexec sh {JOB_SCRIPT} > \"slurm-${{SLURM_ARRAY_JOB_ID}}_${{SLURM_ARRAY_TASK_ID}}.out\" 2>&1\n",
         list.display()
     );
     let script_name = format!("{tag}.sh");
-    std::fs::write(arrays.join(&script_name), script)?;
-    let array = format!("--array=0-{}", dirs.len() - 1);
+    std::fs::write(folder.join(&script_name), script)?;
+    let limit = opts.max_running.map_or(String::new(), |n| format!("%{n}"));
+    let array = format!("--array=0-{}{limit}", dirs.len() - 1);
+    let files = vec![list, folder.join(&script_name)];
     let id = super::slurm::submit(
-        &arrays,
+        folder,
         &script_name,
         name,
         opts,
         &[array],
         "slurm-%A_%a.out",
-    )?;
+    )
+    .inspect_err(|_| {
+        for f in &files {
+            let _ = std::fs::remove_file(f);
+        }
+    })?;
     for (i, d) in dirs.iter().enumerate() {
         crate::fsutil::write_atomic(&d.join(JOB_FILE), format!("{id}_{i}").as_bytes())?;
     }
-    Ok(Some(ArrayJob {
-        id,
-        tasks: dirs.len(),
-        files: vec![list, arrays.join(script_name)],
-    }))
+    Ok((id, files))
 }
 
 /// The last simulated time a solver log reports (its last 4 kB read).

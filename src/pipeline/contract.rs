@@ -224,11 +224,8 @@ pub trait StageImpl: Send + Sync {
 
     /// Called once per build with the stage's instances that are about to run, before any
     /// of them does: a kind that can hand them to a scheduler together (one Slurm array job)
-    /// does so here. What it returns is kept until the build ends and then dropped.
-    fn prepare(
-        &self,
-        _pending: &[Pending],
-    ) -> anyhow::Result<Option<Box<dyn std::any::Any + Send + Sync>>> {
+    /// does so here. What it returns is said to the user and kept until the build ends.
+    fn prepare(&self, _pending: &[Pending]) -> anyhow::Result<Option<Prepared>> {
         Ok(None)
     }
 }
@@ -239,6 +236,13 @@ pub trait StageImpl: Send + Sync {
 pub struct Variant {
     pub name: String,
     pub params: Vec<(String, String)>,
+}
+
+/// What [`StageImpl::prepare`] did: a line for the user (`6 cases submitted as Slurm array
+/// job 13`), and what must live until the build ends (dropped then: it may cancel or clean).
+pub struct Prepared {
+    pub message: String,
+    pub keep: Box<dyn std::any::Any + Send + Sync>,
 }
 
 /// An instance about to run, as [`StageImpl::prepare`] sees it.

@@ -169,7 +169,10 @@ fn prepare_batches(
             continue;
         }
         match st.imp.prepare(&pending) {
-            Ok(Some(k)) => kept.push(k),
+            Ok(Some(p)) => {
+                progress.println(format!("{}: {}", st.name, p.message));
+                kept.push(p.keep);
+            }
             Ok(None) => {}
             Err(e) => progress.println(format!(
                 "warning: {}: its instances could not be prepared together ({e:#}); each runs on its own",

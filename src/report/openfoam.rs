@@ -170,11 +170,7 @@ fn runs_table(h: &mut String, cases: &[Case]) {
             i.steps,
             i.cpu_time_s.map_or("–".into(), |x| format!("{x:.0}")),
             i.wall_time_s.map_or("–".into(), |x| format!("{x:.0}")),
-            if i.ran_in_this_build {
-                "run by this build"
-            } else {
-                "read from the case folder"
-            },
+            results_cell(i),
             c.velocity.iter().fold(0.0f64, |a, v| a.max(v.abs())),
             c.nmae,
         );
@@ -190,6 +186,20 @@ fn runs_table(h: &mut String, cases: &[Case]) {
             "<p class=\"small\">OpenFOAM build: <code>{}</code>.</p>",
             esc(v)
         );
+    }
+}
+
+/// Where a case's results came from, with the Slurm job that made them when one did.
+fn results_cell(i: &RunInfo) -> String {
+    let how = if i.ran_in_this_build {
+        "run by this build"
+    } else {
+        "read from the case folder"
+    };
+    match (&i.slurm_job, &i.node) {
+        (Some(job), Some(node)) => format!("{how} (Slurm job {} on {})", esc(job), esc(node)),
+        (Some(job), None) => format!("{how} (Slurm job {})", esc(job)),
+        _ => how.to_string(),
     }
 }
 

@@ -7,7 +7,7 @@ use crate::io::response::{META, TABLE};
 use crate::openfoam::series::Series;
 use crate::openfoam::slurm::SlurmOptions;
 use crate::openfoam::{self, case_run::CaseRun};
-use crate::pipeline::contract::{Pending, Variant};
+use crate::pipeline::contract::{Pending, Prepared, Variant};
 use crate::provenance::InputFile;
 use serde::{Deserialize, Serialize};
 
@@ -98,10 +98,7 @@ impl StageImpl for Settings {
     }
 
     /// With `executor: slurm`, the cases that have to run go to Slurm as one array job.
-    fn prepare(
-        &self,
-        pending: &[Pending],
-    ) -> anyhow::Result<Option<Box<dyn std::any::Any + Send + Sync>>> {
+    fn prepare(&self, pending: &[Pending]) -> anyhow::Result<Option<Prepared>> {
         if self.executor != ExecutorKind::Slurm || pending.len() < 2 {
             return Ok(None);
         }
@@ -115,7 +112,15 @@ impl StageImpl for Settings {
             .collect();
         let root = pending[0].root;
         let array = openfoam::case_run::submit_series(root, &cases, &self.slurm, pending[0].stage)?;
-        Ok(array.map(|a| Box::new(a) as Box<dyn std::any::Any + Send + Sync>))
+        Ok(array.map(|a| Prepared {
+            message: format!(
+                "{} cases submitted to Slurm as array job {} (squeue -j {})",
+                a.tasks(),
+                a.ids().join(", "),
+                a.ids().join(",")
+            ),
+            keep: Box::new(a),
+        }))
     }
 
     fn run(&self, ctx: &RunCtx) -> anyhow::Result<()> {
