@@ -30,6 +30,40 @@ pub fn hash_file(path: &Path) -> std::io::Result<String> {
     Ok(h.finalize().to_hex().to_string())
 }
 
+/// The files under `dir`, as `/`-separated paths relative to it: depth first, each folder's
+/// entries in name order, names starting with `.` left out when `skip_hidden`.
+pub fn files_under(dir: &Path, skip_hidden: bool) -> std::io::Result<Vec<String>> {
+    fn walk(
+        dir: &Path,
+        prefix: &str,
+        skip_hidden: bool,
+        out: &mut Vec<String>,
+    ) -> std::io::Result<()> {
+        let mut entries: Vec<_> = std::fs::read_dir(dir)?.collect::<Result<_, _>>()?;
+        entries.sort_by_key(|e| e.file_name());
+        for e in entries {
+            let name = e.file_name().to_string_lossy().into_owned();
+            if skip_hidden && name.starts_with('.') {
+                continue;
+            }
+            let rel = if prefix.is_empty() {
+                name
+            } else {
+                format!("{prefix}/{name}")
+            };
+            if e.file_type()?.is_dir() {
+                walk(&e.path(), &rel, skip_hidden, out)?;
+            } else {
+                out.push(rel);
+            }
+        }
+        Ok(())
+    }
+    let mut out = Vec::new();
+    walk(dir, "", skip_hidden, &mut out)?;
+    Ok(out)
+}
+
 /// Copies a directory tree (files and sub-directories).
 pub fn copy_dir(from: &Path, to: &Path) -> std::io::Result<()> {
     std::fs::create_dir_all(to)?;

@@ -64,30 +64,8 @@ fn a_short_cylinder_case_runs_from_scratch_and_gives_the_potential_flow_added_ma
     let dir = tempfile::tempdir().unwrap();
     let dir = dir.path();
     std::fs::write(dir.join("pipeline.yaml"), PIPELINE).unwrap();
-    ok(
-        dir,
-        &[
-            "openfoam",
-            "new",
-            "cases/cfd/openfoam/short",
-            "--force",
-            "2",
-            "--end-time",
-            "2",
-        ],
-    );
-    ok(
-        dir,
-        &[
-            "openfoam",
-            "new",
-            "cases/cfd/openfoam/other",
-            "--force",
-            "3",
-            "--end-time",
-            "2",
-        ],
-    );
+    new_cylinder(dir, "cases/cfd/openfoam/short", "2", "2");
+    new_cylinder(dir, "cases/cfd/openfoam/other", "3", "2");
     let out = ok(dir, &["build"]);
     assert_eq!(ran(&out), 4, "{out}");
     let ma = added_mass(dir);
@@ -148,18 +126,7 @@ fn a_crashing_case_fails_with_the_log_tail_and_leaves_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let dir = dir.path();
     std::fs::write(dir.join("pipeline.yaml"), PIPELINE).unwrap();
-    ok(
-        dir,
-        &[
-            "openfoam",
-            "new",
-            "cases/cfd/openfoam/broken",
-            "--force",
-            "2",
-            "--end-time",
-            "1",
-        ],
-    );
+    new_cylinder(dir, "cases/cfd/openfoam/broken", "2", "1");
     std::fs::remove_file(dir.join("cases/cfd/openfoam/broken/0/p")).unwrap();
     let o = run(dir, &["build"]);
     assert!(!o.status.success());

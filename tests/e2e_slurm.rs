@@ -95,18 +95,7 @@ fn project_with_case(
     let p = tempfile::tempdir().unwrap();
     let dir = p.path();
     std::fs::write(dir.join("pipeline.yaml"), pipeline(executor)).unwrap();
-    ok(
-        dir,
-        &[
-            "openfoam",
-            "new",
-            "cases/cfd/openfoam/short",
-            "--force",
-            "2",
-            "--end-time",
-            "1",
-        ],
-    );
+    new_cylinder(dir, "cases/cfd/openfoam/short", "2", "1");
     if broken {
         std::fs::remove_file(dir.join("cases/cfd/openfoam/short/0/p")).unwrap();
     }
@@ -229,8 +218,7 @@ stages:
 "#
     );
     std::fs::write(p.path().join("pipeline.yaml"), yaml).unwrap();
-    let args = ["openfoam", "new", "cases/cfd/templates/cyl", "--force", "2"];
-    ok(p.path(), &[&args[..], &["--end-time", end_time]].concat());
+    new_cylinder(p.path(), "cases/cfd/templates/cyl", "2", end_time);
     p
 }
 
@@ -305,26 +293,12 @@ fn a_series_runs_as_one_array_job_and_a_new_level_runs_alone(cluster: &Cluster) 
 
 fn ctrl_c_cancels_every_task_of_the_array(cluster: &Cluster) {
     let p = series_project_with("slurm", "[1, 2, 3]", "6", ", max_running: 1");
-    let build = Command::new(BIN)
-        .arg("--project")
-        .arg(p.path())
-        .arg("build")
-        .env("SLURM_CONF", &cluster.conf)
-        .env("WM_PROJECT_DIR", "/usr/share/openfoam")
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
+    let build = spawn_build(p.path(), &cluster.conf);
     let task = running_job(&cluster.conf);
     let array = task.split('_').next().unwrap().to_string();
     // `max_running: 1`: one task runs, the others wait for it.
     for _ in 0..10 {
-        let o = Command::new("squeue")
-            .args(["-h", "-r", "-o", "%i %T", "-j", &array])
-            .env("SLURM_CONF", &cluster.conf)
-            .output()
-            .unwrap();
-        let text = String::from_utf8_lossy(&o.stdout).into_owned();
+        let text = squeue(&cluster.conf, &["-r", "-j", &array]);
         assert!(text.matches("RUNNING").count() <= 1, "{text}");
         std::thread::sleep(std::time::Duration::from_millis(200));
     }
@@ -334,12 +308,9 @@ fn ctrl_c_cancels_every_task_of_the_array(cluster: &Cluster) {
     await_cancelled(&cluster.conf, &task);
     let t0 = std::time::Instant::now();
     loop {
-        let o = Command::new("squeue")
-            .args(["-h", "-r", "-o", "%i %T", "-j", &array])
-            .env("SLURM_CONF", &cluster.conf)
-            .output()
-            .unwrap();
-        let left = String::from_utf8_lossy(&o.stdout).trim().to_string();
+        let left = squeue(&cluster.conf, &["-r", "-j", &array])
+            .trim()
+            .to_string();
         if left.is_empty() {
             break;
         }
@@ -377,16 +348,36 @@ fn await_cancelled(conf: &Path, id: &str) {
     }
 }
 
+/// `squeue -h -o "%i %T"` with `args`: one `id STATE` line per job (or task, with `-r`).
+fn squeue(conf: &Path, args: &[&str]) -> String {
+    let o = Command::new("squeue")
+        .args(["-h", "-o", "%i %T"])
+        .args(args)
+        .env("SLURM_CONF", conf)
+        .output()
+        .unwrap();
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// `hydrofit build` of project `dir` on the cluster, started and left running.
+fn spawn_build(dir: &Path, conf: &Path) -> std::process::Child {
+    Command::new(BIN)
+        .arg("--project")
+        .arg(dir)
+        .arg("build")
+        .env("SLURM_CONF", conf)
+        .env("WM_PROJECT_DIR", "/usr/share/openfoam")
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
 /// The id of the one job Slurm has queued or running, once it has one.
 fn running_job(conf: &Path) -> String {
     let t0 = std::time::Instant::now();
     loop {
-        let o = Command::new("squeue")
-            .args(["-h", "-o", "%i %T"])
-            .env("SLURM_CONF", conf)
-            .output()
-            .unwrap();
-        let text = String::from_utf8_lossy(&o.stdout).into_owned();
+        let text = squeue(conf, &[]);
         if let Some(line) = text.lines().find(|l| l.ends_with("RUNNING")) {
             return line.split_whitespace().next().unwrap().to_string();
         }
@@ -412,30 +403,8 @@ fn ctrl_c_cancels_the_job_and_a_killed_build_picks_its_job_up_again(cluster: &Cl
     let p = tempfile::tempdir().unwrap();
     let dir = p.path();
     std::fs::write(dir.join("pipeline.yaml"), pipeline("slurm")).unwrap();
-    ok(
-        dir,
-        &[
-            "openfoam",
-            "new",
-            "cases/cfd/openfoam/long",
-            "--force",
-            "2",
-            "--end-time",
-            "4",
-        ],
-    );
-    let spawn = || {
-        Command::new(BIN)
-            .arg("--project")
-            .arg(dir)
-            .arg("build")
-            .env("SLURM_CONF", &cluster.conf)
-            .env("WM_PROJECT_DIR", "/usr/share/openfoam")
-            .stdout(std::process::Stdio::null())
-            .stderr(std::process::Stdio::piped())
-            .spawn()
-            .unwrap()
-    };
+    new_cylinder(dir, "cases/cfd/openfoam/long", "2", "4");
+    let spawn = || spawn_build(dir, &cluster.conf);
     // Ctrl-C: the build stops and cancels its job.
     let build = spawn();
     let id = running_job(&cluster.conf);

@@ -5,17 +5,17 @@
 pub mod case;
 pub mod case_run;
 pub mod dict;
+mod on_slurm;
 pub mod results;
 pub mod series;
 pub mod slurm;
 mod solve;
 
 use crate::diag::InputError;
+pub use on_slurm::{ArrayCase, ArrayJob, submit_array};
 use results::{LogEnd, VectorTable};
 use serde::{Deserialize, Serialize};
-pub use solve::{
-    ArrayCase, ArrayJob, Executor, Results, obtain_results, run, solver_available, submit_array,
-};
+pub use solve::{Executor, Results, obtain_results, run, solver_available};
 use std::path::Path;
 
 /// Written into a case folder next to the results of a run by hydrofit: which inputs they

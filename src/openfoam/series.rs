@@ -380,37 +380,12 @@ pub fn write_case(
         });
     }
     // Input files an earlier template had: a run by hand would read them.
-    let mut present = Vec::new();
-    if dir.is_dir() {
-        list_files(&dir, "", &mut present)?;
-    }
-    for rel in present {
+    for rel in crate::fsutil::files_under(&dir, true)? {
         if super::is_case_input(&rel) && !files.iter().any(|(r, _)| *r == rel) {
             std::fs::remove_file(dir.join(&rel))?;
         }
     }
     Ok(out)
-}
-
-fn list_files(dir: &Path, prefix: &str, out: &mut Vec<String>) -> std::io::Result<()> {
-    for e in std::fs::read_dir(dir)? {
-        let e = e?;
-        let name = e.file_name().to_string_lossy().into_owned();
-        if name.starts_with('.') {
-            continue;
-        }
-        let rel = if prefix.is_empty() {
-            name
-        } else {
-            format!("{prefix}/{name}")
-        };
-        if e.file_type()?.is_dir() {
-            list_files(&e.path(), &rel, out)?;
-        } else {
-            out.push(rel);
-        }
-    }
-    Ok(())
 }
 
 /// The template case's folder: the one holding `system/controlDict` among `inputs`.

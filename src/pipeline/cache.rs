@@ -232,24 +232,10 @@ impl Cache {
     }
 }
 
-/// Every file under `dir` but the manifest, as `/`-separated paths relative to it.
+/// Every file under `dir` but the manifest, as `/`-separated paths relative to it, sorted.
 fn files_under(dir: &Path) -> std::io::Result<Vec<String>> {
-    let mut out = Vec::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d)? {
-            let p = e?.path();
-            if p.is_dir() {
-                stack.push(p);
-            } else {
-                let rel = p.strip_prefix(dir).expect("under dir");
-                let rel = rel.to_string_lossy().replace('\\', "/");
-                if rel != MANIFEST_FILE {
-                    out.push(rel);
-                }
-            }
-        }
-    }
+    let mut out = crate::fsutil::files_under(dir, false)?;
+    out.retain(|rel| rel != MANIFEST_FILE);
     out.sort();
     Ok(out)
 }

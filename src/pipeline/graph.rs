@@ -68,23 +68,6 @@ fn rel(root: &Path, p: &Path) -> String {
         .join("/")
 }
 
-/// Files under a matched folder (a case directory), skipping hidden names.
-fn files_under(root: &Path, dir: &Path, out: &mut Vec<String>) -> std::io::Result<()> {
-    let mut entries: Vec<_> = std::fs::read_dir(dir)?.collect::<Result<_, _>>()?;
-    entries.sort_by_key(|e| e.file_name());
-    for e in entries {
-        if e.file_name().to_string_lossy().starts_with('.') {
-            continue;
-        }
-        if e.file_type()?.is_dir() {
-            files_under(root, &e.path(), out)?;
-        } else {
-            out.push(rel(root, &e.path()));
-        }
-    }
-    Ok(())
-}
-
 /// Matched entries of a stage: (name for the instance id, files).
 fn fan_out(root: &Path, st: &StageSpec) -> Result<Vec<(String, Vec<String>)>, GraphError> {
     let matched = matched_entries(root, st)?;
@@ -119,7 +102,7 @@ fn matched_entries(
             {
                 continue;
             }
-            let files = entry_files(root, st, &p, &r)?;
+            let files = entry_files(st, &p, &r)?;
             matched.insert(r, files);
         }
     }
@@ -128,7 +111,7 @@ fn matched_entries(
 
 /// The input files of one matched path `p` (`r` relative to the root): a file is its own
 /// input; a folder gives the files under it that the stage's kind keeps.
-fn entry_files(root: &Path, st: &StageSpec, p: &Path, r: &str) -> Result<Vec<String>, GraphError> {
+fn entry_files(st: &StageSpec, p: &Path, r: &str) -> Result<Vec<String>, GraphError> {
     let mut files = Vec::new();
     if p.is_dir() && st.kind.file_inputs {
         return Err(GraphError::FolderForFile {
@@ -137,10 +120,12 @@ fn entry_files(root: &Path, st: &StageSpec, p: &Path, r: &str) -> Result<Vec<Str
         });
     }
     if p.is_dir() {
-        files_under(root, p, &mut files).map_err(|source| GraphError::Read {
+        // The case folder's files, skipping hidden names.
+        let under = crate::fsutil::files_under(p, true).map_err(|source| GraphError::Read {
             path: r.to_string(),
             source,
         })?;
+        files.extend(under.into_iter().map(|f| format!("{r}/{f}")));
         if let Some(keep) = st.kind.input_filter {
             let prefix = format!("{r}/");
             files.retain(|f| f.strip_prefix(&prefix).is_some_and(keep));

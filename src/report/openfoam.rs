@@ -256,7 +256,6 @@ fn reference_table(h: &mut String, f: &FitResult) {
 /// per DOF the cases are pushed in).
 fn velocity_figure(h: &mut String, cases: &[Case]) -> anyhow::Result<()> {
     let mut dofs: Vec<Dof> = cases.iter().map(|c| c.dof).collect();
-    dofs.dedup();
     dofs.sort_by_key(|d| d.index());
     dofs.dedup();
     for dof in dofs {

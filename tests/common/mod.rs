@@ -72,6 +72,23 @@ pub fn ok(dir: &Path, args: &[&str]) -> String {
     stderr(&o) + &stdout(&o)
 }
 
+/// Writes the 2D cylinder case `rel` (`hydrofit openfoam new`) pushed by `force` N/m for
+/// `end_time` s.
+pub fn new_cylinder(dir: &Path, rel: &str, force: &str, end_time: &str) {
+    ok(
+        dir,
+        &[
+            "openfoam",
+            "new",
+            rel,
+            "--force",
+            force,
+            "--end-time",
+            end_time,
+        ],
+    );
+}
+
 /// `ran N` from the build summary (0 when up to date).
 pub fn ran(summary: &str) -> usize {
     summary
