@@ -17,6 +17,7 @@
 
 mod heading;
 pub mod kalman;
+pub mod motion;
 pub mod nav;
 mod position;
 pub mod rotation;

@@ -34,7 +34,7 @@ pub struct Noise {
 }
 
 /// Robust standard deviation (1.4826 MAD about the median).
-fn robust_std(mut d: Vec<f64>) -> f64 {
+pub(super) fn robust_std(mut d: Vec<f64>) -> f64 {
     if d.len() < 5 {
         return 0.0;
     }
@@ -113,7 +113,18 @@ const JERKS: [f64; 9] = [0.01, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0, 30.0, 100.0];
 /// innovations are most likely. A heave channel moves gently, a surge channel in steps; one
 /// density for all would overstate the first's uncertainty or understate the second's.
 pub fn smooth_ml(t: &[f64], z: &[f64], out_t: &[f64], noise: Noise) -> (Smoothed, f64) {
-    let best = JERKS
+    smooth_ml_over(t, z, out_t, noise, &JERKS)
+}
+
+/// [`smooth_ml`] over the jerk densities `jerks`.
+pub fn smooth_ml_over(
+    t: &[f64],
+    z: &[f64],
+    out_t: &[f64],
+    noise: Noise,
+    jerks: &[f64],
+) -> (Smoothed, f64) {
+    let best = jerks
         .iter()
         .map(|&j| (j, smooth_with(t, z, &[], noise, j).1))
         .max_by(|a, b| a.1.total_cmp(&b.1))

@@ -1,9 +1,9 @@
 //! Roll and pitch of a run, and their rates p and q, for a vehicle that moves in them: from
 //! the IMU (attitude and gyro) or, without one, from the navigation log's AHRS columns, each
-//! smoothed onto the output times with its own noise level (as the navigation log's
-//! velocities are, [`super::nav`]).
+//! smoothed onto the output times with its noise told apart from its motion
+//! ([`super::motion`]).
 
-use super::nav;
+use super::motion;
 use crate::io::csvlog::Log;
 use crate::io::pool::PoolRun;
 use serde::{Deserialize, Serialize};
@@ -46,8 +46,7 @@ pub fn fuse(run: &PoolRun, t: &[f64], notes: &mut Vec<String>) -> RollPitch {
             ));
             continue;
         };
-        let noise = nav::noise_level(ts, z, RATE_FLOOR_DPS.to_radians());
-        let (s, _) = nav::smooth_ml(ts, z, t, noise);
+        let s = motion::smooth(ts, z, t, RATE_FLOOR_DPS.to_radians());
         notes.push(format!("{name} from the {src}"));
         out.rate[j] = Some(s.v);
         out.rate_std[j] = Some(s.std);
@@ -59,9 +58,31 @@ pub fn fuse(run: &PoolRun, t: &[f64], notes: &mut Vec<String>) -> RollPitch {
             ));
             continue;
         };
-        let noise = nav::noise_level(ts, z, ANGLE_FLOOR_DEG.to_radians());
-        let v = nav::smooth_ml(ts, z, t, noise).0.v;
+        let v = motion::smooth(ts, z, t, ANGLE_FLOOR_DEG.to_radians()).v;
         if j == 0 { out.roll = v } else { out.pitch = v }
     }
     out
+}
+
+/// The body yaw rate r of `run` at the times `t`, with its standard deviation, from the IMU's
+/// gyro or the navigation log's r column, smoothed as p and q are; `None` when neither logs
+/// it. For a vehicle that rolls and pitches this, not the heading's rate, is r: the heading
+/// turns at (q sin(phi) + r cos(phi)) / cos(theta), which a roll step makes differ from r by
+/// more than r itself.
+pub fn yaw_rate(run: &PoolRun, t: &[f64], notes: &mut Vec<String>) -> Option<(Vec<f64>, Vec<f64>)> {
+    // IMU column 5, navigation log column 8: r.
+    let (src, log, z) = [
+        ("IMU", run.imu.as_ref(), 5),
+        ("navigation log", run.nav.as_ref(), 8),
+    ]
+    .into_iter()
+    .find_map(|(name, log, c)| {
+        let log = log?;
+        log.col(c).map(|z| (name, log, z))
+    })?;
+    let s = motion::smooth(&log.t, z, t, RATE_FLOOR_DPS.to_radians());
+    notes.push(format!(
+        "r from the {src}'s body rate (the heading's rate differs from it when the vehicle rolls or pitches)"
+    ));
+    Some((s.v, s.std))
 }

@@ -31,6 +31,9 @@ impl StageImpl for Settings {
         if ctx.vehicle.dofs.iter().any(|d| rolls.contains(d)) {
             let mut notes = Vec::new();
             fused.roll_pitch = fusion::rotation::fuse(&run, &fused.t, &mut notes);
+            if let Some((r, sd)) = fusion::rotation::yaw_rate(&run, &fused.t, &mut notes) {
+                (fused.vel[3], fused.std[3]) = (Some(r), Some(sd));
+            }
             fused.stats.notes.extend(notes);
         }
         let without_sonar = self.fuse_without_sonar(&run);
