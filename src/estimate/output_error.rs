@@ -82,7 +82,7 @@ impl<'a> OutputError<'a> {
         thetas: &[&[f64]],
         visit: &mut dyn FnMut(&[f64; LANES]),
     ) {
-        if layout.structure != crate::model::Structure::Diagonal {
+        if !layout.is_diagonal_model() {
             return self.errors_coupled(layout, thetas, visit);
         }
         let lp = self.plants(layout, thetas);

@@ -166,6 +166,13 @@ impl ParamLayout {
         self.terms.len()
     }
 
+    /// Whether every model of this layout is the diagonal one (no coupling, no buoyancy), which
+    /// the diagonal simulators evaluate without a mass-matrix solve.
+    pub fn is_diagonal_model(&self) -> bool {
+        self.structure == Structure::Diagonal
+            && !self.terms.iter().any(|t| t.group() == Group::Buoyancy)
+    }
+
     pub fn is_empty(&self) -> bool {
         self.terms.is_empty()
     }

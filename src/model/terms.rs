@@ -235,6 +235,10 @@ impl Structure {
         );
         if self != Structure::Diagonal {
             out.extend(buoyancy_terms(&ix));
+        } else if ix.iter().any(|&i| i == 3 || i == 4) {
+            // A vehicle that rolls or pitches is held level by the moment of its weight and
+            // buoyancy: without it a diagonal model of roll and pitch has no restoring term.
+            out.extend((0..3).map(Term::Moment));
         }
         Ok(out)
     }
