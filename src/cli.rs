@@ -79,7 +79,8 @@ pub enum Command {
         norm: String,
         /// equation (seed 001 eq. 14), output (eq. 9: every candidate simulated on the
         /// 33 twin CFD cases), diagnosis (the whole diagnosis over 16 one-minute field-twin
-        /// runs, against its 10 s target) or six-dof (seed 003's 241-term regression built and
+        /// runs, against its 10 s target), pem (the default pool fit on the same 16 runs,
+        /// against its 10 s target) or six-dof (seed 003's 241-term regression built and
         /// solved by QR and SVD, and the coupled model's simulation step).
         #[arg(long, default_value = "equation")]
         objective: String,

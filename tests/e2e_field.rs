@@ -267,9 +267,11 @@ fn a_pool_only_fit_recovers_the_reference_vehicle_and_its_buoyancy() {
     };
     let pipeline = |constant: &str| pipeline_with(constant, "{method: ols}");
     // Equation error (least squares), then output error: a short QPSO search refined by
-    // Levenberg-Marquardt on the simulated velocities.
+    // Levenberg-Marquardt on the simulated velocities, and the default (the prediction-error
+    // method: least squares, then Levenberg-Marquardt from there).
     for (fit, tol) in [
         ("{method: ols}", 0.2),
+        ("{}", 0.12),
         (
             "{method: qpso, objective: output_error, seed: 1, iterations: 30, restarts: 1, population: 20}",
             0.12,

@@ -97,20 +97,33 @@ pub fn identify(data: &Data, req: &Request) -> anyhow::Result<Identified> {
     let mut notes = Vec::new();
     let (problem, masses) = data.problem(&mut notes);
     let one_mass = masses.windows(2).all(|w| w[0] == w[1]);
+    let pem = req.method.estimator.minimises_output_error();
     anyhow::ensure!(
-        one_mass || req.objective == Objective::EquationError,
+        !(pem && req.objective == Objective::OutputError && data.pool.is_empty()),
+        "method pem minimises the output error of pool runs, and this fit reads none; use method: qpso, pso or ga for the output error of CFD cases"
+    );
+    anyhow::ensure!(
+        one_mass || pem || req.objective == Objective::EquationError,
         "the output error simulates one body: these cases state different body masses ({masses:?} kg); use objective: equation_error"
     );
     let mut sim_vehicle = data.vehicle.clone();
     if let Some(m) = masses.first() {
         sim_vehicle.mass_kg = *m;
     }
-    let refs = data.responses();
+    // The prediction-error method simulates the pool runs only (a CFD case's equation error is
+    // already what seed 001 minimises); without pool runs it is least squares.
+    let refs = match pem {
+        true => data.pool.clone(),
+        false => data.responses(),
+    };
+    let simulate = (req.objective == Objective::OutputError || pem) && !refs.is_empty();
+    if pem && !refs.is_empty() {
+        sim_vehicle = data.vehicle.clone();
+    }
     let opts = req.method.options(Options {
         rigid_mass: sim_vehicle.rigid_mass(),
         progress: req.progress,
-        output_error: (req.objective == Objective::OutputError)
-            .then_some((&sim_vehicle, &refs[..])),
+        output_error: simulate.then_some((&sim_vehicle, &refs[..])),
         ..Default::default()
     });
     let (mut fit, one_step) = match req.added_mass_window_s {
@@ -118,6 +131,14 @@ pub fn identify(data: &Data, req: &Request) -> anyhow::Result<Identified> {
         Some(window) => two_step_fit(data, req, &problem, &opts, window)?,
     };
     super::check_signs(&problem.layout, &mut fit.parameters);
+    if let Some(r) = &fit.refinement {
+        notes.push(format!(
+            "prediction-error fit: the least-squares start leaves a weighted mean square velocity error of {:.4} on the training runs' simulations, {} Levenberg-Marquardt steps take it to {:.4}",
+            r.start_cost,
+            r.steps,
+            fit.objective_value.unwrap_or(f64::NAN)
+        ));
+    }
     Ok(Identified {
         fit,
         one_step,
@@ -137,7 +158,7 @@ fn two_step_fit(
     window: f64,
 ) -> anyhow::Result<(Fit, Option<Vec<Estimate>>)> {
     anyhow::ensure!(
-        req.method.name() == "ols" && req.objective == Objective::EquationError,
+        matches!(req.method.name(), "ols" | "pem") && req.objective == Objective::EquationError,
         "added_mass_window_s is a two-step least-squares fit: use method: ols, objective: equation_error"
     );
     anyhow::ensure!(window > 0.0, "added_mass_window_s must be positive");

@@ -8,6 +8,7 @@ pub mod method;
 pub mod normal;
 pub mod ols;
 pub mod output_error;
+pub mod pem;
 pub mod refine;
 pub mod regression;
 pub mod result;
@@ -82,6 +83,22 @@ pub struct Fit {
     /// Recursive methods: (row index, parameters) along the data.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub trace: Option<Vec<(usize, Vec<f64>)>>,
+    /// The prediction-error method: how its output-error refinement went.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub refinement: Option<Refinement>,
+}
+
+/// An output-error refinement from an equation-error start: its cost before and after (the
+/// weighted mean square velocity error), its steps and the coefficients' correlations.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Refinement {
+    pub start_cost: f64,
+    pub steps: usize,
+    /// The coefficients' names, in the order of `correlation`'s rows and columns.
+    pub names: Vec<String>,
+    /// Correlation matrix of the coefficients (empty when `J^T J` is singular).
+    #[serde(default)]
+    pub correlation: Vec<Vec<f64>>,
 }
 
 /// What an estimator may be told besides the data (the fit stage's settings).
@@ -101,6 +118,9 @@ pub struct Options<'a> {
     /// Wall-clock limit of a population method, s: it then returns its best so far and says so
     /// (such a result depends on the machine's speed, not only on the seed).
     pub max_seconds: Option<f64>,
+    /// Largest added mass per DOF as a multiple of its rigid-body term (the prediction-error
+    /// method's plausibility prior).
+    pub added_mass_prior: [f64; 6],
 }
 
 impl<'a> Options<'a> {
@@ -126,6 +146,7 @@ impl Default for Options<'_> {
             progress: None,
             output_error: None,
             max_seconds: None,
+            added_mass_prior: [pem::DEFAULT_PRIOR; 6],
         }
     }
 }
@@ -137,6 +158,11 @@ pub trait Estimator: Sync {
     fn name(&self) -> &'static str;
     /// Whether its answer depends on a random seed (then part of the key and provenance).
     fn stochastic(&self) -> bool {
+        false
+    }
+    /// Whether it minimises the output error of the pool runs whatever the `objective`
+    /// setting says (the prediction-error method): it is then given the runs to simulate.
+    fn minimises_output_error(&self) -> bool {
         false
     }
     /// Reads and checks the method's own settings (the keys of a fit's settings that are not
@@ -176,6 +202,7 @@ pub struct NoSettings {}
 
 /// Every estimator `pipeline.yaml` can name.
 pub const REGISTRY: &[&dyn Estimator] = &[
+    &pem::Pem,
     &ols::Ols,
     &tls::Tls,
     &rls::Rls,
@@ -205,7 +232,7 @@ pub enum EstimateError {
     #[error("interrupted (Ctrl-C): nothing was kept")]
     Interrupted,
     #[error(
-        "{0} minimises the equation error only; for objective: output_error use qpso, pso or ga"
+        "{0} minimises the equation error only; for objective: output_error use qpso, pso or ga (or pem, on pool runs)"
     )]
     NoOutputError(&'static str),
 }

@@ -259,6 +259,7 @@ pub(crate) fn summarise_with(
         objective_value: None,
         stopped_early: None,
         trace: None,
+        refinement: None,
     }
 }
 

@@ -17,6 +17,10 @@ use nalgebra::{DMatrix, DVector};
 pub struct Refined {
     pub theta: Vec<f64>,
     pub stderr: Vec<f64>,
+    /// The coefficients' correlation matrix from `(J^T J)^-1` (empty where it is singular).
+    pub correlation: Vec<Vec<f64>>,
+    /// Levenberg-Marquardt steps taken.
+    pub steps: usize,
     /// Weighted mean square velocity error before and after.
     pub cost_before: f64,
     pub cost_after: f64,
@@ -30,21 +34,73 @@ pub fn output_error_lm(
     theta0: &[f64],
     iterations: usize,
 ) -> Refined {
+    output_error_lm_within(oe, layout, theta0, iterations, &Bounds::signs(layout))
+}
+
+/// The range each coefficient may take during a refinement: its physical sign and, where the
+/// caller states one, a plausibility prior (added mass at most a multiple of the rigid-body
+/// term).
+#[derive(Debug, Clone)]
+pub struct Bounds {
+    pub lo: Vec<f64>,
+    pub hi: Vec<f64>,
+}
+
+impl Bounds {
+    /// Only the physical signs: a coefficient with one stays on its side of zero.
+    pub fn signs(layout: &ParamLayout) -> Bounds {
+        let (lo, hi) = layout
+            .terms
+            .iter()
+            .map(|t| match t.physical_sign() {
+                Some(s) if s < 0.0 => (f64::NEG_INFINITY, 0.0),
+                Some(_) => (0.0, f64::INFINITY),
+                None => (f64::NEG_INFINITY, f64::INFINITY),
+            })
+            .unzip();
+        Bounds { lo, hi }
+    }
+
+    /// `x` moved into the range.
+    pub fn clamp(&self, x: &mut [f64]) {
+        for ((x, lo), hi) in x.iter_mut().zip(&self.lo).zip(&self.hi) {
+            *x = x.clamp(*lo, *hi);
+        }
+    }
+
+    /// Whether coefficient `j` at `x` sits on a finite, non-zero end of its range (zero is a
+    /// sign's end, said apart).
+    pub fn at_prior(&self, j: usize, x: f64) -> bool {
+        let on = |b: f64| b.is_finite() && b != 0.0 && (x - b).abs() <= 1e-6 * b.abs();
+        on(self.lo[j]) || on(self.hi[j])
+    }
+}
+
+/// [`output_error_lm`] with every coefficient kept within `bounds`.
+pub fn output_error_lm_within(
+    oe: &OutputError,
+    layout: &ParamLayout,
+    theta0: &[f64],
+    iterations: usize,
+    bounds: &Bounds,
+) -> Refined {
     let p = theta0.len();
-    let theta = theta0.to_vec();
+    let mut theta = theta0.to_vec();
+    bounds.clamp(&mut theta);
     let r = oe.residuals(layout, &theta);
     let cost = sum_sq(&r);
     let cost_before = cost / r.len().max(1) as f64;
     let mut lm = Lm {
         oe,
         layout,
-        signs: (0..p).map(|j| layout.terms[j].physical_sign()).collect(),
+        bounds,
         theta,
         r,
         cost,
         lambda: 1e-3,
     };
     let mut a = DMatrix::<f64>::zeros(p, p);
+    let mut steps = 0;
     for _ in 0..iterations {
         if crate::interrupt::requested() {
             break;
@@ -55,14 +111,17 @@ pub fn output_error_lm(
         if !lm.step(&a, &g) {
             break;
         }
+        steps += 1;
     }
     let n = lm.r.len();
-    let stderr = standard_errors(&lm.r, lm.cost, a);
+    let (stderr, correlation) = standard_errors(&lm.r, lm.cost, a);
     Refined {
         theta: lm.theta,
         stderr,
+        correlation,
         cost_before,
         cost_after: lm.cost / n.max(1) as f64,
+        steps,
     }
 }
 
@@ -70,8 +129,8 @@ pub fn output_error_lm(
 struct Lm<'a, 'o> {
     oe: &'a OutputError<'o>,
     layout: &'a ParamLayout,
-    /// The physical sign of each coefficient, where it has one.
-    signs: Vec<Option<f64>>,
+    /// The range of each coefficient.
+    bounds: &'a Bounds,
     theta: Vec<f64>,
     r: Vec<f64>,
     cost: f64,
@@ -79,17 +138,6 @@ struct Lm<'a, 'o> {
 }
 
 impl Lm<'_, '_> {
-    /// Sets to zero every coefficient past its physical sign.
-    fn keep_sign(&self, theta: &mut [f64]) {
-        for (x, s) in theta.iter_mut().zip(&self.signs) {
-            if let Some(s) = s
-                && *x * s < 0.0
-            {
-                *x = 0.0;
-            }
-        }
-    }
-
     /// Tries up to 8 steps on the normal equations `a`, `g`, the damping raised after each that
     /// fails to lower the cost and lowered after the one that does, which is taken. Whether a
     /// step was taken and lowered the cost by more than a relative 1e-7.
@@ -109,7 +157,7 @@ impl Lm<'_, '_> {
                 .zip(step.iter())
                 .map(|(x, d)| x + d)
                 .collect();
-            self.keep_sign(&mut next);
+            self.bounds.clamp(&mut next);
             let rn = self.oe.residuals(self.layout, &next);
             let cn = sum_sq(&rn);
             if cn.is_finite() && cn < self.cost {
@@ -145,7 +193,7 @@ fn normal_equations(jac: &[Vec<f64>], r: &[f64]) -> (DMatrix<f64>, DVector<f64>)
 /// recording is smoothed, a model error persists), so n samples carry the information of
 /// fewer: the variance grows by the AR(1) long-run factor (1 + rho) / (1 - rho) of the
 /// residual's lag-1 autocorrelation.
-fn standard_errors(r: &[f64], cost: f64, a: DMatrix<f64>) -> Vec<f64> {
+fn standard_errors(r: &[f64], cost: f64, a: DMatrix<f64>) -> (Vec<f64>, Vec<Vec<f64>>) {
     let (n, p) = (r.len(), a.nrows());
     let rho = {
         let (num, den) = r
@@ -159,8 +207,25 @@ fn standard_errors(r: &[f64], cost: f64, a: DMatrix<f64>) -> Vec<f64> {
     };
     let s2 = cost / (n.saturating_sub(p)).max(1) as f64 * (1.0 + rho) / (1.0 - rho);
     match a.try_inverse() {
-        Some(inv) => (0..p).map(|j| (s2 * inv[(j, j)]).max(0.0).sqrt()).collect(),
-        None => vec![f64::NAN; p],
+        Some(inv) => {
+            let sd: Vec<f64> = (0..p).map(|j| inv[(j, j)].max(0.0).sqrt()).collect();
+            let corr = (0..p)
+                .map(|i| {
+                    (0..p)
+                        .map(|j| {
+                            let c = inv[(i, j)] / (sd[i] * sd[j]);
+                            if c.is_finite() {
+                                c.clamp(-1.0, 1.0)
+                            } else {
+                                0.0
+                            }
+                        })
+                        .collect()
+                })
+                .collect();
+            (sd.iter().map(|s| s2.sqrt() * s).collect(), corr)
+        }
+        None => (vec![f64::NAN; p], vec![]),
     }
 }
 

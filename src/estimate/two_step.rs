@@ -103,6 +103,7 @@ pub fn two_step(early: &Regression, all: &Regression) -> anyhow::Result<Fit> {
         objective_value: None,
         stopped_early: None,
         trace: None,
+        refinement: None,
     })
 }
 

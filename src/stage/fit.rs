@@ -69,7 +69,9 @@ pub struct Common {
 impl Default for Common {
     fn default() -> Self {
         Common {
-            method: "ols".into(),
+            // The prediction-error method: least squares where there are only CFD cases, the
+            // simulation error of the pool runs where there are any (see estimate::pem).
+            method: "pem".into(),
             objective: Objective::EquationError,
             skip_start_s: 0.0,
             vehicle: None,
@@ -263,6 +265,10 @@ impl StageImpl for Settings {
         )?;
         notes.extend(id.notes);
         let mut fit = id.fit;
+        let objective = match fit.refinement {
+            Some(_) => Objective::OutputError,
+            None => self.common.objective,
+        };
         let theta: Vec<f64> = fit.parameters.iter().map(|p| p.value).collect();
         let layout = crate::model::ParamLayout::of(vehicle);
         let plant = crate::model::Plant::new(vehicle, layout.to_hydro(&theta));
@@ -280,7 +286,7 @@ impl StageImpl for Settings {
         let result = FitResult {
             stage: ctx.stage.to_string(),
             method: self.method.name().to_string(),
-            objective: self.common.objective,
+            objective,
             settings: self.settings(),
             structure: vehicle.structure,
             custom_terms: vehicle.custom_terms.clone(),

@@ -169,6 +169,7 @@ impl Outcome {
             ),
             stopped_early,
             trace: None,
+            refinement: None,
         }
     }
 
