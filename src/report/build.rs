@@ -74,7 +74,17 @@ pub fn build(inp: &Inputs) -> anyhow::Result<Vec<(&'static str, Vec<u8>)>> {
     parameters
         .parameters
         .extend(json::field_parameters(&inp.field));
-    let validation = Validation { models };
+    let baselines = inp.pool_scores.as_ref().map_or(vec![], |(s, _)| {
+        s.baselines
+            .iter()
+            .map(|b| ModelScore {
+                model: b.model.clone(),
+                runs: run_scores(b),
+                below_baselines: vec![],
+            })
+            .collect()
+    });
+    let validation = Validation { models, baselines };
     let page = html::Page {
         vehicle: inp.vehicle,
         fits: &inp.fits,
@@ -176,13 +186,21 @@ fn score_model(
     let (mut runs, own_cases) = case_scores(inp, f, first_sims);
     let html = openfoam_section(inp, f, own_cases)?;
     runs.extend(pool_scores(inp, f));
+    let below_baselines = pool_model(inp, &f.stage).map_or(vec![], |m| m.shortfalls.clone());
     Ok((
         ModelScore {
             model: f.stage.clone(),
             runs,
+            below_baselines,
         },
         html,
     ))
+}
+
+/// The validate stage's scores of the model called `name` on the pool runs, if any.
+fn pool_model<'a>(inp: &'a Inputs, name: &str) -> Option<&'a crate::validate::pool::ModelScore> {
+    let (s, _) = inp.pool_scores.as_ref()?;
+    s.models.iter().find(|m| m.model == name)
 }
 
 /// Model `f` scored on each CFD case it may be scored on, and those of its own body's cases;
@@ -241,6 +259,7 @@ fn case_score(c: &Case, role: &str, scores: Vec<(Dof, Metrics)>) -> RunScore {
                 DofMetrics {
                     metrics,
                     residual_acf_outside_band: None,
+                    nmae_ahead: BTreeMap::new(),
                 },
             )
         })
@@ -296,13 +315,11 @@ fn openfoam_section(
 
 /// Model `f`'s scores on the pool runs the validate stage scored it on, with residual whiteness.
 fn pool_scores(inp: &Inputs, f: &FitResult) -> Vec<RunScore> {
-    let Some(ms) = inp
-        .pool_scores
-        .as_ref()
-        .and_then(|(s, _)| s.models.iter().find(|m| m.model == f.stage))
-    else {
-        return Vec::new();
-    };
+    pool_model(inp, &f.stage).map_or(vec![], run_scores)
+}
+
+/// A pool model's scores per run and DOF as `validation.json` has them.
+fn run_scores(ms: &crate::validate::pool::ModelScore) -> Vec<RunScore> {
     ms.runs
         .iter()
         .map(|r| {
@@ -315,6 +332,7 @@ fn pool_scores(inp: &Inputs, f: &FitResult) -> Vec<RunScore> {
                         DofMetrics {
                             metrics: s.metrics,
                             residual_acf_outside_band: Some(s.whiteness.outside),
+                            nmae_ahead: s.nmae_ahead.clone(),
                         },
                     )
                 })

@@ -77,6 +77,7 @@ impl Page<'_> {
             }
             h.push_str("</ul></div>\n");
         }
+        self.shortfalls(&mut h);
         self.parameter_table(&mut h);
         if !self.plots.is_empty() {
             h.push_str("<h2 id=\"plots\">CFD responses and the identified model</h2>\n");
@@ -93,6 +94,25 @@ impl Page<'_> {
         self.provenance(&mut h);
         h.push_str("</body></html>\n");
         h
+    }
+
+    /// Every model that does not beat both baselines on the held-out pool runs, DOF by DOF,
+    /// before anything else: no one should ship such a model unaware.
+    fn shortfalls(&self, h: &mut String) {
+        let lines: Vec<String> = self
+            .validation
+            .models
+            .iter()
+            .flat_map(|m| m.below_baselines.iter().map(|s| s.sentence(&m.model)))
+            .collect();
+        if lines.is_empty() {
+            return;
+        }
+        h.push_str("<div class=\"warn\" id=\"below-baselines\"><p><b>Models that do not beat the baselines on the held-out runs</b> (predicting rest, NMAE 1, and a first-order model per DOF fitted on the same training runs; see <a href=\"#pool-validation\">the pool validation</a>):</p><ul>\n");
+        for l in lines {
+            let _ = writeln!(h, "<li>{}</li>", esc(&l));
+        }
+        h.push_str("</ul></div>\n");
     }
 
     /// One table per fit: its heading and notes, then each parameter with its uncertainty.
@@ -218,6 +238,9 @@ fn fit_heading(h: &mut String, f: &FitResult) {
             esc(why)
         );
     }
+    if let Some(r) = &f.fit.refinement {
+        refinement(h, r);
+    }
     if let Some(e) = f.fit.evaluations {
         let _ = writeln!(
             h,
@@ -234,6 +257,80 @@ fn fit_heading(h: &mut String, f: &FitResult) {
         );
     }
     h.push_str("<table><tr><th>parameter</th><th>value</th><th>± std. error</th><th>unit</th><th>rel. error</th><th>provenance</th></tr>\n");
+}
+
+/// Correlations above this in magnitude are said in words: the runs cannot separate the pair.
+const CORRELATED: f64 = 0.9;
+
+/// A prediction-error fit's correlations: the pairs the runs cannot separate, in words (and
+/// which manoeuvre would), then the whole matrix folded away.
+fn refinement(h: &mut String, r: &crate::estimate::Refinement) {
+    let n = r.names.len().min(r.correlation.len());
+    let mut pairs = Vec::new();
+    for i in 0..n {
+        for j in i + 1..n {
+            let c = r.correlation[i][j];
+            if c.abs() > CORRELATED {
+                pairs.push(format!(
+                    "<code>{}</code> and <code>{}</code> ({c:+.2}{})",
+                    esc(&r.names[i]),
+                    esc(&r.names[j]),
+                    separating(&r.names[i], &r.names[j])
+                ));
+            }
+        }
+    }
+    if !pairs.is_empty() {
+        let _ = writeln!(
+            h,
+            "<p class=\"warn\">The training runs cannot separate these coefficients (correlation of their estimates beyond ±{CORRELATED}): {}. Their sum is known better than either.</p>",
+            pairs.join("; ")
+        );
+    }
+    if n == 0 {
+        return;
+    }
+    let _ = write!(
+        h,
+        "<details><summary>Correlation matrix of the {n} coefficients</summary><table><tr><th></th>"
+    );
+    for name in &r.names[..n] {
+        let _ = write!(h, "<th>{}</th>", esc(name));
+    }
+    h.push_str("</tr>\n");
+    for (i, row) in r.correlation.iter().take(n).enumerate() {
+        let _ = write!(h, "<tr><th>{}</th>", esc(&r.names[i]));
+        for c in row.iter().take(n) {
+            let _ = write!(h, "<td>{c:+.2}</td>");
+        }
+        h.push_str("</tr>\n");
+    }
+    h.push_str("</table></details>\n");
+}
+
+/// Which manoeuvre separates two coefficients, when the pair is a familiar one.
+fn separating(a: &str, b: &str) -> &'static str {
+    let kind = |n: &str| {
+        if n.ends_with("dot") {
+            'm'
+        } else if n.ends_with("_0") {
+            'c'
+        } else {
+            'd'
+        }
+    };
+    match (kind(a), kind(b)) {
+        ('m', 'd') | ('d', 'm') => {
+            ": inertia against damping; steps or a PRBS of the command, whose fast changes load the inertia alone, separate them"
+        }
+        ('c', 'd') | ('d', 'c') => {
+            ": a constant force against damping; runs in both directions of the DOF separate them"
+        }
+        ('d', 'd') => {
+            ": linear against quadratic damping; runs at both low and high speed separate them"
+        }
+        _ => "",
+    }
 }
 
 /// Parameter tables longer than this are folded (a `<details>` element, open on a click).

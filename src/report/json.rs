@@ -98,6 +98,9 @@ pub struct DofMetrics {
     /// Share of residual autocorrelation lags outside the 95 % band (seed 000).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub residual_acf_outside_band: Option<f64>,
+    /// Pool runs: NMAE of the prediction 1, 10 and 100 samples ahead from the fused state.
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub nmae_ahead: BTreeMap<usize, f64>,
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -111,9 +114,16 @@ pub struct RunScore {
 pub struct ModelScore {
     pub model: String,
     pub runs: Vec<RunScore>,
+    /// The DOFs in which the model does not beat both baselines on the held-out pool runs.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub below_baselines: Vec<crate::validate::baseline::Shortfall>,
 }
 
 #[derive(Debug, Serialize)]
 pub struct Validation {
     pub models: Vec<ModelScore>,
+    /// What every model must beat on held-out pool runs besides predicting rest (NMAE 1): the
+    /// first-order model per DOF, scored on every run like the models.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub baselines: Vec<ModelScore>,
 }

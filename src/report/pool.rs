@@ -110,6 +110,18 @@ pub fn section(
         model_table(&mut h, m);
         stability(&mut h, m);
         mean_nmae_summary(&mut h, m);
+        shortfalls(&mut h, m);
+    }
+    for b in &scores.baselines {
+        h.push_str(
+            "<p>Baseline: <b>predicting rest</b> scores NMAE 1.000 in every DOF by definition. ",
+        );
+        let _ = write!(
+            h,
+            "<b>{}</b> (added mass, linear drag and a constant force in each DOF, the restoring moment in roll and pitch; fitted by the prediction-error method on the same training runs). ",
+            esc(&b.model)
+        );
+        mean_nmae_summary(&mut h, b);
     }
     if !scores.cross.is_empty() {
         cross_validation(&mut h, runs, scores);
@@ -217,7 +229,7 @@ fn accuracy_table(h: &mut String, accuracy: &[FusionAccuracy]) {
 fn model_table(h: &mut String, m: &ModelScore) {
     let _ = writeln!(
         h,
-        "<table><tr><th>model <code>{}</code>: run</th><th>role</th><th>DOF</th><th>MAE</th><th>NMAE</th><th>RMSE % of peak</th><th>residual ACF outside band</th><th>σ̄</th></tr>",
+        "<table><tr><th>model <code>{}</code>: run</th><th>role</th><th>DOF</th><th>MAE</th><th>NMAE</th><th>NMAE 1 / 10 / 100 samples ahead</th><th>RMSE % of peak</th><th>residual ACF outside band</th><th>σ̄</th></tr>",
         esc(&m.model)
     );
     for r in &m.runs {
@@ -227,13 +239,28 @@ fn model_table(h: &mut String, m: &ModelScore) {
             } else {
                 ""
             };
+            let short = r.role == "validate" && m.shortfalls.iter().any(|x| x.dof == *d);
+            let dof_flag = if short {
+                " <span class=\"warn\">below baseline</span>"
+            } else {
+                ""
+            };
+            let ahead: Vec<String> = crate::validate::pool::AHEAD
+                .iter()
+                .map(|k| {
+                    s.nmae_ahead
+                        .get(k)
+                        .map_or("–".into(), |x| format!("{x:.3}"))
+                })
+                .collect();
             let _ = writeln!(
                 h,
-                "<tr><td>{}{flag}</td><td>{}</td><td>{d}</td><td>{:.4}</td><td>{:.3}</td><td>{:.2}</td><td>{:.0} %</td><td>{:.4}</td></tr>",
+                "<tr><td>{}{flag}</td><td>{}</td><td>{d}{dof_flag}</td><td>{:.4}</td><td>{:.3}</td><td>{}</td><td>{:.2}</td><td>{:.0} %</td><td>{:.4}</td></tr>",
                 esc(&r.run),
                 r.role,
                 s.metrics.mae,
                 s.metrics.nmae,
+                ahead.join(" / "),
                 s.metrics.rmse_pct,
                 100.0 * s.whiteness.outside,
                 s.measurement_std
@@ -265,6 +292,13 @@ fn stability(h: &mut String, m: &ModelScore) {
             esc(&m.model),
             esc(&m.model)
         );
+    }
+}
+
+/// The DOFs in which model `m` does not beat both baselines on the held-out runs.
+fn shortfalls(h: &mut String, m: &ModelScore) {
+    for s in &m.shortfalls {
+        let _ = writeln!(h, "<p class=\"warn\">{}</p>", esc(&s.sentence(&m.model)));
     }
 }
 

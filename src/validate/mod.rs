@@ -1,6 +1,7 @@
 //! Model-vs-measurement metrics: MAE, normalised MAE (seed 003) and RMSE as a percentage of
 //! the run's peak speed (seed 001).
 
+pub mod baseline;
 pub mod compare;
 pub mod models;
 pub mod pool;

@@ -5,7 +5,7 @@
 use super::pool::{CrossFit, ModelScore, RunScore, Scores, Simulated, score_run, simulate_run};
 use crate::dof::Dof;
 use crate::estimate::result::FitResult;
-use crate::fusion::run::{FusedRun, POOL_DOFS};
+use crate::fusion::run::FusedRun;
 use crate::model::stability::Horizon;
 use crate::model::{Plant, Vehicle};
 use std::collections::BTreeMap;
@@ -38,40 +38,63 @@ pub fn score_models(
     let mut models = Vec::new();
     let mut simulations = Vec::new();
     for f in fits {
-        let (score, sims) = score_model(vehicle, f, runs, opts);
+        let (score, sims) = score_plant(vehicle, &f.stage, &f.plant(vehicle), runs, opts);
         models.push(score);
         simulations.extend(sims);
     }
-    let (cross, notes) = if opts.cross_validate {
+    let (cross, mut notes) = if opts.cross_validate {
         cross_validate(vehicle, runs, opts.max_lag_s)
     } else {
         (vec![], vec![])
     };
+    let baselines = match super::baseline::fit_first_order(vehicle, runs) {
+        Ok(plant) => {
+            let name = super::baseline::FIRST_ORDER;
+            vec![score_plant(vehicle, name, &plant, runs, opts).0]
+        }
+        Err(why) => {
+            notes.push(format!(
+                "no first-order baseline: {why}; the models are compared with predicting rest only"
+            ));
+            vec![]
+        }
+    };
+    for m in &mut models {
+        m.shortfalls = super::baseline::shortfalls(m, baselines.first());
+    }
     Validation {
         scores: Scores {
             models,
             cross,
             notes,
+            baselines,
         },
         simulations,
     }
 }
 
-/// One model on every run, with the local stability that chose each run's simulation
-/// window, and its simulations of the vehicle's pool DOFs.
-fn score_model(
+/// One model (`plant`, called `name`) on every run, with the local stability that chose each
+/// run's simulation window, and its simulations of the vehicle's DOFs.
+fn score_plant(
     vehicle: &Vehicle,
-    f: &FitResult,
+    name: &str,
+    plant: &Plant,
     runs: &[FusedRun],
     opts: &Options,
 ) -> (ModelScore, Vec<Simulated>) {
-    let plant = f.plant(vehicle);
     let mut scored = Vec::new();
     let mut simulations = Vec::new();
     for run in runs {
-        let (sim, stability) = simulate_run(&plant, run, opts.horizon);
+        let (sim, stability) = simulate_run(plant, run, opts.horizon);
         let mut score = score_run(&vehicle.dofs, run, &sim, opts.max_lag_s);
         score.stability = Some(stability);
+        for k in super::pool::AHEAD {
+            for (d, x) in super::pool::ahead(plant, run, &vehicle.dofs, k) {
+                if let Some(s) = score.dofs.get_mut(&d) {
+                    s.nmae_ahead.insert(k, x);
+                }
+            }
+        }
         scored.push(score);
         let nu = Dof::ALL
             .iter()
@@ -79,7 +102,7 @@ fn score_model(
             .map(|d| (*d, sim.iter().map(|x| x[d.index()]).collect()))
             .collect();
         simulations.push(Simulated {
-            model: f.stage.clone(),
+            model: name.to_string(),
             run: run.meta.run.clone(),
             t: run.fused.t.clone(),
             nu,
@@ -87,9 +110,10 @@ fn score_model(
     }
     let mean_nmae = mean_nmae_by_role(&scored);
     let score = ModelScore {
-        model: f.stage.clone(),
+        model: name.to_string(),
         runs: scored,
         mean_nmae,
+        shortfalls: vec![],
     };
     (score, simulations)
 }
@@ -103,7 +127,7 @@ fn mean_nmae_by_role(scored: &[RunScore]) -> BTreeMap<String, BTreeMap<Dof, f64>
             .iter()
             .filter(|r| r.role == role && !r.diverged)
             .collect();
-        for d in POOL_DOFS {
+        for d in Dof::ALL {
             let v: Vec<f64> = of_role
                 .iter()
                 .filter_map(|r| r.dofs.get(&d))

@@ -26,7 +26,15 @@ pub struct DofScore {
     pub whiteness: Whiteness,
     /// Mean of the fused velocity's standard deviation: the floor no model can beat.
     pub measurement_std: f64,
+    /// NMAE of the prediction [`AHEAD`] samples ahead from the fused state (MATLAB's
+    /// `compare` with a finite horizon), one per horizon, where the run is long enough.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub nmae_ahead: BTreeMap<usize, f64>,
 }
+
+/// The prediction horizons scored besides the free run, in samples: one step (the noise and
+/// the acceleration), ten (the transient) and a hundred (the drag).
+pub const AHEAD: [usize; 3] = [1, 10, 100];
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct RunScore {
@@ -46,6 +54,10 @@ pub struct ModelScore {
     pub runs: Vec<RunScore>,
     /// Mean normalised MAE per DOF over the runs of each role (cross-validation summary).
     pub mean_nmae: BTreeMap<String, BTreeMap<Dof, f64>>,
+    /// The DOFs in which the model does not beat both baselines on the held-out runs
+    /// (see [`super::baseline`]).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub shortfalls: Vec<super::baseline::Shortfall>,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -55,6 +67,10 @@ pub struct Scores {
     pub cross: Vec<CrossFit>,
     #[serde(default)]
     pub notes: Vec<String>,
+    /// What every model must beat on the held-out runs besides predicting rest: the
+    /// first-order model per DOF ([`super::baseline::FIRST_ORDER`]), when it could be fitted.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub baselines: Vec<ModelScore>,
 }
 
 /// A model's simulated velocities on one run (u, v, w, r), for plots and diagnosis.
@@ -128,6 +144,44 @@ pub fn simulate_run(plant: &Plant, run: &FusedRun, horizon: Horizon) -> (Vec<Vec
     (out, stability)
 }
 
+/// The NMAE per DOF of `plant`'s prediction `k` samples ahead on `run`: from the fused state
+/// (and attitude) at sample i, simulated under the logged command to sample i + k and compared
+/// there, for starts i every max(1, k / 10) samples. Empty when the run is shorter than k.
+pub fn ahead(plant: &Plant, run: &FusedRun, dofs: &[Dof], k: usize) -> BTreeMap<Dof, f64> {
+    let t = &run.fused.t;
+    let n = t.len();
+    if n <= k {
+        return BTreeMap::new();
+    }
+    let tau: Vec<Vec6> = (0..n).map(|i| run.tau(i)).collect();
+    let measured: Vec<(Dof, &Vec<f64>)> = dofs
+        .iter()
+        .filter_map(|d| Some((*d, run.velocity(*d)?)))
+        .collect();
+    let mut err = vec![(0.0, 0.0); measured.len()];
+    for i in (0..n - k).step_by((k / 10).max(1)) {
+        let mut nu0 = [0.0; 6];
+        for (d, v) in &measured {
+            nu0[d.index()] = v[i];
+        }
+        let sim = plant.simulate_from(&t[i..=i + k], &tau[i..=i + k], nu0, run.attitude(i), 0.01);
+        let end = sim[k];
+        for ((d, v), e) in measured.iter().zip(&mut err) {
+            let x = end[d.index()] - v[i + k];
+            if x.is_finite() {
+                e.0 += x.abs();
+                e.1 += v[i + k].abs();
+            }
+        }
+    }
+    measured
+        .iter()
+        .zip(err)
+        .filter(|(_, (_, den))| *den > 0.0)
+        .map(|((d, _), (num, den))| (*d, num / den))
+        .collect()
+}
+
 /// Scores of one simulation against one fused run, for the DOFs both have.
 pub fn score_run(vehicle_dofs: &[Dof], run: &FusedRun, sim: &[Vec6], max_lag_s: f64) -> RunScore {
     let dt = if run.fused.t.len() > 1 {
@@ -154,6 +208,7 @@ pub fn score_run(vehicle_dofs: &[Dof], run: &FusedRun, sim: &[Vec6], max_lag_s: 
                 metrics: super::metrics(v, &simd),
                 whiteness: super::whiteness(&e, dt, (max_lag_s / dt).round() as usize),
                 measurement_std: s.iter().sum::<f64>() / s.len().max(1) as f64,
+                nmae_ahead: BTreeMap::new(),
             },
         );
     }

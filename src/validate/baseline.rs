@@ -1,0 +1,226 @@
+//! What an identified model must beat on held-out runs before anyone should use it: predicting
+//! that the vehicle stays at rest (NMAE 1 by definition), and a first-order model per DOF
+//! (added mass, linear drag and a constant force, the restoring moment where the vehicle rolls
+//! or pitches) fitted on the same training runs by the same prediction-error method: the
+//! 50-line script an engineer would write by hand.
+
+use super::pool::{ModelScore, RunScore};
+use crate::dof::Dof;
+use crate::estimate::{Options, Regression};
+use crate::fusion::run::FusedRun;
+use crate::io::pool::Role;
+use crate::model::{CustomTerms, Plant, Structure, Term, Vehicle};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// The name the first-order baseline carries in the scores.
+pub const FIRST_ORDER: &str = "first-order per DOF (baseline)";
+
+/// A DOF in which a model does not beat both baselines on the held-out runs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Shortfall {
+    pub dof: Dof,
+    /// The model's mean NMAE over the held-out runs; `None` when its simulation diverged.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nmae: Option<f64>,
+    /// The first-order baseline's, when it could be fitted.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub first_order_nmae: Option<f64>,
+}
+
+impl Shortfall {
+    /// The sentence the report shows.
+    pub fn sentence(&self, model: &str) -> String {
+        let d = self.dof;
+        let Some(nmae) = self.nmae else {
+            return format!(
+                "{model} in {d}: its simulation diverged on a held-out run; do not use this model in {d}"
+            );
+        };
+        let what = match self.first_order_nmae {
+            Some(b) if nmae < 1.0 => format!("the first-order model per DOF (NMAE {b:.3})"),
+            _ => "predicting that the vehicle stays at rest (NMAE 1.000)".to_string(),
+        };
+        format!(
+            "{model} in {d}: held-out NMAE {nmae:.3} does not beat {what}; do not use this model in {d} without a better one"
+        )
+    }
+}
+
+/// The first-order baseline's vehicle: `vehicle`'s DOFs with a diagonal added mass, linear drag
+/// and a constant force in each, no quadratic drag, no coupling.
+pub fn first_order_vehicle(vehicle: &Vehicle) -> Vehicle {
+    let mut v = vehicle.clone();
+    v.constant_force = v.dofs.clone();
+    v.structure = Structure::Custom;
+    v.custom_terms = Some(CustomTerms {
+        base: Structure::Diagonal,
+        add: vec![],
+        remove: v
+            .dofs
+            .iter()
+            .map(|d| {
+                let i = d.index();
+                Term::Quadratic {
+                    row: i,
+                    vel: i,
+                    by: i,
+                }
+                .name()
+            })
+            .collect(),
+    });
+    v
+}
+
+/// The first-order baseline fitted on the training runs of `runs`; `None` (with the reason)
+/// when it cannot be fitted.
+pub fn fit_first_order(vehicle: &Vehicle, runs: &[FusedRun]) -> Result<Plant, String> {
+    let v = first_order_vehicle(vehicle);
+    let responses: Vec<crate::io::Response> = runs
+        .iter()
+        .filter(|r| r.meta.role == Role::Train)
+        .filter_map(|r| r.as_response(&v, None))
+        .collect();
+    if responses.is_empty() {
+        return Err("no training run has every DOF fused".into());
+    }
+    let refs: Vec<&crate::io::Response> = responses.iter().collect();
+    let problem = Regression::build(&v, &refs, 0.0);
+    let method = crate::estimate::Method::parse("pem", Default::default())?;
+    let opts = method.options(Options {
+        rigid_mass: v.rigid_mass(),
+        output_error: Some((&v, &refs[..])),
+        ..Options::default()
+    });
+    let fit = method
+        .estimator
+        .fit(&problem, &opts)
+        .map_err(|e| e.to_string())?;
+    let theta: Vec<f64> = fit.parameters.iter().map(|p| p.value).collect();
+    Ok(Plant::new(&v, problem.layout.to_hydro(&theta)))
+}
+
+/// The mean NMAE per DOF over the held-out runs; `None` for a DOF of a run whose simulation
+/// diverged (no mean is meaningful then).
+fn held_out(runs: &[RunScore]) -> BTreeMap<Dof, Option<f64>> {
+    let mut acc: BTreeMap<Dof, Option<(f64, usize)>> = BTreeMap::new();
+    for r in runs.iter().filter(|r| r.role == "validate") {
+        for (d, s) in &r.dofs {
+            let e = acc.entry(*d).or_insert(Some((0.0, 0)));
+            match (e.as_mut(), r.diverged || !s.metrics.nmae.is_finite()) {
+                (Some(_), true) => *e = None,
+                (Some((sum, n)), false) => {
+                    *sum += s.metrics.nmae;
+                    *n += 1;
+                }
+                (None, _) => {}
+            }
+        }
+    }
+    acc.into_iter()
+        .map(|(d, m)| (d, m.map(|(s, n)| s / n.max(1) as f64)))
+        .collect()
+}
+
+/// The DOFs where `model` does not beat both predicting rest and `first_order` (when there is
+/// one) on the held-out runs; a DOF whose simulation diverged on one falls short.
+pub fn shortfalls(model: &ModelScore, first_order: Option<&ModelScore>) -> Vec<Shortfall> {
+    let base = first_order.map(|b| held_out(&b.runs)).unwrap_or_default();
+    held_out(&model.runs)
+        .into_iter()
+        .filter_map(|(dof, nmae)| {
+            let fo = base.get(&dof).copied().flatten();
+            let beats = nmae.is_some_and(|m| m < 1.0 && fo.is_none_or(|b| m < b));
+            (!beats).then_some(Shortfall {
+                dof,
+                nmae,
+                first_order_nmae: fo,
+            })
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::validate::pool::DofScore;
+    use crate::validate::{Metrics, Whiteness};
+
+    fn run(role: &str, diverged: bool, nmae: &[(Dof, f64)]) -> RunScore {
+        let dofs = nmae
+            .iter()
+            .map(|&(d, x)| {
+                let s = DofScore {
+                    metrics: Metrics {
+                        mae: x,
+                        nmae: x,
+                        rmse_pct: 0.0,
+                    },
+                    whiteness: Whiteness {
+                        lag_step_s: 0.1,
+                        acf: vec![],
+                        band: 0.0,
+                        outside: 0.0,
+                    },
+                    measurement_std: 0.0,
+                    nmae_ahead: BTreeMap::new(),
+                };
+                (d, s)
+            })
+            .collect();
+        RunScore {
+            run: format!("{role}{nmae:?}"),
+            role: role.into(),
+            dofs,
+            diverged,
+            stability: None,
+        }
+    }
+
+    fn model(runs: Vec<RunScore>) -> ModelScore {
+        ModelScore {
+            model: "fit".into(),
+            runs,
+            mean_nmae: BTreeMap::new(),
+            shortfalls: vec![],
+        }
+    }
+
+    #[test]
+    fn a_model_worse_than_rest_or_the_first_order_model_is_flagged() {
+        use Dof::*;
+        let m = model(vec![
+            // Training runs do not count: only held-out ones.
+            run("train", false, &[(Surge, 5.0), (Yaw, 5.0), (Heave, 5.0)]),
+            run("validate", false, &[(Surge, 0.5), (Yaw, 1.2), (Heave, 0.7)]),
+            run("validate", false, &[(Surge, 0.7), (Yaw, 1.0), (Heave, 0.7)]),
+        ]);
+        let base = model(vec![run(
+            "validate",
+            false,
+            &[(Surge, 0.8), (Yaw, 0.9), (Heave, 0.6)],
+        )]);
+        let s = shortfalls(&m, Some(&base));
+        let dofs: Vec<Dof> = s.iter().map(|x| x.dof).collect();
+        // Surge 0.6 beats both; yaw 1.1 is worse than rest; heave 0.7 loses to the baseline's 0.6.
+        assert_eq!(dofs, [Heave, Yaw], "{s:?}");
+        assert!(
+            s[1].sentence("fit").contains("stays at rest"),
+            "{}",
+            s[1].sentence("fit")
+        );
+        assert!(
+            s[0].sentence("fit").contains("first-order"),
+            "{}",
+            s[0].sentence("fit")
+        );
+        // Without a baseline, only rest is the bar; a diverged held-out run is a shortfall.
+        let s = shortfalls(&m, None);
+        assert_eq!(s.iter().map(|x| x.dof).collect::<Vec<_>>(), [Yaw]);
+        let d = model(vec![run("validate", true, &[(Surge, 0.1)])]);
+        let s = shortfalls(&d, None);
+        assert!(s.len() == 1 && s[0].nmae.is_none(), "{s:?}");
+        assert!(s[0].sentence("fit").contains("diverged"));
+    }
+}
