@@ -83,6 +83,9 @@ say "benchmarks"
 "$bin" bench --objective diagnosis >"$out/diag.txt"
 d=$(sed -n 's/^  \([0-9.]*\) s (target.*/\1/p' "$out/diag.txt")
 row "diagnosis over 16 one-minute field-twin runs (\`hydrofit bench --objective diagnosis\`; target under 10 s)" "$d s"
+"$bin" bench --objective pem >"$out/pem.txt"
+d=$(sed -n 's/^  \([0-9.]*\) s (target.*/\1/p' "$out/pem.txt")
+row "default pool fit (prediction-error method) on 16 one-minute field-twin runs (\`hydrofit bench --objective pem\`; target under 10 s)" "$d s"
 pick() { sed -n "$2" "$1" | head -1; }
 # "58653090 evaluations/s (19.7 GFLOP/s)" with thousands separated
 alone() { python3 -c "import sys; n, g = sys.argv[1].split(); print(f'{int(n):,} evaluations/s ({g} GFLOP/s)')" "$(pick "$1" 's/.*objective alone: \([0-9]*\) evaluations\/s = \([0-9.]*\) GFLOP.*/\1 \2/p')"; }
