@@ -173,15 +173,18 @@ fn integrated_least_squares_and_rls_on_the_dsrv_twin() {
         };
         assert!((v - t).abs() < tol, "{n}: {v} vs {t}");
     }
-    // The held-out prediction errors are nearly white (seed 000 Fig. 3): at most 2 of the
-    // lags outside the 95 % band per state.
+    // The held-out prediction errors are nearly white (seed 000 Fig. 3): at most 3 of the 15
+    // lags outside the 95 % band per state (a white sequence has 4 or more outside with
+    // probability 0.005). The pitch rate's measurement noise (0.02 deg/s) is now smoothed by
+    // what it is, not by the 20-fold sigma the PRBS manoeuvres made of it, and the one-step
+    // errors of q keep the small lag-1 correlation that white noise in a predicted state leaves.
     for pr in ls["detail"]["predictions"].as_array().unwrap() {
         let band = pr["band"].as_f64().unwrap();
         let out = pr["acf"].as_array().unwrap()[1..]
             .iter()
             .filter(|a| a.as_f64().unwrap().abs() > band)
             .count();
-        assert!(out <= 2, "{}: {out} lags outside", pr["state"]);
+        assert!(out <= 3, "{}: {out} lags outside", pr["state"]);
         assert_eq!(pr["run"], "steady_2");
     }
 
