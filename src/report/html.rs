@@ -315,11 +315,16 @@ fn separating(a: &str, b: &str) -> &'static str {
             'm'
         } else if n.ends_with("_0") {
             'c'
+        } else if n.starts_with("eta_") || n == "W-B" {
+            'b'
         } else {
             'd'
         }
     };
     match (kind(a), kind(b)) {
+        ('c', 'b') | ('b', 'c') => {
+            ": a constant force against the weight and buoyancy's; runs held at other attitudes separate them"
+        }
         ('m', 'd') | ('d', 'm') => {
             ": inertia against damping; steps or a PRBS of the command, whose fast changes load the inertia alone, separate them"
         }
