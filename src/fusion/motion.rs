@@ -9,7 +9,7 @@
 //! itself (fused rates down to 1 % of the logged ones on a real vehicle's 0.5 Hz attitude
 //! sines). Here the spread at each lag is modelled as noise plus motion.
 
-use super::nav::{Noise, Smoothed, robust_std, smooth_ml_over};
+use super::nav::{Noise, SecondDifferences, Smoothed, smooth_ml_over};
 
 /// Longest lag of the second differences that measure the noise, s: a few times the time
 /// constant of any filter a log is written through, so the noise's saturation shows (the motion
@@ -46,35 +46,18 @@ pub fn smooth(t: &[f64], z: &[f64], out_t: &[f64], floor: f64) -> Smoothed {
 /// noise is fitted apart from the motion in relative terms, and `correlated_samples` is
 /// (1 + rho) / (1 - rho).
 ///
-/// Taking the largest spread over the lags as the noise, as a first version did, took a roll
-/// or pitch rate swinging at 0.3-1 Hz (which changes by its whole amplitude within the
-/// longest lag) for correlated noise, and the smoother then flattened the manoeuvre itself:
-/// fused rates down to 1 % of the logged ones on a real vehicle's 0.5 Hz attitude sines.
+/// Taking the largest spread over the lags as the noise, as [`super::nav::noise_level`] does
+/// for velocities, took a roll or pitch rate swinging at 0.3-1 Hz (which changes by its whole
+/// amplitude within the longest lag) for correlated noise, and the smoother then flattened the
+/// manoeuvre itself: fused rates down to 1 % of the logged ones on a real vehicle's 0.5 Hz
+/// attitude sines.
 pub fn noise_level(t: &[f64], z: &[f64], floor: f64) -> Noise {
-    let (t, z): (Vec<f64>, Vec<f64>) = t
-        .iter()
-        .zip(z)
-        .filter(|(_, v)| v.is_finite())
-        .map(|(a, b)| (*a, *b))
-        .unzip();
-    let n = z.len();
-    if n < 10 {
-        return Noise {
-            sigma: floor,
-            correlated_samples: 1.0,
-            sigma_lag1: floor,
-        };
-    }
-    let dt = (t[n - 1] - t[0]) / (n - 1) as f64;
-    let max_lag = ((MAX_LAG_S / dt.max(1e-6)).round() as usize).clamp(1, n / 4);
-    let var_at = |l: usize| {
-        robust_std(
-            (l..n - l)
-                .map(|k| z[k + l] - 2.0 * z[k] + z[k - l])
-                .collect(),
-        )
-        .powi(2)
+    let Some(d) = SecondDifferences::of(t, z) else {
+        return Noise::at_floor(floor);
     };
+    let dt = d.dt;
+    let max_lag = d.max_lag(MAX_LAG_S);
+    let var_at = |l: usize| d.spread(l).powi(2);
     let lags = lag_ladder(max_lag);
     let v: Vec<f64> = lags.iter().map(|&l| var_at(l)).collect();
     let s1 = (v[0] / 6.0).sqrt();

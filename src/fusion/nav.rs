@@ -34,7 +34,7 @@ pub struct Noise {
 }
 
 /// Robust standard deviation (1.4826 MAD about the median).
-pub(super) fn robust_std(mut d: Vec<f64>) -> f64 {
+fn robust_std(mut d: Vec<f64>) -> f64 {
     if d.len() < 5 {
         return 0.0;
     }
@@ -51,37 +51,68 @@ pub(super) fn robust_std(mut d: Vec<f64>) -> f64 {
 /// white noise; a smooth motion adds little to a robust spread); the largest over L is the
 /// noise, and the ratio of its variance to the lag-1 variance is the correlation length.
 pub fn noise_level(t: &[f64], z: &[f64], floor: f64) -> Noise {
-    let (t, z): (Vec<f64>, Vec<f64>) = t
-        .iter()
-        .zip(z)
-        .filter(|(_, v)| v.is_finite())
-        .map(|(a, b)| (*a, *b))
-        .unzip();
-    let n = z.len();
-    if n < 10 {
-        return Noise {
-            sigma: floor,
-            correlated_samples: 1.0,
-            sigma_lag1: floor,
-        };
-    }
-    let dt = (t[n - 1] - t[0]) / (n - 1) as f64;
-    let max_lag = ((MAX_LAG_S / dt.max(1e-6)).round() as usize).clamp(1, n / 4);
-    let at_lag = |l: usize| {
-        robust_std(
-            (l..n - l)
-                .map(|k| z[k + l] - 2.0 * z[k] + z[k - l])
-                .collect(),
-        ) / 6f64.sqrt()
+    let Some(d) = SecondDifferences::of(t, z) else {
+        return Noise::at_floor(floor);
     };
+    let at_lag = |l: usize| d.spread(l) / 6f64.sqrt();
     let s1 = at_lag(1);
-    let smax = (1..=max_lag).map(at_lag).fold(s1, f64::max);
+    let smax = (1..=d.max_lag(MAX_LAG_S)).map(at_lag).fold(s1, f64::max);
     let sigma = smax.max(floor);
     let ratio = (sigma / s1.max(floor * 1e-3)).powi(2);
     Noise {
         sigma,
         correlated_samples: ratio.clamp(1.0, 1e3),
         sigma_lag1: s1.max(floor),
+    }
+}
+
+impl Noise {
+    /// What a channel with too few samples to measure is given: the floor, white.
+    pub fn at_floor(floor: f64) -> Noise {
+        Noise {
+            sigma: floor,
+            correlated_samples: 1.0,
+            sigma_lag1: floor,
+        }
+    }
+}
+
+/// A channel's finite samples, for the robust spread of its second differences at a lag.
+pub(super) struct SecondDifferences {
+    z: Vec<f64>,
+    /// Mean sample interval, s.
+    pub dt: f64,
+}
+
+impl SecondDifferences {
+    /// The finite samples of `z` (times `t`); `None` with fewer than 10.
+    pub fn of(t: &[f64], z: &[f64]) -> Option<SecondDifferences> {
+        let (t, z): (Vec<f64>, Vec<f64>) = t
+            .iter()
+            .zip(z)
+            .filter(|(_, v)| v.is_finite())
+            .map(|(a, b)| (*a, *b))
+            .unzip();
+        let n = z.len();
+        (n >= 10).then(|| SecondDifferences {
+            dt: (t[n - 1] - t[0]) / (n - 1) as f64,
+            z,
+        })
+    }
+
+    /// The longest lag in samples spanning at most `span_s`, and at most a quarter of them.
+    pub fn max_lag(&self, span_s: f64) -> usize {
+        ((span_s / self.dt.max(1e-6)).round() as usize).clamp(1, self.z.len() / 4)
+    }
+
+    /// Robust standard deviation of z[k+l] - 2 z[k] + z[k-l].
+    pub fn spread(&self, l: usize) -> f64 {
+        let z = &self.z;
+        robust_std(
+            (l..z.len() - l)
+                .map(|k| z[k + l] - 2.0 * z[k] + z[k - l])
+                .collect(),
+        )
     }
 }
 
