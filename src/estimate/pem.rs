@@ -211,51 +211,47 @@ fn estimate(
     let at_prior = bounds.at_prior(j, value);
     let at_search_bound = beyond.is_some()
         && (value - BEYOND_PRIOR * -opts.rigid_mass[i]).abs() <= 1e-6 * opts.rigid_mass[i];
-    if let Some((held, freed)) = beyond.filter(|_| !at_search_bound) {
-        let note = format!(
-            "{} is beyond its plausibility prior ({} times the rigid-body term {:.3}): the runs demand it (output error {held:.4} held on the prior, {freed:.4} beyond it)",
-            problem.layout.name(j),
-            opts.added_mass_prior[i],
-            opts.rigid_mass[i],
-        );
-        return Estimate {
-            name: problem.layout.name(j),
-            value,
-            unit: problem.layout.unit(j).to_string(),
-            stderr,
-            interval: None,
-            identifiable: stderr.is_finite() && stderr < 0.5 * value.abs(),
-            note: Some(note),
-        };
-    }
-    let note = if at_search_bound {
-        Some(format!(
-            "{} ran to {BEYOND_PRIOR} times its rigid-body term: the runs push it without bound, so it stands in for something the model lacks (a lag, a filtered sensor) or they cannot tell this inertia from the damping",
-            problem.layout.name(j)
-        ))
-    } else if at_prior {
-        Some(format!(
-            "{} sits on its plausibility bound ({} times the rigid-body term {:.3}): the runs cannot tell this inertia from the damping or a lag; runs with sharper changes of command in {} (steps, a PRBS) would",
-            problem.layout.name(j),
-            opts.added_mass_prior[i],
-            opts.rigid_mass[i],
-            term.dof()
-        ))
-    } else if value == 0.0 && term.physical_sign().is_some() {
-        Some(format!(
-            "{} held at 0: the output error pushes it past its physical sign; it stands in for something the model lacks or the runs do not excite it",
-            problem.layout.name(j)
-        ))
-    } else {
-        None
+    let name = problem.layout.name(j);
+    // The note, and whether it makes the value untrustworthy (a value the runs demand beyond
+    // its prior is said, not flagged).
+    let (note, flagged) = match beyond {
+        Some((held, freed)) if !at_search_bound => (
+            Some(format!(
+                "{name} is beyond its plausibility prior ({} times the rigid-body term {:.3}): the runs demand it (output error {held:.4} held on the prior, {freed:.4} beyond it)",
+                opts.added_mass_prior[i], opts.rigid_mass[i],
+            )),
+            false,
+        ),
+        _ if at_search_bound => (
+            Some(format!(
+                "{name} ran to {BEYOND_PRIOR} times its rigid-body term: the runs push it without bound, so it stands in for something the model lacks (a lag, a filtered sensor) or they cannot tell this inertia from the damping"
+            )),
+            true,
+        ),
+        _ if at_prior => (
+            Some(format!(
+                "{name} sits on its plausibility bound ({} times the rigid-body term {:.3}): the runs cannot tell this inertia from the damping or a lag; runs with sharper changes of command in {} (steps, a PRBS) would",
+                opts.added_mass_prior[i],
+                opts.rigid_mass[i],
+                term.dof()
+            )),
+            true,
+        ),
+        _ if value == 0.0 && term.physical_sign().is_some() => (
+            Some(format!(
+                "{name} held at 0: the output error pushes it past its physical sign; it stands in for something the model lacks or the runs do not excite it"
+            )),
+            true,
+        ),
+        _ => (None, false),
     };
     Estimate {
-        name: problem.layout.name(j),
+        name,
         value,
         unit: problem.layout.unit(j).to_string(),
         stderr,
         interval: None,
-        identifiable: note.is_none() && stderr.is_finite() && stderr < 0.5 * value.abs(),
+        identifiable: !flagged && stderr.is_finite() && stderr < 0.5 * value.abs(),
         note,
     }
 }

@@ -198,20 +198,7 @@ mod tests {
                 let last = *t.last().unwrap();
                 t.push(last + (0.8 + 0.4 * rng.uniform()) / rate);
             }
-            let mut e = 0.0;
-            let z: Vec<f64> = t
-                .windows(2)
-                .map(|p| {
-                    let white = 0.015 * rng.normal();
-                    e = if tau > 0.0 {
-                        let a = (-(p[1] - p[0]) / tau).exp();
-                        a * e + (1.0 - a * a).sqrt() * white
-                    } else {
-                        white
-                    };
-                    truth(p[1]) + e
-                })
-                .collect();
+            let z = super::super::nav::tests::logged(&t, &truth, 0.015, tau, &mut rng);
             let t = &t[1..];
             let out: Vec<f64> = (100..2900).map(|k| k as f64 * 0.02).collect();
             let s = smooth(t, &z, &out, 1e-4);

@@ -304,8 +304,33 @@ fn at_outputs(sm: &[(Vector<3>, Mat<3>)], out_step: &[usize], noise: Noise) -> S
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
+
+    /// `truth` logged at each of `t[1..]` with noise of standard deviation `sigma`, white or
+    /// first-order low-passed with time constant `tau` (exact discretisation, scaled to keep
+    /// the variance).
+    pub(in crate::fusion) fn logged(
+        t: &[f64],
+        truth: &dyn Fn(f64) -> f64,
+        sigma: f64,
+        tau: f64,
+        rng: &mut crate::rng::Rng,
+    ) -> Vec<f64> {
+        let mut e = 0.0;
+        t.windows(2)
+            .map(|w| {
+                let white = sigma * rng.normal();
+                e = if tau > 0.0 {
+                    let a = (-(w[1] - w[0]) / tau).exp();
+                    a * e + (1.0 - a * a).sqrt() * white
+                } else {
+                    white
+                };
+                truth(w[1]) + e
+            })
+            .collect()
+    }
 
     /// A vehicle's surge velocity (steps through a first-order response) logged at an irregular
     /// 5-15 Hz. White noise, then the same noise low-passed (time constant 0.5 s) before
@@ -330,22 +355,7 @@ mod tests {
                 let last = *t.last().unwrap();
                 t.push(last + 1.0 / (5.0 + 10.0 * rng.uniform()));
             }
-            let mut e = 0.0;
-            let z: Vec<f64> = t
-                .windows(2)
-                .map(|w| {
-                    let white = 0.02 * rng.normal();
-                    // First-order low-pass of the noise with time constant tau (exact discretisation),
-                    // scaled to keep the same variance.
-                    e = if tau > 0.0 {
-                        let a = (-(w[1] - w[0]) / tau).exp();
-                        a * e + (1.0 - a * a).sqrt() * white
-                    } else {
-                        white
-                    };
-                    truth(w[1]) + e
-                })
-                .collect();
+            let z = logged(&t, &truth, 0.02, tau, &mut rng);
             let t = &t[1..];
             let out: Vec<f64> = (100..2900).map(|k| k as f64 * 0.02).collect();
             let noise = noise_level(t, &z, 1e-4);
