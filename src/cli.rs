@@ -106,8 +106,8 @@ pub enum OpenfoamCommand {
         /// The case folder to create (relative to the project), e.g. cases/cfd/openfoam/cylinder_2N.
         dir: PathBuf,
         /// The body: `cylinder` (2D, per metre of span) or `sphere` (3D).
-        #[arg(long, value_enum, default_value_t = Shape::Cylinder)]
-        shape: Shape,
+        #[arg(long, value_enum, default_value_t = cmd::openfoam::Shape::Cylinder)]
+        shape: cmd::openfoam::Shape,
         /// Applied force, N (per metre of span for the cylinder), along +x or `--direction`.
         #[arg(long)]
         force: f64,
@@ -127,40 +127,6 @@ pub enum OpenfoamCommand {
         #[arg(long)]
         end_time: Option<f64>,
     },
-}
-
-/// The body of a new OpenFOAM case.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum Shape {
-    Cylinder,
-    Sphere,
-}
-
-/// `x`, `y`, `z` (or with a sign, `-z`), or three numbers `1,0,1`.
-fn parse_direction(s: &str) -> anyhow::Result<[f64; 3]> {
-    let axis = |a: &str| match a {
-        "x" => Some([1.0, 0.0, 0.0]),
-        "y" => Some([0.0, 1.0, 0.0]),
-        "z" => Some([0.0, 0.0, 1.0]),
-        _ => None,
-    };
-    if let Some(v) = axis(s) {
-        return Ok(v);
-    }
-    if let Some(v) = s.strip_prefix('-').and_then(axis) {
-        return Ok(v.map(|x| -x + 0.0));
-    }
-    let parts: Vec<f64> = s
-        .split(',')
-        .map(|p| p.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .map_err(|_| {
-            anyhow::anyhow!("--direction {s}: give x, y, z, -z or three numbers like 1,0,1")
-        })?;
-    let [x, y, z] = parts[..] else {
-        anyhow::bail!("--direction {s}: give three numbers like 1,0,1");
-    };
-    Ok([x, y, z])
 }
 
 /// Where twin runs are written, and their seed.
@@ -287,50 +253,17 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                     direction,
                     end_time,
                 },
-        } => {
-            let dir = root.join(dir);
-            let what = match shape {
-                Shape::Sphere => {
-                    let direction = parse_direction(&direction)?;
-                    let mut c = crate::openfoam::case::SphereCase {
-                        force_n: force,
-                        mass_kg: 0.0,
-                        radius_m: radius,
-                        direction,
-                        end_time_s: end_time,
-                    };
-                    c.mass_kg = mass.unwrap_or(2.0 * c.displaced_mass());
-                    c.write(&dir)?;
-                    format!(
-                        "sphere, force {force} N along {direction:?}, mass {:.3} kg, end time {} s; potential-flow added mass {:.3} kg",
-                        c.mass_kg,
-                        c.end_time(),
-                        c.added_mass()
-                    )
-                }
-                Shape::Cylinder => {
-                    anyhow::ensure!(
-                        direction == "x",
-                        "the cylinder case moves along x only; --direction is for --shape sphere"
-                    );
-                    let mut c = crate::openfoam::case::CylinderCase {
-                        force_n: force,
-                        mass_kg: 0.0,
-                        radius_m: radius,
-                        end_time_s: end_time,
-                    };
-                    c.mass_kg = mass.unwrap_or(2.0 * c.displaced_mass());
-                    c.write(&dir)?;
-                    format!(
-                        "force {force} N/m, mass {:.3} kg/m, end time {} s",
-                        c.mass_kg,
-                        c.end_time()
-                    )
-                }
-            };
-            println!("wrote {} ({what})", dir.display());
-            Ok(ExitCode::SUCCESS)
-        }
+        } => cmd::openfoam::new(
+            &root.join(dir),
+            cmd::openfoam::New {
+                shape,
+                force,
+                mass,
+                radius,
+                direction: &direction,
+                end_time,
+            },
+        ),
         Command::Twin {
             what: TwinCommand::Pool { to, effects },
         } => cmd::twin::pool(&root, &to.out, &to.truth, to.seed, &effects),

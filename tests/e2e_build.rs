@@ -83,7 +83,7 @@ fn parameters_json_has_the_contract_shape_and_recovers_the_truth() {
         assert!(path.starts_with("cases/cfd/starccm/"), "{path}");
         assert_eq!(
             first["blake3"].as_str().unwrap(),
-            hydrofit::fsutil::hash_file(&dir.join(path)).unwrap()
+            hydrofit::core::fsutil::hash_file(&dir.join(path)).unwrap()
         );
     }
     let v = json(dir, "reports/validation.json");
@@ -271,7 +271,8 @@ fn provenance_traces_a_parameter_to_its_files() {
         "{out}"
     );
     assert!(out.contains("<- stage fit (kind fit, key "), "{out}");
-    let h = hydrofit::fsutil::hash_file(&dir.join("cases/cfd/starccm/surge_100N.csv")).unwrap();
+    let h =
+        hydrofit::core::fsutil::hash_file(&dir.join("cases/cfd/starccm/surge_100N.csv")).unwrap();
     assert!(out.contains(&"cfd[surge_100N] (key ".to_string()), "{out}");
     assert!(
         out.contains(&format!("<- cases/cfd/starccm/surge_100N.csv blake3 {h}")),

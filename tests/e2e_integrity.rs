@@ -112,10 +112,10 @@ fn glob_characters_in_the_project_path_are_literal() {
     let odd = parent.path().join("proj[12]*");
     let sibling = parent.path().join("proj1");
     for d in [&odd, &sibling] {
-        hydrofit::fsutil::copy_dir(src.path(), d).unwrap();
+        hydrofit::core::fsutil::copy_dir(src.path(), d).unwrap();
     }
     // The sibling has a run the odd-named project does not.
-    hydrofit::fsutil::copy_dir(
+    hydrofit::core::fsutil::copy_dir(
         &sibling.join("cases/pool/test2"),
         &sibling.join("cases/pool/sibling_only"),
     )
@@ -208,7 +208,7 @@ fn a_damaged_number_fails_its_import_at_its_line() {
 
     let table = dir.join(format!(
         "cases/cfd/openfoam/cylinder_1N/{}",
-        hydrofit::openfoam::STATE
+        hydrofit::cfd::openfoam::STATE
     ));
     let good = std::fs::read_to_string(&table).unwrap();
     let bad: String = good

@@ -8,7 +8,7 @@ fn a_new_pool_run_reruns_only_its_fusion_and_the_validation() {
     let p = project();
     let dir = p.path();
     ok(dir, &["build"]);
-    hydrofit::fsutil::copy_dir(
+    hydrofit::core::fsutil::copy_dir(
         &dir.join("cases/pool/mixed"),
         &dir.join("cases/pool/mixed_again"),
     )
@@ -113,7 +113,7 @@ fn the_report_scores_the_model_on_every_pool_run_and_states_fusion_accuracy() {
 fn bad_pool_runs_stop_only_themselves() {
     let p = project();
     let dir = p.path();
-    hydrofit::fsutil::copy_dir(
+    hydrofit::core::fsutil::copy_dir(
         &dir.join("cases/pool/mixed"),
         &dir.join("cases/pool/broken"),
     )

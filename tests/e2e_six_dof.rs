@@ -89,7 +89,7 @@ fn six_parameter_sets_from_pool_trials_alone_rank_as_the_data_say() {
     assert!(nmae["diag_all_ols"]["surge"] > 3.0 * custom["surge"]);
 
     // CUSTOM against the twin's coefficients: buoyancy and the dominant drag terms.
-    let truth = hydrofit::report::sets::read_truth(&dir.join("truth/parameters.csv")).unwrap();
+    let truth = hydrofit::validate::sets::read_truth(&dir.join("truth/parameters.csv")).unwrap();
     let value = |name: &str| {
         params["parameters"]
             .as_array()

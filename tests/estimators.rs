@@ -3,9 +3,9 @@
 
 mod common;
 use common::*;
-use hydrofit::estimate::{self, Options, Regression, swarm::Norm};
-use hydrofit::io::starccm::{ColumnMap, ImportOptions, parse};
-use hydrofit::model::{Hydro, ParamLayout, Vehicle};
+use hydrofit::cfd::starccm::{ColumnMap, ImportOptions, parse};
+use hydrofit::core::model::{Hydro, ParamLayout, Vehicle};
+use hydrofit::identify::{self, Options, Regression, swarm::Norm};
 
 fn problem() -> Regression {
     let vehicle = Vehicle::reference();
@@ -37,7 +37,7 @@ fn problem() -> Regression {
 }
 
 /// Largest relative error against truth, and the parameter it is on.
-fn worst(fit: &estimate::Fit) -> (f64, String) {
+fn worst(fit: &identify::Fit) -> (f64, String) {
     let truth = ParamLayout::new(&Vehicle::reference().dofs).from_hydro(&Hydro::reference());
     fit.parameters
         .iter()
@@ -65,7 +65,7 @@ fn every_method_recovers_the_twin_within_its_tolerance() {
         ("ga", Norm::L2, 0.03),
     ];
     for (name, norm, tol) in cases {
-        let est = estimate::by_name(name).unwrap();
+        let est = identify::by_name(name).unwrap();
         let t0 = std::time::Instant::now();
         let iterations = if norm == Norm::L1 {
             1500
@@ -113,7 +113,7 @@ fn same_seed_same_numbers_on_any_thread_count() {
         seed: 42,
         ..Options::default()
     };
-    let a = estimate::by_name("qpso")
+    let a = identify::by_name("qpso")
         .unwrap()
         .fit(&reg, &opts())
         .unwrap();
@@ -122,13 +122,13 @@ fn same_seed_same_numbers_on_any_thread_count() {
         .build()
         .unwrap();
     let b = one.install(|| {
-        estimate::by_name("qpso")
+        identify::by_name("qpso")
             .unwrap()
             .fit(&reg, &opts())
             .unwrap()
     });
     assert_eq!(a.parameters, b.parameters);
-    let c = estimate::by_name("qpso")
+    let c = identify::by_name("qpso")
         .unwrap()
         .fit(&reg, &Options { seed: 43, ..opts() })
         .unwrap();
@@ -181,7 +181,7 @@ fn output_error_with_the_simulator_in_the_loop_recovers_the_twin() {
         ..Options::default()
     };
     let t0 = std::time::Instant::now();
-    let fit = estimate::by_name("qpso").unwrap().fit(&reg, &o).unwrap();
+    let fit = identify::by_name("qpso").unwrap().fit(&reg, &o).unwrap();
     let (err, which) = worst(&fit);
     eprintln!(
         "qpso output error: worst {:.2} % ({which}) in {:.1} s, {:?} evaluations",
@@ -192,7 +192,7 @@ fn output_error_with_the_simulator_in_the_loop_recovers_the_twin() {
     // Drag is pinned by the steady speeds, added mass by the rise times; the slow cases pin
     // the linear drag because each case counts by its relative error.
     assert!(err < 0.03, "{which} off by {:.2} %", 100.0 * err);
-    let e = estimate::by_name("ols")
+    let e = identify::by_name("ols")
         .unwrap()
         .fit(&reg, &o)
         .unwrap_err()
@@ -212,7 +212,7 @@ fn a_time_limit_returns_the_best_so_far_and_says_so() {
         ..Options::default()
     };
     let t0 = std::time::Instant::now();
-    let fit = estimate::by_name("qpso").unwrap().fit(&reg, &o).unwrap();
+    let fit = identify::by_name("qpso").unwrap().fit(&reg, &o).unwrap();
     assert!(t0.elapsed().as_secs_f64() < 5.0);
     let why = fit.stopped_early.expect("stopped by the limit");
     assert!(why.contains("time limit of 0.5 s"), "{why}");

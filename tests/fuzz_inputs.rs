@@ -10,7 +10,7 @@
 
 mod common;
 use common::manifest_dir;
-use hydrofit::rng::Rng;
+use hydrofit::core::rng::Rng;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
@@ -419,10 +419,10 @@ fn load_run(
     root: &Path,
     dir: &str,
     names: &[String],
-) -> Result<String, hydrofit::diag::InputError> {
+) -> Result<String, hydrofit::core::diag::InputError> {
     let files: Vec<String> = names.iter().map(|n| format!("{dir}/{n}")).collect();
     // The whole run as read (every log, note and repair), to compare with the original's.
-    hydrofit::io::pool::load(root, dir, &files).map(|r| format!("{r:?}"))
+    hydrofit::pool::import::load(root, dir, &files).map(|r| format!("{r:?}"))
 }
 
 fn fuzz_pool_run(run: &str, seed: u64) {
@@ -463,8 +463,8 @@ fn navigation_and_actuator_logs_under_mutation() {
 
 #[test]
 fn starccm_exports_under_mutation() {
-    use hydrofit::dof::Dof;
-    use hydrofit::io::starccm::{ColumnMap, ImportOptions, parse};
+    use hydrofit::cfd::starccm::{ColumnMap, ImportOptions, parse};
+    use hydrofit::core::dof::Dof;
     let columns = ColumnMap::default();
     let dofs = [Dof::Surge, Dof::Sway, Dof::Heave, Dof::Yaw];
     let opts = ImportOptions {
@@ -527,12 +527,15 @@ fn head_seconds_col(text: &str, col: usize, keep: f64) -> String {
 
 #[test]
 fn openfoam_results_and_dictionaries_under_mutation() {
-    use hydrofit::openfoam::{dict, results};
+    use hydrofit::cfd::openfoam::{dict, results};
     let case = "cases/cfd/openfoam/cylinder_1N";
     let dog = Watchdog::new("OpenFOAM readers");
     let mut rng = Rng::derive(6, "openfoam");
     let (mut failures, mut tried) = (Vec::new(), 0);
-    for table in [hydrofit::openfoam::STATE, hydrofit::openfoam::FORCE] {
+    for table in [
+        hydrofit::cfd::openfoam::STATE,
+        hydrofit::cfd::openfoam::FORCE,
+    ] {
         let rel = format!("{case}/{table}");
         let text: String = read(&rel).split_inclusive('\n').take(300).collect();
         let original = results::parse_vector_table(&text).expect("the seed table parses");
@@ -613,7 +616,7 @@ fn pipeline_yaml_under_mutation() {
         let s = String::from_utf8_lossy(&m.bytes).into_owned();
         dog.beat();
         match std::panic::catch_unwind(|| {
-            hydrofit::pipeline::spec::parse("pipeline.yaml", &s, hydrofit::stage::KINDS).map(|_| ())
+            hydrofit::pipeline::spec::parse("pipeline.yaml", &s, hydrofit::kinds::KINDS).map(|_| ())
         }) {
             Err(_) => failures.push(format!("pipeline.yaml: {}: panicked", m.what)),
             Ok(Err(e)) if e.to_string().len() > MAX_MESSAGE => failures.push(format!(
@@ -650,7 +653,7 @@ fn a_byte_order_mark_changes_nothing() {
         hydrofit::pipeline::spec::parse(
             "pipeline.yaml",
             &format!("\u{feff}{spec}"),
-            hydrofit::stage::KINDS
+            hydrofit::kinds::KINDS
         )
         .is_ok()
     );

@@ -3,8 +3,8 @@
 //! are noisy too, and a mass matrix that is not positive definite is refused. The twin flies
 //! with its own simulator (Fossen's matrix form), not the model code under test.
 
-use hydrofit::estimate::{self, Options, Regression};
-use hydrofit::model::{CustomTerms, Hydro, ParamLayout, Plant, Structure, Vehicle};
+use hydrofit::core::model::{CustomTerms, Hydro, ParamLayout, Plant, Structure, Vehicle};
+use hydrofit::identify::{self, Options, Regression};
 use hydrofit::twin::six;
 
 fn fly(h: &Hydro, seconds: f64) -> six::Record {
@@ -24,7 +24,7 @@ fn fit(method: &str, reg: &Regression) -> Vec<f64> {
         rigid_mass: six::vehicle().rigid_mass(),
         ..Options::default()
     };
-    let m = estimate::Method::parse(method, Default::default()).unwrap();
+    let m = identify::Method::parse(method, Default::default()).unwrap();
     let f = m.estimator.fit(reg, &opts).unwrap();
     f.parameters.iter().map(|p| p.value).collect()
 }
@@ -110,7 +110,7 @@ fn tls_beats_ols_when_the_regressors_are_noisy() {
         |f: &dyn Fn(usize) -> f64| ((0..n).map(|i| f(i).powi(2)).sum::<f64>() / n as f64).sqrt();
     let col_rms: Vec<f64> = (0..p).map(|j| rms(&|i| reg.phi[i * p + j])).collect();
     let y_rms = rms(&|i| reg.y[i]);
-    let mut rng = hydrofit::rng::Rng::new(11);
+    let mut rng = hydrofit::core::rng::Rng::new(11);
     for (row, y) in reg.phi.chunks_exact_mut(p).zip(reg.y.iter_mut()) {
         for (x, r) in row.iter_mut().zip(&col_rms) {
             *x += 0.1 * r * rng.normal();
@@ -176,7 +176,7 @@ fn the_model_code_and_the_twin_agree_on_the_acceleration() {
             25.0,
         ];
         let (phi, theta) = (0.2 * x.sin(), -0.1 * x.cos());
-        let g = hydrofit::model::dynamics::gravity_body(phi, theta);
+        let g = hydrofit::core::model::dynamics::gravity_body(phi, theta);
         let a = p.accel_at(&nu, &tau, &g);
         let b = body.accel(
             &nalgebra::Vector6::from_row_slice(&nu),
@@ -203,14 +203,14 @@ fn the_output_error_of_a_coupled_model_is_zero_at_the_truth_only() {
     let v = six::vehicle();
     let resp = fly(&six::truth(), 60.0).response();
     let refs = [&resp];
-    let oe = hydrofit::estimate::output_error::OutputError::new(&v, &refs);
+    let oe = hydrofit::identify::output_error::OutputError::new(&v, &refs);
     let l = layout(Structure::Custom);
     let truth = l.from_hydro(&six::truth());
     let off: Vec<f64> = truth
         .iter()
         .zip(&l.terms)
         .map(|(x, t)| {
-            if t.group() == hydrofit::model::params::Group::QuadraticDrag {
+            if t.group() == hydrofit::core::model::params::Group::QuadraticDrag {
                 1.1 * x
             } else {
                 *x

@@ -3,9 +3,9 @@
 
 mod common;
 use common::*;
-use hydrofit::estimate::{Estimator, Regression};
-use hydrofit::io::starccm::{ColumnMap, ImportOptions, parse};
-use hydrofit::model::{Hydro, ParamLayout, Vehicle};
+use hydrofit::cfd::starccm::{ColumnMap, ImportOptions, parse};
+use hydrofit::core::model::{Hydro, ParamLayout, Vehicle};
+use hydrofit::identify::{Estimator, Regression};
 
 #[test]
 fn shipped_cases_are_the_twins_output() {
@@ -88,7 +88,7 @@ fn least_squares_recovers_the_reference_vehicle_within_2_percent() {
     }
     let refs: Vec<_> = responses.iter().collect();
     let problem = Regression::build(&vehicle, &refs, 0.0);
-    let fit = hydrofit::estimate::ols::Ols
+    let fit = hydrofit::identify::ols::Ols
         .fit(&problem, &Default::default())
         .unwrap();
     let truth = ParamLayout::new(&vehicle.dofs).from_hydro(&Hydro::reference());

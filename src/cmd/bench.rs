@@ -2,13 +2,13 @@
 //! per second and the work per evaluation, so the figure can be set against the machine's
 //! compute bound and against the same algorithm in Python (bench/qpso_compare.py).
 
-use crate::estimate::Regression;
-use crate::estimate::output_error::OutputError;
-use crate::estimate::swarm::qpso::Qpso;
-use crate::estimate::swarm::{Norm, Problem, Solver, Swarm};
-use crate::io::Response;
-use crate::model::{Hydro, Vehicle};
-use crate::rng::Rng;
+use crate::core::model::{Hydro, Vehicle};
+use crate::core::response::Response;
+use crate::core::rng::Rng;
+use crate::identify::Regression;
+use crate::identify::output_error::OutputError;
+use crate::identify::swarm::qpso::Qpso;
+use crate::identify::swarm::{Norm, Problem, Solver, Swarm};
 use rayon::prelude::*;
 use std::io::Write as _;
 use std::path::Path;
@@ -27,12 +27,12 @@ pub fn seed_001_problem(rows: usize) -> Regression {
     while n < rows {
         for c in &cases {
             let text = crate::twin::cfd::export(&vehicle, Hydro::reference(), c, seed);
-            let opts = crate::io::starccm::ImportOptions {
+            let opts = crate::cfd::starccm::ImportOptions {
                 columns: &Default::default(),
                 dofs: &vehicle.dofs,
                 configured_force: Default::default(),
             };
-            let r = crate::io::starccm::parse("twin.csv", &text, &opts)
+            let r = crate::cfd::starccm::parse("twin.csv", &text, &opts)
                 .expect("the twin writes valid exports")
                 .response;
             n += r.len() * r.dofs.len();
@@ -197,11 +197,11 @@ fn output_error(
     let (steps, values) = o_work;
     // RK4 steps as the lane kernel executes them, and per recorded value the weighted error,
     // its square and the sum (sqrt(w) (nu - v), then a multiply-add).
-    let flops = steps * crate::model::lanes::flops_per_step(six) + values * 4;
+    let flops = steps * crate::core::model::lanes::flops_per_step(six) + values * 4;
     println!(
         "  per evaluation: {steps} RK4 steps ({} DOF kernel, {} flops each) and {values} compared values = {:.2} MFLOP",
         if six { 6 } else { 4 },
-        crate::model::lanes::flops_per_step(six),
+        crate::core::model::lanes::flops_per_step(six),
         flops as f64 / 1e6
     );
     print_objective_alone(&problem, &swarm, flops, 10);
@@ -211,7 +211,7 @@ fn output_error(
 
 /// The twin's CFD cases of the reference vehicle, seed 1, imported as response tables.
 fn twin_cfd_responses(vehicle: &Vehicle) -> anyhow::Result<Vec<Response>> {
-    let opts = crate::io::starccm::ImportOptions {
+    let opts = crate::cfd::starccm::ImportOptions {
         columns: &Default::default(),
         dofs: &vehicle.dofs,
         configured_force: Default::default(),
@@ -219,7 +219,7 @@ fn twin_cfd_responses(vehicle: &Vehicle) -> anyhow::Result<Vec<Response>> {
     let responses = crate::twin::cfd::default_cases()
         .iter()
         .map(|c| {
-            crate::io::starccm::parse(
+            crate::cfd::starccm::parse(
                 "twin.csv",
                 &crate::twin::cfd::export(vehicle, Hydro::reference(), c, 1),
                 &opts,
@@ -357,8 +357,8 @@ fn field_specs(n: usize) -> Vec<crate::twin::field::RunSpec> {
 /// 16 one-minute field-twin runs, fused, with the field vehicle (its thruster limits declared).
 type FieldRuns = (
     tempfile::TempDir,
-    Vec<crate::fusion::run::FusedRun>,
-    crate::model::Vehicle,
+    Vec<crate::pool::fusion::run::FusedRun>,
+    crate::core::model::Vehicle,
 );
 
 fn field_runs() -> anyhow::Result<FieldRuns> {
@@ -374,14 +374,14 @@ fn field_runs() -> anyhow::Result<FieldRuns> {
     )?;
     let mut vehicle = crate::twin::field::vehicle();
     vehicle.command_limits = [
-        (crate::dof::Dof::Surge, hidden.limits[0]),
-        (crate::dof::Dof::Sway, hidden.limits[1]),
-        (crate::dof::Dof::Heave, hidden.limits[2]),
-        (crate::dof::Dof::Yaw, hidden.limits[3]),
+        (crate::core::dof::Dof::Surge, hidden.limits[0]),
+        (crate::core::dof::Dof::Sway, hidden.limits[1]),
+        (crate::core::dof::Dof::Heave, hidden.limits[2]),
+        (crate::core::dof::Dof::Yaw, hidden.limits[3]),
     ]
     .into_iter()
     .collect();
-    let fused: Vec<crate::fusion::run::FusedRun> = specs
+    let fused: Vec<crate::pool::fusion::run::FusedRun> = specs
         .par_iter()
         .map(|spec| {
             crate::twin::scenario::fuse_folder(tmp.path(), &spec.name).map(|r| r.clip_to(&vehicle))
@@ -392,12 +392,12 @@ fn field_runs() -> anyhow::Result<FieldRuns> {
 
 /// The training runs of `fused` as responses.
 fn training(
-    fused: &[crate::fusion::run::FusedRun],
-    vehicle: &crate::model::Vehicle,
-) -> Vec<crate::io::Response> {
+    fused: &[crate::pool::fusion::run::FusedRun],
+    vehicle: &crate::core::model::Vehicle,
+) -> Vec<crate::core::response::Response> {
     fused
         .iter()
-        .filter(|r| r.meta.role == crate::io::pool::Role::Train)
+        .filter(|r| r.meta.role == crate::pool::import::Role::Train)
         .filter_map(|r| r.as_response(vehicle, None))
         .collect()
 }
@@ -406,14 +406,14 @@ fn training(
 /// output error of the training runs) on the 16 field-twin runs, against its 10 s target.
 fn pem() -> anyhow::Result<ExitCode> {
     let (_tmp, fused, mut vehicle) = field_runs()?;
-    vehicle.constant_force = vec![crate::dof::Dof::Heave];
+    vehicle.constant_force = vec![crate::core::dof::Dof::Heave];
     let train = training(&fused, &vehicle);
-    let refs: Vec<&crate::io::Response> = train.iter().collect();
-    let method = crate::estimate::Method::parse("pem", Default::default())
+    let refs: Vec<&crate::core::response::Response> = train.iter().collect();
+    let method = crate::identify::Method::parse("pem", Default::default())
         .map_err(|e| anyhow::anyhow!(e))?;
     let start = std::time::Instant::now();
     let problem = Regression::build(&vehicle, &refs, 0.0);
-    let opts = method.options(crate::estimate::Options {
+    let opts = method.options(crate::identify::Options {
         rigid_mass: vehicle.rigid_mass(),
         output_error: Some((&vehicle, &refs[..])),
         ..Default::default()
@@ -438,21 +438,21 @@ fn pem() -> anyhow::Result<ExitCode> {
 }
 
 fn diagnosis() -> anyhow::Result<ExitCode> {
-    use crate::estimate::Estimator as _;
+    use crate::identify::Estimator as _;
     let (_tmp, fused, vehicle) = field_runs()?;
     let train = training(&fused, &vehicle);
-    let refs: Vec<&crate::io::Response> = train.iter().collect();
-    let fit = crate::estimate::ols::Ols.fit(
+    let refs: Vec<&crate::core::response::Response> = train.iter().collect();
+    let fit = crate::identify::ols::Ols.fit(
         &Regression::build(&vehicle, &refs, 0.0),
         &Default::default(),
     )?;
     let theta: Vec<f64> = fit.parameters.iter().map(|p| p.value).collect();
-    let plant = crate::model::Plant::new(
+    let plant = crate::core::model::Plant::new(
         &vehicle,
-        crate::model::ParamLayout::of(&vehicle).to_hydro(&theta),
+        crate::core::model::ParamLayout::of(&vehicle).to_hydro(&theta),
     );
     let crit = crate::diagnose::Criteria {
-        horizon_s: crate::model::stability::Horizon::Auto,
+        horizon_s: crate::core::model::stability::Horizon::Auto,
         ..Default::default()
     };
     let start = std::time::Instant::now();

@@ -2,9 +2,9 @@
 //! the six-DOF twin's Table II trial, built and solved by QR (OLS) and SVD (TLS), and the
 //! coupled model's simulation step against the diagonal one's.
 
-use crate::estimate::{self, Options, Regression};
-use crate::io::Response;
-use crate::model::{ParamLayout, Plant, Vec6};
+use crate::core::model::{ParamLayout, Plant, Vec6};
+use crate::core::response::Response;
+use crate::identify::{self, Options, Regression};
 use crate::twin::six;
 use std::process::ExitCode;
 use std::time::Instant;
@@ -49,7 +49,7 @@ pub fn run() -> anyhow::Result<ExitCode> {
     );
     println!("  build        {:8.1} ms", 1e3 * build);
     for method in ["ols", "tls"] {
-        let m = estimate::Method::parse(method, Default::default()).map_err(anyhow::Error::msg)?;
+        let m = identify::Method::parse(method, Default::default()).map_err(anyhow::Error::msg)?;
         let s = median_time(5, || {
             m.estimator
                 .fit(&reg, &opts)
@@ -66,15 +66,15 @@ pub fn run() -> anyhow::Result<ExitCode> {
 }
 
 /// ns per RK4 step of the coupled model and of a diagonal one, scalar, on the same trial.
-fn simulation_step(v: &crate::model::Vehicle, resp: &Response) {
+fn simulation_step(v: &crate::core::model::Vehicle, resp: &Response) {
     let tau: Vec<Vec6> = (0..resp.len()).map(|k| resp.tau(k)).collect();
     let steps: usize = resp
         .t
         .windows(2)
-        .map(|w| crate::model::dynamics::substeps(w[1] - w[0], 0.01))
+        .map(|w| crate::core::model::dynamics::substeps(w[1] - w[0], 0.01))
         .sum();
     let h = six::truth();
-    let diag = crate::model::Hydro::diagonal(h.added_diag(), h.lin_diag(), h.quad_diag());
+    let diag = crate::core::model::Hydro::diagonal(h.added_diag(), h.lin_diag(), h.quad_diag());
     for (name, hydro) in [("coupled (CUSTOM truth)", h), ("diagonal", diag)] {
         let p = Plant::new(v, hydro);
         let s = median_time(5, || {
@@ -92,8 +92,9 @@ fn simulation_step(v: &crate::model::Vehicle, resp: &Response) {
         );
     }
     // Eight candidates per pass, as the output-error objective simulates them.
-    let lanes = crate::model::lanes::LANES;
-    let coupled = crate::model::lanes_coupled::CoupledLanes::new(&vec![Plant::new(v, h); lanes]);
+    let lanes = crate::core::model::lanes::LANES;
+    let coupled =
+        crate::core::model::lanes_coupled::CoupledLanes::new(&vec![Plant::new(v, h); lanes]);
     let start = (resp.nu(0), resp.attitude(0));
     let s = median_time(5, || {
         coupled.simulate(&resp.t, &tau, start, 0.01, &mut |_, nu| {
@@ -101,13 +102,13 @@ fn simulation_step(v: &crate::model::Vehicle, resp: &Response) {
         })
     });
     let per = s / (steps * lanes) as f64;
-    let flops = crate::model::lanes_coupled::FLOPS_PER_STEP as f64;
+    let flops = crate::core::model::lanes_coupled::FLOPS_PER_STEP as f64;
     println!(
         "  simulation, coupled, {lanes} per SIMD lane {:7.1} ns per RK4 step per candidate ({:.1} GFLOP/s at {flops} flops a step)",
         1e9 * per,
         flops / per / 1e9
     );
-    let diagonal = crate::model::lanes::LanePlants::new(&vec![Plant::new(v, diag); lanes]);
+    let diagonal = crate::core::model::lanes::LanePlants::new(&vec![Plant::new(v, diag); lanes]);
     let s = median_time(5, || {
         diagonal.simulate(&resp.t, &tau, resp.nu(0), 0.01, &mut |_, nu| {
             std::hint::black_box(nu);

@@ -1,8 +1,8 @@
 //! `hydrofit build`: take the lock, recover from any killed build, run what is stale.
 
+use crate::core::progress::Progress;
 use crate::pipeline::executor::{self, Options, Summary};
 use crate::pipeline::{Plan, STATE_DIR, lock};
-use crate::progress::Progress;
 use std::path::Path;
 use std::process::ExitCode;
 use std::time::Instant;
@@ -29,11 +29,11 @@ pub fn run(root: &Path, targets: Vec<String>, flags: Flags) -> anyhow::Result<Ex
         eprintln!("hydrofit: waiting for another build of this project to finish ({holder})");
     })?;
     // Plan after taking the lock: the other build may have changed the cache.
-    let plan = Plan::load(root, crate::stage::KINDS)?;
+    let plan = Plan::load(root, crate::kinds::KINDS)?;
     plan.cache().recover()?;
     let jobs = jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     let progress = Progress::new();
-    crate::interrupt::install();
+    crate::core::interrupt::install();
     let s = executor::build(
         &plan,
         &Options {

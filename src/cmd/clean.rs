@@ -12,7 +12,7 @@ pub fn run(root: &Path) -> anyhow::Result<ExitCode> {
             eprintln!("hydrofit: waiting for a build to finish ({holder})")
         })?;
         // Published files are those of report stages; other files in reports/ are the user's.
-        let published: Vec<String> = match Plan::load(root, crate::stage::KINDS) {
+        let published: Vec<String> = match Plan::load(root, crate::kinds::KINDS) {
             Ok(plan) => plan
                 .graph
                 .spec
@@ -24,7 +24,7 @@ pub fn run(root: &Path) -> anyhow::Result<ExitCode> {
             Err(_) => vec!["reports".into()],
         };
         for dir in published {
-            for name in crate::stage::report::FILES {
+            for name in crate::report::stage::FILES {
                 let p = root.join(&dir).join(name);
                 if p.exists() {
                     std::fs::remove_file(&p)?;

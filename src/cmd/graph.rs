@@ -5,7 +5,7 @@ use std::path::Path;
 use std::process::ExitCode;
 
 pub fn run(root: &Path, dot: bool) -> anyhow::Result<ExitCode> {
-    let plan = Plan::load(root, crate::stage::KINDS)?;
+    let plan = Plan::load(root, crate::kinds::KINDS)?;
     let g = &plan.graph;
     if dot {
         crate::outln!(

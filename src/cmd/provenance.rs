@@ -1,10 +1,10 @@
 //! `hydrofit provenance NAME`: value <- fit stage, method, settings <- imported cases <- files.
 
-use crate::estimate::Estimate;
-use crate::estimate::result::FitResult;
+use crate::identify::Estimate;
+use crate::identify::result::FitResult;
 use crate::pipeline::cache::Cache;
+use crate::pipeline::contract::Artifact;
 use crate::pipeline::{Plan, explain};
-use crate::stage::Artifact;
 use std::path::Path;
 use std::process::ExitCode;
 
@@ -15,7 +15,7 @@ fn short(h: &str) -> &str {
 /// Prints where parameter `name` comes from, for every fit that identified it (or only the fit
 /// stage `model`); when several did, says so first.
 pub fn run(root: &Path, name: &str, model: Option<&str>) -> anyhow::Result<ExitCode> {
-    let plan = Plan::load(root, crate::stage::KINDS)?;
+    let plan = Plan::load(root, crate::kinds::KINDS)?;
     let cache = plan.cache();
     let g = &plan.graph;
     let models: Vec<usize> = (0..g.instances.len())
@@ -45,7 +45,7 @@ pub fn run(root: &Path, name: &str, model: Option<&str>) -> anyhow::Result<ExitC
         return Ok(ExitCode::SUCCESS);
     }
     if traced.is_empty() {
-        let hint = crate::diag::nearest(name, known.iter().map(|s| s.as_str()))
+        let hint = crate::core::diag::nearest(name, known.iter().map(|s| s.as_str()))
             .map_or(String::new(), |s| format!(" (did you mean {s}?)"));
         anyhow::bail!(
             "no identified parameter named {name}{hint}; parameters: {}",
@@ -134,7 +134,7 @@ fn load_fit(plan: &Plan, cache: &Cache, i: usize) -> anyhow::Result<FitResult> {
             why.join("; ")
         );
     }
-    crate::estimate::result::load(&cache.object(&plan.keys[i]))
+    crate::identify::result::load(&cache.object(&plan.keys[i]))
 }
 
 /// `p` as fit instance `i` identified it, the stage, method and settings, then the cases.

@@ -5,7 +5,7 @@ use std::path::Path;
 use std::process::ExitCode;
 
 pub fn run(root: &Path, show_fields: bool) -> anyhow::Result<ExitCode> {
-    let plan = Plan::load(root, crate::stage::KINDS)?;
+    let plan = Plan::load(root, crate::kinds::KINDS)?;
     let cache = plan.cache();
     let records = cache.records();
     let mut stale = 0;

@@ -124,7 +124,7 @@ pub fn tank(root: &Path, out: &Path, truth: &Path, seed: u64) -> anyhow::Result<
 pub fn check_diagnosis(seeds: &[u64]) -> anyhow::Result<ExitCode> {
     use crate::twin::scenario;
     let scenarios = diagnosis_scenarios()?;
-    let vehicle = crate::model::Vehicle::reference();
+    let vehicle = crate::core::model::Vehicle::reference();
     let plant = scenario::cfd_fit_plant(1)?;
     let mut tally = Tally::new();
     for &seed in seeds {

@@ -9,7 +9,7 @@ pub fn run(root: &Path) -> anyhow::Result<ExitCode> {
     let _lock = lock::acquire(&root.join(STATE_DIR), |holder| {
         eprintln!("hydrofit: waiting for a build of this project to finish ({holder})");
     })?;
-    let plan = Plan::load(root, crate::stage::KINDS)?;
+    let plan = Plan::load(root, crate::kinds::KINDS)?;
     let cache = plan.cache();
     let mut problems = Vec::new();
     let mut objects = 0usize;
@@ -86,7 +86,7 @@ fn check_published(
         for (rel, hash) in manifest.iter().filter(|(r, _)| !r.starts_with('.')) {
             n += 1;
             let path = plan.root.join(dest).join(rel);
-            match crate::fsutil::hash_file(&path) {
+            match crate::core::fsutil::hash_file(&path) {
                 Ok(h) if h == *hash => {}
                 Ok(_) => problems.push(format!(
                     "{dest}/{rel} differs from the build's result (edited or damaged): `hydrofit build` publishes it again"

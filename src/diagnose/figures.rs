@@ -4,8 +4,8 @@
 
 use super::result::{Figure, pct};
 use super::{self as dx, Augmentation, DOFS, Data, Mismatch};
-use crate::dof::Dof;
-use crate::model::Plant;
+use crate::core::dof::Dof;
+use crate::core::model::Plant;
 
 /// The CFD model's residual on the held-out run that carries most of it, every DOF.
 pub(super) fn residual_overview(
@@ -21,15 +21,15 @@ pub(super) fn residual_overview(
     };
     let run = &data.validate[i];
     let zero = vec![0.0; run.t.len()];
-    let traces: Vec<crate::plot::Trace> = (0..4)
-        .map(|j| crate::plot::Trace {
+    let traces: Vec<crate::core::plot::Trace> = (0..4)
+        .map(|j| crate::core::plot::Trace {
             label: DOFS[j].name(),
             t: &run.t,
             measured: &res[i][j],
             simulated: &zero,
         })
         .collect();
-    let svg = crate::plot::curves(
+    let svg = crate::core::plot::curves(
         &format!("{}: residual of the model (simulated - fused)", run.name),
         "time (s)",
         "residual (m/s, rad/s)",
@@ -87,7 +87,7 @@ pub(super) fn overlay_figure(
     let names: Vec<&str> = selected.iter().map(|(h, _)| h.name).collect();
     let d = DOFS[j];
     let model_label = format!("model {model} (dashed)");
-    let svg = crate::plot::overlay(&crate::plot::Overlay {
+    let svg = crate::core::plot::overlay(&crate::core::plot::Overlay {
         title: &format!("{}: {} velocity, recorded and simulated", run.name, d),
         y_desc: &format!("{} ({})", d.velocity(), d.velocity_unit()),
         t: &run.t,
@@ -118,7 +118,7 @@ fn worst_run_figure(
     rb: &[[Vec<f64>; 4]],
     ra: &[[Vec<f64>; 4]],
 ) -> anyhow::Result<Option<Figure>> {
-    use crate::plot::{Trace, curves};
+    use crate::core::plot::{Trace, curves};
     let worst = (0..data.validate.len()).max_by(|&a, &b| {
         let e = |r: &[Vec<f64>; 4]| {
             r[j].iter()
@@ -165,7 +165,7 @@ pub(super) fn evidence_figures(
     after: &Augmentation,
     dofs: &[Dof],
 ) -> anyhow::Result<Vec<Figure>> {
-    use crate::plot::{Trace, curves};
+    use crate::core::plot::{Trace, curves};
     let j = dofs
         .first()
         .and_then(|d| DOFS.iter().position(|x| x == d))

@@ -2,7 +2,7 @@
 //! step, near a wall, ...) and its worst windows per run and DOF.
 
 use super::{DOFS, Run};
-use crate::dof::Dof;
+use crate::core::dof::Dof;
 use serde::{Deserialize, Serialize};
 
 /// A regime of the runs: a condition per sample and DOF.

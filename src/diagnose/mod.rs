@@ -7,7 +7,7 @@
 //!    in which time windows, and in which regimes (after command steps, reverse or small
 //!    commands, far from the tether anchor, near walls, ...), as shares of the error.
 //! 3. **Test hypotheses.** Every effect of the table in docs/formats.md is a physically formed augmentation
-//!    of the model ([`crate::model::effects`]) with one or two parameters, fitted by output
+//!    of the model ([`crate::core::model::effects`]) with one or two parameters, fitted by output
 //!    error (the simulator driven by the logged thrust, the fused pose) on the training runs.
 //!    The winner is the one with the lowest held-out error after a penalty per parameter; it is
 //!    kept only if it improves the held-out error significantly, then the next effect is tested
@@ -21,17 +21,19 @@ pub mod discover;
 pub mod effects;
 mod figures;
 mod locate;
+pub mod report;
 pub mod result;
 pub mod search;
 mod select;
+pub mod stage;
 #[cfg(test)]
 mod tests;
 mod verdict;
 pub mod world;
 
-use crate::dof::Dof;
-use crate::fusion::run::FusedRun;
-use crate::model::{Plant, Pool, Vec6};
+use crate::core::dof::Dof;
+use crate::core::model::{Plant, Pool, Vec6};
+use crate::pool::fusion::run::FusedRun;
 use effects::State;
 use rayon::prelude::*;
 use std::collections::BTreeMap;
@@ -73,7 +75,7 @@ pub struct Run {
 impl Run {
     /// None when a DOF was not fused (the run lacks a sensor it needs).
     pub fn from_fused(r: &FusedRun) -> Option<Run> {
-        let validate = r.meta.role == crate::io::pool::Role::Validate;
+        let validate = r.meta.role == crate::pool::import::Role::Validate;
         Run::from_parts(
             &r.meta.run,
             validate,
@@ -88,7 +90,7 @@ impl Run {
         name: &str,
         validate: bool,
         thrust: &[[f64; 4]],
-        f: &crate::fusion::Fused,
+        f: &crate::pool::fusion::Fused,
         pool: Option<Pool>,
         anchor: Option<[f64; 3]>,
     ) -> Option<Run> {
@@ -122,7 +124,7 @@ impl Run {
     /// Straight-line length from the tether's anchor at sample k, m.
     pub fn tether_length(&self, k: usize) -> Option<f64> {
         let pos = [self.pos[0][k], self.pos[1][k], self.pos[2][k]];
-        Some(crate::model::pool::tether_length(self.anchor?, pos))
+        Some(crate::core::model::pool::tether_length(self.anchor?, pos))
     }
 
     /// Distance to the nearest side wall at sample k, m.
@@ -186,7 +188,7 @@ impl Shifted {
             Vec::new()
         } else {
             t.iter()
-                .map(|&tk| crate::fusion::locate(t, tk + delay))
+                .map(|&tk| crate::pool::fusion::locate(t, tk + delay))
                 .collect()
         };
         Shifted { delay, loc }
@@ -196,7 +198,7 @@ impl Shifted {
         if self.delay == 0.0 {
             series[k]
         } else {
-            crate::fusion::interp_at(series, self.loc[k])
+            crate::pool::fusion::interp_at(series, self.loc[k])
         }
     }
 }
@@ -242,7 +244,7 @@ fn simulate_checked(
     }
     s.thrust = w.shape_command(&cmd6(0));
     let mut out = Vec::with_capacity(n);
-    let anchors = crate::model::stability::anchors(&run.t, &run.anchors_s);
+    let anchors = crate::core::model::stability::anchors(&run.t, &run.anchors_s);
     let mut next_anchor = 1;
     let discovered = aug.discovered.as_ref().map(|d| (d, d.prepare(run)));
     for k in 0..n {
@@ -259,7 +261,7 @@ fn simulate_checked(
         s.pos = [0, 1, 2].map(|j| rec.at(&run.pos[j], k));
         s.psi = rec.at(&run.psi, k);
         let span = run.t[k + 1] - run.t[k];
-        let m = crate::model::dynamics::substeps(span, STEP);
+        let m = crate::core::model::dynamics::substeps(span, STEP);
         let c = cmd6(k);
         let external = discovered
             .as_ref()
@@ -350,7 +352,7 @@ pub fn residual(sim: &[[f64; 4]], run: &Run, delay: f64) -> [Vec<f64>; 4] {
     } else {
         run.t
             .iter()
-            .map(|&tk| crate::fusion::locate(&run.t, tk - delay))
+            .map(|&tk| crate::pool::fusion::locate(&run.t, tk - delay))
             .collect()
     };
     std::array::from_fn(|j| {
@@ -363,7 +365,7 @@ pub fn residual(sim: &[[f64; 4]], run: &Run, delay: f64) -> [Vec<f64>; 4] {
                 } else if delay == 0.0 {
                     series[k] - run.vel[j][k]
                 } else {
-                    crate::fusion::interp_at(&series, loc[k]) - run.vel[j][k]
+                    crate::pool::fusion::interp_at(&series, loc[k]) - run.vel[j][k]
                 }
             })
             .collect()

@@ -2,16 +2,16 @@
 //! verdict, what was tested and where the mismatch lies, and the evidence figures.
 
 use super::{Criteria, Data, Mismatch, RegimeShare, Tested, Untested};
-use crate::dof::Dof;
+use crate::core::dof::Dof;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::Path;
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Reestimated {
-    pub parameters: Vec<crate::estimate::Estimate>,
+    pub parameters: Vec<crate::identify::Estimate>,
     pub validation_nmae: BTreeMap<Dof, f64>,
-    #[serde(deserialize_with = "crate::fsutil::f64_or_nan")]
+    #[serde(deserialize_with = "crate::core::fsutil::f64_or_nan")]
     pub validation_cost: f64,
     pub within_noise: bool,
 }
@@ -21,7 +21,7 @@ pub struct Baseline {
     pub model: String,
     pub validation_nmae: BTreeMap<Dof, f64>,
     /// Normalised cost on the held-out runs (sum over DOFs of MSE / mean square velocity).
-    #[serde(deserialize_with = "crate::fsutil::f64_or_nan")]
+    #[serde(deserialize_with = "crate::core::fsutil::f64_or_nan")]
     pub validation_cost: f64,
     /// The same cost of the measurement noise alone: what no model can beat.
     pub noise_cost: f64,
@@ -49,7 +49,7 @@ pub struct Found {
     /// For what no named effect explains: the closed form discovery proposed and proved on the
     /// held-out runs ([`super::discover`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub candidate: Option<super::discover::Candidate>,
+    pub candidate: Option<Candidate>,
 }
 
 /// A candidate as good as a named effect on the held-out runs, to within their noise.
@@ -131,7 +131,7 @@ pub struct Diagnosis {
     pub untested: Vec<Untested>,
     /// The model's local stability along each run, and the simulation window it led to.
     #[serde(default)]
-    pub stability: BTreeMap<String, crate::model::stability::Stability>,
+    pub stability: BTreeMap<String, crate::core::model::stability::Stability>,
     pub elapsed_s: f64,
 }
 
@@ -195,8 +195,8 @@ pub const FIGURES: &str = "figures.json";
 
 pub fn load(dir: &Path) -> anyhow::Result<(Diagnosis, Vec<Figure>)> {
     Ok((
-        crate::fsutil::read_json(&dir.join(RESULT))?,
-        crate::fsutil::read_json(&dir.join(FIGURES))?,
+        crate::core::fsutil::read_json(&dir.join(RESULT))?,
+        crate::core::fsutil::read_json(&dir.join(FIGURES))?,
     ))
 }
 
@@ -209,4 +209,42 @@ pub(crate) fn fmt_params(p: &BTreeMap<String, f64>) -> String {
         .map(|(k, v)| format!("{k} = {v:.3}"))
         .collect::<Vec<_>>()
         .join(", ")
+}
+
+/// One kept term of a discovered closed form.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DiscoveredTerm {
+    pub term: String,
+    /// Coefficient (for a sine: its amplitude), in the DOF's force unit per unit of the term.
+    pub coefficient: f64,
+    /// 95 % interval over the bootstrap resamples.
+    pub interval: [f64; 2],
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frequency_hz: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub phase_rad: Option<f64>,
+    /// Share of the resamples that selected it.
+    pub selected_share: f64,
+    /// Training runs that selected it alone, of those where it varies.
+    pub runs_selected: [usize; 2],
+}
+
+/// The closed form proposed for what the named effects leave, proven on held-out runs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Candidate {
+    pub dof: Dof,
+    /// e.g. `Z += 11.8 sin(2 pi 0.420 t + 0.30) N`.
+    pub expression: String,
+    pub terms: Vec<DiscoveredTerm>,
+    /// The named effect it is in disguise, if it is one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub named_as: Option<String>,
+    /// Terms in the library it was chosen from.
+    pub library_terms: usize,
+    /// Significant peaks of the residual's spectrum, Hz.
+    pub spectrum_peaks_hz: Vec<f64>,
+    pub validation_nmae_before: BTreeMap<Dof, f64>,
+    pub validation_nmae_after: BTreeMap<Dof, f64>,
+    pub validation_cost_before: f64,
+    pub validation_cost_after: f64,
 }

@@ -9,7 +9,7 @@
 //! as it would be with exact costs.
 
 use super::{Data, Hypothesis, Selection, augmentation};
-use crate::model::Plant;
+use crate::core::model::Plant;
 
 /// Grid points per parameter: 17 for one, 7 x 7 for two.
 fn grid(k: usize) -> usize {
@@ -66,7 +66,7 @@ pub fn nelder_mead(f: Cost, x0: &[f64], step: f64, iters: usize) -> (Vec<f64>, f
     let mut simplex = initial_simplex(f, x0, step);
     for _ in 0..iters {
         // Ctrl-C: the stage's result is thrown away (see the executor), so stopping is safe.
-        if crate::interrupt::requested() {
+        if crate::core::interrupt::requested() {
             break;
         }
         simplex.sort_by(|a, b| a.1.total_cmp(&b.1));
@@ -147,7 +147,7 @@ pub fn fit_one(
     let mut best = (vec![0.0; k], f64::INFINITY);
     let total = g.pow(k as u32);
     for idx in 0..total {
-        if crate::interrupt::requested() {
+        if crate::core::interrupt::requested() {
             break;
         }
         let u: Vec<f64> = (0..k)

@@ -3,7 +3,7 @@
 
 use super::effects::Limits;
 use super::{Augmentation, Data, Hypothesis, Selection, augmentation, search};
-use crate::model::Plant;
+use crate::core::model::Plant;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -30,7 +30,7 @@ pub struct Criteria {
     /// simulation of an unstable model does not drift whatever the physics; stable stretches
     /// and stable runs are simulated whole, where slow effects stay visible), `whole_run`, or
     /// seconds.
-    pub horizon_s: crate::model::stability::Horizon,
+    pub horizon_s: crate::core::model::stability::Horizon,
     /// Propose a closed form for a structured residual no named effect explains
     /// ([`super::discover`]); `false` leaves it `unexplained` without one.
     pub discover: bool,
@@ -45,7 +45,7 @@ impl Default for Criteria {
             within_noise: 5.0,
             max_effects: 3,
             unexplained_noise_multiple: 5.0,
-            horizon_s: crate::model::stability::Horizon::Auto,
+            horizon_s: crate::core::model::stability::Horizon::Auto,
             discover: true,
         }
     }

@@ -16,9 +16,12 @@ fn run_scenario(effects: &[Effect], seed: u64) -> (Search, Data) {
 }
 
 /// The full diagnosis of a generated scenario, against the CFD fit of the twin's STAR-CCM+ cases.
-fn full(fused: &[crate::fusion::run::FusedRun], plant: &crate::model::Plant) -> Diagnosis {
+fn full(
+    fused: &[crate::pool::fusion::run::FusedRun],
+    plant: &crate::core::model::Plant,
+) -> Diagnosis {
     diagnose(
-        &crate::model::Vehicle::reference(),
+        &crate::core::model::Vehicle::reference(),
         "fit",
         plant,
         fused,
@@ -219,7 +222,7 @@ fn drifted_drag_is_reported_as_drift_not_as_an_effect() {
     for i in 0..6 {
         h.quad[i][i][i] *= 0.65;
     }
-    let plant = crate::model::Plant::new(&crate::model::Vehicle::reference(), h);
+    let plant = crate::core::model::Plant::new(&crate::core::model::Vehicle::reference(), h);
     let d = full(&scenario::fused_runs(&[], 5).unwrap(), &plant);
     assert!(
         d.baseline.validation_cost > 3.0 * d.baseline.noise_cost,
@@ -269,7 +272,7 @@ fn a_residual_no_effect_explains_is_unexplained_not_named() {
             .last()
             .unwrap()
             .dofs
-            .contains(&crate::dof::Dof::Surge)
+            .contains(&crate::core::dof::Dof::Surge)
     );
 }
 
@@ -347,7 +350,7 @@ fn experiment() {
 
 #[test]
 fn an_unstable_model_on_piloted_runs_is_not_read_as_missing_physics() {
-    use crate::model::{Hydro, Plant, Vehicle};
+    use crate::core::model::{Hydro, Plant, Vehicle};
     let fused = piloted_fast_runs(3);
     let plant = Plant::new(&Vehicle::reference(), Hydro::reference());
     // The default horizon: re-anchored where the model grows.
@@ -381,7 +384,7 @@ fn an_unstable_model_on_piloted_runs_is_not_read_as_missing_physics() {
     }
     // Simulated whole, the same runs drift apart: the error is far above the noise floor.
     let whole = Criteria {
-        horizon_s: crate::model::stability::Horizon::WholeRun,
+        horizon_s: crate::core::model::stability::Horizon::WholeRun,
         ..Criteria::default()
     };
     let w = diagnose(

@@ -5,17 +5,17 @@
 use super::figures;
 use super::result::*;
 use super::{self as dx, Augmentation, Criteria, DOFS, Data, Mismatch, Run};
-use crate::dof::Dof;
-use crate::model::{ParamLayout, Plant};
+use crate::core::dof::Dof;
+use crate::core::model::{ParamLayout, Plant};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
 /// The whole diagnosis of `plant` (the model of fit stage `model`) on fused pool runs.
 pub fn diagnose(
-    vehicle: &crate::model::Vehicle,
+    vehicle: &crate::core::model::Vehicle,
     model: &str,
     plant: &Plant,
-    fused: &[crate::fusion::run::FusedRun],
+    fused: &[crate::pool::fusion::run::FusedRun],
     crit: &Criteria,
     progress: &(dyn Fn(&str) + Sync),
 ) -> anyhow::Result<(Diagnosis, Vec<Figure>)> {
@@ -106,15 +106,15 @@ fn diverged_runs(plant: &Plant, data: &Data) -> Vec<String> {
 /// The model's own parameters re-estimated on the training runs (drift), and how that model
 /// does on the held-out runs.
 struct Drifted {
-    parameters: Vec<crate::estimate::Estimate>,
+    parameters: Vec<crate::identify::Estimate>,
     sums: dx::Sums,
     cost: f64,
 }
 
 impl Drifted {
     fn estimate(
-        vehicle: &crate::model::Vehicle,
-        fused: &[crate::fusion::run::FusedRun],
+        vehicle: &crate::core::model::Vehicle,
+        fused: &[crate::pool::fusion::run::FusedRun],
         data: &Data,
     ) -> anyhow::Result<Drifted> {
         let parameters = reestimate(vehicle, fused, data)?;
@@ -229,12 +229,12 @@ fn conclude(
 /// its local stability asks for; the runs left out, and the stability along each run.
 fn prepare_runs(
     plant: &Plant,
-    fused: &[crate::fusion::run::FusedRun],
+    fused: &[crate::pool::fusion::run::FusedRun],
     crit: &Criteria,
 ) -> (
     Vec<Run>,
     Vec<String>,
-    BTreeMap<String, crate::model::stability::Stability>,
+    BTreeMap<String, crate::core::model::stability::Stability>,
 ) {
     let mut skipped = Vec::new();
     let runs: Vec<Run> = fused
@@ -253,7 +253,7 @@ fn prepare_runs(
         let vel: Vec<[f64; 4]> = (0..r.t.len())
             .map(|k| std::array::from_fn(|j| r.vel[j][k]))
             .collect();
-        let s = crate::model::stability::along(plant, &r.t, &vel, crit.horizon_s);
+        let s = crate::core::model::stability::along(plant, &r.t, &vel, crit.horizon_s);
         r.anchors_s = s.anchors_s.clone();
         stability.insert(r.name.clone(), s);
     }
@@ -540,19 +540,19 @@ fn structured_left(plant: &Plant, data: &Data, aug: &Augmentation, crit: &Criter
 
 /// The model's parameters re-estimated on the training runs: equation error, least squares.
 fn reestimate(
-    vehicle: &crate::model::Vehicle,
-    fused: &[crate::fusion::run::FusedRun],
+    vehicle: &crate::core::model::Vehicle,
+    fused: &[crate::pool::fusion::run::FusedRun],
     data: &Data,
-) -> anyhow::Result<Vec<crate::estimate::Estimate>> {
-    use crate::estimate::Estimator as _;
-    let train: Vec<crate::io::Response> = fused
+) -> anyhow::Result<Vec<crate::identify::Estimate>> {
+    use crate::identify::Estimator as _;
+    let train: Vec<crate::core::response::Response> = fused
         .iter()
         .filter(|r| data.train.iter().any(|t| t.name == r.meta.run))
         .filter_map(|r| r.as_response(vehicle, None))
         .collect();
-    let refs: Vec<&crate::io::Response> = train.iter().collect();
-    let problem = crate::estimate::Regression::build(vehicle, &refs, 1.0);
-    Ok(crate::estimate::ols::Ols
+    let refs: Vec<&crate::core::response::Response> = train.iter().collect();
+    let problem = crate::identify::Regression::build(vehicle, &refs, 1.0);
+    Ok(crate::identify::ols::Ols
         .fit(&problem, &Default::default())?
         .parameters)
 }

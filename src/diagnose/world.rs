@@ -2,9 +2,9 @@
 //! ([`super::effects`]), in the pool frame, with the thruster state a lag needs.
 
 use super::effects::{Env, State, Term};
-use crate::model::motion::rk4;
-use crate::model::pool::tether_length;
-use crate::model::{Plant, Pool, Vec6};
+use crate::core::model::motion::rk4;
+use crate::core::model::pool::tether_length;
+use crate::core::model::{Plant, Pool, Vec6};
 use std::sync::Arc;
 
 /// Base plant plus effects, in a pool.

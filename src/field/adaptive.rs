@@ -15,7 +15,9 @@
 //! right-handed about `span`; lift acts along `span x d`, drag against the motion `d`.
 
 pub mod aid;
+pub mod report;
 pub mod result;
+pub mod stage;
 
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};

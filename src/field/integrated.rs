@@ -7,6 +7,9 @@
 //! window (eq. 19), forgetting old windows by `lambda` so that it follows a parameter that
 //! changes during the run.
 
+pub mod report;
+pub mod stage;
+
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
@@ -228,7 +231,7 @@ pub struct Detail {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rng::Rng;
+    use crate::core::rng::Rng;
 
     /// A two-state linear system (w, q) with a pitch angle and a PRBS input, Euler at 1 ms,
     /// sampled at 10 Hz; `b_q` steps from `bq0` to `bq1` at `t_step`.

@@ -7,9 +7,11 @@
 pub mod adaptive;
 pub mod arx;
 pub mod integrated;
+pub mod report;
 pub mod signals;
+pub mod truth;
 
-use crate::provenance::InputFile;
+use crate::core::provenance::InputFile;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -46,19 +48,19 @@ pub struct FieldResult {
 pub const RESULT: &str = "field.json";
 
 pub fn load(dir: &Path) -> anyhow::Result<FieldResult> {
-    crate::fsutil::read_json(&dir.join(RESULT))
+    crate::core::fsutil::read_json(&dir.join(RESULT))
 }
 
 /// The runs of `runs` for estimation (`role: train`) and validation (`role: validate`), and
 /// the union of their input files; an error when no run is for estimation.
 pub fn split_runs(
-    runs: &[crate::fusion::run::FusedRun],
+    runs: &[crate::pool::fusion::run::FusedRun],
 ) -> anyhow::Result<(
-    Vec<&crate::fusion::run::FusedRun>,
-    Vec<&crate::fusion::run::FusedRun>,
+    Vec<&crate::pool::fusion::run::FusedRun>,
+    Vec<&crate::pool::fusion::run::FusedRun>,
     Vec<InputFile>,
 )> {
-    use crate::io::pool::Role;
+    use crate::pool::import::Role;
     let est: Vec<_> = runs.iter().filter(|r| r.meta.role == Role::Train).collect();
     let val: Vec<_> = runs
         .iter()

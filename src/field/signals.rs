@@ -3,7 +3,7 @@
 //! the depth rate `depth_rate` (the fused depth differentiated, as seed 002 computed it),
 //! commanded forces `X Y Z K M N`, and every actuator of `actuators.csv` by its name.
 
-use crate::fusion::run::FusedRun;
+use crate::pool::fusion::run::FusedRun;
 
 /// The names a run may offer besides its actuators.
 pub const NAMES: [&str; 17] = [
@@ -42,7 +42,7 @@ pub fn unit(name: &str) -> &'static str {
 
 /// Signal `name` of `run` on its fused time base, or an error naming what the run offers.
 pub fn signal(run: &FusedRun, name: &str) -> anyhow::Result<Vec<f64>> {
-    use crate::dof::Dof;
+    use crate::core::dof::Dof;
     let f = &run.fused;
     let vel = |d: Dof| run.velocity(d).cloned();
     let cmd = |j: usize| Some(run.thrust.iter().map(|r| r[j]).collect());

@@ -98,9 +98,12 @@ impl Cache {
         missing: &[String],
     ) -> std::io::Result<()> {
         let text = serde_json::to_string_pretty(&record.fields).map_err(std::io::Error::other)?;
-        crate::fsutil::write_atomic(&tmp.join(FIELDS_FILE), text.as_bytes())?;
+        crate::core::fsutil::write_atomic(&tmp.join(FIELDS_FILE), text.as_bytes())?;
         if !missing.is_empty() {
-            crate::fsutil::write_atomic(&tmp.join(PARTIAL_FILE), missing.join(", ").as_bytes())?;
+            crate::core::fsutil::write_atomic(
+                &tmp.join(PARTIAL_FILE),
+                missing.join(", ").as_bytes(),
+            )?;
         }
         write_manifest(tmp)?;
         let dest = self.object(&record.key);
@@ -125,7 +128,7 @@ impl Cache {
         let watched: std::collections::BTreeMap<String, Option<String>> =
             serde_json::from_str(&text).ok()?;
         watched.into_iter().find_map(|(rel, was)| {
-            let now = crate::fsutil::hash_file(&root.join(&rel)).ok();
+            let now = crate::core::fsutil::hash_file(&root.join(&rel)).ok();
             match (was, now) {
                 (a, b) if a == b => None,
                 (None, Some(_)) => Some(format!("{rel} appeared")),
@@ -158,7 +161,7 @@ impl Cache {
             }
         }
         for (rel, hash) in &listed {
-            match crate::fsutil::hash_file(&dir.join(rel)) {
+            match crate::core::fsutil::hash_file(&dir.join(rel)) {
                 Ok(h) if h == *hash => {}
                 Ok(_) => return Err(format!("{rel} differs from the result as written")),
                 Err(_) => return Err(format!("{rel} is missing")),
@@ -226,7 +229,7 @@ impl Cache {
                 .filter_map(|r| serde_json::to_string(r).ok())
                 .map(|l| l + "\n")
                 .collect();
-            crate::fsutil::write_atomic(&path, body.as_bytes())?;
+            crate::core::fsutil::write_atomic(&path, body.as_bytes())?;
         }
         Ok(())
     }
@@ -234,7 +237,7 @@ impl Cache {
 
 /// Every file under `dir` but the manifest, as `/`-separated paths relative to it, sorted.
 fn files_under(dir: &Path) -> std::io::Result<Vec<String>> {
-    let mut out = crate::fsutil::files_under(dir, false)?;
+    let mut out = crate::core::fsutil::files_under(dir, false)?;
     out.retain(|rel| rel != MANIFEST_FILE);
     out.sort();
     Ok(out)
@@ -244,10 +247,13 @@ fn files_under(dir: &Path) -> std::io::Result<Vec<String>> {
 fn write_manifest(dir: &Path) -> std::io::Result<()> {
     let mut m = std::collections::BTreeMap::new();
     for rel in files_under(dir)? {
-        m.insert(rel.clone(), crate::fsutil::hash_file(&dir.join(&rel))?);
+        m.insert(
+            rel.clone(),
+            crate::core::fsutil::hash_file(&dir.join(&rel))?,
+        );
     }
     let text = serde_json::to_string_pretty(&m).map_err(std::io::Error::other)?;
-    crate::fsutil::write_atomic(&dir.join(MANIFEST_FILE), text.as_bytes())
+    crate::core::fsutil::write_atomic(&dir.join(MANIFEST_FILE), text.as_bytes())
 }
 
 /// Records in the result folder `out` the project files `paths` (relative to `root`) it was
@@ -255,10 +261,10 @@ fn write_manifest(dir: &Path) -> std::io::Result<()> {
 pub fn write_watched(out: &Path, root: &Path, paths: &[String]) -> std::io::Result<()> {
     let watched: std::collections::BTreeMap<&String, Option<String>> = paths
         .iter()
-        .map(|p| (p, crate::fsutil::hash_file(&root.join(p)).ok()))
+        .map(|p| (p, crate::core::fsutil::hash_file(&root.join(p)).ok()))
         .collect();
     let text = serde_json::to_string_pretty(&watched).map_err(std::io::Error::other)?;
-    crate::fsutil::write_atomic(&out.join(WATCHED_FILE), text.as_bytes())
+    crate::core::fsutil::write_atomic(&out.join(WATCHED_FILE), text.as_bytes())
 }
 
 #[cfg(test)]

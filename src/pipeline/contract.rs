@@ -2,8 +2,8 @@
 //! stage may touch ([`RunCtx`]), and what a configured stage does ([`StageImpl`]). The kinds
 //! themselves live in `crate::stage`; the engine knows them only through a [`Registry`].
 
-use crate::model::Vehicle;
-use crate::provenance::InputFile;
+use crate::core::model::Vehicle;
+use crate::core::provenance::InputFile;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -178,7 +178,7 @@ impl RunCtx<'_> {
         fix: impl Into<String>,
     ) -> anyhow::Error {
         let file = super::SPEC_FILE;
-        let e = crate::diag::InputError::file(file, what, fix);
+        let e = crate::core::diag::InputError::file(file, what, fix);
         let Ok(text) = std::fs::read_to_string(self.root.join(file)) else {
             return e.into();
         };

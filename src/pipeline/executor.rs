@@ -5,8 +5,8 @@ use super::cache::{Cache, Record};
 use super::contract::{RunCtx, Upstream};
 use super::spec::StageSpec;
 use super::{Plan, explain};
-use crate::progress::Progress;
-use crate::provenance::InputFile;
+use crate::core::progress::Progress;
+use crate::core::provenance::InputFile;
 use std::collections::HashMap;
 use std::path::Path;
 use std::sync::mpsc;
@@ -138,7 +138,7 @@ pub fn build(plan: &Plan, opts: &Options, progress: &Progress) -> anyhow::Result
     let Schedule {
         state, mut summary, ..
     } = schedule;
-    summary.interrupted = crate::interrupt::requested();
+    summary.interrupted = crate::core::interrupt::requested();
     for i in (0..state.len()).filter(|&i| state[i] == State::Done) {
         summary.published.extend(publish(plan, i, &cache)?);
     }
@@ -247,7 +247,7 @@ impl<'a> Schedule<'a> {
     /// Up to `free` waiting instances whose dependencies are done (or failed and tolerable);
     /// none once Ctrl-C is pressed.
     fn ready(&self, free: usize) -> Vec<usize> {
-        let stop = crate::interrupt::requested();
+        let stop = crate::core::interrupt::requested();
         let (plan, state) = (self.plan, &self.state);
         (0..state.len())
             .filter(|&i| {
@@ -298,7 +298,7 @@ impl<'a> Schedule<'a> {
                 self.state[i] = State::Done;
                 self.summary.ran.push(id);
             }
-            Err(_) if crate::interrupt::requested() => {
+            Err(_) if crate::core::interrupt::requested() => {
                 // Stopped by Ctrl-C, not a failure: it runs again next time.
                 self.state[i] = State::Failed;
                 self.progress.println(format!("{id}: stopped"));
@@ -339,7 +339,7 @@ fn tolerable(plan: &Plan, failed: usize) -> bool {
     let kind = plan.graph.stage_of(failed).kind;
     kind.fan_out
         && kind.produces == super::contract::Artifact::PoolRuns
-        && !crate::interrupt::requested()
+        && !crate::core::interrupt::requested()
 }
 
 /// Runs instance `i` into a fresh folder and commits it to the cache, or removes the folder
@@ -438,7 +438,7 @@ fn run_guarded(st: &StageSpec, ctx: &RunCtx) -> anyhow::Result<()> {
                 panic_text(&p)
             ))
         })
-        .and_then(|()| crate::interrupt::check())
+        .and_then(|()| crate::core::interrupt::check())
 }
 
 fn log_time(spinner: &indicatif::ProgressBar, id: &str, start: Instant) {
@@ -476,7 +476,7 @@ fn publish(plan: &Plan, i: usize, cache: &Cache) -> anyhow::Result<Vec<String>> 
         let target = plan.root.join(dest).join(&name);
         if !same_contents(&obj.join(&name), &target) {
             let bytes = std::fs::read(obj.join(&name))?;
-            crate::fsutil::write_atomic(&target, &bytes)?;
+            crate::core::fsutil::write_atomic(&target, &bytes)?;
             written.push(format!("{dest}/{name}"));
         }
     }
@@ -486,7 +486,7 @@ fn publish(plan: &Plan, i: usize, cache: &Cache) -> anyhow::Result<Vec<String>> 
 fn same_contents(a: &Path, b: &Path) -> bool {
     match (std::fs::metadata(a), std::fs::metadata(b)) {
         (Ok(x), Ok(y)) if x.len() == y.len() => {
-            crate::fsutil::hash_file(a).ok() == crate::fsutil::hash_file(b).ok()
+            crate::core::fsutil::hash_file(a).ok() == crate::core::fsutil::hash_file(b).ok()
         }
         _ => false,
     }

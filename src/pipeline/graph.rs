@@ -121,10 +121,11 @@ fn entry_files(st: &StageSpec, p: &Path, r: &str) -> Result<Vec<String>, GraphEr
     }
     if p.is_dir() {
         // The case folder's files, skipping hidden names.
-        let under = crate::fsutil::files_under(p, true).map_err(|source| GraphError::Read {
-            path: r.to_string(),
-            source,
-        })?;
+        let under =
+            crate::core::fsutil::files_under(p, true).map_err(|source| GraphError::Read {
+                path: r.to_string(),
+                source,
+            })?;
         files.extend(under.into_iter().map(|f| format!("{r}/{f}")));
         if let Some(keep) = st.kind.input_filter {
             let prefix = format!("{r}/");
@@ -243,7 +244,7 @@ impl Graph {
         for inst in &self.instances {
             for f in &inst.inputs {
                 if !out.contains_key(f) {
-                    let h = crate::fsutil::hash_file(&root.join(f)).map_err(|source| {
+                    let h = crate::core::fsutil::hash_file(&root.join(f)).map_err(|source| {
                         GraphError::Read {
                             path: f.clone(),
                             source,
@@ -265,7 +266,7 @@ impl Graph {
                 .collect();
             if hits.is_empty() {
                 let names = self.spec.stages.iter().map(|s| s.name.as_str());
-                let hint = crate::diag::nearest(t, names)
+                let hint = crate::core::diag::nearest(t, names)
                     .map_or(String::new(), |s| format!(" (did you mean `{s}`?)"));
                 return Err(format!(
                     "no stage or stage instance named `{t}` in pipeline.yaml{hint}"

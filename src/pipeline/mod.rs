@@ -6,9 +6,9 @@ pub mod executor;
 pub mod explain;
 pub mod graph;
 pub mod key;
-pub use crate::input::locate;
 pub mod lock;
 pub mod spec;
+pub use crate::core::input::locate;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -35,9 +35,12 @@ impl Plan {
             spec_path.display(),
             root.display()
         );
-        let text =
-            crate::input::read_path(&spec_path, SPEC_FILE, "save pipeline.yaml as UTF-8 text")?
-                .text;
+        let text = crate::core::input::read_path(
+            &spec_path,
+            SPEC_FILE,
+            "save pipeline.yaml as UTF-8 text",
+        )?
+        .text;
         let spec = spec::parse(SPEC_FILE, &text, kinds)?;
         let graph = graph::Graph::expand(root, spec)?;
         let hashes = graph.hash_inputs(root)?;

@@ -2,8 +2,8 @@
 
 use super::contract::{self, Artifact, Kind, Registry, StageImpl};
 use super::locate::KeyIndex;
-use crate::diag::{InputError, nearest};
-use crate::model::Vehicle;
+use crate::core::diag::{InputError, nearest};
+use crate::core::model::Vehicle;
 use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -144,7 +144,7 @@ pub fn parse(path: &str, text: &str, kinds: Registry) -> Result<Spec, InputError
         index: KeyIndex::new(text),
     };
     // Repeated keys first: serde keeps the last of a map's (a stage declared twice) silently.
-    crate::input::yaml::<serde_yaml_ng::Value>(
+    crate::core::input::yaml::<serde_yaml_ng::Value>(
         path,
         text,
         "see the README's description of pipeline.yaml",

@@ -3,15 +3,15 @@
 
 use super::html;
 use super::json::{self, DofMetrics, ModelScore, RunScore, Validation};
+use crate::compare::artifact::Comparison;
+use crate::core::dof::Dof;
+use crate::core::fsutil::json_bytes;
+use crate::core::model::{Hydro, Plant, Vec6, Vehicle};
+use crate::core::plot as plots;
+use crate::core::response::Response;
 use crate::diagnose::{Diagnosis, Figure};
-use crate::dof::Dof;
-use crate::estimate::comparison::Comparison;
-use crate::estimate::result::FitResult;
-use crate::fsutil::json_bytes;
-use crate::fusion::run::FusedRun;
-use crate::io::Response;
-use crate::model::{Hydro, Plant, Vec6, Vehicle};
-use crate::plot as plots;
+use crate::identify::result::FitResult;
+use crate::pool::fusion::run::FusedRun;
 use crate::validate;
 use crate::validate::Metrics;
 use crate::validate::pool::{Scores, Simulated};
@@ -26,8 +26,8 @@ pub struct Case {
     pub notes: Vec<String>,
     /// The body mass the case states (OpenFOAM), which replaces the vehicle's.
     pub mass: Option<f64>,
-    pub openfoam: Option<crate::openfoam::RunInfo>,
-    pub track: Option<crate::openfoam::Track>,
+    pub openfoam: Option<crate::cfd::openfoam::RunInfo>,
+    pub track: Option<crate::cfd::openfoam::Track>,
     /// A 2D case (forces and masses per metre of span).
     pub two_dimensional: bool,
 }
@@ -61,7 +61,8 @@ pub fn build(inp: &Inputs) -> anyhow::Result<Vec<(&'static str, Vec<u8>)>> {
         models.push(score);
         body_html += &html;
     }
-    let accuracy = super::pool::fusion_accuracy(inp.root, &inp.truth_files, &inp.pool_runs)?;
+    let accuracy =
+        crate::pool::report::fusion_accuracy(inp.root, &inp.truth_files, &inp.pool_runs)?;
     let pool_html = pool_html(inp, &accuracy)?;
     let plotted: Vec<(&Case, &Vec<Vec6>)> = inp
         .cases
@@ -113,34 +114,37 @@ pub fn build(inp: &Inputs) -> anyhow::Result<Vec<(&'static str, Vec<u8>)>> {
 }
 
 /// The sections after the CFD ones: the comparison of methods, the diagnosis and the pool runs.
-fn pool_html(inp: &Inputs, accuracy: &[super::pool::FusionAccuracy]) -> anyhow::Result<String> {
+fn pool_html(
+    inp: &Inputs,
+    accuracy: &[crate::pool::report::FusionAccuracy],
+) -> anyhow::Result<String> {
     let compare_html = inp
         .comparison
         .as_ref()
-        .map_or(String::new(), crate::report::compare::section);
+        .map_or(String::new(), crate::compare::report::section);
     let truth_file = inp
         .truth_files
         .iter()
-        .find(|p| p.rsplit('/').next() == Some(super::sets::TRUTH_PARAMETERS));
+        .find(|p| p.rsplit('/').next() == Some(crate::validate::sets::TRUTH_PARAMETERS));
     let truth = truth_file
-        .map(|p| super::sets::read_truth(&inp.root.join(p)))
+        .map(|p| crate::validate::sets::read_truth(&inp.root.join(p)))
         .transpose()?;
     let sets_html = inp.pool_scores.as_ref().map_or(String::new(), |(s, _)| {
-        super::sets::section(&inp.fits, s, truth.as_ref())
+        crate::validate::sets::section(&inp.fits, s, truth.as_ref())
     });
-    let field_truth = super::field::read_truth(inp.root, &inp.truth_files);
+    let field_truth = crate::field::truth::read_truth(inp.root, &inp.truth_files);
     let compare_html =
-        sets_html + &super::field::sections(&inp.field, &field_truth)? + &compare_html;
+        sets_html + &crate::field::report::sections(&inp.field, &field_truth)? + &compare_html;
     let diagnosis_html = inp.diagnosis.as_ref().map_or(String::new(), |(d, figs)| {
-        crate::report::diagnose::section(d, figs)
+        crate::diagnose::report::section(d, figs)
     });
     Ok(compare_html
         + &diagnosis_html
-        + &crate::report::pool::section(
+        + &crate::pool::report::section(&inp.pool_runs, accuracy)
+        + &crate::validate::report::section(
             &inp.pool_runs,
             inp.pool_scores.as_ref().map(|(s, _)| s),
             inp.pool_scores.as_ref().map_or(&[][..], |(_, v)| v),
-            accuracy,
         )?)
 }
 
@@ -158,7 +162,10 @@ fn import_notes(inp: &Inputs) -> Vec<(String, Vec<String>)> {
 }
 
 /// `fusion.json`: how each pool run was fused and, where a truth exists, how accurately.
-fn fusion_json(inp: &Inputs, accuracy: &[super::pool::FusionAccuracy]) -> serde_json::Value {
+fn fusion_json(
+    inp: &Inputs,
+    accuracy: &[crate::pool::report::FusionAccuracy],
+) -> serde_json::Value {
     let fusion: Vec<serde_json::Value> = inp
             .pool_runs
             .iter()
@@ -277,7 +284,7 @@ fn openfoam_section(
     f: &FitResult,
     own_cases: Vec<OwnCase>,
 ) -> anyhow::Result<String> {
-    let of_cases: Vec<crate::report::openfoam::Case> = own_cases
+    let of_cases: Vec<crate::cfd::openfoam::report::Case> = own_cases
         .into_iter()
         .filter_map(|o| {
             let c = &inp.cases[o.index];
@@ -292,7 +299,7 @@ fn openfoam_section(
                 .expect("three axes");
             let dof = [Dof::Surge, Dof::Sway, Dof::Heave][axis];
             let s = c.response.dofs.get(&dof)?;
-            Some(crate::report::openfoam::Case {
+            Some(crate::cfd::openfoam::report::Case {
                 name: &c.name,
                 dof,
                 info,
@@ -309,7 +316,7 @@ fn openfoam_section(
     if of_cases.is_empty() {
         Ok(String::new())
     } else {
-        crate::report::openfoam::section(f, &of_cases)
+        crate::cfd::openfoam::report::section(f, &of_cases)
     }
 }
 

@@ -1,16 +1,10 @@
 //! `index.html`: one self-contained page (inline CSS and SVG; a CSP forbids any fetch).
 
 use super::json::{Parameter, Parameters, Validation};
-use crate::estimate::result::FitResult;
-use crate::model::Vehicle;
+use crate::core::html::esc;
+use crate::core::model::Vehicle;
+use crate::identify::result::FitResult;
 use std::fmt::Write as _;
-
-pub fn esc(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
-}
 
 /// Significant-figure formatting for tables.
 fn num(v: f64) -> String {
@@ -264,7 +258,7 @@ const CORRELATED: f64 = 0.9;
 
 /// A prediction-error fit's correlations: the pairs the runs cannot separate, in words (and
 /// which manoeuvre would), then the whole matrix folded away.
-fn refinement(h: &mut String, r: &crate::estimate::Refinement) {
+fn refinement(h: &mut String, r: &crate::identify::Refinement) {
     let n = r.names.len().min(r.correlation.len());
     let mut pairs = Vec::new();
     for i in 0..n {

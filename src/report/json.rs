@@ -1,7 +1,7 @@
 //! `parameters.json` and `validation.json`, exactly in the shape docs/formats.md gives.
 
-use crate::estimate::result::FitResult;
-use crate::provenance::InputFile;
+use crate::core::provenance::InputFile;
+use crate::identify::result::FitResult;
 use crate::validate::Metrics;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -116,7 +116,7 @@ pub struct ModelScore {
     pub runs: Vec<RunScore>,
     /// The DOFs in which the model does not beat both baselines on the held-out pool runs.
     #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub below_baselines: Vec<crate::validate::baseline::Shortfall>,
+    pub below_baselines: Vec<crate::validate::pool::Shortfall>,
 }
 
 #[derive(Debug, Serialize)]

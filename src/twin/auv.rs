@@ -8,7 +8,7 @@
 //! (four fin angles and the propeller speed at 20 Hz), `nav.csv` (DVL u v w at 5 Hz), `imu.csv`
 //! (AHRS attitude and rates at 20 Hz), `depth.csv`.
 
-use crate::rng::Rng;
+use crate::core::rng::Rng;
 use nalgebra::{Matrix3, Vector3, Vector6};
 use serde::Serialize;
 
@@ -298,7 +298,7 @@ pub fn write_runs(
             &d,
         )?);
     }
-    crate::fsutil::write_atomic(&truth_dir.join("coefficients.csv"), truth_csv().as_bytes())?;
+    crate::core::fsutil::write_atomic(&truth_dir.join("coefficients.csv"), truth_csv().as_bytes())?;
     Ok(out)
 }
 

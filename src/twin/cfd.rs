@@ -2,9 +2,9 @@
 //! moment applied from rest, velocity and acceleration monitors sampled every 0.02 s
 //! (seed 001 section 3.3-3.4: 13 surge force levels, plus sway, heave and yaw cases).
 
-use crate::dof::Dof;
-use crate::model::{Hydro, Plant, Vehicle};
-use crate::rng::Rng;
+use crate::core::dof::Dof;
+use crate::core::model::{Hydro, Plant, Vehicle};
+use crate::core::rng::Rng;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -245,7 +245,7 @@ pub fn write_cases(dir: &Path, cases: &[Case], seed: u64) -> std::io::Result<Vec
     let mut written = Vec::new();
     for case in cases {
         let path = dir.join(format!("{}.csv", case.name));
-        crate::fsutil::write_atomic(
+        crate::core::fsutil::write_atomic(
             &path,
             export(&vehicle, Hydro::reference(), case, seed).as_bytes(),
         )?;

@@ -7,7 +7,7 @@
 //! and pitch rate), `depth.csv`; no `thrust.csv`. Simulated here with its own RK4; the
 //! identifier never sees this code.
 
-use crate::rng::Rng;
+use crate::core::rng::Rng;
 use serde::Serialize;
 
 /// Healey's DSRV (non-dimensional, prime system) at speed `u0` (m/s), length `l` (m).
@@ -248,7 +248,7 @@ pub fn write_runs(
         .iter()
         .find_map(|r| r.drift_at_s)
         .unwrap_or(0.0);
-    crate::fsutil::write_atomic(
+    crate::core::fsutil::write_atomic(
         &truth_dir.join("coefficients.csv"),
         truth_csv(&v, drift).as_bytes(),
     )?;

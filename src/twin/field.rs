@@ -7,13 +7,13 @@
 //! accelerometer, no CFD.
 //!
 //! The hidden physics here is written apart from the diagnosis's own forms
-//! (`crate::model::effects`): the tether's drag follows the length of cable paid out (horizontal
+//! (`crate::core::model::effects`): the tether's drag follows the length of cable paid out (horizontal
 //! run plus depth plus slack, not the straight-line distance), the nav filter is an exponential
 //! low-pass with a latency, and the controller closes the loop on what it measures. What the
 //! twin hides is recorded apart, in the truth folder.
 
-use crate::model::{Hydro, Plant, Vec6, Vehicle};
-use crate::rng::Rng;
+use crate::core::model::{Hydro, Plant, Vec6, Vehicle};
+use crate::core::rng::Rng;
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -70,7 +70,7 @@ pub fn hydro() -> Hydro {
     )
 }
 
-pub const POOL: crate::model::Pool = crate::model::Pool {
+pub const POOL: crate::core::model::Pool = crate::core::model::Pool {
     length_m: 30.0,
     width_m: 15.0,
     depth_m: 5.0,

@@ -25,10 +25,13 @@ pub fn write_run(
     std::fs::create_dir_all(&dir)?;
     std::fs::create_dir_all(truth_dir)?;
     for (file, text) in files {
-        crate::fsutil::write_atomic(&dir.join(file), text.as_bytes())?;
+        crate::core::fsutil::write_atomic(&dir.join(file), text.as_bytes())?;
     }
-    crate::fsutil::write_atomic(&truth_dir.join(format!("{name}.csv")), truth_csv.as_bytes())?;
-    crate::fsutil::write_atomic(
+    crate::core::fsutil::write_atomic(
+        &truth_dir.join(format!("{name}.csv")),
+        truth_csv.as_bytes(),
+    )?;
+    crate::core::fsutil::write_atomic(
         &truth_dir.join(format!("{name}.json")),
         serde_json::to_string_pretty(record)?.as_bytes(),
     )?;

@@ -5,9 +5,9 @@
 //! truth folder outside `cases/`, never into the run's files.
 
 use super::world::{Effect, State, WorldPlant};
-use crate::model::Pool;
-use crate::model::{Hydro, Plant, Vec6, Vehicle};
-use crate::rng::Rng;
+use crate::core::model::Pool;
+use crate::core::model::{Hydro, Plant, Vec6, Vehicle};
+use crate::core::rng::Rng;
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};

@@ -3,7 +3,7 @@
 
 use super::pool as twin;
 use crate::diagnose::Run;
-use crate::fusion::run::{FusedRun, RunMeta};
+use crate::pool::fusion::run::{FusedRun, RunMeta};
 use crate::twin::world::Effect;
 use rayon::prelude::*;
 
@@ -31,8 +31,8 @@ pub fn fuse_folder(root: &std::path::Path, name: &str) -> anyhow::Result<FusedRu
     let files: Vec<String> = std::fs::read_dir(root.join(&dir))?
         .map(|e| e.map(|e| format!("{dir}/{}", e.file_name().to_string_lossy())))
         .collect::<Result<_, _>>()?;
-    let run = crate::io::pool::load(root, &dir, &files)?;
-    let fused = crate::fusion::fuse(&run, &Default::default());
+    let run = crate::pool::import::load(root, &dir, &files)?;
+    let fused = crate::pool::fusion::fuse(&run, &Default::default());
     let thrust: Vec<[f64; 4]> = (0..run.thrust.len())
         .map(|k| std::array::from_fn(|q| run.thrust.cols[q][k]))
         .collect();
@@ -74,35 +74,35 @@ pub fn runs(effects: &[Effect], seed: u64) -> anyhow::Result<Vec<Run>> {
 
 /// The reference vehicle identified from the twin's STAR-CCM+ cases by least squares, as the
 /// shipped `fit` stage does (seed: the CFD noise).
-pub fn cfd_fit_plant(seed: u64) -> anyhow::Result<crate::model::Plant> {
-    use crate::estimate::Estimator as _;
-    use crate::model::{Hydro, Plant, Vehicle};
+pub fn cfd_fit_plant(seed: u64) -> anyhow::Result<crate::core::model::Plant> {
+    use crate::core::model::{Hydro, Plant, Vehicle};
+    use crate::identify::Estimator as _;
     let vehicle = Vehicle::reference();
     let mut responses = Vec::new();
     for c in &super::cfd::default_cases() {
         let text = super::cfd::export(&vehicle, Hydro::reference(), c, seed);
-        let opts = crate::io::starccm::ImportOptions {
+        let opts = crate::cfd::starccm::ImportOptions {
             columns: &Default::default(),
             dofs: &vehicle.dofs,
             configured_force: Default::default(),
         };
         responses.push(
-            crate::io::starccm::parse("twin.csv", &text, &opts)
+            crate::cfd::starccm::parse("twin.csv", &text, &opts)
                 .map_err(|e| anyhow::anyhow!("{e}"))?
                 .response,
         );
     }
     let refs: Vec<_> = responses.iter().collect();
-    let reg = crate::estimate::Regression::build(&vehicle, &refs, 0.0);
-    let fit = crate::estimate::ols::Ols.fit(&reg, &Default::default())?;
+    let reg = crate::identify::Regression::build(&vehicle, &refs, 0.0);
+    let fit = crate::identify::ols::Ols.fit(&reg, &Default::default())?;
     let theta: Vec<f64> = fit.parameters.iter().map(|p| p.value).collect();
     Ok(Plant::new(&vehicle, reg.layout.to_hydro(&theta)))
 }
 
 /// The reference vehicle's model as a CFD identification would give it: every coefficient off
 /// by 1 to 2.5 %, alternating in sign (the shipped CFD fit is 1.5 % off at worst).
-pub fn cfd_plant() -> crate::model::Plant {
-    use crate::model::{Hydro, Plant, Vehicle};
+pub fn cfd_plant() -> crate::core::model::Plant {
+    use crate::core::model::{Hydro, Plant, Vehicle};
     let h = Hydro::reference();
     let mut k = 0;
     let mut moved = |arr: [f64; 6]| {

@@ -9,7 +9,7 @@
 //! (eq. 6.43 for C(nu) with skew matrices, nalgebra), Euler-angle kinematics and its own RK4,
 //! so an identification that recovers this truth is not checking the model against itself.
 
-use crate::model::{Hydro, Vehicle};
+use crate::core::model::{Hydro, Vehicle};
 use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
 
 pub mod render;
@@ -20,13 +20,13 @@ pub fn vehicle() -> Vehicle {
     v.name = "JHU-ROV-sized 6-DOF vehicle (six-DOF twin)".into();
     v.mass_kg = 240.0;
     // A uniform box of 1.37 x 0.85 x 0.61 m: I = m (b^2 + c^2) / 12.
-    v.inertia_kg_m2 = crate::model::vehicle::Inertia {
+    v.inertia_kg_m2 = crate::core::model::vehicle::Inertia {
         xx: 22.0,
         yy: 45.0,
         zz: 52.0,
     };
-    v.dofs = crate::dof::Dof::ALL.to_vec();
-    v.structure = crate::model::Structure::Custom;
+    v.dofs = crate::core::dof::Dof::ALL.to_vec();
+    v.structure = crate::core::model::Structure::Custom;
     v
 }
 
@@ -67,7 +67,7 @@ pub fn truth() -> Hydro {
     }
     h.net_weight = 4.0;
     // Centre of gravity 0.15 m below the centre of buoyancy and a little aft and to port.
-    let w = 240.0 * crate::io::pool::G;
+    let w = 240.0 * crate::pool::import::G;
     h.moment = [-0.004 * w, 0.006 * w, 0.15 * w];
     h
 }
@@ -96,7 +96,7 @@ pub struct Body {
 impl Body {
     pub fn new(v: &Vehicle, h: &Hydro) -> Body {
         let mrb = v.rigid_mass();
-        let mat = |a: &crate::model::Mat6| Matrix6::from_fn(|i, j| a[i][j]);
+        let mat = |a: &crate::core::model::Mat6| Matrix6::from_fn(|i, j| a[i][j]);
         let m = Matrix6::from_diagonal(&Vector6::from_row_slice(&mrb)) - mat(&h.added);
         Body {
             m_inv: m
@@ -222,7 +222,7 @@ impl Sines {
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Trial {
     pub name: String,
-    pub role: crate::io::pool::Role,
+    pub role: crate::pool::import::Role,
     pub duration_s: f64,
     pub position: [Sines; 3],
     pub moment: [Sines; 3],
@@ -231,7 +231,7 @@ pub struct Trial {
 /// Seed 003 Table II for identification (its second v4 row read as pitch), and two
 /// cross-validation trials with other frequencies and magnitudes.
 pub fn default_trials() -> Vec<Trial> {
-    use crate::io::pool::Role;
+    use crate::pool::import::Role;
     let table_ii = Trial {
         name: "table_ii".into(),
         role: Role::Train,
@@ -305,10 +305,10 @@ pub struct Record {
 impl Record {
     /// The trial as a response table sampled at the command times: exact velocities, the
     /// simulator's own accelerations and the attitude (what a perfect sensor suite would give).
-    pub fn response(&self) -> crate::io::Response {
-        use crate::io::response::{Series, Source};
+    pub fn response(&self) -> crate::core::response::Response {
+        use crate::core::response::{Series, Source};
         let idx: Vec<usize> = (0..self.t.len()).step_by(COMMAND_EVERY).collect();
-        let mut r = crate::io::Response {
+        let mut r = crate::core::response::Response {
             t: idx.iter().map(|&k| self.t[k]).collect(),
             attitude: idx
                 .iter()
@@ -316,7 +316,7 @@ impl Record {
                 .collect(),
             ..Default::default()
         };
-        for d in crate::dof::Dof::ALL {
+        for d in crate::core::dof::Dof::ALL {
             let i = d.index();
             let col = |x: &Vec<[f64; 6]>| idx.iter().map(|&k| x[k][i]).collect::<Vec<f64>>();
             let series = Series {

@@ -9,7 +9,7 @@
 //! at constant speed, simulated here with its own 4th-order Runge-Kutta; the ARX stage never
 //! sees this code.
 
-use crate::rng::Rng;
+use crate::core::rng::Rng;
 use nalgebra::{Matrix2, Matrix4, Vector2};
 use serde::Serialize;
 
@@ -292,7 +292,7 @@ pub fn write_runs(
             &run,
         )?);
     }
-    crate::fsutil::write_atomic(&truth_dir.join("transfer.csv"), truth_csv(&p).as_bytes())?;
+    crate::core::fsutil::write_atomic(&truth_dir.join("transfer.csv"), truth_csv(&p).as_bytes())?;
     Ok(out)
 }
 

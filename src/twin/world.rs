@@ -11,10 +11,10 @@
 //! can only find these effects by what they do to the recordings; tests compare its parameters
 //! with the equivalents these forms imply (`src/diagnose/tests.rs`).
 
-pub use crate::model::motion::State;
-use crate::model::motion::rk4;
-use crate::model::pool::Pool;
-use crate::model::{Plant, Vec6};
+pub use crate::core::model::motion::State;
+use crate::core::model::motion::rk4;
+use crate::core::model::pool::Pool;
+use crate::core::model::{Plant, Vec6};
 use serde::{Deserialize, Serialize};
 
 /// One left-out effect with its magnitude. Signs follow the frames of docs/formats.md (z down).
@@ -145,7 +145,7 @@ impl Effect {
                 depth_m: 1.0,
             },
             _ => {
-                let hint = crate::diag::nearest(name, NAMES.into_iter().chain(OUTSIDE))
+                let hint = crate::core::diag::nearest(name, NAMES.into_iter().chain(OUTSIDE))
                     .map_or(String::new(), |s| format!(" (did you mean `{s}`?)"));
                 return Err(format!(
                     "unknown effect `{name}`{hint}; known: {}, and outside the diagnosis's vocabulary {}",
@@ -426,7 +426,7 @@ impl WorldPlant {
                 break;
             }
             let span = t[k + 1] - t[k];
-            let n = crate::model::dynamics::substeps(span, max_step);
+            let n = crate::core::model::dynamics::substeps(span, max_step);
             for q in 0..n {
                 let h = span / n as f64;
                 s = self.step(&s, &cmd[k], h, t[k] + q as f64 * h);
@@ -439,7 +439,7 @@ impl WorldPlant {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::{Hydro, Vehicle};
+    use crate::core::model::{Hydro, Vehicle};
 
     fn world(effects: Vec<Effect>) -> WorldPlant {
         let mut w = WorldPlant::new(Plant::new(&Vehicle::reference(), Hydro::reference()));

@@ -4,29 +4,16 @@
 //! or pitches) fitted on the same training runs by the same prediction-error method: the
 //! 50-line script an engineer would write by hand.
 
-use super::pool::{ModelScore, RunScore};
-use crate::dof::Dof;
-use crate::estimate::{Options, Regression};
-use crate::fusion::run::FusedRun;
-use crate::io::pool::Role;
-use crate::model::{CustomTerms, Plant, Structure, Term, Vehicle};
-use serde::{Deserialize, Serialize};
+use super::pool::{ModelScore, RunScore, Shortfall};
+use crate::core::dof::Dof;
+use crate::core::model::{CustomTerms, Plant, Structure, Term, Vehicle};
+use crate::identify::{Options, Regression};
+use crate::pool::fusion::run::FusedRun;
+use crate::pool::import::Role;
 use std::collections::BTreeMap;
 
 /// The name the first-order baseline carries in the scores.
 pub const FIRST_ORDER: &str = "first-order per DOF (baseline)";
-
-/// A DOF in which a model does not beat both baselines on the held-out runs.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Shortfall {
-    pub dof: Dof,
-    /// The model's mean NMAE over the held-out runs; `None` when its simulation diverged.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub nmae: Option<f64>,
-    /// The first-order baseline's, when it could be fitted.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub first_order_nmae: Option<f64>,
-}
 
 impl Shortfall {
     /// The sentence the report shows.
@@ -77,7 +64,7 @@ pub fn first_order_vehicle(vehicle: &Vehicle) -> Vehicle {
 /// when it cannot be fitted.
 pub fn fit_first_order(vehicle: &Vehicle, runs: &[FusedRun]) -> Result<Plant, String> {
     let v = first_order_vehicle(vehicle);
-    let responses: Vec<crate::io::Response> = runs
+    let responses: Vec<crate::core::response::Response> = runs
         .iter()
         .filter(|r| r.meta.role == Role::Train)
         .filter_map(|r| r.as_response(&v, None))
@@ -85,9 +72,9 @@ pub fn fit_first_order(vehicle: &Vehicle, runs: &[FusedRun]) -> Result<Plant, St
     if responses.is_empty() {
         return Err("no training run has every DOF fused".into());
     }
-    let refs: Vec<&crate::io::Response> = responses.iter().collect();
+    let refs: Vec<&crate::core::response::Response> = responses.iter().collect();
     let problem = Regression::build(&v, &refs, 0.0);
-    let method = crate::estimate::Method::parse("pem", Default::default())?;
+    let method = crate::identify::Method::parse("pem", Default::default())?;
     let opts = method.options(Options {
         rigid_mass: v.rigid_mass(),
         output_error: Some((&v, &refs[..])),

@@ -2,25 +2,27 @@
 //! the run's peak speed (seed 001).
 
 pub mod baseline;
-pub mod compare;
 pub mod models;
 pub mod pool;
+pub mod report;
+pub mod sets;
+pub mod stage;
 
-use crate::dof::Dof;
-use crate::io::Response;
-use crate::model::Vec6;
+use crate::core::dof::Dof;
+use crate::core::model::Vec6;
+use crate::core::response::Response;
 use serde::{Deserialize, Serialize};
 
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Metrics {
     /// Mean absolute error, in the DOF's velocity unit.
-    #[serde(deserialize_with = "crate::fsutil::f64_or_nan")]
+    #[serde(deserialize_with = "crate::core::fsutil::f64_or_nan")]
     pub mae: f64,
     /// mean |v_model - v_meas| / mean |v_meas| (seed 003).
-    #[serde(deserialize_with = "crate::fsutil::f64_or_nan")]
+    #[serde(deserialize_with = "crate::core::fsutil::f64_or_nan")]
     pub nmae: f64,
     /// 100 * RMSE / max |v_meas| (seed 001 states its velocity error this way).
-    #[serde(deserialize_with = "crate::fsutil::f64_or_nan")]
+    #[serde(deserialize_with = "crate::core::fsutil::f64_or_nan")]
     pub rmse_pct: f64,
 }
 
@@ -112,7 +114,7 @@ mod tests {
         // e = [1, -1, 1, -1]: mean 0, c0 = 4, lag 1: -3/4, lag 2: 2/4.
         let r = autocorrelation(&[1.0, -1.0, 1.0, -1.0], 2);
         assert_eq!(r, vec![1.0, -0.75, 0.5]);
-        let mut rng = crate::rng::Rng::new(5);
+        let mut rng = crate::core::rng::Rng::new(5);
         let white: Vec<f64> = (0..4000).map(|_| rng.normal()).collect();
         let w = whiteness(&white, 0.05, 40);
         assert!(w.outside < 0.15, "white noise: {}", w.outside);

@@ -3,11 +3,11 @@
 //! run role, and models re-estimated on each training run alone scored on the others.
 
 use super::pool::{CrossFit, ModelScore, RunScore, Scores, Simulated, score_run, simulate_run};
-use crate::dof::Dof;
-use crate::estimate::result::FitResult;
-use crate::fusion::run::FusedRun;
-use crate::model::stability::Horizon;
-use crate::model::{Plant, Vehicle};
+use crate::core::dof::Dof;
+use crate::core::model::stability::Horizon;
+use crate::core::model::{Plant, Vehicle};
+use crate::identify::result::FitResult;
+use crate::pool::fusion::run::FusedRun;
 use std::collections::BTreeMap;
 
 /// How the models are scored.
@@ -153,12 +153,12 @@ fn cross_validate(
     runs: &[FusedRun],
     max_lag_s: f64,
 ) -> (Vec<CrossFit>, Vec<String>) {
-    use crate::estimate::Estimator as _;
+    use crate::identify::Estimator as _;
     let mut out = Vec::new();
     let mut notes = Vec::new();
     for train in runs
         .iter()
-        .filter(|r| r.meta.role == crate::io::pool::Role::Train)
+        .filter(|r| r.meta.role == crate::pool::import::Role::Train)
     {
         let Some(resp) = train.as_response(vehicle, None) else {
             notes.push(format!(
@@ -167,8 +167,8 @@ fn cross_validate(
             ));
             continue;
         };
-        let problem = crate::estimate::Regression::build(vehicle, &[&resp], 1.0);
-        let fit = match crate::estimate::ols::Ols.fit(&problem, &Default::default()) {
+        let problem = crate::identify::Regression::build(vehicle, &[&resp], 1.0);
+        let fit = match crate::identify::ols::Ols.fit(&problem, &Default::default()) {
             Ok(f) => f,
             Err(e) => {
                 notes.push(format!("{}: re-estimation failed: {e}", train.meta.run));

@@ -3,10 +3,10 @@
 //! simulation per model and run).
 
 use super::{Metrics, Whiteness};
-use crate::dof::Dof;
-use crate::fusion::run::FusedRun;
-use crate::model::stability::{Horizon, Stability};
-use crate::model::{Plant, Vec6};
+use crate::core::dof::Dof;
+use crate::core::model::stability::{Horizon, Stability};
+use crate::core::model::{Plant, Vec6};
+use crate::pool::fusion::run::FusedRun;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -15,7 +15,7 @@ use std::path::Path;
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct CrossFit {
     pub trained_on: String,
-    pub parameters: Vec<crate::estimate::Estimate>,
+    pub parameters: Vec<crate::identify::Estimate>,
     pub runs: Vec<RunScore>,
 }
 
@@ -57,7 +57,7 @@ pub struct ModelScore {
     /// The DOFs in which the model does not beat both baselines on the held-out runs
     /// (see [`super::baseline`]).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub shortfalls: Vec<super::baseline::Shortfall>,
+    pub shortfalls: Vec<Shortfall>,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -80,18 +80,18 @@ pub struct Simulated {
     pub run: String,
     pub t: Vec<f64>,
     /// NaN where the simulation diverged (JSON `null`).
-    #[serde(deserialize_with = "crate::fsutil::series_or_nan")]
+    #[serde(deserialize_with = "crate::core::fsutil::series_or_nan")]
     pub nu: BTreeMap<Dof, Vec<f64>>,
 }
 
 pub const SCORES: &str = "scores.json";
 
 pub fn load(dir: &Path) -> anyhow::Result<(Scores, Vec<Simulated>)> {
-    let scores: Scores = crate::fsutil::read_json(&dir.join(SCORES))?;
+    let scores: Scores = crate::core::fsutil::read_json(&dir.join(SCORES))?;
     let mut sims = Vec::new();
     for m in &scores.models {
         for r in &m.runs {
-            sims.push(crate::fsutil::read_json(
+            sims.push(crate::core::fsutil::read_json(
                 &dir.join(sim_file(&m.model, &r.run)),
             )?);
         }
@@ -105,7 +105,7 @@ pub fn sim_file(model: &str, run: &str) -> String {
 
 /// The model's response to a fused run's logged thrust, from the run's first fused state,
 /// re-anchored to the fused state every window where `horizon` asks for it (multiple
-/// shooting, see [`crate::model::stability`]), and the stability that chose the window.
+/// shooting, see [`crate::core::model::stability`]), and the stability that chose the window.
 pub fn simulate_run(plant: &Plant, run: &FusedRun, horizon: Horizon) -> (Vec<Vec6>, Stability) {
     let t = &run.fused.t;
     let tau: Vec<Vec6> = (0..t.len()).map(|k| run.tau(k)).collect();
@@ -128,8 +128,8 @@ pub fn simulate_run(plant: &Plant, run: &FusedRun, horizon: Horizon) -> (Vec<Vec
     let vel: Vec<[f64; 4]> = (0..t.len())
         .map(|k| std::array::from_fn(|j| run.fused.vel[j].as_ref().map_or(0.0, |v| v[k])))
         .collect();
-    let stability = crate::model::stability::along(plant, t, &vel, horizon);
-    let mut anchors = crate::model::stability::anchors(t, &stability.anchors_s);
+    let stability = crate::core::model::stability::along(plant, t, &vel, horizon);
+    let mut anchors = crate::core::model::stability::anchors(t, &stability.anchors_s);
     anchors.push(t.len());
     let mut out = Vec::with_capacity(t.len());
     for w in anchors.windows(2) {
@@ -233,4 +233,16 @@ pub fn mean_nmae(plant: &Plant, runs: &[&FusedRun], dofs: &[Dof]) -> Option<f64>
         .filter(|x| x.is_finite())
         .collect();
     (!nmae.is_empty()).then(|| nmae.iter().sum::<f64>() / nmae.len() as f64)
+}
+
+/// A DOF in which a model does not beat both baselines on the held-out runs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Shortfall {
+    pub dof: Dof,
+    /// The model's mean NMAE over the held-out runs; `None` when its simulation diverged.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nmae: Option<f64>,
+    /// The first-order baseline's, when it could be fitted.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub first_order_nmae: Option<f64>,
 }

@@ -18,8 +18,10 @@ pub fn project() -> tempfile::TempDir {
         dir.path().join("pipeline.yaml"),
     )
     .unwrap();
-    hydrofit::fsutil::copy_dir(&manifest_dir().join("cases"), &dir.path().join("cases")).unwrap();
-    hydrofit::fsutil::copy_dir(&manifest_dir().join("truth"), &dir.path().join("truth")).unwrap();
+    hydrofit::core::fsutil::copy_dir(&manifest_dir().join("cases"), &dir.path().join("cases"))
+        .unwrap();
+    hydrofit::core::fsutil::copy_dir(&manifest_dir().join("truth"), &dir.path().join("truth"))
+        .unwrap();
     dir
 }
 
@@ -30,7 +32,7 @@ pub fn example(name: &str) -> tempfile::TempDir {
     std::fs::copy(src.join("pipeline.yaml"), dir.path().join("pipeline.yaml")).unwrap();
     for sub in ["cases", "truth"] {
         if src.join(sub).exists() {
-            hydrofit::fsutil::copy_dir(&src.join(sub), &dir.path().join(sub)).unwrap();
+            hydrofit::core::fsutil::copy_dir(&src.join(sub), &dir.path().join(sub)).unwrap();
         }
     }
     dir

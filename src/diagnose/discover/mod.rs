@@ -34,90 +34,21 @@ mod figures;
 mod library;
 mod rows;
 mod select;
+mod term;
 
-use super::effects::State;
-use super::result::{Figure, Found, pct};
-use super::{Augmentation, Criteria, DOFS, Data, NU, Run};
-use crate::dof::Dof;
-use crate::model::{Plant, Vec6};
+use super::result::{Candidate, DiscoveredTerm, Figure, Found, pct};
+use super::{Augmentation, Criteria, DOFS, Data};
+use crate::core::dof::Dof;
+use crate::core::model::Plant;
 use library::{C, prepare};
 pub use library::{Feature, Prepared};
 use rows::residual_rows;
 pub use select::{KEEP_SHARE, MAX_TERMS};
 use select::{Proposal, Variant, propose};
-use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::sync::Arc;
-
-/// A discovered term: its DOF, the features kept and their coefficients (per column).
-#[derive(Debug, Clone)]
-pub struct Discovered {
-    pub dof: usize,
-    pub features: Vec<Feature>,
-    pub coef: Vec<f64>,
-}
-
-impl Discovered {
-    pub fn prepare(&self, run: &Run) -> Prepared {
-        prepare(run)
-    }
-
-    /// Its coefficients, a sine's amplitude and phase counting two.
-    pub fn params(&self) -> usize {
-        self.features.iter().map(|f| f.columns()).sum()
-    }
-
-    /// The term's generalised force at sample `k` of `run`, with the model's state `s`.
-    pub fn force(&self, run: &Run, pre: &Prepared, k: usize, s: &State) -> Vec6 {
-        let vel = [s.nu[0], s.nu[1], s.nu[2], s.nu[5]];
-        let mut cols = Vec::with_capacity(self.coef.len());
-        for f in &self.features {
-            f.eval(run, pre, k, &vel, &mut cols);
-        }
-        let mut out = [0.0; 6];
-        out[NU[self.dof]] = cols.iter().zip(&self.coef).map(|(x, c)| x * c).sum();
-        out
-    }
-}
-
-/// One kept term of a discovered closed form.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct DiscoveredTerm {
-    pub term: String,
-    /// Coefficient (for a sine: its amplitude), in the DOF's force unit per unit of the term.
-    pub coefficient: f64,
-    /// 95 % interval over the bootstrap resamples.
-    pub interval: [f64; 2],
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub frequency_hz: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub phase_rad: Option<f64>,
-    /// Share of the resamples that selected it.
-    pub selected_share: f64,
-    /// Training runs that selected it alone, of those where it varies.
-    pub runs_selected: [usize; 2],
-}
-
-/// The closed form proposed for what the named effects leave, proven on held-out runs.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Candidate {
-    pub dof: Dof,
-    /// e.g. `Z += 11.8 sin(2 pi 0.420 t + 0.30) N`.
-    pub expression: String,
-    pub terms: Vec<DiscoveredTerm>,
-    /// The named effect it is in disguise, if it is one.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub named_as: Option<String>,
-    /// Terms in the library it was chosen from.
-    pub library_terms: usize,
-    /// Significant peaks of the residual's spectrum, Hz.
-    pub spectrum_peaks_hz: Vec<f64>,
-    pub validation_nmae_before: BTreeMap<Dof, f64>,
-    pub validation_nmae_after: BTreeMap<Dof, f64>,
-    pub validation_cost_before: f64,
-    pub validation_cost_after: f64,
-}
+pub use term::Discovered;
 
 impl Candidate {
     /// The `unexplained` entry with the closed form discovery proposed: named as the effect it is

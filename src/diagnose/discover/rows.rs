@@ -4,7 +4,7 @@
 use super::super::effects::State;
 use super::super::{Augmentation, Data, NU, Run};
 use super::library::{Feature, Prepared};
-use crate::model::{Plant, Vec6};
+use crate::core::model::{Plant, Vec6};
 use std::f64::consts::TAU;
 
 /// Sampling of the regression, s (the residual is smooth at this scale).

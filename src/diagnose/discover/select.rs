@@ -5,7 +5,8 @@
 use super::super::Data;
 use super::library::{Feature, Prepared, library};
 use super::rows::{EVERY_S, Rows, design, peaks};
-use super::{Discovered, DiscoveredTerm};
+use super::term::Discovered;
+use crate::diagnose::result::DiscoveredTerm;
 
 /// The most terms a discovered closed form has (a sine with its phase counts as one).
 pub const MAX_TERMS: usize = 2;
@@ -25,7 +26,7 @@ fn lstsq(x: &[f64], width: usize, y: &[f64], idx: &[usize], cols: &[usize]) -> (
     }
     let a = nalgebra::DMatrix::from_fn(idx.len(), p, |r, c| x[idx[r] * width + cols[c]]);
     let b = nalgebra::DVector::from_fn(idx.len(), |r, _| y[idx[r]]);
-    let Some(svd) = crate::numerics::svd(a.clone(), true, true) else {
+    let Some(svd) = crate::core::numerics::svd(a.clone(), true, true) else {
         return (vec![0.0; p], f64::INFINITY);
     };
     let smax = svd.singular_values.max();
@@ -70,7 +71,7 @@ fn stepwise(
 }
 
 /// A block-bootstrap resample of the row indices: blocks of `BLOCK_S` within runs.
-fn resample(rows: &Rows, rng: &mut crate::rng::Rng) -> Vec<usize> {
+fn resample(rows: &Rows, rng: &mut crate::core::rng::Rng) -> Vec<usize> {
     let block = (BLOCK_S / EVERY_S).round().max(1.0) as usize;
     let starts: Vec<usize> = (0..rows.at.len()).step_by(block).collect();
     let mut out = Vec::with_capacity(rows.at.len());
@@ -99,19 +100,38 @@ pub(super) struct Variant {
     pub terms: Vec<DiscoveredTerm>,
 }
 
-/// Sparse, stability-selected regression of DOF `j`'s residual on its library.
-pub(super) fn propose(data: &Data, pre: &[Prepared], rows: &Rows, j: usize) -> Option<Proposal> {
-    let (peaks_hz, grid, spectrum) = peaks(data, rows, j);
-    let features = library(j, &peaks_hz, data);
-    let (x, width) = design(data, pre, rows, &features);
-    let n = rows.at.len();
-    // Weighted by the fusion's uncertainty (1 / sigma^2, normalised to a mean of 1; a sigma
-    // below a tenth of the median is taken as that, so no row decides alone).
-    let mut sorted: Vec<f64> = rows.sigma[j]
-        .iter()
-        .copied()
-        .filter(|s| s.is_finite())
-        .collect();
+/// The regression of one DOF's residual: its columns weighted and scaled to unit RMS, and
+/// which columns belong to which feature.
+struct Design {
+    xs: Vec<f64>,
+    width: usize,
+    y: Vec<f64>,
+    /// Each column's RMS before scaling (to take coefficients back to the features' units).
+    scale: Vec<f64>,
+    /// The columns of each feature (a sine has two).
+    groups: Vec<Vec<usize>>,
+}
+
+impl Design {
+    fn cols_of(&self, gs: &[usize]) -> Vec<usize> {
+        gs.iter()
+            .flat_map(|&g| self.groups[g].iter().copied())
+            .collect()
+    }
+
+    fn select(&self, idx: &[usize]) -> Vec<usize> {
+        stepwise(&self.xs, self.width, &self.y, idx, &self.groups)
+    }
+
+    fn lstsq(&self, idx: &[usize], cols: &[usize]) -> (Vec<f64>, f64) {
+        lstsq(&self.xs, self.width, &self.y, idx, cols)
+    }
+}
+
+/// Row weights from the fusion's uncertainty (1 / sigma^2, normalised to a mean of 1; a sigma
+/// below a tenth of the median is taken as that, so no row decides alone), as square roots.
+fn row_weights(sigma: &[f64]) -> Vec<f64> {
+    let mut sorted: Vec<f64> = sigma.iter().copied().filter(|s| s.is_finite()).collect();
     sorted.sort_by(f64::total_cmp);
     let floor = 0.1
         * sorted
@@ -119,7 +139,7 @@ pub(super) fn propose(data: &Data, pre: &[Prepared], rows: &Rows, j: usize) -> O
             .copied()
             .unwrap_or(1.0)
             .max(1e-300);
-    let w: Vec<f64> = rows.sigma[j]
+    let w: Vec<f64> = sigma
         .iter()
         .map(|s| {
             if s.is_finite() {
@@ -129,12 +149,24 @@ pub(super) fn propose(data: &Data, pre: &[Prepared], rows: &Rows, j: usize) -> O
             }
         })
         .collect();
-    let mean_w = w.iter().sum::<f64>() / n.max(1) as f64;
-    let sw: Vec<f64> = w.iter().map(|x| (x / mean_w).sqrt()).collect();
+    let mean_w = w.iter().sum::<f64>() / sigma.len().max(1) as f64;
+    w.iter().map(|x| (x / mean_w).sqrt()).collect()
+}
+
+/// DOF `j`'s design: the library's columns and the residual, weighted, with the columns scaled
+/// to unit RMS (the selection's threshold is then the same for every term).
+fn weighted_design(
+    data: &Data,
+    pre: &[Prepared],
+    rows: &Rows,
+    j: usize,
+    features: &[Feature],
+) -> Design {
+    let (x, width) = design(data, pre, rows, features);
+    let n = rows.at.len();
+    let sw = row_weights(&rows.sigma[j]);
     let x: Vec<f64> = (0..n * width).map(|i| x[i] * sw[i / width]).collect();
-    let yw: Vec<f64> = rows.y[j].iter().zip(&sw).map(|(a, b)| a * b).collect();
-    let y = &yw;
-    // Columns scaled to unit RMS (the threshold is then the same for every term).
+    let y: Vec<f64> = rows.y[j].iter().zip(&sw).map(|(a, b)| a * b).collect();
     let mut scale = vec![0.0; width];
     for r in 0..n {
         for c in 0..width {
@@ -150,26 +182,73 @@ pub(super) fn propose(data: &Data, pre: &[Prepared], rows: &Rows, j: usize) -> O
         .collect();
     let mut groups: Vec<Vec<usize>> = Vec::new();
     let mut c0 = 0;
-    for f in &features {
+    for f in features {
         groups.push((c0..c0 + f.columns()).collect());
         c0 += f.columns();
     }
-    let all: Vec<usize> = (0..n).collect();
-    let chosen = stepwise(&xs, width, y, &all, &groups);
+    Design {
+        xs,
+        width,
+        y,
+        scale,
+        groups,
+    }
+}
+
+/// Sparse, stability-selected regression of DOF `j`'s residual on its library.
+pub(super) fn propose(data: &Data, pre: &[Prepared], rows: &Rows, j: usize) -> Option<Proposal> {
+    let (peaks_hz, grid, spectrum) = peaks(data, rows, j);
+    let features = library(j, &peaks_hz, data);
+    let d = weighted_design(data, pre, rows, j, &features);
+    let all: Vec<usize> = (0..rows.at.len()).collect();
+    let chosen = d.select(&all);
     if chosen.is_empty() {
         return None;
     }
-    let mut rng = crate::rng::Rng::derive(17, &format!("discover/{j}"));
-    let mut count = vec![0usize; groups.len()];
-    let cols_of = |gs: &[usize]| -> Vec<usize> {
-        gs.iter().flat_map(|&g| groups[g].iter().copied()).collect()
-    };
+    let mut rng = crate::core::rng::Rng::derive(17, &format!("discover/{j}"));
+    let (keep, terms_runs) = stable_terms(data, rows, &d, &features, &chosen, &mut rng)?;
+    // Every non-empty subset of the kept terms, refitted: the held-out runs choose among them
+    // as they choose among named effects (a term stable on the training runs can still be an
+    // artefact the held-out runs do not share).
+    let variants = (1..1usize << keep.len())
+        .map(|mask| {
+            let sub: Vec<usize> = (0..keep.len()).filter(|q| mask >> q & 1 == 1).collect();
+            variant(rows, &d, &features, j, &sub, &keep, &terms_runs, &mut rng)
+        })
+        .collect();
+    Some(Proposal {
+        dof: j,
+        variants,
+        library_terms: features.len(),
+        peaks: peaks_hz,
+        spectrum: (grid, spectrum),
+    })
+}
+
+/// A kept term's share of the resamples that selected it, and (training runs that selected
+/// it alone, runs where it varies).
+type Support = (f64, [usize; 2]);
+
+/// Of the terms `chosen` on all rows, those the block-bootstrap resamples select at least
+/// [`KEEP_SHARE`] of the time and most informative training runs select alone, each with its
+/// share and (runs selecting it, runs where it varies). `None` when none is kept or the build
+/// is interrupted.
+fn stable_terms(
+    data: &Data,
+    rows: &Rows,
+    d: &Design,
+    features: &[Feature],
+    chosen: &[usize],
+    rng: &mut crate::core::rng::Rng,
+) -> Option<(Vec<usize>, Vec<Support>)> {
+    let n = rows.at.len();
+    let mut count = vec![0usize; d.groups.len()];
     for _ in 0..RESAMPLES {
-        if crate::interrupt::requested() {
+        if crate::core::interrupt::requested() {
             return None;
         }
-        let idx = resample(rows, &mut rng);
-        for g in stepwise(&xs, width, y, &idx, &groups) {
+        let idx = resample(rows, rng);
+        for g in d.select(&idx) {
             count[g] += 1;
         }
     }
@@ -178,13 +257,11 @@ pub(super) fn propose(data: &Data, pre: &[Prepared], rows: &Rows, j: usize) -> O
         .map(|ri| (0..n).filter(|&r| rows.at[r].0 == ri).collect())
         .collect();
     let varies = |g: usize, idx: &[usize]| {
-        groups[g].iter().any(|&c| {
-            let m = idx.iter().map(|&r| xs[r * width + c]).sum::<f64>() / idx.len().max(1) as f64;
-            let v = idx
-                .iter()
-                .map(|&r| (xs[r * width + c] - m).powi(2))
-                .sum::<f64>()
-                / idx.len().max(1) as f64;
+        d.groups[g].iter().any(|&c| {
+            let col = |r: usize| d.xs[r * d.width + c];
+            let m = idx.iter().map(|&r| col(r)).sum::<f64>() / idx.len().max(1) as f64;
+            let v =
+                idx.iter().map(|&r| (col(r) - m).powi(2)).sum::<f64>() / idx.len().max(1) as f64;
             v.sqrt() > 0.2 || matches!(features[g], Feature::Constant)
         })
     };
@@ -194,13 +271,13 @@ pub(super) fn propose(data: &Data, pre: &[Prepared], rows: &Rows, j: usize) -> O
             if idx.len() < 50 {
                 Vec::new()
             } else {
-                stepwise(&xs, width, y, idx, &groups)
+                d.select(idx)
             }
         })
         .collect();
     let mut keep = Vec::new();
     let mut terms_runs = Vec::new();
-    for &g in &chosen {
+    for &g in chosen {
         let share = count[g] as f64 / RESAMPLES as f64;
         let informative: Vec<usize> = (0..runs.len())
             .filter(|&ri| runs[ri].len() >= 50 && varies(g, &runs[ri]))
@@ -214,81 +291,109 @@ pub(super) fn propose(data: &Data, pre: &[Prepared], rows: &Rows, j: usize) -> O
             terms_runs.push((share, [selected, informative.len()]));
         }
     }
-    if keep.is_empty() {
-        return None;
-    }
-    // Every non-empty subset of the kept terms, refitted: the held-out runs choose among them
-    // as they choose among named effects (a term stable on the training runs can still be an
-    // artefact the held-out runs do not share).
-    let variants = (1..1usize << keep.len())
-        .map(|mask| {
-            let sub: Vec<usize> = (0..keep.len()).filter(|q| mask >> q & 1 == 1).collect();
-            let groups_sub: Vec<usize> = sub.iter().map(|&q| keep[q]).collect();
-            let cols = cols_of(&groups_sub);
-            let (coef_s, _) = lstsq(&xs, width, y, &all, &cols);
-            // Back to the features' own units; intervals from the resamples refitted.
-            let coef: Vec<f64> = cols
-                .iter()
-                .zip(&coef_s)
-                .map(|(&c, b)| if scale[c] > 0.0 { b / scale[c] } else { 0.0 })
-                .collect();
-            let boot: Vec<Vec<f64>> = (0..RESAMPLES)
-                .map(|_| lstsq(&xs, width, y, &resample(rows, &mut rng), &cols).0)
-                .collect();
-            let mut terms = Vec::new();
-            let mut at = 0;
-            for &q in &sub {
-                let f = features[keep[q]];
-                let (share, runs_selected) = terms_runs[q];
-                let k = f.columns();
-                let unscale = |v: &[f64]| -> Vec<f64> {
-                    (0..k)
-                        .map(|i| v[at + i] / scale[cols[at + i]].max(1e-300))
-                        .collect()
-                };
-                let value = |v: &[f64]| -> f64 {
-                    let u = unscale(v);
-                    if k == 2 { u[0].hypot(u[1]) } else { u[0] }
-                };
-                let mut samples: Vec<f64> = boot.iter().map(|b| value(b)).collect();
-                samples.sort_by(f64::total_cmp);
-                let pick = |p: f64| samples[(p * (samples.len() - 1) as f64).round() as usize];
-                let full = unscale(&coef_s);
-                let (coefficient, frequency_hz, phase_rad) = match f {
-                    // a sin + b cos = A sin(x + phase), A = hypot(a, b), phase = atan2(b, a).
-                    Feature::Sine(hz) => (
-                        full[0].hypot(full[1]),
-                        Some(hz),
-                        Some(full[1].atan2(full[0])),
-                    ),
-                    _ => (full[0], None, None),
-                };
-                terms.push(DiscoveredTerm {
-                    term: f.label(),
-                    coefficient,
-                    interval: [pick(0.025), pick(0.975)],
-                    frequency_hz,
-                    phase_rad,
-                    selected_share: share,
-                    runs_selected,
-                });
-                at += k;
-            }
-            Variant {
-                term: Discovered {
-                    dof: j,
-                    features: groups_sub.iter().map(|&g| features[g]).collect(),
-                    coef,
-                },
-                terms,
+    (!keep.is_empty()).then_some((keep, terms_runs))
+}
+
+/// The closed form of the kept terms `sub` (indices into `keep`), refitted on all rows, with
+/// intervals from the resamples refitted.
+#[allow(clippy::too_many_arguments)]
+fn variant(
+    rows: &Rows,
+    d: &Design,
+    features: &[Feature],
+    j: usize,
+    sub: &[usize],
+    keep: &[usize],
+    terms_runs: &[Support],
+    rng: &mut crate::core::rng::Rng,
+) -> Variant {
+    let all: Vec<usize> = (0..rows.at.len()).collect();
+    let groups_sub: Vec<usize> = sub.iter().map(|&q| keep[q]).collect();
+    let cols = d.cols_of(&groups_sub);
+    let (coef_s, _) = d.lstsq(&all, &cols);
+    // Back to the features' own units.
+    let coef: Vec<f64> = cols
+        .iter()
+        .zip(&coef_s)
+        .map(|(&c, b)| {
+            if d.scale[c] > 0.0 {
+                b / d.scale[c]
+            } else {
+                0.0
             }
         })
         .collect();
-    Some(Proposal {
-        dof: j,
-        variants,
-        library_terms: features.len(),
-        peaks: peaks_hz,
-        spectrum: (grid, spectrum),
-    })
+    let boot: Vec<Vec<f64>> = (0..RESAMPLES)
+        .map(|_| d.lstsq(&resample(rows, rng), &cols).0)
+        .collect();
+    let mut terms = Vec::new();
+    let mut at = 0;
+    for &q in sub {
+        let f = features[keep[q]];
+        let k = f.columns();
+        terms.push(term(
+            f,
+            d,
+            &cols[at..at + k],
+            &coef_s[at..at + k],
+            &boot,
+            at,
+            terms_runs[q],
+        ));
+        at += k;
+    }
+    Variant {
+        term: Discovered {
+            dof: j,
+            features: groups_sub.iter().map(|&g| features[g]).collect(),
+            coef,
+        },
+        terms,
+    }
+}
+
+/// One kept term as the report states it: its coefficient in its own units (a sine's
+/// amplitude and phase), its 95 % interval over the resamples `boot` (whose columns for it
+/// start at `at`), and how often it was selected.
+fn term(
+    f: Feature,
+    d: &Design,
+    cols: &[usize],
+    coef_s: &[f64],
+    boot: &[Vec<f64>],
+    at: usize,
+    (share, runs_selected): Support,
+) -> DiscoveredTerm {
+    let k = cols.len();
+    let unscale = |v: &[f64]| -> Vec<f64> {
+        (0..k)
+            .map(|i| v[i] / d.scale[cols[i]].max(1e-300))
+            .collect()
+    };
+    let value = |v: &[f64]| -> f64 {
+        let u = unscale(v);
+        if k == 2 { u[0].hypot(u[1]) } else { u[0] }
+    };
+    let mut samples: Vec<f64> = boot.iter().map(|b| value(&b[at..at + k])).collect();
+    samples.sort_by(f64::total_cmp);
+    let pick = |p: f64| samples[(p * (samples.len() - 1) as f64).round() as usize];
+    let full = unscale(coef_s);
+    let (coefficient, frequency_hz, phase_rad) = match f {
+        // a sin + b cos = A sin(x + phase), A = hypot(a, b), phase = atan2(b, a).
+        Feature::Sine(hz) => (
+            full[0].hypot(full[1]),
+            Some(hz),
+            Some(full[1].atan2(full[0])),
+        ),
+        _ => (full[0], None, None),
+    };
+    DiscoveredTerm {
+        term: f.label(),
+        coefficient,
+        interval: [pick(0.025), pick(0.975)],
+        frequency_hz,
+        phase_rad,
+        selected_share: share,
+        runs_selected,
+    }
 }

@@ -2,7 +2,7 @@
 //! c in N s^2/m^2.
 
 use super::{Axis, Env, Hypothesis, Limits, Needs, Param, State, Term};
-use crate::model::Vec6;
+use crate::core::model::Vec6;
 use std::sync::Arc;
 
 pub static EFFECT: Hypothesis = Hypothesis {

@@ -19,8 +19,8 @@ mod wall_effect;
 mod water_current;
 
 use super::{DOFS, Run};
-pub use crate::model::motion::State;
-use crate::model::{Plant, Vec6};
+pub use crate::core::model::motion::State;
+use crate::core::model::{Plant, Vec6};
 use std::sync::Arc;
 
 /// A list of effects to test.

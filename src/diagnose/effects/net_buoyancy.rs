@@ -2,7 +2,7 @@
 //! zero (positive: the vehicle sinks). Taken along body z: pool runs are level.
 
 use super::{Axis, Env, Hypothesis, Limits, Needs, Param, State, Term};
-use crate::model::Vec6;
+use crate::core::model::Vec6;
 use std::sync::Arc;
 
 pub static EFFECT: Hypothesis = Hypothesis {

@@ -3,7 +3,7 @@
 //! stronger.
 
 use super::{COMMAND, Hypothesis, Limits, Needs, Param, Term};
-use crate::model::Vec6;
+use crate::core::model::Vec6;
 use std::sync::Arc;
 
 pub static EFFECT: Hypothesis = Hypothesis {

@@ -2,7 +2,7 @@
 //! with L the tether in the water (anchor to vehicle, plus slack) and c in N s^2/m^3.
 
 use super::{Axis, Env, Hypothesis, Limits, Needs, Param, State, Term, add_horizontal_drag};
-use crate::model::Vec6;
+use crate::core::model::Vec6;
 use std::sync::Arc;
 
 pub static EFFECT: Hypothesis = Hypothesis {

@@ -4,7 +4,7 @@
 //! command by its width (the usual dead-zone nonlinearity of an ESC or of seal friction).
 
 use super::{COMMAND, Hypothesis, Limits, Needs, Param, Term};
-use crate::model::Vec6;
+use crate::core::model::Vec6;
 use std::sync::Arc;
 
 pub static EFFECT: Hypothesis = Hypothesis {

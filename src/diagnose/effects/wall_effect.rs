@@ -2,7 +2,7 @@
 //! velocity over ground, d the distance to the nearest wall.
 
 use super::{Axis, Env, Hypothesis, Limits, Needs, Param, State, Term, add_horizontal_drag};
-use crate::model::Vec6;
+use crate::core::model::Vec6;
 use std::sync::Arc;
 
 pub static EFFECT: Hypothesis = Hypothesis {

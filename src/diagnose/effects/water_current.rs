@@ -2,7 +2,7 @@
 //! drag acts on the velocity relative to the water.
 
 use super::{Axis, Env, Hypothesis, Limits, Needs, Param, State, Term, drag};
-use crate::model::Vec6;
+use crate::core::model::Vec6;
 use std::sync::Arc;
 
 pub static EFFECT: Hypothesis = Hypothesis {

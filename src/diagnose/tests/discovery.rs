@@ -5,9 +5,9 @@
 //! of which is a term of the discovery's library as written.
 
 use super::*;
-use crate::dof::Dof;
+use crate::core::dof::Dof;
 
-fn candidate(arg: &str, seed: u64) -> (Diagnosis, crate::diagnose::discover::Candidate) {
+fn candidate(arg: &str, seed: u64) -> (Diagnosis, crate::diagnose::result::Candidate) {
     let e = Effect::from_arg(arg).unwrap();
     let d = scenario_diagnosis(std::slice::from_ref(&e), seed);
     let c = d
@@ -26,7 +26,7 @@ fn candidate(arg: &str, seed: u64) -> (Diagnosis, crate::diagnose::discover::Can
 
 /// The candidate lowers the held-out NMAE of its DOF and the held-out cost by the margin a
 /// named effect needs.
-fn proven(arg: &str, c: &crate::diagnose::discover::Candidate) {
+fn proven(arg: &str, c: &crate::diagnose::result::Candidate) {
     let (b, a) = (
         c.validation_nmae_before[&c.dof],
         c.validation_nmae_after[&c.dof],

@@ -5,7 +5,7 @@
 /// Twenty RK4 substeps of the true plant over `dt` under `tau`; the pose [x, y, z, psi] by
 /// Euler on the same substeps.
 fn advance(
-    plant: &crate::model::Plant,
+    plant: &crate::core::model::Plant,
     tau: &[f64; 6],
     dt: f64,
     nu: &mut [f64; 6],
@@ -34,16 +34,16 @@ fn advance(
 }
 
 /// The metadata of straight run `i`: runs 4 and 5 held out, in a 400 m basin with a tether.
-fn straight_meta(i: usize) -> crate::fusion::run::RunMeta {
-    crate::fusion::run::RunMeta {
+fn straight_meta(i: usize) -> crate::pool::fusion::run::RunMeta {
+    crate::pool::fusion::run::RunMeta {
         run: format!("straight_{i}"),
         role: if i >= 4 {
-            crate::io::pool::Role::Validate
+            crate::pool::import::Role::Validate
         } else {
-            crate::io::pool::Role::Train
+            crate::pool::import::Role::Train
         },
         description: String::new(),
-        pool: Some(crate::model::Pool {
+        pool: Some(crate::core::model::Pool {
             length_m: 400.0,
             width_m: 40.0,
             depth_m: 10.0,
@@ -67,16 +67,16 @@ fn straight_meta(i: usize) -> crate::fusion::run::RunMeta {
 /// moment over yaw damping), so an open-loop simulation of the logged command drifts apart
 /// from the recording whatever the model. Re-anchored over windows the true model must be
 /// found sufficient: nothing named, nothing unexplained.
-pub(super) fn piloted_fast_runs(seed: u64) -> Vec<crate::fusion::run::FusedRun> {
-    use crate::model::{Hydro, Plant, Vehicle};
+pub(super) fn piloted_fast_runs(seed: u64) -> Vec<crate::pool::fusion::run::FusedRun> {
+    use crate::core::model::{Hydro, Plant, Vehicle};
     let plant = Plant::new(&Vehicle::reference(), Hydro::reference());
-    let mut rng = crate::rng::Rng::new(seed);
+    let mut rng = crate::core::rng::Rng::new(seed);
     let (dt, n) = (0.05, 1200);
     let mut out = Vec::new();
     for (i, speed) in [1.2, 1.3, 1.1, 1.4, 1.25, 1.35].into_iter().enumerate() {
         let mut nu = [0.0f64; 6];
         let (mut x, mut y, mut z, mut psi) = (5.0, 20.0, 1.5, 0.2 * rng.normal());
-        let mut fused = crate::fusion::Fused {
+        let mut fused = crate::pool::fusion::Fused {
             t: vec![],
             vel: Default::default(),
             std: Default::default(),
@@ -124,7 +124,7 @@ pub(super) fn piloted_fast_runs(seed: u64) -> Vec<crate::fusion::run::FusedRun> 
             fused.vel[j] = Some(std::mem::take(v));
         }
         let meta = straight_meta(i);
-        out.push(crate::fusion::run::FusedRun {
+        out.push(crate::pool::fusion::run::FusedRun {
             meta,
             thrust,
             moments: Vec::new(),

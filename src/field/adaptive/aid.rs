@@ -112,7 +112,7 @@ pub fn identify(
     let mut sq = [0.0; 6];
     let mut count = 0usize;
     for k in 0..n.saturating_sub(1) {
-        if crate::interrupt::requested() {
+        if crate::core::interrupt::requested() {
             break;
         }
         let dt = rec.t[k + 1] - rec.t[k];
@@ -223,10 +223,11 @@ pub fn excitation(
     let proj = DMatrix::<f64>::identity(P, P) - &z * z.transpose();
     let along = (z.transpose() * &g * &z)[(0, 0)];
     let off = &proj * &g * &proj;
-    let eig = crate::numerics::symmetric_eigen(off.clone()).unwrap_or_else(|| SymmetricEigen {
-        eigenvalues: nalgebra::DVector::zeros(P),
-        eigenvectors: DMatrix::identity(P, P),
-    });
+    let eig =
+        crate::core::numerics::symmetric_eigen(off.clone()).unwrap_or_else(|| SymmetricEigen {
+            eigenvalues: nalgebra::DVector::zeros(P),
+            eigenvectors: DMatrix::identity(P, P),
+        });
     let max = eig.eigenvalues.max().max(1e-300);
     let mut order: Vec<usize> = (0..P).collect();
     order.sort_by(|a, b| eig.eigenvalues[*a].total_cmp(&eig.eigenvalues[*b]));

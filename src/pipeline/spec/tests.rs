@@ -3,7 +3,7 @@ use super::*;
 const OK: &str = "vehicle:\n  mass_kg: 35.2\n  inertia_kg_m2: {zz: 1.38}\n  dofs: [surge, yaw]\nstages:\n  cfd:\n    kind: starccm\n    inputs: [\"cases/*.csv\"]\n  fit:\n    kind: fit\n    from: [cfd]\n    settings:\n      method: ols\n  report:\n    kind: report\n    from: [fit, cfd]\n";
 
 fn err(text: &str) -> String {
-    match parse("pipeline.yaml", text, crate::stage::KINDS) {
+    match parse("pipeline.yaml", text, crate::kinds::KINDS) {
         Ok(_) => panic!("expected an error"),
         Err(e) => e.to_string(),
     }
@@ -11,7 +11,7 @@ fn err(text: &str) -> String {
 
 #[test]
 fn parses_and_orders_stages() {
-    let s = parse("pipeline.yaml", OK, crate::stage::KINDS).unwrap();
+    let s = parse("pipeline.yaml", OK, crate::kinds::KINDS).unwrap();
     let names: Vec<&str> = s.stages.iter().map(|s| s.name.as_str()).collect();
     assert_eq!(names, ["cfd", "fit", "report"]);
     assert_eq!(s.vehicle.mass_kg, 35.2);
@@ -71,11 +71,11 @@ fn cycles_are_spelled_out() {
     let text = "stages:\n  a:\n    from: [b]\n  b:\n    from: [c]\n  c:\n    from: [a]\n";
     let p = Parser {
         path: "pipeline.yaml",
-        kinds: crate::stage::KINDS,
+        kinds: crate::kinds::KINDS,
         text,
         index: KeyIndex::new(text),
     };
-    let kind = crate::stage::kind("report").unwrap();
+    let kind = crate::kinds::kind("report").unwrap();
     let mk = |name: &str, from: &str| StageSpec {
         name: name.into(),
         kind,
@@ -139,7 +139,7 @@ fn each_method_reads_only_its_own_settings() {
     let s = parse(
         "pipeline.yaml",
         &OK.replace("method: ols", "method: qpso\n      population: 60"),
-        crate::stage::KINDS,
+        crate::kinds::KINDS,
     )
     .unwrap();
     let fit = s.stages.iter().find(|st| st.name == "fit").unwrap();

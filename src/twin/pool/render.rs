@@ -6,8 +6,8 @@ use super::{
     G, LOG_EVERY, POOL, RunSpec, SONAR_AT, SONAR_HALF_FOV_DEG, SONAR_RANGE_M, STEP, Sensors,
     TETHER_ANCHOR, Truth,
 };
-use crate::model::Vec6;
-use crate::rng::Rng;
+use crate::core::model::Vec6;
+use crate::core::rng::Rng;
 use crate::twin::world::{Effect, State};
 use std::fmt::Write as _;
 

@@ -4,7 +4,7 @@
 //! 0.01 deg/s, 10 Hz), a depth gauge; the true motion apart, in the truth folder.
 
 use super::{Record, Trial};
-use crate::rng::Rng;
+use crate::core::rng::Rng;
 use std::fmt::Write;
 
 /// Sensor noise, seed 003 Table III (depth: a Paroscientific gauge, about 2 mm).
@@ -129,13 +129,13 @@ pub fn write_trials(
     let v = super::vehicle();
     let h = super::truth();
     let body = super::Body::new(&v, &h);
-    let layout = crate::model::ParamLayout::of(&v);
+    let layout = crate::core::model::ParamLayout::of(&v);
     let mut table = String::from("name,value\n");
     for (name, value) in layout.names().iter().zip(layout.from_hydro(&h)) {
         let _ = writeln!(table, "{name},{value}");
     }
     std::fs::create_dir_all(truth_dir)?;
-    crate::fsutil::write_atomic(&truth_dir.join("parameters.csv"), table.as_bytes())?;
+    crate::core::fsutil::write_atomic(&truth_dir.join("parameters.csv"), table.as_bytes())?;
     let mut out = Vec::new();
     for (i, trial) in trials.iter().enumerate() {
         let rec = super::fly(&body, &v, trial);

@@ -1,0 +1,65 @@
+//! `kind: diagnose` — why the pool recordings and the CFD-identified model differ: drift or
+//! missing structure, where the mismatch is, which left-out effect explains it (fitted by output
+//! error on the training runs, chosen and proven on the held-out runs). See [`crate::diagnose`].
+
+use crate::diagnose::result::{FIGURES, RESULT};
+use crate::diagnose::{Criteria, DOFS, diagnose};
+use crate::pipeline::contract::{Artifact, Kind, RunCtx, StageImpl, parse_as};
+use serde::{Deserialize, Serialize};
+
+pub static KIND: Kind = Kind {
+    consumes: &[Artifact::Model, Artifact::PoolRuns],
+    requires: &[Artifact::Model, Artifact::PoolRuns],
+    ..Kind::new("diagnose", Artifact::Diagnosis, parse_as::<Settings>)
+};
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Settings {
+    /// The fit stage whose model is diagnosed; default: the first fit of the pipeline's vehicle.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub model: Option<String>,
+    #[serde(flatten)]
+    pub criteria: Criteria,
+}
+
+impl StageImpl for Settings {
+    fn settings(&self) -> serde_json::Value {
+        serde_json::to_value(self).expect("settings serialise")
+    }
+
+    fn run(&self, ctx: &RunCtx) -> anyhow::Result<()> {
+        let fits: Vec<crate::identify::result::FitResult> = ctx
+            .upstream_of(Artifact::Model)
+            .map(|u| crate::identify::result::load(&u.dir))
+            .collect::<Result<_, _>>()?;
+        let f = match &self.model {
+            Some(name) => fits.iter().find(|f| &f.stage == name).ok_or_else(|| anyhow::anyhow!("model `{name}` is not among this stage's `from` fits ({})", fits.iter().map(|f| f.stage.as_str()).collect::<Vec<_>>().join(", ")))?,
+            None => fits.iter().find(|f| f.vehicle.is_none()).ok_or_else(|| anyhow::anyhow!("no fit of the pipeline's vehicle among `from`\n  help: name a `fit` stage that identifies the vehicle"))?,
+        };
+        if !DOFS.iter().all(|d| f.dofs.contains(d)) {
+            anyhow::bail!(
+                "the diagnosis simulates surge, sway, heave and yaw; model `{}` has {:?}",
+                f.stage,
+                f.dofs
+            );
+        }
+        let fused: Vec<crate::pool::fusion::run::FusedRun> = ctx
+            .upstream_of(Artifact::PoolRuns)
+            .map(|u| crate::pool::fusion::run::load_for(&u.dir, ctx.vehicle))
+            .collect::<Result<_, _>>()?;
+        let plant = f.plant(ctx.vehicle);
+        let progress = |m: &str| ctx.progress.set_message(m.to_string());
+        let (mut diagnosis, figures) = diagnose(
+            ctx.vehicle,
+            &f.stage,
+            &plant,
+            &fused,
+            &self.criteria,
+            &progress,
+        )?;
+        diagnosis.runs.skipped.extend(ctx.failed_notes());
+        crate::core::fsutil::write_json(&ctx.out.join(RESULT), &diagnosis)?;
+        crate::core::fsutil::write_json(&ctx.out.join(FIGURES), &figures)
+    }
+}

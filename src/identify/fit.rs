@@ -1,0 +1,177 @@
+//! One identification, as `fit` and `compare` both run it: the problem from CFD cases (each
+//! with the body mass it states, if any) and pool runs (each source weighted by its own
+//! residual level), the method with its settings, the objective, and the optional two-step
+//! added-mass window.
+
+use super::result::Objective;
+use super::sources::combine;
+use super::two_step::{truncate, two_step};
+use super::{Estimate, Fit, Method, Options, Regression};
+use crate::core::model::Vehicle;
+use crate::core::response::Response;
+
+/// What is identified from.
+pub struct Data<'a> {
+    pub vehicle: &'a Vehicle,
+    /// CFD responses, with the body mass a case states (an OpenFOAM case) when it does.
+    pub cases: Vec<(&'a Response, Option<f64>)>,
+    /// Pool runs as responses (logged command, fused velocity and its derivative).
+    pub pool: Vec<&'a Response>,
+    /// Samples before this time in each response are left out.
+    pub skip_start_s: f64,
+}
+
+/// How it is identified.
+pub struct Request<'a> {
+    pub method: &'a Method,
+    pub objective: Objective,
+    /// Two-step least squares: the added mass from this window after `skip_start_s`.
+    pub added_mass_window_s: Option<f64>,
+    pub progress: Option<&'a (dyn Fn(f64) + Sync)>,
+}
+
+/// The identified parameters and what the identification did besides.
+pub struct Identified {
+    pub fit: Fit,
+    /// With an added-mass window: what the one-step fit over whole runs gives, for contrast.
+    pub one_step: Option<Vec<Estimate>>,
+    /// The problem's layout (which DOFs carry a constant force).
+    pub constant_force: Vec<crate::core::dof::Dof>,
+    pub rows: usize,
+    pub notes: Vec<String>,
+}
+
+impl Data<'_> {
+    /// The vehicle with the body mass of case-stated masses, when they are one.
+    fn with_mass(&self, mass: Option<f64>) -> Vehicle {
+        let mut v = self.vehicle.clone();
+        if let Some(m) = mass {
+            v.mass_kg = m;
+        }
+        v
+    }
+
+    /// One problem from the CFD cases and the pool runs (see [`combine`]), and the body mass
+    /// each source was regressed with. Cases that state their own body mass (OpenFOAM) are
+    /// regressed with it.
+    fn problem(&self, notes: &mut Vec<String>) -> (Regression, Vec<f64>) {
+        let mut cfd = Regression::build(self.vehicle, &[], self.skip_start_s);
+        let mut masses = Vec::new();
+        for (r, mass) in &self.cases {
+            let v = self.with_mass(*mass);
+            masses.push(v.mass_kg);
+            cfd.append(Regression::build(&v, &[r], self.skip_start_s));
+        }
+        let pool = Regression::build(self.vehicle, &self.pool, self.skip_start_s);
+        if !self.pool.is_empty() {
+            masses.push(self.vehicle.mass_kg);
+        }
+        (combine(cfd, pool, notes), masses)
+    }
+
+    /// The CFD cases' rows up to `window` after `skip_start_s`: the accelerations from rest.
+    fn early(&self, window: f64) -> Regression {
+        let mut early = Regression::build(self.vehicle, &[], self.skip_start_s);
+        for (r, mass) in &self.cases {
+            early.append(Regression::build(
+                &self.with_mass(*mass),
+                &[&truncate(r, self.skip_start_s + window)],
+                self.skip_start_s,
+            ));
+        }
+        early
+    }
+
+    /// Every response, the CFD cases first.
+    fn responses(&self) -> Vec<&Response> {
+        self.cases
+            .iter()
+            .map(|(r, _)| *r)
+            .chain(self.pool.iter().copied())
+            .collect()
+    }
+}
+
+/// Identifies the model of `data.vehicle` as `req` asks.
+pub fn identify(data: &Data, req: &Request) -> anyhow::Result<Identified> {
+    let mut notes = Vec::new();
+    let (problem, masses) = data.problem(&mut notes);
+    let one_mass = masses.windows(2).all(|w| w[0] == w[1]);
+    let pem = req.method.estimator.minimises_output_error();
+    anyhow::ensure!(
+        !(pem && req.objective == Objective::OutputError && data.pool.is_empty()),
+        "method pem minimises the output error of pool runs, and this fit reads none; use method: qpso, pso or ga for the output error of CFD cases"
+    );
+    anyhow::ensure!(
+        one_mass || pem || req.objective == Objective::EquationError,
+        "the output error simulates one body: these cases state different body masses ({masses:?} kg); use objective: equation_error"
+    );
+    let mut sim_vehicle = data.vehicle.clone();
+    if let Some(m) = masses.first() {
+        sim_vehicle.mass_kg = *m;
+    }
+    // The prediction-error method simulates the pool runs only (a CFD case's equation error is
+    // already what seed 001 minimises); without pool runs it is least squares.
+    let refs = match pem {
+        true => data.pool.clone(),
+        false => data.responses(),
+    };
+    let simulate = (req.objective == Objective::OutputError || pem) && !refs.is_empty();
+    if pem && !refs.is_empty() {
+        sim_vehicle = data.vehicle.clone();
+    }
+    let opts = req.method.options(Options {
+        rigid_mass: sim_vehicle.rigid_mass(),
+        progress: req.progress,
+        output_error: simulate.then_some((&sim_vehicle, &refs[..])),
+        ..Default::default()
+    });
+    let (mut fit, one_step) = match req.added_mass_window_s {
+        None => (req.method.estimator.fit(&problem, &opts)?, None),
+        Some(window) => two_step_fit(data, req, &problem, &opts, window)?,
+    };
+    super::check_signs(&problem.layout, &mut fit.parameters);
+    if let Some(r) = &fit.refinement {
+        notes.push(format!(
+            "prediction-error fit: the least-squares start leaves a weighted mean square velocity error of {:.4} on the training runs' simulations, {} Levenberg-Marquardt steps take it to {:.4}",
+            r.start_cost,
+            r.steps,
+            fit.objective_value.unwrap_or(f64::NAN)
+        ));
+    }
+    Ok(Identified {
+        fit,
+        one_step,
+        constant_force: problem.layout.constant.clone(),
+        rows: problem.rows(),
+        notes,
+    })
+}
+
+/// Two-step least squares with the added mass from `window` (see [`two_step`]), and what the
+/// method's one-step fit of `problem` gives, for contrast.
+fn two_step_fit(
+    data: &Data,
+    req: &Request,
+    problem: &Regression,
+    opts: &Options,
+    window: f64,
+) -> anyhow::Result<(Fit, Option<Vec<Estimate>>)> {
+    anyhow::ensure!(
+        matches!(req.method.name(), "ols" | "pem") && req.objective == Objective::EquationError,
+        "added_mass_window_s is a two-step least-squares fit: use method: ols, objective: equation_error"
+    );
+    anyhow::ensure!(window > 0.0, "added_mass_window_s must be positive");
+    anyhow::ensure!(
+        data.pool.is_empty(),
+        "added_mass_window_s is for CFD runs from rest; remove the pool stage from this fit's `from`"
+    );
+    let early = data.early(window);
+    let one = req
+        .method
+        .estimator
+        .fit(problem, opts)
+        .ok()
+        .map(|f| f.parameters);
+    Ok((two_step(&early, problem)?, one))
+}

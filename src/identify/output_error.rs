@@ -1,0 +1,179 @@
+//! The output-error objective (seed 001 eq. 9): every candidate model simulated under each
+//! case's force and compared with the recorded velocities. The population methods minimise
+//! its cost; the local refinement ([`super::refine`]) its residuals.
+
+use crate::core::model::lanes::{LANES, LanePlants};
+use crate::core::model::{Plant, Vec6};
+
+/// The cases an output-error objective simulates, and the plant's rigid-body side.
+pub struct OutputError<'a> {
+    pub vehicle: &'a crate::core::model::Vehicle,
+    pub responses: &'a [&'a crate::core::response::Response],
+    /// Per case and DOF, 1 / its mean square velocity: every case counts by its relative
+    /// error, so the slow cases that pin the linear drag weigh as much as the fast ones.
+    pub weight: Vec<[f64; 6]>,
+    /// Per case, the applied force at each sample (read once, simulated many times).
+    taus: Vec<Vec<Vec6>>,
+}
+
+/// Integration step bound of the objective's simulations, s.
+const MAX_STEP: f64 = 0.01;
+
+impl<'a> OutputError<'a> {
+    pub fn new(
+        vehicle: &'a crate::core::model::Vehicle,
+        responses: &'a [&'a crate::core::response::Response],
+    ) -> OutputError<'a> {
+        let weight = responses
+            .iter()
+            .map(|r| {
+                let mut w = [0.0; 6];
+                for (d, s) in &r.dofs {
+                    let ms = s.velocity.iter().map(|v| v * v).sum::<f64>()
+                        / s.velocity.len().max(1) as f64;
+                    w[d.index()] = if ms > 1e-12 { 1.0 / ms } else { 0.0 };
+                }
+                w
+            })
+            .collect();
+        let taus = responses
+            .iter()
+            .map(|r| (0..r.len()).map(|k| r.tau(k)).collect())
+            .collect();
+        OutputError {
+            vehicle,
+            responses,
+            weight,
+            taus,
+        }
+    }
+
+    /// Integration steps and recorded values one evaluation simulates and compares.
+    pub fn work(&self) -> (usize, usize) {
+        let mut steps = 0;
+        let mut values = 0;
+        for r in self.responses {
+            for k in 0..r.len().saturating_sub(1) {
+                steps += crate::core::model::dynamics::substeps(r.t[k + 1] - r.t[k], MAX_STEP);
+            }
+            values += r.dofs.values().map(|s| s.velocity.len()).sum::<usize>();
+        }
+        (steps, values)
+    }
+
+    /// Whether the kernel integrates all six DOFs (roll or pitch free) for these cases.
+    pub fn six_dof(&self) -> bool {
+        crate::core::model::lanes::needs_six_dof(&self.vehicle.active())
+    }
+
+    fn plants(&self, layout: &crate::core::model::ParamLayout, thetas: &[&[f64]]) -> LanePlants {
+        let plants: Vec<Plant> = thetas
+            .iter()
+            .map(|t| Plant::new(self.vehicle, layout.to_hydro(t)))
+            .collect();
+        LanePlants::new(&plants)
+    }
+
+    /// Every case simulated for up to [`LANES`] models at once; `visit` gets each recorded
+    /// value's error per lane, weighted by the square root of its weight.
+    fn errors(
+        &self,
+        layout: &crate::core::model::ParamLayout,
+        thetas: &[&[f64]],
+        visit: &mut dyn FnMut(&[f64; LANES]),
+    ) {
+        if !layout.is_diagonal_model() {
+            return self.errors_coupled(layout, thetas, visit);
+        }
+        let lp = self.plants(layout, thetas);
+        for (c, (r, w)) in self.responses.iter().zip(&self.weight).enumerate() {
+            let cols = columns(r, w);
+            lp.simulate(&r.t, &self.taus[c], r.nu(0), MAX_STEP, &mut |k, nu| {
+                for (i, sw, v) in &cols {
+                    let e: [f64; LANES] = std::array::from_fn(|l| sw * (nu[*i][l] - v[k]));
+                    visit(&e);
+                }
+            });
+        }
+    }
+
+    /// [`OutputError::errors`] for coupled models (full mass matrix, cross drag, buoyancy that
+    /// turns with the attitude), up to [`LANES`] at once with their own kernel
+    /// ([`crate::core::model::lanes_coupled`]): the same errors in the same order.
+    fn errors_coupled(
+        &self,
+        layout: &crate::core::model::ParamLayout,
+        thetas: &[&[f64]],
+        visit: &mut dyn FnMut(&[f64; LANES]),
+    ) {
+        let plants: Vec<Plant> = thetas
+            .iter()
+            .map(|t| Plant::new(self.vehicle, layout.to_hydro(t)))
+            .collect();
+        let lp = crate::core::model::lanes_coupled::CoupledLanes::new(&plants);
+        for (c, (r, w)) in self.responses.iter().zip(&self.weight).enumerate() {
+            let cols = columns(r, w);
+            let start = (r.nu(0), r.attitude(0));
+            lp.simulate(&r.t, &self.taus[c], start, MAX_STEP, &mut |k, nu| {
+                for (i, sw, v) in &cols {
+                    let e: [f64; LANES] = std::array::from_fn(|l| sw * (nu[*i][l] - v[k]));
+                    visit(&e);
+                }
+            });
+        }
+    }
+
+    /// The weighted velocity errors of the model `theta`, sample by sample, DOF by DOF within
+    /// a sample, case by case (a diverged simulation counts as a large error).
+    pub fn residuals(&self, layout: &crate::core::model::ParamLayout, theta: &[f64]) -> Vec<f64> {
+        self.residuals_many(layout, &[theta]).swap_remove(0)
+    }
+
+    /// [`OutputError::residuals`] of up to [`LANES`] models, simulated together.
+    pub fn residuals_many(
+        &self,
+        layout: &crate::core::model::ParamLayout,
+        thetas: &[&[f64]],
+    ) -> Vec<Vec<f64>> {
+        let mut out = vec![Vec::new(); thetas.len()];
+        self.errors(layout, thetas, &mut |e| {
+            for (o, x) in out.iter_mut().zip(e) {
+                o.push(if x.is_finite() { *x } else { 1e3 });
+            }
+        });
+        out
+    }
+
+    /// Mean weighted squared velocity error of the model `theta` over every case.
+    pub(crate) fn cost(&self, layout: &crate::core::model::ParamLayout, theta: &[f64]) -> f64 {
+        self.cost_many(layout, &[theta])[0]
+    }
+
+    /// [`OutputError::cost`] of up to [`LANES`] models, simulated together.
+    pub(crate) fn cost_many(
+        &self,
+        layout: &crate::core::model::ParamLayout,
+        thetas: &[&[f64]],
+    ) -> Vec<f64> {
+        let mut s = [0.0; LANES];
+        let mut n = 0usize;
+        self.errors(layout, thetas, &mut |e| {
+            for l in 0..LANES {
+                s[l] += if e[l].is_finite() { e[l] * e[l] } else { 1e6 };
+            }
+            n += 1;
+        });
+        (0..thetas.len()).map(|l| s[l] / n.max(1) as f64).collect()
+    }
+}
+
+/// Per DOF of a case: its index, the square root of its weight and its recorded velocity.
+fn columns<'r>(
+    r: &'r crate::core::response::Response,
+    w: &[f64; 6],
+) -> Vec<(usize, f64, &'r [f64])> {
+    r.dofs
+        .iter()
+        .map(|(d, s)| (d.index(), w[d.index()].sqrt(), s.velocity.as_slice()))
+        .collect()
+}

@@ -1,0 +1,259 @@
+//! Local least-squares refinement of an output-error fit (Levenberg-Marquardt on the simulated
+//! velocities), from the best answer of a population search.
+//!
+//! A population method finds the basin; its restarts' spread is a poor uncertainty, and none
+//! at all when a time limit leaves one restart. Near the optimum the output error is smooth,
+//! so a damped Gauss-Newton step finishes the job. The Jacobian of the simulated velocities
+//! with respect to the coefficients then gives standard errors,
+//! `s^2 (J^T J)^-1` with `s^2` the residual variance: conditional on the model being right,
+//! as for the equation error.
+
+use super::output_error::OutputError;
+use crate::core::model::ParamLayout;
+use crate::core::model::lanes::LANES;
+use nalgebra::{DMatrix, DVector};
+
+/// The refined coefficients and their standard errors (NaN where `J^T J` is singular).
+pub struct Refined {
+    pub theta: Vec<f64>,
+    pub stderr: Vec<f64>,
+    /// The coefficients' correlation matrix from `(J^T J)^-1` (empty where it is singular).
+    pub correlation: Vec<Vec<f64>>,
+    /// Levenberg-Marquardt steps taken.
+    pub steps: usize,
+    /// Weighted mean square velocity error before and after.
+    pub cost_before: f64,
+    pub cost_after: f64,
+}
+
+/// Levenberg-Marquardt from `theta0`, at most `iterations` accepted steps. Coefficients with a
+/// physical sign stay on it.
+pub fn output_error_lm(
+    oe: &OutputError,
+    layout: &ParamLayout,
+    theta0: &[f64],
+    iterations: usize,
+) -> Refined {
+    output_error_lm_within(oe, layout, theta0, iterations, &Bounds::signs(layout))
+}
+
+/// The range each coefficient may take during a refinement: its physical sign and, where the
+/// caller states one, a plausibility prior (added mass at most a multiple of the rigid-body
+/// term).
+#[derive(Debug, Clone)]
+pub struct Bounds {
+    pub lo: Vec<f64>,
+    pub hi: Vec<f64>,
+}
+
+impl Bounds {
+    /// Only the physical signs: a coefficient with one stays on its side of zero.
+    pub fn signs(layout: &ParamLayout) -> Bounds {
+        let (lo, hi) = layout
+            .terms
+            .iter()
+            .map(|t| match t.physical_sign() {
+                Some(s) if s < 0.0 => (f64::NEG_INFINITY, 0.0),
+                Some(_) => (0.0, f64::INFINITY),
+                None => (f64::NEG_INFINITY, f64::INFINITY),
+            })
+            .unzip();
+        Bounds { lo, hi }
+    }
+
+    /// `x` moved into the range.
+    pub fn clamp(&self, x: &mut [f64]) {
+        for ((x, lo), hi) in x.iter_mut().zip(&self.lo).zip(&self.hi) {
+            *x = x.clamp(*lo, *hi);
+        }
+    }
+
+    /// Whether coefficient `j` at `x` sits on a finite, non-zero end of its range (zero is a
+    /// sign's end, said apart).
+    pub fn at_prior(&self, j: usize, x: f64) -> bool {
+        let on = |b: f64| b.is_finite() && b != 0.0 && (x - b).abs() <= 1e-6 * b.abs();
+        on(self.lo[j]) || on(self.hi[j])
+    }
+}
+
+/// [`output_error_lm`] with every coefficient kept within `bounds`.
+pub fn output_error_lm_within(
+    oe: &OutputError,
+    layout: &ParamLayout,
+    theta0: &[f64],
+    iterations: usize,
+    bounds: &Bounds,
+) -> Refined {
+    let p = theta0.len();
+    let mut theta = theta0.to_vec();
+    bounds.clamp(&mut theta);
+    let r = oe.residuals(layout, &theta);
+    let cost = sum_sq(&r);
+    let cost_before = cost / r.len().max(1) as f64;
+    let mut lm = Lm {
+        oe,
+        layout,
+        bounds,
+        theta,
+        r,
+        cost,
+        lambda: 1e-3,
+    };
+    let mut a = DMatrix::<f64>::zeros(p, p);
+    let mut steps = 0;
+    for _ in 0..iterations {
+        if crate::core::interrupt::requested() {
+            break;
+        }
+        let jac = jacobian(oe, layout, &lm.theta, &lm.r);
+        let g;
+        (a, g) = normal_equations(&jac, &lm.r);
+        if !lm.step(&a, &g) {
+            break;
+        }
+        steps += 1;
+    }
+    let n = lm.r.len();
+    let (stderr, correlation) = standard_errors(&lm.r, lm.cost, a);
+    Refined {
+        theta: lm.theta,
+        stderr,
+        correlation,
+        cost_before,
+        cost_after: lm.cost / n.max(1) as f64,
+        steps,
+    }
+}
+
+/// Levenberg-Marquardt's state: the coefficients, their residuals and cost, and the damping.
+struct Lm<'a, 'o> {
+    oe: &'a OutputError<'o>,
+    layout: &'a ParamLayout,
+    /// The range of each coefficient.
+    bounds: &'a Bounds,
+    theta: Vec<f64>,
+    r: Vec<f64>,
+    cost: f64,
+    lambda: f64,
+}
+
+impl Lm<'_, '_> {
+    /// Tries up to 8 steps on the normal equations `a`, `g`, the damping raised after each that
+    /// fails to lower the cost and lowered after the one that does, which is taken. Whether a
+    /// step was taken and lowered the cost by more than a relative 1e-7.
+    fn step(&mut self, a: &DMatrix<f64>, g: &DVector<f64>) -> bool {
+        let p = self.theta.len();
+        for _ in 0..8 {
+            let mut damped = a.clone();
+            for i in 0..p {
+                damped[(i, i)] += self.lambda * a[(i, i)].max(1e-12);
+            }
+            let Some(step) = damped.lu().solve(&(-g)) else {
+                return false;
+            };
+            let mut next: Vec<f64> = self
+                .theta
+                .iter()
+                .zip(step.iter())
+                .map(|(x, d)| x + d)
+                .collect();
+            self.bounds.clamp(&mut next);
+            let rn = self.oe.residuals(self.layout, &next);
+            let cn = sum_sq(&rn);
+            if cn.is_finite() && cn < self.cost {
+                let gain = (self.cost - cn) / self.cost;
+                (self.theta, self.r, self.cost) = (next, rn, cn);
+                self.lambda = (self.lambda / 3.0).max(1e-9);
+                return gain > 1e-7;
+            }
+            self.lambda *= 4.0;
+        }
+        false
+    }
+}
+
+/// Sum of squares.
+fn sum_sq(r: &[f64]) -> f64 {
+    r.iter().map(|x| x * x).sum::<f64>()
+}
+
+/// The Gauss-Newton normal equations from the Jacobian's columns `jac`: `J^T J` and `J^T r`.
+fn normal_equations(jac: &[Vec<f64>], r: &[f64]) -> (DMatrix<f64>, DVector<f64>) {
+    let p = jac.len();
+    let a = DMatrix::from_fn(p, p, |i, j| {
+        jac[i].iter().zip(&jac[j]).map(|(x, y)| x * y).sum()
+    });
+    let g = DVector::from_fn(p, |i, _| jac[i].iter().zip(r).map(|(x, y)| x * y).sum());
+    (a, g)
+}
+
+/// Standard errors from `J^T J` (`a`) and the residuals `r` whose sum of squares is `cost`.
+///
+/// The velocity errors of a simulation are correlated from sample to sample (a fused
+/// recording is smoothed, a model error persists), so n samples carry the information of
+/// fewer: the variance grows by the AR(1) long-run factor (1 + rho) / (1 - rho) of the
+/// residual's lag-1 autocorrelation.
+fn standard_errors(r: &[f64], cost: f64, a: DMatrix<f64>) -> (Vec<f64>, Vec<Vec<f64>>) {
+    let (n, p) = (r.len(), a.nrows());
+    let rho = {
+        let (num, den) = r
+            .windows(2)
+            .fold((0.0, 0.0), |(a, b), w| (a + w[0] * w[1], b + w[0] * w[0]));
+        if den > 0.0 {
+            (num / den).clamp(0.0, 0.999)
+        } else {
+            0.0
+        }
+    };
+    let s2 = cost / (n.saturating_sub(p)).max(1) as f64 * (1.0 + rho) / (1.0 - rho);
+    match a.try_inverse() {
+        Some(inv) => {
+            let sd: Vec<f64> = (0..p).map(|j| inv[(j, j)].max(0.0).sqrt()).collect();
+            let corr = (0..p)
+                .map(|i| {
+                    (0..p)
+                        .map(|j| {
+                            let c = inv[(i, j)] / (sd[i] * sd[j]);
+                            if c.is_finite() {
+                                c.clamp(-1.0, 1.0)
+                            } else {
+                                0.0
+                            }
+                        })
+                        .collect()
+                })
+                .collect();
+            (sd.iter().map(|s| s2.sqrt() * s).collect(), corr)
+        }
+        None => (vec![f64::NAN; p], vec![]),
+    }
+}
+
+/// Columns of d(residual)/d(theta_j) by forward differences, the perturbed models simulated
+/// [`LANES`] at a time.
+fn jacobian(oe: &OutputError, layout: &ParamLayout, theta: &[f64], r0: &[f64]) -> Vec<Vec<f64>> {
+    use rayon::prelude::*;
+    let steps: Vec<f64> = theta.iter().map(|x| 1e-4 * x.abs().max(1e-2)).collect();
+    let perturbed: Vec<Vec<f64>> = (0..theta.len())
+        .map(|j| {
+            let mut t = theta.to_vec();
+            t[j] += steps[j];
+            t
+        })
+        .collect();
+    perturbed
+        .par_chunks(LANES)
+        .enumerate()
+        .flat_map_iter(|(c, chunk)| {
+            let refs: Vec<&[f64]> = chunk.iter().map(Vec::as_slice).collect();
+            let steps = &steps;
+            oe.residuals_many(layout, &refs)
+                .into_iter()
+                .enumerate()
+                .map(move |(q, rj)| {
+                    let h = steps[c * LANES + q];
+                    rj.iter().zip(r0).map(|(a, b)| (a - b) / h).collect()
+                })
+        })
+        .collect()
+}

@@ -1,0 +1,139 @@
+//! The fit's artifact: identified parameters with the cases and runs they came from, as
+//! `fit.json` stores them, and the objective they were fitted under.
+
+use super::{Estimate, Fit};
+use crate::core::dof::Dof;
+use crate::core::model::{ParamLayout, Structure};
+use crate::core::provenance::InputFile;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Objective {
+    /// Force reconstructed from measured velocity and acceleration vs applied force (seed 001 eq. 14).
+    #[default]
+    EquationError,
+    /// Velocity simulated under the applied force vs measured velocity (seed 001 eq. 9).
+    OutputError,
+}
+
+impl Objective {
+    pub fn label(self) -> &'static str {
+        match self {
+            Objective::EquationError => "equation error (seed 001 eq. 14)",
+            Objective::OutputError => "output error (seed 001 eq. 9, simulator in the loop)",
+        }
+    }
+}
+
+/// A reference value of one parameter and where it comes from.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Expected {
+    pub value: f64,
+    pub source: String,
+}
+
+/// A CFD case the fit used.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct CaseRef {
+    pub id: String,
+    pub case: String,
+    pub source: InputFile,
+    /// All of the case's input files when it has more than `source` (an OpenFOAM case).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub inputs: Vec<InputFile>,
+    /// The body mass the case states, when it does.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mass_kg: Option<f64>,
+    /// A 2D case: its forces and masses are per metre of span.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub per_metre_of_span: bool,
+}
+
+/// A pool run the fit used.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct RunRef {
+    pub id: String,
+    pub run: String,
+    pub inputs: Vec<InputFile>,
+}
+
+/// The fit stage's artifact: parameters with their provenance.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct FitResult {
+    pub stage: String,
+    pub method: String,
+    pub objective: Objective,
+    pub settings: serde_json::Value,
+    pub structure: Structure,
+    /// The terms of `structure: custom`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub custom_terms: Option<crate::core::model::CustomTerms>,
+    pub dofs: Vec<Dof>,
+    /// DOFs whose model has a constant force term (X_0 ..), after `dofs`' terms.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub constant_force: Vec<Dof>,
+    pub fit: Fit,
+    pub cases: Vec<CaseRef>,
+    /// The pool runs the fit used (`role: train`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub runs: Vec<RunRef>,
+    /// What the fit did besides the numbers (runs left out, how sources were weighted).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub notes: Vec<String>,
+    pub elapsed_s: f64,
+    /// The body, when it is not the pipeline's vehicle.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub vehicle: Option<crate::core::model::Vehicle>,
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub expected: BTreeMap<String, Expected>,
+    /// With `added_mass_window_s`: what the one-step fit over whole runs gives, for contrast.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub one_step: Option<Vec<Estimate>>,
+}
+
+pub const RESULT: &str = "fit.json";
+
+impl FitResult {
+    /// The parameter layout the values are in.
+    pub fn layout(&self) -> ParamLayout {
+        ParamLayout::build(
+            self.structure,
+            &self.dofs,
+            &self.constant_force,
+            &self.custom_terms.clone().unwrap_or_default(),
+        )
+        .expect("a fit's structure was built when it ran")
+    }
+
+    /// The identified coefficients.
+    pub fn hydro(&self) -> crate::core::model::Hydro {
+        let theta: Vec<f64> = self.fit.parameters.iter().map(|p| p.value).collect();
+        self.layout().to_hydro(&theta)
+    }
+
+    /// The identified model of `vehicle` (the fit's own body when it has one).
+    pub fn plant(&self, vehicle: &crate::core::model::Vehicle) -> crate::core::model::Plant {
+        crate::core::model::Plant::new(self.vehicle.as_ref().unwrap_or(vehicle), self.hydro())
+    }
+
+    /// Every input file the values depend on: CFD cases and pool runs.
+    pub fn input_files(&self) -> Vec<InputFile> {
+        let cfd = self.cases.iter().flat_map(|c| {
+            if c.inputs.is_empty() {
+                vec![c.source.clone()]
+            } else {
+                c.inputs.clone()
+            }
+        });
+        cfd.chain(self.runs.iter().flat_map(|r| r.inputs.clone()))
+            .collect()
+    }
+}
+
+pub fn load(dir: &Path) -> anyhow::Result<FitResult> {
+    crate::core::fsutil::read_json(&dir.join(RESULT))
+}

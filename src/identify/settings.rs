@@ -1,0 +1,178 @@
+//! A fit's settings as `pipeline.yaml` writes them: the method with its own settings, and the
+//! settings every method shares. Read by the `fit` stage and, one per method, by `compare`.
+
+use crate::identify;
+use crate::identify::result::{Expected, Objective};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// A fit's settings: the method with its own settings (resolved when parsed), and the
+/// settings every method shares. Written flat in `pipeline.yaml` (`method: qpso`,
+/// `population: 60`, `skip_start_s: 0.2`); a key neither the method nor the fit reads is an
+/// error.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Settings {
+    pub method: identify::Method,
+    pub common: Common,
+}
+
+/// The settings of a fit that do not depend on its method.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Common {
+    pub method: String,
+    pub objective: Objective,
+    /// Samples before this time in each case are left out: the start-up transient of the
+    /// fluid-body coupling (impulsive start, pressure waves) is not vehicle dynamics.
+    pub skip_start_s: f64,
+    /// The body this fit identifies, when it is not the pipeline's vehicle (a CFD test body
+    /// such as the OpenFOAM cylinder). A case that states its own mass overrides `mass_kg`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub vehicle: Option<crate::core::model::Vehicle>,
+    /// Reference values to show beside the identified ones (e.g. potential-flow added mass);
+    /// not used by the fit.
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub expected: BTreeMap<String, Expected>,
+    /// Length for the drag coefficients the report shows for a 2D body per metre of span,
+    /// Cd = drag / (1/2 rho u^2 L) (a cylinder: its diameter), m.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reference_length_m: Option<f64>,
+    /// Two-step identification (method ols): the added mass from the first this-many seconds
+    /// of each case after `skip_start_s`, while the body accelerates from rest and its drag is
+    /// still negligible, then the drag coefficients from every sample with that added mass
+    /// held. For bodies whose drag depends on the history of the motion (a wake that builds
+    /// up), which a one-step fit would fold into the added mass.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub added_mass_window_s: Option<f64>,
+    /// The parameter set this fit identifies, when not the vehicle's (`full_qd`, `diag_qd`,
+    /// `diag_mass`, `diag_all`, `full_ld`, `custom`: seed 003 Table I; `diagonal`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub structure: Option<crate::core::model::Structure>,
+    /// The terms of `structure: custom`, when not the vehicle's.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub custom_terms: Option<crate::core::model::CustomTerms>,
+    /// Seed 003's median outlier filter on the pool runs' velocities (translational) and
+    /// accelerations (angular) before the regression: `median_filter: {}` for its values
+    /// (length 9, 0.03 m/s, 0.3 deg/s^2). Off when not set.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub median_filter: Option<crate::core::median::MedianFilter>,
+}
+
+const COMMON_KEYS: [&str; 10] = [
+    "median_filter",
+    "structure",
+    "custom_terms",
+    "method",
+    "objective",
+    "skip_start_s",
+    "vehicle",
+    "expected",
+    "reference_length_m",
+    "added_mass_window_s",
+];
+
+/// A method's "unknown field" error, with every key the fit reads as the expected ones (so
+/// a misspelled common key is suggested too) and what the method itself reads.
+fn unknown_key(e: &str, method: &str) -> String {
+    let Some(rest) = e.strip_prefix("unknown field `") else {
+        return format!("{e} (settings of method {method})");
+    };
+    let key = rest.split('`').next().unwrap_or_default();
+    let own: Vec<&str> = e
+        .split("expected")
+        .nth(1)
+        .map_or(vec![], |s| s.split('`').skip(1).step_by(2).collect());
+    let all: Vec<String> = own
+        .iter()
+        .chain(COMMON_KEYS.iter())
+        .map(|k| format!("`{k}`"))
+        .collect();
+    let reads = if own.is_empty() {
+        "no settings of its own".to_string()
+    } else {
+        own.join(", ")
+    };
+    format!(
+        "unknown field `{key}`, expected one of {} (method {method} reads {reads})",
+        all.join(", ")
+    )
+}
+
+impl Default for Common {
+    fn default() -> Self {
+        Common {
+            // The prediction-error method: least squares where there are only CFD cases, the
+            // simulation error of the pool runs where there are any (see identify::pem).
+            method: "pem".into(),
+            objective: Objective::EquationError,
+            skip_start_s: 0.0,
+            vehicle: None,
+            expected: BTreeMap::new(),
+            reference_length_m: None,
+            added_mass_window_s: None,
+            structure: None,
+            custom_terms: None,
+            median_filter: None,
+        }
+    }
+}
+
+impl Settings {
+    /// Method `name` with its default settings and the default common ones.
+    pub fn of_method(name: &str) -> Settings {
+        Settings {
+            method: identify::Method::parse(name, Default::default()).expect("a registered method"),
+            common: Common {
+                method: name.into(),
+                ..Common::default()
+            },
+        }
+    }
+
+    /// `ols`, `qpso (l1, output error)`: how tables name this configuration.
+    pub fn label(&self) -> String {
+        self.method
+            .label(self.common.objective == Objective::OutputError)
+    }
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings::of_method("ols")
+    }
+}
+
+impl<'de> Deserialize<'de> for Settings {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Settings, D::Error> {
+        use serde::de::Error;
+        let mut all = serde_json::Map::<String, serde_json::Value>::deserialize(d)?;
+        let mut common = serde_json::Map::new();
+        for k in COMMON_KEYS {
+            if let Some(v) = all.remove(k) {
+                common.insert(k.to_string(), v);
+            }
+        }
+        let common: Common =
+            serde_json::from_value(serde_json::Value::Object(common)).map_err(D::Error::custom)?;
+        let known = identify::by_name(&common.method).is_some();
+        let method = identify::Method::parse(&common.method, all).map_err(|e| {
+            if known {
+                D::Error::custom(unknown_key(&e, &common.method))
+            } else {
+                D::Error::custom(e)
+            }
+        })?;
+        Ok(Settings { method, common })
+    }
+}
+
+impl Serialize for Settings {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut v = serde_json::to_value(&self.common).map_err(serde::ser::Error::custom)?;
+        let obj = v.as_object_mut().expect("settings are a map");
+        if let Some(own) = self.method.settings.as_object() {
+            obj.extend(own.clone());
+        }
+        v.serialize(s)
+    }
+}

@@ -1,0 +1,275 @@
+//! `kind: fit` — identifies the hydrodynamic parameters from every CFD response it reads.
+
+use crate::core::response;
+use crate::identify::fit;
+use crate::identify::result::{CaseRef, FitResult, Objective, RESULT, RunRef};
+use crate::identify::settings::{Common, Settings};
+use crate::pipeline::contract::{Artifact, Kind, RunCtx, StageImpl, parse_as};
+
+pub static KIND: Kind = Kind {
+    consumes: &[Artifact::Responses, Artifact::PoolRuns],
+    requires_one_of: &[Artifact::Responses, Artifact::PoolRuns],
+    ..Kind::new("fit", Artifact::Model, parse_as::<Settings>)
+};
+
+impl Settings {
+    /// The body this fit identifies with the structure it identifies.
+    fn vehicle(
+        &self,
+        pipeline: &crate::core::model::Vehicle,
+    ) -> anyhow::Result<crate::core::model::Vehicle> {
+        let mut v = self
+            .common
+            .vehicle
+            .clone()
+            .unwrap_or_else(|| pipeline.clone());
+        if let Some(s) = self.common.structure {
+            v.structure = s;
+        }
+        if self.common.custom_terms.is_some() {
+            v.custom_terms = self.common.custom_terms.clone();
+        }
+        let problems = v.problems();
+        anyhow::ensure!(
+            problems.is_empty(),
+            "this fit's model cannot be built: {}",
+            problems.join("; ")
+        );
+        Ok(v)
+    }
+}
+
+impl StageImpl for Settings {
+    /// Only the settings the chosen method reads, so tuning the swarm does not rerun a
+    /// least-squares fit (and a deterministic method shows no seed).
+    fn settings(&self) -> serde_json::Value {
+        serde_json::to_value(self).expect("settings serialise")
+    }
+
+    fn run(&self, ctx: &RunCtx) -> anyhow::Result<()> {
+        let start = std::time::Instant::now();
+        let vehicle = &self.vehicle(ctx.vehicle)?;
+        let (cases, responses) = cfd_cases(ctx)?;
+        let (runs, pool_responses, mut notes) =
+            training_runs(ctx, vehicle, self.common.median_filter.as_ref())?;
+        notes.extend(ctx.failed_notes());
+        check_windows(ctx, &self.common, responses.iter().chain(&pool_responses))?;
+        let labelled = cases
+            .iter()
+            .map(|c| c.source.path.clone())
+            .zip(&responses)
+            .chain(
+                runs.iter()
+                    .map(|r| format!("pool run {}", r.run))
+                    .zip(&pool_responses),
+            );
+        check_finite(labelled, &vehicle.dofs, self.common.skip_start_s)?;
+        let data = fit::Data {
+            vehicle,
+            cases: responses
+                .iter()
+                .zip(&cases)
+                .map(|(r, c)| (r, c.mass_kg))
+                .collect(),
+            pool: pool_responses.iter().collect(),
+            skip_start_s: self.common.skip_start_s,
+        };
+        ctx.progress
+            .set_message(format!("fitting with {}", self.method.name()));
+        let bar = ctx.progress;
+        let report = move |f: f64| bar.set_message(format!("{:.0} %", 100.0 * f));
+        let id = fit::identify(
+            &data,
+            &fit::Request {
+                method: &self.method,
+                objective: self.common.objective,
+                added_mass_window_s: self.common.added_mass_window_s,
+                progress: Some(&report),
+            },
+        )?;
+        notes.extend(id.notes);
+        let mut fit = id.fit;
+        let objective = match fit.refinement {
+            Some(_) => Objective::OutputError,
+            None => self.common.objective,
+        };
+        check_mass(vehicle, &fit)?;
+        if per_metre_of_span(&cases, runs.len())? {
+            for p in &mut fit.parameters {
+                p.unit = crate::core::model::params::per_metre_of_span(&p.unit);
+            }
+        }
+        let result = FitResult {
+            stage: ctx.stage.to_string(),
+            method: self.method.name().to_string(),
+            objective,
+            settings: self.settings(),
+            structure: vehicle.structure,
+            custom_terms: vehicle.custom_terms.clone(),
+            dofs: vehicle.dofs.clone(),
+            constant_force: id.constant_force,
+            fit,
+            cases,
+            runs,
+            notes,
+            elapsed_s: start.elapsed().as_secs_f64(),
+            vehicle: self.common.vehicle.clone(),
+            expected: self.common.expected.clone(),
+            one_step: id.one_step,
+        };
+        crate::core::fsutil::write_json(&ctx.out.join(RESULT), &result)
+    }
+}
+
+/// Every sample a fit reads is finite: a NaN or an infinity in an input is named with its
+/// source and time, not left to break an estimator.
+fn check_finite<'a>(
+    labelled: impl Iterator<Item = (String, &'a response::Response)>,
+    dofs: &[crate::core::dof::Dof],
+    skip_start_s: f64,
+) -> anyhow::Result<()> {
+    for (source, r) in labelled {
+        if let Some(bad) = r.non_finite(dofs, skip_start_s) {
+            anyhow::bail!(
+                "{source}: {bad}: no estimator can use it\n  help: fix or remove that sample in the input (or start the fit after it with skip_start_s)"
+            );
+        }
+    }
+    Ok(())
+}
+
+/// The identified model's mass matrix is physical (positive definite), or the fit is refused.
+fn check_mass(
+    vehicle: &crate::core::model::Vehicle,
+    fit: &crate::identify::Fit,
+) -> anyhow::Result<()> {
+    let theta: Vec<f64> = fit.parameters.iter().map(|p| p.value).collect();
+    let layout = crate::core::model::ParamLayout::of(vehicle);
+    let plant = crate::core::model::Plant::new(vehicle, layout.to_hydro(&theta));
+    if let Some(why) = plant.mass_problem() {
+        anyhow::bail!(
+            "the identified {} model is refused: {why}\n  help: a structure with fewer mass terms (diag_mass, diag_all), or runs that excite the coupled DOFs more, give a physical mass matrix",
+            vehicle.structure.label()
+        );
+    }
+    Ok(())
+}
+
+/// `skip_start_s` (and the added-mass window after it) must leave samples to fit: a time
+/// beyond every run is a setting to fix, said at its line.
+fn check_windows<'r>(
+    ctx: &RunCtx,
+    common: &Common,
+    responses: impl Iterator<Item = &'r crate::core::response::Response>,
+) -> anyhow::Result<()> {
+    let end = responses
+        .filter_map(|r| r.t.last().copied())
+        .fold(f64::NEG_INFINITY, f64::max);
+    if end.is_finite() && common.skip_start_s >= end {
+        return Err(ctx.setting_error(
+            "skip_start_s",
+            format!(
+                "skip_start_s = {} s leaves no sample to fit: the longest run ends at {end} s",
+                common.skip_start_s
+            ),
+            "set skip_start_s below the runs' length (it drops each run's first seconds, the start-up transient)",
+        ));
+    }
+    if let Some(w) = common.added_mass_window_s
+        && (w.is_nan() || w <= 0.0)
+    {
+        return Err(ctx.setting_error(
+            "added_mass_window_s",
+            format!("added_mass_window_s = {w} s: the window must be longer than 0"),
+            "set the seconds after skip_start_s in which the body accelerates from rest",
+        ));
+    }
+    Ok(())
+}
+
+/// Whether the coefficients are per metre of span: every case is 2D. A 2D case's forces and
+/// masses are per metre, a 3D case's and a pool run's are not, and one fit cannot mix them.
+fn per_metre_of_span(cases: &[CaseRef], pool_runs: usize) -> anyhow::Result<bool> {
+    let two_d = cases.iter().filter(|c| c.per_metre_of_span).count();
+    if two_d == 0 {
+        return Ok(false);
+    }
+    anyhow::ensure!(
+        two_d == cases.len() && pool_runs == 0,
+        "this fit reads {two_d} 2D cases (forces and masses per metre of span) together with {} 3D cases and {pool_runs} pool runs; their coefficients are in different units\n  help: fit the 2D cases in a stage of their own (`from: [openfoam]`)",
+        cases.len() - two_d
+    );
+    Ok(true)
+}
+
+/// The CFD responses among the upstream, with what the result says of each case.
+fn cfd_cases(ctx: &RunCtx) -> anyhow::Result<(Vec<CaseRef>, Vec<crate::core::response::Response>)> {
+    let mut cases = Vec::new();
+    let mut responses = Vec::new();
+    for up in ctx.upstream_of(Artifact::Responses) {
+        let (meta, r) = response::load(&up.dir)?;
+        cases.push(CaseRef {
+            id: up.id.clone(),
+            case: meta.case,
+            source: meta.source,
+            inputs: meta.all_inputs,
+            mass_kg: meta.body_mass_kg,
+            per_metre_of_span: meta.per_metre_of_span,
+        });
+        responses.push(r);
+    }
+    Ok((cases, responses))
+}
+
+/// The `role: train` pool runs among the upstream, as response tables (logged command, fused
+/// velocity and its derivative). Runs without every DOF of the vehicle are left out and said.
+fn training_runs(
+    ctx: &RunCtx,
+    vehicle: &crate::core::model::Vehicle,
+    filter: Option<&crate::core::median::MedianFilter>,
+) -> anyhow::Result<(
+    Vec<RunRef>,
+    Vec<crate::core::response::Response>,
+    Vec<String>,
+)> {
+    let (mut refs, mut responses, mut notes) = (Vec::new(), Vec::new(), Vec::new());
+    for up in ctx.upstream_of(Artifact::PoolRuns) {
+        let run = crate::pool::fusion::run::load_for(&up.dir, vehicle)?;
+        if run.meta.role != crate::pool::import::Role::Train {
+            continue;
+        }
+        match run.as_response(vehicle, filter) {
+            Some(r) => {
+                refs.push(RunRef {
+                    id: up.id.clone(),
+                    run: run.meta.run.clone(),
+                    inputs: run.meta.sources.clone(),
+                });
+                responses.push(r);
+            }
+            None => {
+                let missing: Vec<String> = run
+                    .missing_dofs(vehicle)
+                    .iter()
+                    .map(|d| d.to_string())
+                    .collect();
+                notes.push(format!(
+                    "pool run {} left out: its sensors gave no {} velocity",
+                    run.meta.run,
+                    missing.join(", ")
+                ));
+            }
+        }
+    }
+    if ctx.upstream_of(Artifact::PoolRuns).next().is_some() && refs.is_empty() {
+        anyhow::bail!(
+            "no pool run with `role: train` and every DOF fused to fit on\n  help: mark the runs to identify from `role: train` in their run.yaml; {}",
+            if notes.is_empty() {
+                "the others are held out for validation".into()
+            } else {
+                notes.join("; ")
+            }
+        );
+    }
+    Ok((refs, responses, notes))
+}

@@ -1,0 +1,199 @@
+//! The heading filter: yaw, yaw rate and gyro bias smoothed from an IMU's or a navigation
+//! log's yaw and rate (either may be missing).
+
+use super::kalman::{Filter, Mat, Vector, white_accel};
+use super::{Noise, wrap_pi};
+use crate::pool::import::csvlog::Log;
+use nalgebra::{SMatrix, SVector};
+
+/// Smoothed heading, yaw rate and gyro bias at the IMU's times: (t, psi, var psi, r, var r, bias).
+pub(super) struct Heading {
+    pub(super) t: Vec<f64>,
+    pub(super) psi: Vec<f64>,
+    pub(super) psi_var: Vec<f64>,
+    pub(super) r: Vec<f64>,
+    pub(super) r_var: Vec<f64>,
+    pub(super) bias: f64,
+}
+
+/// A heading source: absolute yaw and/or a yaw-rate gyro at times `t` (either may be absent).
+pub(super) struct HeadingInput<'a> {
+    t: &'a [f64],
+    yaw: Option<&'a [f64]>,
+    gyro: Option<&'a [f64]>,
+}
+
+impl<'a> HeadingInput<'a> {
+    /// From the IMU when it has yaw or a z gyro, else from the navigation log's.
+    pub(super) fn of(imu: Option<&'a Log>, nav: Option<&'a Log>) -> Option<HeadingInput<'a>> {
+        let from = |l: &'a Log, yaw: usize, rate: usize| {
+            (l.has(yaw) || l.has(rate)).then(|| HeadingInput {
+                t: &l.t,
+                yaw: l.col(yaw),
+                gyro: l.col(rate),
+            })
+        };
+        imu.and_then(|l| from(l, 2, 5))
+            .or_else(|| nav.and_then(|l| from(l, 5, 8)))
+    }
+}
+
+/// Random-walk density of the gyro bias, (rad/s)^2 / s.
+const GYRO_BIAS_Q: f64 = 1e-8;
+
+/// The heading filter at the first sample: yaw and rate as measured (yaw barely known when
+/// not measured), bias within a few hundredths of a rad/s.
+fn initial(yaw0: f64, gyro0: f64, sy: f64) -> Filter<3> {
+    let finite_or = |x: f64, d: f64| if x.is_finite() { x } else { d };
+    let x0 = Vector::<3>::new(finite_or(yaw0, 0.0), finite_or(gyro0, 0.0), 0.0);
+    let psi_var0 = if yaw0.is_finite() { sy * sy } else { 10.0 };
+    Filter::<3>::new(
+        x0,
+        Mat::<3>::from_diagonal(&Vector::<3>::new(psi_var0, 0.1, 0.03f64.powi(2))),
+    )
+}
+
+/// A step of `dt`: constant rate driven by white yaw acceleration of density `q_r`, the bias a
+/// slow random walk.
+fn predict(f: &mut Filter<3>, dt: f64, q_r: f64) {
+    let a = white_accel(q_r, dt);
+    let fm = Mat::<3>::new(1.0, dt, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0);
+    let q = Mat::<3>::new(
+        a[0][0],
+        a[0][1],
+        0.0,
+        a[1][0],
+        a[1][1],
+        0.0,
+        0.0,
+        0.0,
+        GYRO_BIAS_Q * dt,
+    );
+    f.predict(fm, Vector::<3>::zeros(), q);
+}
+
+/// Minus the log likelihood (less a constant) of a yaw measurement under the prediction.
+fn yaw_innovation_cost(f: &Filter<3>, yaw: f64, sy: f64) -> f64 {
+    let (x, p) = f.state();
+    let s = p[(0, 0)] + sy * sy;
+    let nu = wrap_pi(yaw - x[0]);
+    0.5 * (s.ln() + nu * nu / s)
+}
+
+/// A yaw measurement of noise `sy`, its innovation wrapped to (-pi, pi].
+fn update_yaw(f: &mut Filter<3>, yaw: f64, sy: f64) {
+    let h = SMatrix::<f64, 1, 3>::new(1.0, 0.0, 0.0);
+    let wrap = |v: &mut SVector<f64, 1>| v[0] = wrap_pi(v[0]);
+    f.update(
+        SVector::<f64, 1>::new(yaw),
+        h,
+        SMatrix::<f64, 1, 1>::new(sy * sy),
+        f64::INFINITY,
+        wrap,
+    );
+}
+
+/// A gyro measurement of noise `sg`: the rate plus the bias.
+fn update_gyro(f: &mut Filter<3>, gyro: f64, sg: f64) {
+    let h = SMatrix::<f64, 1, 3>::new(0.0, 1.0, 1.0);
+    f.update(
+        SVector::<f64, 1>::new(gyro),
+        h,
+        SMatrix::<f64, 1, 1>::new(sg * sg),
+        f64::INFINITY,
+        |_| {},
+    );
+}
+
+/// The smoothed heading at the times of the filter's steps, which are taken only at
+/// increasing times.
+fn smoothed(f: &Filter<3>, times: &[f64]) -> Heading {
+    let sm = f.smooth();
+    let mut t = Vec::with_capacity(times.len());
+    for (k, &tk) in times.iter().enumerate() {
+        if k == 0 || tk > times[k - 1] {
+            t.push(tk);
+        }
+    }
+    Heading {
+        t,
+        psi: sm.iter().map(|(x, _)| x[0]).collect(),
+        psi_var: sm.iter().map(|(_, p)| p[(0, 0)]).collect(),
+        r: sm.iter().map(|(x, _)| x[1]).collect(),
+        r_var: sm.iter().map(|(_, p)| p[(1, 1)]).collect(),
+        bias: sm.last().map_or(0.0, |(x, _)| x[2]),
+    }
+}
+
+/// The heading filter with yaw noise `sy` and yaw-acceleration density `q_r`, and the log
+/// likelihood of its yaw innovations.
+fn heading_with(src: &HeadingInput, sy: f64, sg: f64, q_r: f64) -> (Heading, f64) {
+    let len = src.t.len();
+    let nan = vec![f64::NAN; len];
+    let (yaw, gyro) = (src.yaw.unwrap_or(&nan), src.gyro.unwrap_or(&nan));
+    let mut loglik = 0.0;
+    let mut f = initial(yaw[0], gyro[0], sy);
+    for k in 0..len {
+        if k > 0 {
+            let dt = src.t[k] - src.t[k - 1];
+            if dt <= 0.0 {
+                continue;
+            }
+            predict(&mut f, dt, q_r);
+        }
+        if yaw[k].is_finite() {
+            if k > 0 {
+                loglik -= yaw_innovation_cost(&f, yaw[k], sy);
+            }
+            update_yaw(&mut f, yaw[k], sy);
+        }
+        if gyro[k].is_finite() {
+            update_gyro(&mut f, gyro[k], sg);
+        }
+    }
+    (smoothed(&f, src.t), loglik)
+}
+
+/// Yaw acceleration density of a thruster-driven ROV when a gyro measures the rate: a few
+/// rad/s^2 at most (the gyro, not this, sets the rate's uncertainty).
+const YAW_ACCEL_Q: f64 = 2.0;
+
+/// The heading: with a gyro, the filter as configured. Without one (a navigation log's or an
+/// AHRS's yaw alone) the rate's uncertainty rests on the yaw-acceleration density and on the
+/// yaw noise, so both are chosen from the data: the pair whose yaw innovations are most
+/// likely (maximum likelihood over a log grid), and the choice is said in the notes.
+pub(super) fn heading(
+    src: &HeadingInput,
+    n: &mut Noise,
+    notes: &mut Vec<String>,
+    yaw_set: bool,
+) -> Heading {
+    if src.gyro.is_some() || src.yaw.is_none() {
+        return heading_with(src, n.yaw_rad, n.gyro_rad_s, YAW_ACCEL_Q).0;
+    }
+    let sigmas: Vec<f64> = if yaw_set {
+        vec![n.yaw_rad]
+    } else {
+        [0.05f64, 0.1, 0.2, 0.4, 0.8, 1.6]
+            .iter()
+            .map(|d| d.to_radians())
+            .collect()
+    };
+    let qs = [1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3, 1.0, 3.0];
+    let mut best = (f64::NEG_INFINITY, n.yaw_rad, YAW_ACCEL_Q);
+    for &sy in &sigmas {
+        for &q in &qs {
+            let (_, ll) = heading_with(src, sy, n.gyro_rad_s, q);
+            if ll > best.0 {
+                best = (ll, sy, q);
+            }
+        }
+    }
+    n.yaw_rad = best.1;
+    notes.push(format!(
+        "heading without a gyro: yaw noise {:.2} deg and yaw-acceleration density {} rad^2/s^3 chosen by the likelihood of the yaw innovations",
+        best.1.to_degrees(),
+        best.2
+    ));
+    heading_with(src, best.1, n.gyro_rad_s, best.2).0
+}

@@ -1,0 +1,558 @@
+//! A free-running pool test folder (docs/formats.md): `run.yaml`, `thrust.csv` and whichever of
+//! `uwb.csv`, `sonar.csv`, `imu.csv`, `depth.csv`, `nav.csv` were recorded. A sensor file may
+//! hold a subset of its columns (missing ones are NaN and named in the notes). Angles become
+//! radians and accelerations m/s^2 on import; the command log's receive-time bursts are
+//! repaired (see [`timing`]).
+
+pub mod actuators;
+pub mod csvlog;
+pub mod timing;
+
+use crate::core::diag::InputError;
+use crate::core::model::Pool;
+use csvlog::Log;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+pub const G: f64 = 9.80665;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Role {
+    Train,
+    Validate,
+}
+
+impl Role {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Role::Train => "train",
+            Role::Validate => "validate",
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunMeta {
+    pub role: Role,
+    #[serde(default)]
+    pub description: String,
+    #[serde(default)]
+    pub pool: Option<Pool>,
+    #[serde(default)]
+    pub tether_anchor_m: Option<[f64; 3]>,
+}
+
+/// One run's logs, SI units (radians, m/s^2), pool and body frames as in docs/formats.md.
+#[derive(Debug, Clone)]
+pub struct PoolRun {
+    pub name: String,
+    pub meta: RunMeta,
+    /// t, X, Y, Z, N, and K, M when the vehicle is commanded in roll and pitch.
+    pub thrust: Log,
+    /// t, x, y, z.
+    pub uwb: Option<Log>,
+    /// t, x, y.
+    pub sonar: Option<Log>,
+    /// t, roll, pitch, yaw (rad), p, q, r (rad/s), ax, ay, az (m/s^2, specific force).
+    pub imu: Option<Log>,
+    /// t, depth.
+    pub depth: Option<Log>,
+    /// t, u, v, w (m/s), roll, pitch, yaw (rad), p, q, r (rad/s): a vehicle's navigation log.
+    pub nav: Option<Log>,
+    /// The actuator command log (fin and plane angles, propeller speed), when recorded.
+    pub actuators: Option<actuators::Actuators>,
+    /// Whether `thrust.csv` was recorded. A run steered by its actuators alone has none: its
+    /// `thrust` is then zero on the actuator log's clock, and the force-driven stages (fit,
+    /// validate, diagnose) refuse it.
+    pub force_logged: bool,
+    pub notes: Vec<String>,
+    /// What was done to the logs' timing (receive-time bursts, spans trimmed to the overlap).
+    pub repairs: Vec<String>,
+}
+
+pub const THRUST: [&str; 7] = ["t", "X_N", "Y_N", "Z_N", "N_Nm", "K_Nm", "M_Nm"];
+/// The thrust log's columns every run has (K and M only a vehicle actuated in roll and pitch).
+const THRUST_REQUIRED: usize = 5;
+pub const UWB: [&str; 4] = ["t", "x_m", "y_m", "z_m"];
+pub const SONAR: [&str; 3] = ["t", "x_m", "y_m"];
+pub const IMU: [&str; 10] = [
+    "t",
+    "roll_deg",
+    "pitch_deg",
+    "yaw_deg",
+    "p_dps",
+    "q_dps",
+    "r_dps",
+    "ax_g",
+    "ay_g",
+    "az_g",
+];
+pub const DEPTH: [&str; 2] = ["t", "depth_m"];
+pub const NAV: [&str; 10] = [
+    "t",
+    "u_m_s",
+    "v_m_s",
+    "w_m_s",
+    "roll_deg",
+    "pitch_deg",
+    "yaw_deg",
+    "p_dps",
+    "q_dps",
+    "r_dps",
+];
+const KNOWN: [&str; 8] = [
+    "run.yaml",
+    "actuators.csv",
+    "thrust.csv",
+    "uwb.csv",
+    "sonar.csv",
+    "imu.csv",
+    "depth.csv",
+    "nav.csv",
+];
+
+fn read(root: &Path, rel: &str) -> Result<String, InputError> {
+    Ok(crate::core::input::read(
+        root,
+        rel,
+        "export the log as CSV text, not a binary or spreadsheet file",
+    )?
+    .text)
+}
+
+/// A folder named like one of the run's files: it would otherwise count as a missing file.
+fn check_no_folders(root: &Path, dir: &str) -> Result<(), InputError> {
+    for n in KNOWN {
+        let rel = format!("{dir}/{n}");
+        if root.join(&rel).is_dir() {
+            return Err(InputError::file(
+                rel,
+                "is a folder, where the run's file of that name is expected",
+                "rename or remove the folder (put the file itself there, or nothing)",
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Loads the run in folder `dir` (relative to `root`, `/`-separated) whose files are `files`.
+pub fn load(root: &Path, dir: &str, files: &[String]) -> Result<PoolRun, InputError> {
+    let name = dir.rsplit('/').next().unwrap_or(dir).to_string();
+    check_no_folders(root, dir)?;
+    let mut notes = unknown_files(files);
+    let meta = read_meta(root, dir, files)?;
+    let actuators = match find(files, "actuators.csv") {
+        Some(p) => Some(actuators::parse(&p, &read(root, &p)?)?),
+        None => None,
+    };
+    let force_logged = find(files, "thrust.csv").is_some() || actuators.is_none();
+    let (thrust_path, mut thrust) = if force_logged {
+        read_thrust(root, dir, files)?
+    } else {
+        let a = &actuators.as_ref().expect("checked").log;
+        let zeros = vec![0.0; a.len()];
+        let log = Log {
+            t: a.t.clone(),
+            cols: vec![zeros; THRUST.len() - 1],
+            notes: vec![format!(
+                "{dir}: no thrust.csv; the actuator log is the command clock"
+            )],
+            present: vec![false; THRUST.len() - 1],
+        };
+        (format!("{dir}/actuators.csv"), log)
+    };
+    let mut sensors = read_sensors(root, dir, files, &mut notes)?;
+    check_positions(dir, &sensors)?;
+    sensors.convert_units();
+    let mut repairs = Vec::new();
+    if let Some(r) = timing::repair_command_clock(&mut thrust) {
+        repairs.push(format!("{thrust_path}: {r}"));
+    }
+    // Rows still sharing a time stamp (no regular clock could be fitted): the last of each.
+    thrust.dedupe_times(&thrust_path);
+    for log in std::iter::once(&thrust).chain(sensors.logs()) {
+        notes.extend(log.notes.iter().cloned());
+    }
+    let Sensors {
+        uwb,
+        sonar,
+        imu,
+        depth,
+        nav,
+    } = sensors;
+    let mut run = PoolRun {
+        name,
+        meta,
+        thrust,
+        uwb,
+        sonar,
+        imu,
+        depth,
+        nav,
+        actuators,
+        force_logged,
+        notes,
+        repairs,
+    };
+    // Disjoint fields: the command log is trimmed while the sensor logs are read.
+    let sensors: Vec<&Log> = [&run.uwb, &run.sonar, &run.imu, &run.depth, &run.nav]
+        .into_iter()
+        .flatten()
+        .collect();
+    if let Some(r) = timing::trim_to_overlap(&mut run.thrust, &sensors) {
+        run.repairs.push(format!("{thrust_path}: {r}"));
+    }
+    Ok(run)
+}
+
+/// The path of the run's file named `n`, if it has one.
+fn find(files: &[String], n: &str) -> Option<String> {
+    files
+        .iter()
+        .find(|f| f.rsplit('/').next() == Some(n))
+        .cloned()
+}
+
+/// A note for each file of the run that is not a pool log.
+fn unknown_files(files: &[String]) -> Vec<String> {
+    files
+        .iter()
+        .filter(|f| !KNOWN.contains(&f.rsplit('/').next().unwrap_or("")))
+        .map(|f| format!("{f}: not a pool log hydrofit reads; ignored"))
+        .collect()
+}
+
+/// The run's `run.yaml`, which every run needs.
+fn read_meta(root: &Path, dir: &str, files: &[String]) -> Result<RunMeta, InputError> {
+    let meta_path = find(files, "run.yaml").ok_or_else(|| {
+        InputError::file(
+            format!("{dir}/run.yaml"),
+            "the run has no run.yaml",
+            "add run.yaml with at least `role: train` or `role: validate`",
+        )
+    })?;
+    let text = read(root, &meta_path)?;
+    let meta: RunMeta = crate::core::input::yaml(
+        &meta_path,
+        &text,
+        "run.yaml takes role (train | validate), description, pool {length_m, width_m, depth_m} and tether_anchor_m [x, y, z]",
+    )?;
+    meta.check(&meta_path, &text)?;
+    Ok(meta)
+}
+
+impl RunMeta {
+    /// Every number is finite and the pool's sizes are positive.
+    fn check(&self, path: &str, text: &str) -> Result<(), InputError> {
+        let index = crate::core::input::locate::KeyIndex::new(text);
+        let err = |key: &str, what: String, fix: &str| {
+            let e = InputError::file(path, what, fix);
+            match index.find(key) {
+                Some((l, c)) => e.at(l, Some(c)).with_source(text),
+                None => e,
+            }
+        };
+        if let Some(p) = &self.pool {
+            for (k, v) in [
+                ("length_m", p.length_m),
+                ("width_m", p.width_m),
+                ("depth_m", p.depth_m),
+            ] {
+                if !(v.is_finite() && v > 0.0) {
+                    return Err(err(
+                        &format!("pool.{k}"),
+                        format!("pool.{k} is {v}; a pool's size is a positive number of metres"),
+                        "write the pool's inside length, width and water depth in metres",
+                    ));
+                }
+            }
+        }
+        if let Some(a) = self.tether_anchor_m
+            && a.iter().any(|x| !x.is_finite())
+        {
+            return Err(err(
+                "tether_anchor_m",
+                format!("tether_anchor_m is {a:?}; it must be three finite coordinates"),
+                "write where the tether enters the water, [x, y, z] in metres in the pool frame",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The thrust log and its path, which every run needs. Its repeated time stamps are kept
+/// for the clock repair.
+fn read_thrust(root: &Path, dir: &str, files: &[String]) -> Result<(String, Log), InputError> {
+    let thrust_path = find(files, "thrust.csv").ok_or_else(|| {
+        InputError::file(format!("{dir}/thrust.csv"), "the run has no command log", "add thrust.csv (t,X_N,Y_N,Z_N,N_Nm), or actuators.csv (t,<name>_deg,...) for a vehicle steered by fins and propeller speed")
+    })?;
+    let mut thrust = csvlog::parse_keeping_repeats(
+        &thrust_path,
+        &read(root, &thrust_path)?,
+        &THRUST,
+        THRUST_REQUIRED,
+        "thrust log",
+        10,
+    )?;
+    // A 4-DOF vehicle's log has no roll and pitch moments; that is not worth a note.
+    if !thrust.has(4) && !thrust.has(5) {
+        thrust
+            .notes
+            .retain(|n| !n.contains("no K_Nm, M_Nm columns"));
+    }
+    Ok((thrust_path, thrust))
+}
+
+/// The sensor logs of a run, each when it was recorded.
+struct Sensors {
+    uwb: Option<Log>,
+    sonar: Option<Log>,
+    imu: Option<Log>,
+    depth: Option<Log>,
+    nav: Option<Log>,
+}
+
+type Parser = fn(&str, &str, &[&str], &str, usize) -> Result<Log, InputError>;
+
+/// Reads the sensor logs the run has; each one it lacks is noted in `notes`.
+fn read_sensors(
+    root: &Path,
+    dir: &str,
+    files: &[String],
+    notes: &mut Vec<String>,
+) -> Result<Sensors, InputError> {
+    let mut optional =
+        |n: &str, cols: &[&str], what: &str, parse: Parser| -> Result<Option<Log>, InputError> {
+            match find(files, n) {
+                None => {
+                    notes.push(format!("{dir}: no {n}"));
+                    Ok(None)
+                }
+                Some(p) => parse(&p, &read(root, &p)?, cols, what, 2).map(Some),
+            }
+        };
+    Ok(Sensors {
+        uwb: optional("uwb.csv", &UWB, "UWB log", csvlog::parse_subset)?,
+        sonar: optional("sonar.csv", &SONAR, "sonar log", csvlog::parse_subset)?,
+        imu: optional("imu.csv", &IMU, "IMU log", csvlog::parse_subset)?,
+        depth: optional("depth.csv", &DEPTH, "depth log", csvlog::parse_subset)?,
+        // A navigation log may have gaps (a DVL without bottom lock writes empty or nan values).
+        nav: optional(
+            "nav.csv",
+            &NAV,
+            "navigation log",
+            csvlog::parse_subset_with_gaps,
+        )?,
+    })
+}
+
+/// A position log (UWB, sonar) needs both horizontal coordinates.
+fn check_positions(dir: &str, sensors: &Sensors) -> Result<(), InputError> {
+    for (log, n) in [(&sensors.uwb, "uwb.csv"), (&sensors.sonar, "sonar.csv")] {
+        if log.as_ref().is_some_and(|l| !(l.has(0) && l.has(1))) {
+            return Err(InputError::file(
+                format!("{dir}/{n}"),
+                "a position log needs both x_m and y_m",
+                "write both horizontal coordinates (pool frame); z_m is optional",
+            ));
+        }
+    }
+    Ok(())
+}
+
+impl Sensors {
+    /// The logs the run has.
+    fn logs(&self) -> impl Iterator<Item = &Log> {
+        [
+            self.uwb.as_ref(),
+            self.sonar.as_ref(),
+            self.imu.as_ref(),
+            self.depth.as_ref(),
+            self.nav.as_ref(),
+        ]
+        .into_iter()
+        .flatten()
+    }
+
+    /// Angles and rates to radians, accelerations from g to m/s^2.
+    fn convert_units(&mut self) {
+        if let Some(imu) = &mut self.imu {
+            for c in &mut imu.cols[..6] {
+                c.iter_mut().for_each(|x| *x = x.to_radians());
+            }
+            for c in &mut imu.cols[6..] {
+                c.iter_mut().for_each(|x| *x *= G);
+            }
+        }
+        if let Some(nav) = &mut self.nav {
+            for c in &mut nav.cols[3..] {
+                c.iter_mut().for_each(|x| *x = x.to_radians());
+            }
+        }
+    }
+}
+
+impl PoolRun {
+    /// The sensor logs the run has, by name.
+    pub fn sensors(&self) -> Vec<(&'static str, &Log)> {
+        [
+            ("uwb", &self.uwb),
+            ("sonar", &self.sonar),
+            ("imu", &self.imu),
+            ("depth", &self.depth),
+            ("nav", &self.nav),
+        ]
+        .into_iter()
+        .filter_map(|(n, l)| Some((n, l.as_ref()?)))
+        .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn folder(files: &[(&str, &str)]) -> (tempfile::TempDir, Vec<String>) {
+        let d = tempfile::tempdir().unwrap();
+        std::fs::create_dir_all(d.path().join("cases/pool/r1")).unwrap();
+        let mut list = Vec::new();
+        for (n, text) in files {
+            std::fs::write(d.path().join("cases/pool/r1").join(n), text).unwrap();
+            list.push(format!("cases/pool/r1/{n}"));
+        }
+        (d, list)
+    }
+
+    fn thrust() -> String {
+        let mut s = String::from("t,X_N,Y_N,Z_N,N_Nm\n");
+        for k in 0..20 {
+            s += &format!("{},{},0,0,0\n", k as f64 * 0.05, k);
+        }
+        s
+    }
+
+    #[test]
+    fn optional_sensors_may_be_missing_and_units_are_converted() {
+        let t = thrust();
+        let (d, files) = folder(&[
+            ("run.yaml", "role: validate\n"),
+            ("thrust.csv", &t),
+            (
+                "imu.csv",
+                "t,roll_deg,pitch_deg,yaw_deg,p_dps,q_dps,r_dps,ax_g,ay_g,az_g\n0,0,0,90,0,0,180,0,0,-1\n0.02,0,0,90,0,0,180,0,0,-1\n",
+            ),
+            ("notes.txt", "x"),
+        ]);
+        let run = load(d.path(), "cases/pool/r1", &files).unwrap();
+        assert_eq!(run.meta.role, Role::Validate);
+        assert!(
+            run.uwb.is_none() && run.sonar.is_none() && run.depth.is_none() && run.nav.is_none()
+        );
+        let imu = run.imu.unwrap();
+        assert!((imu.cols[2][0] - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+        assert!((imu.cols[5][0] - std::f64::consts::PI).abs() < 1e-12);
+        assert!((imu.cols[8][0] + G).abs() < 1e-12);
+        assert!(run.notes.iter().any(|n| n.contains("notes.txt")));
+    }
+
+    #[test]
+    fn a_missing_thrust_log_or_bad_run_yaml_is_an_error() {
+        let (d, files) = folder(&[("run.yaml", "role: train\n")]);
+        let e = load(d.path(), "cases/pool/r1", &files)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("no command log") && e.contains("actuators.csv"),
+            "{e}"
+        );
+        let t = thrust();
+        let (d, files) = folder(&[("run.yaml", "role: tran\n"), ("thrust.csv", &t)]);
+        let e = load(d.path(), "cases/pool/r1", &files)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("run.yaml:1:") && e.contains("tran"), "{e}");
+        let (d, files) = folder(&[("thrust.csv", &t)]);
+        let e = load(d.path(), "cases/pool/r1", &files)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("no run.yaml"), "{e}");
+    }
+
+    #[test]
+    fn a_bad_run_yaml_or_a_folder_for_a_file_is_located() {
+        let t = thrust();
+        let cases = [
+            (
+                "role: train\npool: {length_m: .nan, width_m: 2, depth_m: 1}\n",
+                "run.yaml:2:",
+            ),
+            (
+                "role: train\npool:\n  length_m: 10\n  width_m: -2\n  depth_m: 1\n",
+                "run.yaml:4:",
+            ),
+            (
+                "role: train\nrole: validate\n",
+                "run.yaml:2:1: duplicate entry",
+            ),
+            (
+                "role: train\ntether_anchor_m: [0, .inf, 0]\n",
+                "run.yaml:2:",
+            ),
+        ];
+        for (yaml, want) in cases {
+            let (d, files) = folder(&[("run.yaml", yaml), ("thrust.csv", &t)]);
+            let e = load(d.path(), "cases/pool/r1", &files)
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(want) && e.contains("help:"), "{yaml:?}: {e}");
+        }
+        let (d, files) = folder(&[("run.yaml", "\u{feff}role: train\n"), ("thrust.csv", &t)]);
+        std::fs::create_dir_all(d.path().join("cases/pool/r1/imu.csv")).unwrap();
+        let e = load(d.path(), "cases/pool/r1", &files)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("imu.csv: is a folder"), "{e}");
+        std::fs::remove_dir(d.path().join("cases/pool/r1/imu.csv")).unwrap();
+        assert!(
+            load(d.path(), "cases/pool/r1", &files).is_ok(),
+            "BOM in run.yaml"
+        );
+    }
+
+    /// A navigation log as a DVL writes it when it loses bottom lock: empty or `nan` values in
+    /// some rows, no rate columns. The gaps are NaN in their own channel only, the rest of the
+    /// row is kept, and both the gaps and the missing columns are said.
+    #[test]
+    fn a_navigation_log_with_gaps_and_no_rates_is_read() {
+        let t = thrust();
+        let nav = "t,u_m_s,v_m_s,w_m_s,yaw_deg\n0.0,0.10,0.00,0.01,90\n0.2,,nan,0.02,91\n0.4,0.12,NaN,0.02,92\n0.6,0.13,0.01,0.03,93\n";
+        let (d, files) = folder(&[
+            ("run.yaml", "role: train\n"),
+            ("thrust.csv", &t),
+            ("nav.csv", nav),
+        ]);
+        let run = load(d.path(), "cases/pool/r1", &files).unwrap();
+        let nav = run.nav.unwrap();
+        assert_eq!(nav.len(), 4);
+        assert!(nav.cols[0][1].is_nan() && nav.cols[1][1].is_nan() && nav.cols[1][2].is_nan());
+        assert_eq!(nav.cols[2][1], 0.02);
+        assert!((nav.cols[5][3] - 93f64.to_radians()).abs() < 1e-12);
+        assert!(!nav.has(6) && !nav.has(8), "no rates in this log");
+        let notes = run.notes.join("\n");
+        assert!(notes.contains("3 values missing"), "{notes}");
+        assert!(
+            notes.contains("no roll_deg, pitch_deg, p_dps, q_dps, r_dps columns"),
+            "{notes}"
+        );
+        // Time itself may not be missing.
+        let bad = "t,u_m_s\n0.0,0.1\n,0.2\n";
+        let (d, files) = folder(&[
+            ("run.yaml", "role: train\n"),
+            ("thrust.csv", &t),
+            ("nav.csv", bad),
+        ]);
+        assert!(load(d.path(), "cases/pool/r1", &files).is_err());
+    }
+}

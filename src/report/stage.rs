@@ -1,0 +1,116 @@
+//! `kind: report` — validates every model on every CFD response it reads and writes the report.
+
+use crate::core::response;
+use crate::pipeline::contract::{Artifact, Kind, RunCtx, StageImpl, parse_as};
+use crate::report::build;
+use serde::{Deserialize, Serialize};
+
+pub static KIND: Kind = Kind {
+    reads_files: true,
+    consumes: &[
+        Artifact::Model,
+        Artifact::Responses,
+        Artifact::PoolRuns,
+        Artifact::Validation,
+        Artifact::Comparison,
+        Artifact::Diagnosis,
+        Artifact::FieldModel,
+    ],
+    requires_one_of: &[Artifact::Model, Artifact::FieldModel],
+    publishes_to: Some("reports"),
+    ..Kind::new("report", Artifact::Report, parse_as::<Settings>)
+};
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Settings {}
+
+pub const FILES: [&str; 6] = [
+    "index.html",
+    "parameters.json",
+    "validation.json",
+    "fusion.json",
+    "diagnosis.json",
+    "field.json",
+];
+
+impl StageImpl for Settings {
+    fn settings(&self) -> serde_json::Value {
+        serde_json::to_value(self).expect("settings serialise")
+    }
+
+    fn run(&self, ctx: &RunCtx) -> anyhow::Result<()> {
+        let fits: Vec<crate::identify::result::FitResult> = ctx
+            .upstream_of(Artifact::Model)
+            .map(|u| crate::identify::result::load(&u.dir))
+            .collect::<Result<_, _>>()?;
+        let cases = cfd_cases(ctx)?;
+        let pool_runs: Vec<crate::pool::fusion::run::FusedRun> = ctx
+            .upstream_of(Artifact::PoolRuns)
+            .map(|u| {
+                // A run steered by its actuators alone (no force log) is shown, not simulated.
+                let r = crate::pool::fusion::run::load(&u.dir)?;
+                Ok::<_, anyhow::Error>(if r.meta.force_logged {
+                    r.clip_to(ctx.vehicle)
+                } else {
+                    r
+                })
+            })
+            .collect::<Result<_, _>>()?;
+        let field: Vec<crate::field::FieldResult> = ctx
+            .upstream_of(Artifact::FieldModel)
+            .map(|u| crate::field::load(&u.dir))
+            .collect::<Result<_, _>>()?;
+        let pool_scores = ctx
+            .upstream_of(Artifact::Validation)
+            .next()
+            .map(|u| crate::validate::pool::load(&u.dir))
+            .transpose()?;
+        let inputs = build::Inputs {
+            root: ctx.root,
+            vehicle: ctx.vehicle,
+            fits,
+            cases,
+            pool_runs,
+            field,
+            pool_scores,
+            comparison: ctx
+                .upstream_of(Artifact::Comparison)
+                .next()
+                .map(|u| crate::compare::artifact::load(&u.dir))
+                .transpose()?,
+            diagnosis: ctx
+                .upstream_of(Artifact::Diagnosis)
+                .next()
+                .map(|u| crate::diagnose::result::load(&u.dir))
+                .transpose()?,
+            truth_files: ctx.inputs.iter().map(|i| i.path.clone()).collect(),
+            failed: ctx.failed_notes(),
+        };
+        for (name, bytes) in build::build(&inputs)? {
+            crate::core::fsutil::write_atomic(&ctx.out.join(name), &bytes)?;
+        }
+        Ok(())
+    }
+}
+
+/// The CFD responses among the upstream, each with what the report shows of its case (and
+/// an OpenFOAM case's track).
+fn cfd_cases(ctx: &RunCtx) -> anyhow::Result<Vec<build::Case>> {
+    let mut cases = Vec::new();
+    for u in ctx.upstream_of(Artifact::Responses) {
+        let (meta, response) = response::load(&u.dir)?;
+        let track = crate::cfd::openfoam::load_track(&u.dir);
+        cases.push(build::Case {
+            id: u.id.clone(),
+            name: meta.case,
+            response,
+            notes: meta.notes,
+            mass: meta.body_mass_kg,
+            openfoam: meta.openfoam,
+            track,
+            two_dimensional: meta.per_metre_of_span,
+        });
+    }
+    Ok(cases)
+}
