@@ -20,7 +20,7 @@ fn walk(dir: &Path, out: &mut Vec<std::path::PathBuf>) {
 
 fn main() {
     let mut files = Vec::new();
-    for d in ["src", "assets"] {
+    for d in ["src", "assets", "crates/logs/src"] {
         walk(Path::new(d), &mut files);
     }
     files.push("Cargo.lock".into());
@@ -36,5 +36,6 @@ fn main() {
     println!("cargo:rustc-env=HYDROFIT_SOURCE_HASH={h:016x}");
     println!("cargo:rerun-if-changed=src");
     println!("cargo:rerun-if-changed=assets");
+    println!("cargo:rerun-if-changed=crates/logs/src");
     println!("cargo:rerun-if-changed=Cargo.lock");
 }

@@ -56,6 +56,15 @@ pub enum Command {
         #[arg(long, value_name = "STAGE")]
         model: Option<String>,
     },
+    /// List what a vehicle's log holds (ROS 1 bag, MCAP, ArduPilot .BIN or .tlog): topics,
+    /// types, counts, rates and, with --fields, every field's path.
+    Inspect {
+        /// The log.
+        log: PathBuf,
+        /// Also list every field of every topic by the path run.yaml's `log:` names it.
+        #[arg(long)]
+        fields: bool,
+    },
     /// Print the graph of stage instances, as text or Graphviz DOT.
     Graph {
         /// Print Graphviz DOT (for `dot -Tsvg`) instead of one line per instance with its inputs.
@@ -232,6 +241,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             cmd::provenance::run(&root, &parameter, model.as_deref())
         }
         Command::Graph { dot } => cmd::graph::run(&root, dot),
+        Command::Inspect { log, fields } => cmd::inspect::run(&log, fields),
         Command::Twin {
             what: TwinCommand::Starccm { out, seed },
         } => cmd::twin::starccm(&root, &out, seed),

@@ -422,7 +422,7 @@ fn load_run(
 ) -> Result<String, hydrofit::core::diag::InputError> {
     let files: Vec<String> = names.iter().map(|n| format!("{dir}/{n}")).collect();
     // The whole run as read (every log, note and repair), to compare with the original's.
-    hydrofit::pool::import::load(root, dir, &files).map(|r| format!("{r:?}"))
+    hydrofit::pool::import::load(root, dir, &files, None).map(|r| format!("{r:?}"))
 }
 
 fn fuzz_pool_run(run: &str, seed: u64) {

@@ -5,6 +5,7 @@ pub mod bench_six;
 pub mod build;
 pub mod clean;
 pub mod graph;
+pub mod inspect;
 pub mod openfoam;
 pub mod provenance;
 pub mod status;

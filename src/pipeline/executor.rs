@@ -395,10 +395,7 @@ fn input_files(plan: &Plan, i: usize) -> Vec<InputFile> {
     plan.graph.instances[i]
         .inputs
         .iter()
-        .map(|p| InputFile {
-            path: p.clone(),
-            blake3: plan.hashes[p].clone(),
-        })
+        .map(|p| InputFile::new(p.clone(), plan.hashes[p].clone()))
         .collect()
 }
 

@@ -71,7 +71,13 @@ pub fn fields(
     let vehicle = serde_json::to_value(&graph.spec.vehicle).expect("vehicle serialises");
     match st.kind.uses_vehicle {
         VehicleUse::All => flatten("vehicle", &vehicle, &mut f),
-        VehicleUse::Dofs => f.push("vehicle.dofs", vehicle["dofs"].to_string()),
+        VehicleUse::Dofs => {
+            f.push("vehicle.dofs", vehicle["dofs"].to_string());
+            // Per-thruster commands become the wrench on import, through the thrusters.
+            if let Some(t) = vehicle.get("thrusters") {
+                flatten("vehicle.thrusters", t, &mut f);
+            }
+        }
     }
     for p in &inst.inputs {
         f.push(format!("input {p}"), hashes[p].clone());

@@ -6,10 +6,15 @@
 
 pub mod actuators;
 pub mod csvlog;
+pub mod frames;
+pub mod from_log;
+pub mod log_spec;
+mod stacks;
 pub mod timing;
 
 use crate::core::diag::InputError;
 use crate::core::model::Pool;
+use crate::core::model::thrusters::Thrusters;
 use csvlog::Log;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -42,6 +47,10 @@ pub struct RunMeta {
     pub pool: Option<Pool>,
     #[serde(default)]
     pub tether_anchor_m: Option<[f64; 3]>,
+    /// The log the vehicle wrote, when the run's signals come from it rather than from CSV
+    /// files (`log: {file: dive.bag, ...}`, see [`log_spec`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub log: Option<log_spec::LogSpec>,
 }
 
 /// One run's logs, SI units (radians, m/s^2), pool and body frames as in docs/formats.md.
@@ -70,6 +79,10 @@ pub struct PoolRun {
     pub notes: Vec<String>,
     /// What was done to the logs' timing (receive-time bursts, spans trimmed to the overlap).
     pub repairs: Vec<String>,
+    /// The vehicle's log the signals came from, when they came from one.
+    pub log_source: Option<from_log::LogSource>,
+    /// Where the command came from (`thrust.csv`, or the log and its topic), for messages.
+    pub command_path: String,
 }
 
 pub const THRUST: [&str; 7] = ["t", "X_N", "Y_N", "Z_N", "N_Nm", "K_Nm", "M_Nm"];
@@ -137,44 +150,63 @@ fn check_no_folders(root: &Path, dir: &str) -> Result<(), InputError> {
     Ok(())
 }
 
-/// Loads the run in folder `dir` (relative to `root`, `/`-separated) whose files are `files`.
-pub fn load(root: &Path, dir: &str, files: &[String]) -> Result<PoolRun, InputError> {
+/// Loads the run in folder `dir` (relative to `root`, `/`-separated) whose files are `files`;
+/// per-thruster commands in a log become the wrench through `thrusters`. The command log's
+/// timing is repaired ([`timing`]) and every repair said.
+pub fn load(
+    root: &Path,
+    dir: &str,
+    files: &[String],
+    thrusters: Option<&Thrusters>,
+) -> Result<PoolRun, InputError> {
+    let mut run = load_as_logged(root, dir, files, thrusters)?;
+    let path = run.command_path.clone();
+    if let Some(r) = timing::repair_command_clock(&mut run.thrust) {
+        run.repairs.push(format!("{path}: {r}"));
+    }
+    // Rows still sharing a time stamp (no regular clock could be fitted): the last of each.
+    run.thrust.dedupe_times(&path);
+    let logs = std::iter::once(&run.thrust).chain(run.sensor_logs());
+    let notes: Vec<String> = logs.flat_map(|l| l.notes.iter().cloned()).collect();
+    run.notes.extend(notes);
+    // Disjoint fields: the command log is trimmed while the sensor logs are read.
+    let sensors: Vec<&Log> = [&run.uwb, &run.sonar, &run.imu, &run.depth, &run.nav]
+        .into_iter()
+        .flatten()
+        .collect();
+    if let Some(r) = timing::trim_to_overlap(&mut run.thrust, &sensors) {
+        run.repairs.push(format!("{path}: {r}"));
+    }
+    Ok(run)
+}
+
+/// The run as its files (or its log) hold it, in SI units, before any timing repair: what a
+/// writer of the same run in another format must reproduce.
+pub fn load_as_logged(
+    root: &Path,
+    dir: &str,
+    files: &[String],
+    thrusters: Option<&Thrusters>,
+) -> Result<PoolRun, InputError> {
     let name = dir.rsplit('/').next().unwrap_or(dir).to_string();
     check_no_folders(root, dir)?;
     let mut notes = unknown_files(files);
     let meta = read_meta(root, dir, files)?;
+    let mut logged = match &meta.log {
+        Some(spec) => from_log::read(root, dir, spec, thrusters)?,
+        None => from_log::FromLog::default(),
+    };
+    notes.append(&mut logged.notes);
     let actuators = match find(files, "actuators.csv") {
         Some(p) => Some(actuators::parse(&p, &read(root, &p)?)?),
         None => None,
     };
-    let force_logged = find(files, "thrust.csv").is_some() || actuators.is_none();
-    let (thrust_path, mut thrust) = if force_logged {
-        read_thrust(root, dir, files)?
-    } else {
-        let a = &actuators.as_ref().expect("checked").log;
-        let zeros = vec![0.0; a.len()];
-        let log = Log {
-            t: a.t.clone(),
-            cols: vec![zeros; THRUST.len() - 1],
-            notes: vec![format!(
-                "{dir}: no thrust.csv; the actuator log is the command clock"
-            )],
-            present: vec![false; THRUST.len() - 1],
-        };
-        (format!("{dir}/actuators.csv"), log)
-    };
-    let mut sensors = read_sensors(root, dir, files, &mut notes)?;
+    let (command_path, thrust, force_logged) =
+        command_log(root, dir, files, &mut logged, &actuators)?;
+    let mut sensors = read_sensors(root, dir, files, meta.log.is_none(), &mut notes)?;
     check_positions(dir, &sensors)?;
     sensors.convert_units();
-    let mut repairs = Vec::new();
-    if let Some(r) = timing::repair_command_clock(&mut thrust) {
-        repairs.push(format!("{thrust_path}: {r}"));
-    }
-    // Rows still sharing a time stamp (no regular clock could be fitted): the last of each.
-    thrust.dedupe_times(&thrust_path);
-    for log in std::iter::once(&thrust).chain(sensors.logs()) {
-        notes.extend(log.notes.iter().cloned());
-    }
+    sensors.merge(&mut logged, dir)?;
     let Sensors {
         uwb,
         sonar,
@@ -182,7 +214,7 @@ pub fn load(root: &Path, dir: &str, files: &[String]) -> Result<PoolRun, InputEr
         depth,
         nav,
     } = sensors;
-    let mut run = PoolRun {
+    Ok(PoolRun {
         name,
         meta,
         thrust,
@@ -194,17 +226,53 @@ pub fn load(root: &Path, dir: &str, files: &[String]) -> Result<PoolRun, InputEr
         actuators,
         force_logged,
         notes,
-        repairs,
-    };
-    // Disjoint fields: the command log is trimmed while the sensor logs are read.
-    let sensors: Vec<&Log> = [&run.uwb, &run.sonar, &run.imu, &run.depth, &run.nav]
-        .into_iter()
-        .flatten()
-        .collect();
-    if let Some(r) = timing::trim_to_overlap(&mut run.thrust, &sensors) {
-        run.repairs.push(format!("{thrust_path}: {r}"));
+        repairs: Vec::new(),
+        log_source: logged.source,
+        command_path,
+    })
+}
+
+/// The command log, where it came from, and whether forces were logged: `thrust.csv`, the
+/// vehicle's log, or (a vehicle steered by fins) zeros on the actuator log's clock.
+fn command_log(
+    root: &Path,
+    dir: &str,
+    files: &[String],
+    logged: &mut from_log::FromLog,
+    actuators: &Option<actuators::Actuators>,
+) -> Result<(String, Log, bool), InputError> {
+    let csv = find(files, "thrust.csv");
+    if let Some(log) = logged.thrust.take() {
+        let source = logged.source.as_ref().expect("a log was read");
+        if let Some(p) = csv {
+            return Err(InputError::file(
+                p,
+                format!(
+                    "the run has both thrust.csv and a command in its log ({})",
+                    source.path
+                ),
+                "keep one: remove thrust.csv, or the command from run.yaml's `log:`",
+            ));
+        }
+        let topic = source.topics.get("command").or(source.topics.get("wrench"));
+        let path = format!("{}:{}", source.path, topic.map_or("", String::as_str));
+        return Ok((path, log, true));
     }
-    Ok(run)
+    if csv.is_some() || actuators.is_none() {
+        let (p, log) = read_thrust(root, dir, files)?;
+        return Ok((p, log, true));
+    }
+    let a = &actuators.as_ref().expect("checked").log;
+    let zeros = vec![0.0; a.len()];
+    let log = Log {
+        t: a.t.clone(),
+        cols: vec![zeros; THRUST.len() - 1],
+        notes: vec![format!(
+            "{dir}: no thrust.csv; the actuator log is the command clock"
+        )],
+        present: vec![false; THRUST.len() - 1],
+    };
+    Ok((format!("{dir}/actuators.csv"), log, false))
 }
 
 /// The path of the run's file named `n`, if it has one.
@@ -321,13 +389,16 @@ fn read_sensors(
     root: &Path,
     dir: &str,
     files: &[String],
+    note_missing: bool,
     notes: &mut Vec<String>,
 ) -> Result<Sensors, InputError> {
     let mut optional =
         |n: &str, cols: &[&str], what: &str, parse: Parser| -> Result<Option<Log>, InputError> {
             match find(files, n) {
                 None => {
-                    notes.push(format!("{dir}: no {n}"));
+                    if note_missing {
+                        notes.push(format!("{dir}: no {n}"));
+                    }
                     Ok(None)
                 }
                 Some(p) => parse(&p, &read(root, &p)?, cols, what, 2).map(Some),
@@ -363,17 +434,35 @@ fn check_positions(dir: &str, sensors: &Sensors) -> Result<(), InputError> {
 }
 
 impl Sensors {
-    /// The logs the run has.
-    fn logs(&self) -> impl Iterator<Item = &Log> {
-        [
-            self.uwb.as_ref(),
-            self.sonar.as_ref(),
-            self.imu.as_ref(),
-            self.depth.as_ref(),
-            self.nav.as_ref(),
-        ]
-        .into_iter()
-        .flatten()
+    /// The logs read from the vehicle's log, where no CSV file gives them; one given twice is
+    /// an error.
+    fn merge(&mut self, logged: &mut from_log::FromLog, dir: &str) -> Result<(), InputError> {
+        let pairs = [
+            (&mut self.uwb, logged.uwb.take(), "uwb.csv", "position"),
+            (&mut self.sonar, logged.sonar.take(), "sonar.csv", "sonar"),
+            (
+                &mut self.imu,
+                logged.imu.take(),
+                "imu.csv",
+                "attitude, rates or acceleration",
+            ),
+            (&mut self.depth, logged.depth.take(), "depth.csv", "depth"),
+            (&mut self.nav, logged.nav.take(), "nav.csv", "velocity"),
+        ];
+        for (slot, from_log, file, signal) in pairs {
+            match (slot.is_some(), from_log) {
+                (true, Some(_)) => {
+                    return Err(InputError::file(
+                        format!("{dir}/{file}"),
+                        format!("the run has both {file} and the {signal} in its log"),
+                        format!("keep one: remove {file}, or the log's {signal} from run.yaml"),
+                    ));
+                }
+                (false, Some(l)) => *slot = Some(l),
+                _ => {}
+            }
+        }
+        Ok(())
     }
 
     /// Angles and rates to radians, accelerations from g to m/s^2.
@@ -395,6 +484,13 @@ impl Sensors {
 }
 
 impl PoolRun {
+    /// The sensor logs the run has, in the order their notes are listed.
+    fn sensor_logs(&self) -> impl Iterator<Item = &Log> {
+        [&self.uwb, &self.sonar, &self.imu, &self.depth, &self.nav]
+            .into_iter()
+            .flatten()
+    }
+
     /// The sensor logs the run has, by name.
     pub fn sensors(&self) -> Vec<(&'static str, &Log)> {
         [
@@ -445,7 +541,7 @@ mod tests {
             ),
             ("notes.txt", "x"),
         ]);
-        let run = load(d.path(), "cases/pool/r1", &files).unwrap();
+        let run = load(d.path(), "cases/pool/r1", &files, None).unwrap();
         assert_eq!(run.meta.role, Role::Validate);
         assert!(
             run.uwb.is_none() && run.sonar.is_none() && run.depth.is_none() && run.nav.is_none()
@@ -460,7 +556,7 @@ mod tests {
     #[test]
     fn a_missing_thrust_log_or_bad_run_yaml_is_an_error() {
         let (d, files) = folder(&[("run.yaml", "role: train\n")]);
-        let e = load(d.path(), "cases/pool/r1", &files)
+        let e = load(d.path(), "cases/pool/r1", &files, None)
             .unwrap_err()
             .to_string();
         assert!(
@@ -469,12 +565,12 @@ mod tests {
         );
         let t = thrust();
         let (d, files) = folder(&[("run.yaml", "role: tran\n"), ("thrust.csv", &t)]);
-        let e = load(d.path(), "cases/pool/r1", &files)
+        let e = load(d.path(), "cases/pool/r1", &files, None)
             .unwrap_err()
             .to_string();
         assert!(e.contains("run.yaml:1:") && e.contains("tran"), "{e}");
         let (d, files) = folder(&[("thrust.csv", &t)]);
-        let e = load(d.path(), "cases/pool/r1", &files)
+        let e = load(d.path(), "cases/pool/r1", &files, None)
             .unwrap_err()
             .to_string();
         assert!(e.contains("no run.yaml"), "{e}");
@@ -503,20 +599,20 @@ mod tests {
         ];
         for (yaml, want) in cases {
             let (d, files) = folder(&[("run.yaml", yaml), ("thrust.csv", &t)]);
-            let e = load(d.path(), "cases/pool/r1", &files)
+            let e = load(d.path(), "cases/pool/r1", &files, None)
                 .unwrap_err()
                 .to_string();
             assert!(e.contains(want) && e.contains("help:"), "{yaml:?}: {e}");
         }
         let (d, files) = folder(&[("run.yaml", "\u{feff}role: train\n"), ("thrust.csv", &t)]);
         std::fs::create_dir_all(d.path().join("cases/pool/r1/imu.csv")).unwrap();
-        let e = load(d.path(), "cases/pool/r1", &files)
+        let e = load(d.path(), "cases/pool/r1", &files, None)
             .unwrap_err()
             .to_string();
         assert!(e.contains("imu.csv: is a folder"), "{e}");
         std::fs::remove_dir(d.path().join("cases/pool/r1/imu.csv")).unwrap();
         assert!(
-            load(d.path(), "cases/pool/r1", &files).is_ok(),
+            load(d.path(), "cases/pool/r1", &files, None).is_ok(),
             "BOM in run.yaml"
         );
     }
@@ -533,7 +629,7 @@ mod tests {
             ("thrust.csv", &t),
             ("nav.csv", nav),
         ]);
-        let run = load(d.path(), "cases/pool/r1", &files).unwrap();
+        let run = load(d.path(), "cases/pool/r1", &files, None).unwrap();
         let nav = run.nav.unwrap();
         assert_eq!(nav.len(), 4);
         assert!(nav.cols[0][1].is_nan() && nav.cols[1][1].is_nan() && nav.cols[1][2].is_nan());
@@ -553,6 +649,6 @@ mod tests {
             ("thrust.csv", &t),
             ("nav.csv", bad),
         ]);
-        assert!(load(d.path(), "cases/pool/r1", &files).is_err());
+        assert!(load(d.path(), "cases/pool/r1", &files, None).is_err());
     }
 }

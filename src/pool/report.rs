@@ -2,6 +2,7 @@
 //! a twin's truth exists.
 
 use crate::core::dof::Dof;
+use crate::core::model::thrusters::{Command, Thrusters};
 
 use crate::core::html::esc;
 use crate::pool::fusion::run::FusedRun;
@@ -195,4 +196,86 @@ fn accuracy_table(h: &mut String, accuracy: &[FusionAccuracy]) {
         }
     }
     h.push_str("</table>\n");
+}
+
+/// The thrusters, when runs log per-thruster commands: each unit, the allocation matrix that
+/// turns thrusts into the body wrench, its rank and the DOFs it actuates, and the thrust
+/// curve the commands go through.
+pub fn thrusters_section(t: Option<&Thrusters>) -> anyhow::Result<String> {
+    let Some(t) = t else {
+        return Ok(String::new());
+    };
+    let a = t.allocation();
+    let (rank, dofs) = a.actuated();
+    let mut h = String::from("<h2 id=\"thrusters\">Thrusters</h2>\n");
+    let names: Vec<String> = dofs.iter().map(|d| d.to_string()).collect();
+    let _ = writeln!(
+        h,
+        "<p>Per-thruster commands become the body wrench τ = B f before any model sees them: column i of B is [d<sub>i</sub>; r<sub>i</sub> × d<sub>i</sub>] for thruster i at r<sub>i</sub> pushing along d<sub>i</sub> (body frame, x forward, y starboard, z down; Fossen 2011 eq. 11.8). B has rank {rank} and actuates {}.</p>",
+        if names.is_empty() {
+            "no DOF".into()
+        } else {
+            names.join(", ")
+        }
+    );
+    h.push_str("<table><tr><th></th>");
+    for u in &a.units {
+        let _ = write!(h, "<th>{}</th>", esc(&u.name));
+    }
+    h.push_str("</tr>\n");
+    for (label, row) in ["position x (m)", "position y (m)", "position z (m)"]
+        .iter()
+        .zip(0..3)
+    {
+        let _ = write!(h, "<tr><td>{label}</td>");
+        for u in &a.units {
+            let _ = write!(h, "<td>{:.3}</td>", u.position_m[row]);
+        }
+        h.push_str("</tr>\n");
+    }
+    for (label, row) in [
+        "X (N/N)",
+        "Y (N/N)",
+        "Z (N/N)",
+        "K (N m/N)",
+        "M (N m/N)",
+        "N (N m/N)",
+    ]
+    .iter()
+    .zip(0..6)
+    {
+        let _ = write!(h, "<tr><td>B: {label}</td>");
+        for c in &a.columns {
+            let _ = write!(h, "<td>{:.3}</td>", c[row] + 0.0);
+        }
+        h.push_str("</tr>\n");
+    }
+    h.push_str("</table>\n");
+    let (x, y) = a.curve_points(201);
+    let x_desc = match t.command {
+        Command::Pwm => "command (PWM, us)",
+        Command::Normalised => "command (normalised)",
+        Command::Rpm => "shaft speed (rpm)",
+    };
+    h += &crate::core::plot::lines::figure(
+        "thrust-curve",
+        &format!(
+            "The thrust curve every thruster's command goes through (gain {}); a command beyond its ends is held at them.",
+            t.gain
+        ),
+        &crate::core::plot::lines::Chart {
+            title: "thrust against command",
+            x_desc,
+            y_desc: "thrust (N)",
+            series: vec![crate::core::plot::lines::Series {
+                label: "thrust",
+                x: &x,
+                y: &y,
+                reference: false,
+            }],
+            hlines: vec![],
+            stems: false,
+        },
+    )?;
+    Ok(h)
 }

@@ -61,7 +61,7 @@ impl StageImpl for Settings {
             description: run.meta.description.clone(),
             pool: run.meta.pool,
             tether_anchor_m: run.meta.tether_anchor_m,
-            sources: ctx.inputs.to_vec(),
+            sources: sources(ctx, &run)?,
             known: std::array::from_fn(|j| fused.vel[j].is_some()),
             sensors,
             stats: fused.stats.clone(),
@@ -91,6 +91,26 @@ impl Settings {
 }
 
 /// The pool run of the instance's folder; an error when the folder is empty.
+/// The run's input files, and the vehicle's log it was read from (by content, with the topics
+/// and span used), which is also watched: an edited log reruns the run.
+fn sources(
+    ctx: &RunCtx,
+    run: &import::PoolRun,
+) -> anyhow::Result<Vec<crate::core::provenance::InputFile>> {
+    let mut out = ctx.inputs.to_vec();
+    if let Some(src) = &run.log_source {
+        let hash = crate::core::fsutil::hash_file(&ctx.root.join(&src.path))
+            .map_err(|e| anyhow::anyhow!("{}: {e}", src.path))?;
+        out.push(crate::core::provenance::InputFile {
+            topics: src.topics.clone(),
+            span_s: Some(src.span_s),
+            ..crate::core::provenance::InputFile::new(&src.path, hash)
+        });
+        crate::pipeline::cache::write_watched(ctx.out, ctx.root, std::slice::from_ref(&src.path))?;
+    }
+    Ok(out)
+}
+
 fn load_run(ctx: &RunCtx) -> anyhow::Result<import::PoolRun> {
     let files: Vec<String> = ctx.inputs.iter().map(|f| f.path.clone()).collect();
     if files.is_empty() {
@@ -100,7 +120,12 @@ fn load_run(ctx: &RunCtx) -> anyhow::Result<import::PoolRun> {
         );
     }
     let dir = common_dir(&files);
-    Ok(import::load(ctx.root, &dir, &files)?)
+    Ok(import::load(
+        ctx.root,
+        &dir,
+        &files,
+        ctx.vehicle.thrusters.as_ref(),
+    )?)
 }
 
 /// The logged thrust, one [X, Y, Z, N] row per sample, and one [K, M] row per sample when

@@ -140,6 +140,7 @@ fn pool_html(
     });
     Ok(compare_html
         + &diagnosis_html
+        + &crate::pool::report::thrusters_section(inp.vehicle.thrusters.as_ref())?
         + &crate::pool::report::section(&inp.pool_runs, accuracy)
         + &crate::validate::report::section(
             &inp.pool_runs,

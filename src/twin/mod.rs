@@ -5,6 +5,7 @@ pub mod auv;
 pub mod cfd;
 pub mod dsrv;
 pub mod field;
+pub mod logs;
 pub mod pool;
 pub mod scenario;
 pub mod six;

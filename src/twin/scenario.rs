@@ -31,7 +31,7 @@ pub fn fuse_folder(root: &std::path::Path, name: &str) -> anyhow::Result<FusedRu
     let files: Vec<String> = std::fs::read_dir(root.join(&dir))?
         .map(|e| e.map(|e| format!("{dir}/{}", e.file_name().to_string_lossy())))
         .collect::<Result<_, _>>()?;
-    let run = crate::pool::import::load(root, &dir, &files)?;
+    let run = crate::pool::import::load(root, &dir, &files, None)?;
     let fused = crate::pool::fusion::fuse(&run, &Default::default());
     let thrust: Vec<[f64; 4]> = (0..run.thrust.len())
         .map(|k| std::array::from_fn(|q| run.thrust.cols[q][k]))

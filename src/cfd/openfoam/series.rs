@@ -374,10 +374,10 @@ pub fn write_case(
             std::fs::create_dir_all(to.parent().expect("has a parent"))?;
             crate::core::fsutil::write_atomic(&to, bytes)?;
         }
-        out.push(InputFile {
-            path: format!("{case_rel}/{rel}"),
-            blake3: blake3::hash(bytes).to_hex().to_string(),
-        });
+        out.push(InputFile::new(
+            format!("{case_rel}/{rel}"),
+            blake3::hash(bytes).to_hex().to_string(),
+        ));
     }
     // Input files an earlier template had: a run by hand would read them.
     for rel in crate::core::fsutil::files_under(&dir, true)? {
@@ -495,10 +495,7 @@ mod tests {
         let inputs = |paths: &[&str]| -> Vec<InputFile> {
             paths
                 .iter()
-                .map(|p| InputFile {
-                    path: p.to_string(),
-                    blake3: String::new(),
-                })
+                .map(|p| InputFile::new(p.to_string(), String::new()))
                 .collect()
         };
         let tpl = inputs(&["tpl/system/controlDict", "tpl/constant/dyn"]);

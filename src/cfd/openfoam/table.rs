@@ -20,14 +20,13 @@ pub fn import(case: &CaseRun, dofs: &[Dof]) -> anyhow::Result<(Response, Respons
     );
     let meta = ResponseMeta {
         case: case.name(),
-        source: InputFile {
-            path: format!("{}/constant/dynamicMeshDict", case.rel),
-            blake3: case
-                .inputs
+        source: InputFile::new(
+            format!("{}/constant/dynamicMeshDict", case.rel),
+            case.inputs
                 .iter()
                 .find(|i| i.path.ends_with("constant/dynamicMeshDict"))
                 .map_or(String::new(), |i| i.blake3.clone()),
-        },
+        ),
         dofs: response.dofs.keys().copied().collect(),
         sources: response.sources(),
         rows_read: case.track.t.len(),

@@ -10,6 +10,7 @@ pub mod pool;
 pub mod spd;
 pub mod stability;
 pub mod terms;
+pub mod thrusters;
 pub mod vehicle;
 
 pub use dynamics::{Plant, Vec6};

@@ -47,6 +47,10 @@ pub struct Vehicle {
     /// commands beyond it are clipped (a closed-loop controller asks for more than it gets).
     #[serde(default, skip_serializing_if = "std::collections::BTreeMap::is_empty")]
     pub command_limits: std::collections::BTreeMap<Dof, f64>,
+    /// The thrusters, when runs log per-thruster commands (PWM, normalised, rpm) instead of
+    /// the body wrench: the commands become the wrench through them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub thrusters: Option<super::thrusters::Thrusters>,
 }
 
 impl Vehicle {
@@ -65,6 +69,7 @@ impl Vehicle {
             custom_terms: None,
             constant_force: Vec::new(),
             command_limits: Default::default(),
+            thrusters: None,
         }
     }
 
@@ -125,6 +130,9 @@ impl Vehicle {
                 "dofs is empty: list the DOFs the vehicle moves in, e.g. [surge, sway, heave, yaw]"
                     .into(),
             );
+        }
+        if let Some(t) = &self.thrusters {
+            out.extend(t.problems());
         }
         let mrb = self.rigid_mass();
         for d in &self.dofs {

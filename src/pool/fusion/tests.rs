@@ -26,7 +26,7 @@ pub(crate) fn twin_run(
         .map(|e| format!("{dir}/{}", e.unwrap().file_name().to_string_lossy()))
         .collect();
     files.sort();
-    let run = crate::pool::import::load(d.path(), &dir, &files).unwrap();
+    let run = crate::pool::import::load(d.path(), &dir, &files, None).unwrap();
     let truth = twin::simulate(&twin::world(effects), spec, seed);
     (run, truth, d)
 }

@@ -1,0 +1,216 @@
+//! Logs as vehicles write them, read without user code: ROS 1 bags (`.bag`), MCAP files
+//! (`.mcap`, ROS 2 with CDR payloads), ArduPilot DataFlash logs (`.BIN`) and MAVLink
+//! telemetry logs (`.tlog`). The first three describe their own messages (a ROS message
+//! definition, an MCAP schema, a DataFlash FMT record), so any message is decoded into a
+//! [`Value`] tree without compiled-in types; MAVLink is not self-describing, so the tlog
+//! reader compiles in the messages ArduSub users need. A field is picked by its path
+//! (`twist.twist.linear.x`, `data[3]`, `C1`).
+//!
+//! [`Log::open`] reads what a log holds (its topics, their types, counts and time spans) as
+//! `rosbag info` would; [`Log::read`] decodes the messages of the topics asked for.
+//! Every error says where in the file it is ([`LogError`]): a damaged log is never a panic.
+//!
+//! [`write`](mod@write) writes ROS 1 bags and MCAP files (for tests, and for simulators that
+//! log their synthetic runs as a vehicle would), with the common message types of
+//! [`ros_types`].
+
+mod compress;
+pub mod dataflash;
+mod encode;
+pub mod error;
+pub mod mcap;
+mod merge;
+pub mod msgdef;
+pub mod ros1;
+pub mod ros_types;
+pub mod tlog;
+pub mod value;
+mod wire;
+pub mod write;
+
+pub use error::LogError;
+pub use value::{Field, Leaf, Schema, Selector, Value};
+
+use std::path::{Path, PathBuf};
+
+/// The file formats a log may have.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Format {
+    /// ROS 1 bag, version 2.0 (uncompressed, bz2 or lz4 chunks).
+    Ros1Bag,
+    /// MCAP (ROS 2 `ros2msg` schemas with CDR messages).
+    Mcap,
+    /// ArduPilot DataFlash binary log (`.BIN`), self-described by FMT records.
+    DataFlash,
+    /// MAVLink telemetry log (`.tlog`): receive times and MAVLink 1/2 packets.
+    Tlog,
+}
+
+impl Format {
+    pub fn name(self) -> &'static str {
+        match self {
+            Format::Ros1Bag => "ROS 1 bag",
+            Format::Mcap => "MCAP",
+            Format::DataFlash => "ArduPilot DataFlash log",
+            Format::Tlog => "MAVLink telemetry log",
+        }
+    }
+}
+
+/// One topic (ROS) or message type (DataFlash) of a log.
+#[derive(Debug, Clone)]
+pub struct Topic {
+    /// The topic (`/mavros/imu/data`) or the DataFlash message name (`ATT`).
+    pub name: String,
+    /// The message type (`sensor_msgs/Imu`; for DataFlash the message name again).
+    pub type_name: String,
+    /// How many messages the log holds on it.
+    pub count: u64,
+    /// The log time of the first and the last message, seconds (the log's own clock: ROS
+    /// receive time since the Unix epoch, DataFlash `TimeUS` since boot, tlog receive time
+    /// since the Unix epoch).
+    pub first_s: f64,
+    pub last_s: f64,
+    /// The message's layout.
+    pub schema: Schema,
+}
+
+impl Topic {
+    /// Messages per second over the topic's span (0 for fewer than two messages).
+    pub fn rate_hz(&self) -> f64 {
+        let span = self.last_s - self.first_s;
+        if self.count > 1 && span > 0.0 {
+            (self.count - 1) as f64 / span
+        } else {
+            0.0
+        }
+    }
+}
+
+/// One decoded message.
+#[derive(Debug, Clone)]
+pub struct Message {
+    /// Index of the topic in [`Log::topics`].
+    pub topic: usize,
+    /// The time the log recorded the message at, seconds (ROS: receive time since the Unix
+    /// epoch; MCAP: `log_time`; DataFlash: `TimeUS` / 1e6; tlog: the record's receive time
+    /// since the Unix epoch).
+    pub log_time_s: f64,
+    /// `header.stamp` (seconds since the Unix epoch) when the message has a ROS header whose
+    /// stamp is not zero; `None` otherwise.
+    pub stamp_s: Option<f64>,
+    /// The message, laid out as the topic's schema says.
+    pub value: Value,
+}
+
+/// An open log: what it holds, and the means to read it.
+#[derive(Debug)]
+pub struct Log {
+    pub path: PathBuf,
+    pub format: Format,
+    pub topics: Vec<Topic>,
+    inner: Inner,
+}
+
+/// What a reader keeps between listing the topics and reading them (the file's bytes, chunk
+/// and record offsets, FMT records), so that `read` does not parse the index twice.
+#[derive(Debug)]
+enum Inner {
+    Ros1(ros1::Bag),
+    Mcap(mcap::File),
+    DataFlash(dataflash::Bin),
+    Tlog(tlog::Tlog),
+}
+
+/// The first bytes of each format.
+const ROS1_MAGIC: &[u8] = b"#ROSBAG V2.0\n";
+const MCAP_MAGIC: &[u8] = b"\x89MCAP0\r\n";
+const DATAFLASH_MAGIC: &[u8] = &[0xA3, 0x95];
+
+impl Log {
+    /// Opens `path`, recognises its format by its first bytes (not its extension) and lists
+    /// its topics. Reads the index where the format has one, otherwise scans the file once.
+    /// A tlog has no magic bytes: a file whose first bytes are none of the others' is read as
+    /// a tlog when its name ends in `.tlog`.
+    pub fn open(path: &Path) -> Result<Log, LogError> {
+        let data = std::fs::read(path).map_err(|e| {
+            LogError::new(path, format!("cannot read the log: {e}"))
+                .fix("give the path of a ROS 1 bag, an MCAP file, an ArduPilot .BIN log or a .tlog")
+        })?;
+        let (format, topics, inner) = if data.starts_with(ROS1_MAGIC) {
+            let (bag, topics) = ros1::Bag::open(path, data)?;
+            (Format::Ros1Bag, topics, Inner::Ros1(bag))
+        } else if data.starts_with(MCAP_MAGIC) {
+            let (file, topics) = mcap::File::open(path, data)?;
+            (Format::Mcap, topics, Inner::Mcap(file))
+        } else if data.starts_with(DATAFLASH_MAGIC) {
+            let (bin, topics) = dataflash::Bin::open(path, data)?;
+            (Format::DataFlash, topics, Inner::DataFlash(bin))
+        } else if data.starts_with(b"#ROSBAG V") {
+            return Err(LogError::new(path, "a ROS bag of a version other than 2.0")
+                .at(0)
+                .fix("re-record or migrate the bag with ROS 1's `rosbag` (format 2.0)"));
+        } else if is_tlog(path) {
+            let (tlog, topics) = tlog::Tlog::open(path, data)?;
+            (Format::Tlog, topics, Inner::Tlog(tlog))
+        } else if data.starts_with(b"SQLite format 3") {
+            return Err(LogError::new(
+                path,
+                "a ROS 2 SQLite bag (.db3), which hydrofit does not read",
+            )
+            .at(0)
+            .fix("convert it to MCAP: `ros2 bag convert` or record with `--storage mcap`"));
+        } else {
+            return Err(LogError::new(
+                path,
+                "not a ROS 1 bag, an MCAP file or an ArduPilot DataFlash log (unknown first bytes)",
+            )
+            .at(0)
+            .fix("give the log the vehicle wrote (.bag, .mcap, .BIN, or a .tlog named so); CSV logs go in the run folder as thrust.csv, nav.csv ..."));
+        };
+        Ok(Log {
+            path: path.to_path_buf(),
+            format,
+            topics,
+            inner,
+        })
+    }
+
+    /// The topic named `name`, if the log has it.
+    pub fn topic(&self, name: &str) -> Option<usize> {
+        self.topics.iter().position(|t| t.name == name)
+    }
+
+    /// Calls `each` with every message of the topics `wanted` (indices into `topics`), in log
+    /// time order. Stops at the first error `each` returns, or at damage in the file.
+    pub fn read(
+        &self,
+        wanted: &[usize],
+        each: &mut dyn FnMut(&Message) -> Result<(), LogError>,
+    ) -> Result<(), LogError> {
+        match &self.inner {
+            Inner::Ros1(b) => b.read(&self.path, &self.topics, wanted, each),
+            Inner::Mcap(f) => f.read(&self.path, &self.topics, wanted, each),
+            Inner::DataFlash(b) => b.read(&self.path, &self.topics, wanted, each),
+            Inner::Tlog(t) => t.read(&self.path, &self.topics, wanted, each),
+        }
+    }
+
+    /// What the reader stepped over in a log it could still read (damaged bytes skipped, a
+    /// last record cut off, packets with a bad checksum), one sentence each; empty for an
+    /// undamaged log. Formats that do not report such things yet give none.
+    pub fn notes(&self) -> Vec<String> {
+        match &self.inner {
+            Inner::Ros1(b) => b.notes(),
+            Inner::Mcap(f) => f.notes(),
+            Inner::DataFlash(b) => b.notes(),
+            Inner::Tlog(t) => t.notes(),
+        }
+    }
+}
+
+/// Whether `path` is named as a tlog (`.tlog`, any case).
+fn is_tlog(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("tlog"))
+}

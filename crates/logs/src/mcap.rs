@@ -1,0 +1,283 @@
+//! MCAP files as ROS 2 writes them (MCAP spec, <https://mcap.dev/spec>): `ros2msg` schemas and
+//! CDR messages, chunked or not, chunks uncompressed, zstd or lz4. The reader, and [`Writer`].
+//! Other schema encodings (`ros2idl`, `protobuf`, `jsonschema`, ...) are reported, not read.
+
+mod index;
+mod records;
+mod writer;
+
+pub use writer::{Compression, Writer};
+
+use crate::compress::{Codec, decompress};
+use crate::merge::{self, Slot};
+use crate::msgdef::{self, Flavor};
+use crate::wire;
+use crate::{LogError, Message, Topic};
+use records::{ChannelRec, OP_MESSAGE, SchemaRec, rec_at};
+use std::borrow::Cow;
+use std::collections::HashMap;
+use std::ops::Range;
+use std::path::Path;
+
+/// An open MCAP file: its bytes and where its messages are.
+#[derive(Debug)]
+pub struct File {
+    data: Vec<u8>,
+    chunks: Vec<Chunk>,
+    /// Per channel (as `Slot::conn` counts them): its id and its topic.
+    channels: Vec<(u16, usize)>,
+    /// Every message, in time order.
+    slots: Vec<Slot>,
+    /// How many topics `open` listed: `read` must be given those.
+    n_topics: usize,
+    /// What was stepped over to read it (a missing summary).
+    notes: Vec<String>,
+}
+
+/// A chunk record (or, for messages outside chunks, the whole file).
+#[derive(Debug, Clone)]
+pub(crate) struct Chunk {
+    pos: usize,
+    /// Where its (compressed) records are in the file.
+    records: Range<usize>,
+    codec: Codec,
+    size: u64,
+    /// CRC-32 of the inflated records; 0 when the writer did not compute it.
+    crc: u32,
+    torn: bool,
+}
+
+/// What the summary (or a scan) says the file holds; `Slot::conn` indexes `channels`.
+#[derive(Debug, Default)]
+pub(crate) struct Found {
+    chunks: Vec<Chunk>,
+    schemas: Vec<SchemaRec>,
+    channels: Vec<ChannelRec>,
+    ids: index::Ids,
+    slots: Vec<Slot>,
+    /// The chunk standing for the whole file, once a message outside chunks is seen.
+    file_chunk: Option<u32>,
+}
+
+impl File {
+    /// Reads the summary (or scans the data section when there is none) and lists the topics.
+    pub fn open(path: &Path, data: Vec<u8>) -> Result<(File, Vec<Topic>), LogError> {
+        if !data.starts_with(records::MAGIC) {
+            return Err(LogError::new(path, "not an MCAP file (no MCAP magic)").at(0));
+        }
+        let mut notes = Vec::new();
+        let mut found = match index::read_summary(&data) {
+            Ok(found) => found,
+            Err(_) => {
+                notes.push(
+                    "the file's summary (its index) is missing or damaged, as when a recording is not closed or the file is cut short: read by scanning its records".to_string(),
+                );
+                index::scan(path, &data)?
+            }
+        };
+        found.slots.sort_unstable_by_key(Slot::key);
+        let (topics, channels) = topics_of(path, &found)?;
+        let file = File {
+            data,
+            chunks: found.chunks,
+            channels,
+            slots: found.slots,
+            n_topics: topics.len(),
+            notes,
+        };
+        Ok((file, topics))
+    }
+
+    /// What was stepped over to read the file, one sentence each.
+    pub fn notes(&self) -> Vec<String> {
+        self.notes.clone()
+    }
+
+    /// Decodes the messages of the topics `wanted`, in log-time order, and calls `each`.
+    pub fn read(
+        &self,
+        path: &Path,
+        topics: &[Topic],
+        wanted: &[usize],
+        each: &mut dyn FnMut(&Message) -> Result<(), LogError>,
+    ) -> Result<(), LogError> {
+        if topics.len() != self.n_topics {
+            return Err(LogError::new(
+                path,
+                "read with other topics than the log's own",
+            ));
+        }
+        let mut want = vec![false; topics.len()];
+        for &w in wanted {
+            if let Some(x) = want.get_mut(w) {
+                *x = true;
+            }
+        }
+        let slots: Vec<Slot> = self
+            .slots
+            .iter()
+            .filter(|s| want[self.channels[s.conn as usize].1])
+            .copied()
+            .collect();
+        let load = |c: u32| self.load(path, c);
+        merge::run(&slots, &load, &mut |slot, bytes| {
+            let msg = self.message(path, topics, slot, bytes)?;
+            each(&msg)
+        })
+    }
+
+    fn load(&self, path: &Path, c: u32) -> Result<Cow<'_, [u8]>, LogError> {
+        let chunk = &self.chunks[c as usize];
+        let raw = &self.data[chunk.records.clone()];
+        let fail = |what: String| {
+            LogError::new(path, format!("chunk: {what}"))
+                .at(chunk.pos as u64)
+                .fix("the file is damaged in this chunk: copy it again from the vehicle, or cut the run before it (span_s)")
+        };
+        let bytes = if chunk.codec == Codec::None && raw.len() as u64 == chunk.size {
+            Cow::Borrowed(raw)
+        } else {
+            let (bytes, why) = decompress(chunk.codec, raw, chunk.size);
+            match why {
+                Some(why) if !chunk.torn => return Err(fail(why)),
+                _ => Cow::Owned(bytes),
+            }
+        };
+        // The CRC of the inflated records (MCAP spec, "Chunk": 0 means not computed).
+        if chunk.crc != 0 && !chunk.torn && crc32fast::hash(&bytes) != chunk.crc {
+            return Err(fail(
+                "its CRC does not match: the records are damaged".into(),
+            ));
+        }
+        Ok(bytes)
+    }
+
+    fn message(
+        &self,
+        path: &Path,
+        topics: &[Topic],
+        slot: &Slot,
+        bytes: &[u8],
+    ) -> Result<Message, LogError> {
+        let chunk = &self.chunks[slot.chunk as usize];
+        let (id, t) = self.channels[slot.conn as usize];
+        let topic = &topics[t];
+        let (at, inside) = if chunk.codec == Codec::None {
+            (chunk.records.start as u64 + slot.offset, String::new())
+        } else {
+            (
+                chunk.pos as u64,
+                format!(" (byte {} of the inflated chunk)", slot.offset),
+            )
+        };
+        let fail = |what: String| {
+            LogError::new(
+                path,
+                format!("topic {} ({}): {what}{inside}", topic.name, topic.type_name),
+            )
+            .at(at)
+        };
+        let r = rec_at(bytes, slot.offset as usize)
+            .map_err(|_| fail("the index points past the chunk's end".into()))?;
+        let (ch, time_ns, payload) = records::message(r.body).map_err(&fail)?;
+        if r.op != OP_MESSAGE || ch != id {
+            return Err(fail(
+                "the index points at another record than its message".into(),
+            ));
+        }
+        let time_s = wire::ns_to_s(time_ns);
+        let value = wire::decode_cdr(&topic.schema, payload).map_err(|e| {
+            fail(format!(
+                "the message at t = {time_s:.6} s does not match its schema: {e}"
+            ))
+            .fix("the file was written with another version of this message type, or is damaged")
+        })?;
+        Ok(Message {
+            topic: t,
+            log_time_s: time_s,
+            stamp_s: wire::header_stamp(&topic.schema, &value),
+            value,
+        })
+    }
+}
+
+/// Per connection (channel): its id in the file and the index of its topic.
+type Conns = Vec<(u16, usize)>;
+
+/// The topics (one per topic name and schema), sorted by name, with counts and time spans.
+fn topics_of(path: &Path, found: &Found) -> Result<(Vec<Topic>, Conns), LogError> {
+    let mut order: Vec<usize> = (0..found.channels.len()).collect();
+    order.sort_by(|&a, &b| found.channels[a].topic.cmp(&found.channels[b].topic));
+    let mut topics: Vec<Topic> = Vec::new();
+    let mut keys: HashMap<(&str, u16), usize> = HashMap::new();
+    let mut channels = vec![(0, 0); found.channels.len()];
+    for i in order {
+        let c = &found.channels[i];
+        let t = match keys.get(&(c.topic.as_str(), c.schema_id)) {
+            Some(&t) => t,
+            None => {
+                topics.push(new_topic(path, c, &found.schemas)?);
+                keys.insert((c.topic.as_str(), c.schema_id), topics.len() - 1);
+                topics.len() - 1
+            }
+        };
+        channels[i] = (c.id, t);
+    }
+    for s in &found.slots {
+        let topic = &mut topics[channels[s.conn as usize].1];
+        let t = wire::ns_to_s(s.time_ns);
+        if topic.count == 0 {
+            (topic.first_s, topic.last_s) = (t, t);
+        }
+        topic.count += 1;
+        topic.first_s = topic.first_s.min(t);
+        topic.last_s = topic.last_s.max(t);
+    }
+    Ok((topics, channels))
+}
+
+fn new_topic(path: &Path, c: &ChannelRec, schemas: &[SchemaRec]) -> Result<Topic, LogError> {
+    let fail = |what: String, fix: &str| {
+        LogError::new(path, format!("topic {}: {what}", c.topic))
+            .at(c.at as u64)
+            .fix(fix)
+    };
+    let Some(s) = schemas.iter().find(|s| s.id == c.schema_id) else {
+        return Err(fail(
+            format!("its channel has no schema (schema id {})", c.schema_id),
+            "hydrofit reads ROS 2 MCAP files, whose channels have ros2msg schemas",
+        ));
+    };
+    if s.encoding != "ros2msg" {
+        return Err(fail(
+            format!(
+                "its schema {} is encoded as `{}`, which is not read: only ROS 2 `ros2msg` \
+                 schemas are (not ros2idl, protobuf, flatbuffer, jsonschema)",
+                s.name, s.encoding
+            ),
+            "record the topic with a message type defined in a .msg file, or export the topics \
+             needed to CSV",
+        ));
+    }
+    if c.encoding != "cdr" {
+        return Err(fail(
+            format!("its messages are encoded as `{}`, not CDR", c.encoding),
+            "hydrofit reads ROS 2 (CDR) messages",
+        ));
+    }
+    let text = String::from_utf8_lossy(&s.data);
+    let schema = msgdef::schema(&text, &s.name, Flavor::Ros2).map_err(|e| {
+        fail(
+            format!("its schema {} cannot be read: {e}", s.name),
+            "the schema record is damaged or was written by a non-standard tool",
+        )
+    })?;
+    Ok(Topic {
+        name: c.topic.clone(),
+        type_name: s.name.clone(),
+        count: 0,
+        first_s: 0.0,
+        last_s: 0.0,
+        schema,
+    })
+}

@@ -1,0 +1,154 @@
+//! Messages in log-time order across chunks. Both ROS 1 bags and MCAP files store messages in
+//! compressed chunks, each indexed by time; chunks may overlap in time. The reader sorts the
+//! index entries by time once, then walks them, inflating each chunk when its first message is
+//! due (on other threads, a few chunks ahead) and dropping it after its last.
+
+use crate::LogError;
+use std::borrow::Cow;
+use std::collections::HashMap;
+use std::collections::hash_map::Entry;
+use std::sync::mpsc;
+
+/// Where one message is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Slot {
+    /// Log time, nanoseconds.
+    pub time_ns: u64,
+    /// Offset of the message's record in its chunk's inflated bytes.
+    pub offset: u64,
+    /// Index of the chunk in the reader's chunk table.
+    pub chunk: u32,
+    /// Index of the connection (ROS 1) or channel (MCAP) in the reader's table.
+    pub conn: u32,
+}
+
+impl Slot {
+    /// Time order; ties in file order, as `rosbag` plays them.
+    pub(crate) fn key(&self) -> (u64, u32, u64) {
+        (self.time_ns, self.chunk, self.offset)
+    }
+}
+
+/// Inflates one chunk: borrowed when it is stored uncompressed.
+pub(crate) type Load<'d> = dyn Fn(u32) -> Result<Cow<'d, [u8]>, LogError> + Sync + 'd;
+
+/// Takes one message: its slot and the bytes of its inflated chunk.
+pub(crate) type Visit<'v> = dyn FnMut(&Slot, &[u8]) -> Result<(), LogError> + 'v;
+
+/// Calls `visit` with each of `slots` (sorted) and the bytes of its chunk. Stops at the first
+/// error, from `load` or from `visit`; messages before it have been visited.
+pub(crate) fn run<'d>(slots: &[Slot], load: &Load<'d>, visit: &mut Visit) -> Result<(), LogError> {
+    let mut left: HashMap<u32, usize> = HashMap::new();
+    let mut order = Vec::new();
+    for s in slots {
+        let n = left.entry(s.chunk).or_insert(0);
+        if *n == 0 {
+            order.push(s.chunk);
+        }
+        *n += 1;
+    }
+    if order.len() <= 1 {
+        return walk(slots, left, &mut order.into_iter().map(load), visit);
+    }
+    // Inflating (bz2 above all) is the slow part: loaders on other threads, each taking every
+    // `n`-th chunk of the order and at most two chunks ahead, so the walk gets them in order.
+    let n = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .clamp(1, MAX_LOADERS);
+    let n = n.min(order.len());
+    std::thread::scope(|scope| {
+        let mut inboxes = Vec::with_capacity(n);
+        for k in 0..n {
+            let (tx, rx) = mpsc::sync_channel(1);
+            let mine: Vec<u32> = order.iter().skip(k).step_by(n).copied().collect();
+            scope.spawn(move || {
+                for c in mine {
+                    let r = load(c);
+                    let failed = r.is_err();
+                    if tx.send(r).is_err() || failed {
+                        break;
+                    }
+                }
+            });
+            inboxes.push(rx);
+        }
+        let mut turn = 0;
+        let mut next = std::iter::from_fn(|| {
+            let r = inboxes[turn % n].recv().ok();
+            turn += 1;
+            r
+        });
+        walk(slots, left, &mut next, visit)
+        // Returning drops the inboxes: loaders still running stop at their next send.
+    })
+}
+
+/// At most this many threads inflate chunks.
+const MAX_LOADERS: usize = 4;
+
+/// The walk itself: `loaded` yields the chunks in the order their first slot comes.
+fn walk<'d>(
+    slots: &[Slot],
+    mut left: HashMap<u32, usize>,
+    loaded: &mut dyn Iterator<Item = Result<Cow<'d, [u8]>, LogError>>,
+    visit: &mut Visit,
+) -> Result<(), LogError> {
+    let mut live: HashMap<u32, Cow<'d, [u8]>> = HashMap::new();
+    for s in slots {
+        let bytes = match live.entry(s.chunk) {
+            Entry::Occupied(e) => e.into_mut(),
+            Entry::Vacant(e) => {
+                let next = loaded.next();
+                e.insert(next.expect("the loader yields one chunk per first use")?)
+            }
+        };
+        visit(s, bytes)?;
+        let n = left
+            .get_mut(&s.chunk)
+            .expect("every slot's chunk is counted");
+        *n -= 1;
+        if *n == 0 {
+            live.remove(&s.chunk);
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn slot(t: u64, chunk: u32, offset: u64) -> Slot {
+        Slot {
+            time_ns: t,
+            offset,
+            chunk,
+            conn: 0,
+        }
+    }
+
+    #[test]
+    fn merges_overlapping_chunks_and_stops_at_errors() {
+        let chunks: Vec<Vec<u8>> = vec![vec![10, 30, 50], vec![20, 40], vec![60]];
+        let mut slots = Vec::new();
+        for (c, bytes) in chunks.iter().enumerate() {
+            for (i, &t) in bytes.iter().enumerate() {
+                slots.push(slot(t as u64, c as u32, i as u64));
+            }
+        }
+        slots.sort_by_key(Slot::key);
+        let load = |c: u32| -> Result<Cow<'_, [u8]>, LogError> {
+            if c == 2 {
+                return Err(LogError::new("x", "bad chunk"));
+            }
+            Ok(Cow::Borrowed(&chunks[c as usize][..]))
+        };
+        let mut seen = Vec::new();
+        let r = run(&slots, &load, &mut |s, b| {
+            seen.push(b[s.offset as usize]);
+            Ok(())
+        });
+        assert_eq!(seen, [10, 20, 30, 40, 50]);
+        assert_eq!(r.unwrap_err().what, "bad chunk");
+    }
+}

@@ -1,0 +1,137 @@
+#!/usr/bin/env python3
+"""Write a hydrofit project that builds the ExjobbROV pool-test bags (BlueROV, 2016) directly.
+
+    python3 scripts/exjobb/project.py BAG_DIR OUT_PROJECT
+    cargo run --release -- build --project OUT_PROJECT
+
+No converter: each run folder's run.yaml points at its bag (by absolute path; the bags are not
+copied, their source has no licence) with the span of the bag that is the run, and names the
+topics and fields of the command, attitude, rates and depth. pipeline.yaml describes the
+thrusters once (the thesis's geometry and thrust table), so the six logged PWM values become
+the body wrench inside hydrofit. Python's standard library is all this needs.
+"""
+import sys
+from pathlib import Path
+
+# Thrust per thruster [N] against the normalised command u = (PWM - 1500 us) / 400 us; thesis
+# appendix "Thruster Mapping" (Documents/Master/sections/measuredthrust.txt), 81 points.
+THRUST_N = [
+    -40.0788, -40.0788, -40.0337, -37.5428, -36.6092, -35.4971, -33.7623, -32.3835, -31.2263,
+    -29.9809, -28.5128, -27.6234, -26.5554, -24.7765, -23.1751, -22.1522, -21.3510, -19.5280,
+    -18.4600, -17.3480, -16.1025, -14.6345, -13.0781, -12.1877, -10.9874, -10.0528, -8.8966,
+    -7.7404, -6.8058, -6.0497, -5.1151, -4.2698, -3.4696, -2.7135, -1.8682, -1.1121, -0.5335,
+    -0.2667, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5786, 1.1121, 1.8240, 2.5801, 3.4255, 4.0923, 5.1151,
+    6.2272, 7.0284, 8.2739, 9.2526, 10.8089, 12.2328, 13.6558, 14.9904, 16.4585, 17.7039,
+    19.2161, 20.5508, 21.7521, 23.6644, 24.7324, 26.4221, 27.7126, 29.6249, 31.3156, 32.8729,
+    33.8065, 34.2517, 37.0534, 38.6549, 39.2776, 41.1458, 42.9257, 44.7938, 47.1062, 48.0408,
+    49.9531]
+THRUST_U = [round(k * 0.025, 4) for k in range(-40, 41)]
+
+MASS_KG = 6.621
+# Rigid-body inertia of a uniform box of the frame's size (0.45 x 0.34 x 0.25 m); the added
+# inertia is identified. The thesis gives only rigid + added totals (0.834, 0.799, 1.125).
+BOX_M = (0.45, 0.34, 0.25)
+INERTIA = {
+    "xx": round(MASS_KG * (BOX_M[1] ** 2 + BOX_M[2] ** 2) / 12, 3),
+    "yy": round(MASS_KG * (BOX_M[0] ** 2 + BOX_M[2] ** 2) / 12, 3),
+    "zz": round(MASS_KG * (BOX_M[0] ** 2 + BOX_M[1] ** 2) / 12, 3),
+}
+
+# (bag, role, span in seconds from the bag's start, description). Each run starts at the
+# first thruster command after the controller's restart (a ~0.8 s pause in the thruster
+# topic) with every PWM within 60 us of neutral; before it the log holds stale, wound-up
+# commands while the thrusters were not running. Ends where the vehicle was handled or the
+# thrusters stopped, chosen by inspection (the thesis also cut its tests by hand).
+RUNS = [
+    ("sinAllA1hz05_2016-05-23-15-28-28.bag", "train", [1.894, 14.894], "sine references on p, q and r together"),
+    ("sinAllAttitudeA1_2016-05-25-09-06-44.bag", "train", [1.941, 16.391], "sine references on roll, pitch and yaw angle together"),
+    ("stepThetaPhi_2016-05-25-09-16-21.bag", "train", [2.640, 18.100], "steps on the roll and pitch angle references"),
+    ("sinPhiA1F05_2016-05-25-08-47-12.bag", "train", [3.539, 16.829], "sine on the roll angle reference, 0.5 Hz"),
+    ("sinThetaA1F05_2016-05-25-08-54-21.bag", "train", [1.737, 21.747], "sine on the pitch angle reference, 0.5 Hz"),
+    ("sinQA1Hz05_2016-05-23-15-27-20.bag", "train", [2.966, 20.496], "sine on the pitch rate reference, 0.5 Hz"),
+    ("sinRA1Hz05_2016-05-23-15-23-40.bag", "train", [1.941, 20.391], "sine on the yaw rate reference, 0.5 Hz"),
+    ("stepRS3E10_2016-05-25-08-33-30.bag", "train", [2.515, 25.995], "steps on the yaw rate reference"),
+    ("sinAllA1F05_2016-05-25-08-37-44.bag", "validate", [2.948, 24.498], "sine references on p, q and r together, 0.5 Hz"),
+    ("stepAllAttitude_2016-05-25-09-14-26.bag", "validate", [2.168, 16.199], "steps on the roll, pitch and yaw angle references"),
+    ("sinPhiA1F05_2016-05-25-08-47-49.bag", "validate", [1.635, 22.435], "sine on the roll angle reference, 0.5 Hz (repeat)"),
+    ("sinQA1F05_2016-05-25-08-26-38.bag", "validate", [2.240, 23.699], "sine on the pitch rate reference, 0.5 Hz"),
+]
+
+PIPELINE = """\
+# BlueROV (first version, six T200 thrusters) of the 2016 ExjobbROV master's thesis, identified
+# in roll, pitch and yaw from closed-loop pool tests, read from its ROS 1 bags.
+# Written by scripts/exjobb/project.py.
+vehicle:
+  name: BlueROV 2016 (ExjobbROV thesis)
+  mass_kg: {mass}
+  inertia_kg_m2: {{xx: {xx}, yy: {yy}, zz: {zz}}}
+  dofs: [roll, pitch, yaw]
+  structure: diagonal
+  # Thruster offsets and an unmodelled CG offset: the controller holds steady moments.
+  constant_force: [roll, pitch, yaw]
+  # The thesis's thrusters: 1, 2 vertical front (port, starboard), 3, 4 horizontal (port,
+  # starboard), 5 vertical aft, 6 lateral; its geometry (eq. actuatorGeometry, arms 0.19,
+  # 0.17, 0.11 m) is the layout bluerov1_thesis. Thrust against u = (PWM - 1500) / 400: the
+  # thesis's measured table.
+  thrusters:
+    layout: bluerov1_thesis
+    command: pwm
+    curve:
+      input: {u}
+      thrust_n: {n}
+stages:
+  pool:
+    kind: pool
+    inputs: ["cases/pool/*/"]
+  fit:
+    kind: fit
+    from: [pool]
+  fit_ols:
+    kind: fit
+    from: [pool]
+    settings: {{method: ols}}
+  validate:
+    kind: validate
+    from: [fit, fit_ols, pool]
+  report:
+    kind: report
+    from: [fit, fit_ols, pool, validate]
+"""
+
+RUN = """\
+role: {role}
+description: "{description}; BlueROV 2016 (ExjobbROV), closed-loop attitude and rate controller"
+log:
+  file: {bag}
+  span_s: [{a}, {b}]
+  # rovio/thrusters: six PWM values, us (std_msgs/UInt16MultiArray).
+  command: {{topic: rovio/thrusters, fields: ["data[0..6]"]}}
+  # sensor_fusion/states: the on-board EKF, [roll, pitch, yaw, p, q, r, bias_p, bias_q,
+  # bias_r, depth], zyx Euler angles of the FRD body in NED and body rates, rad and rad/s.
+  attitude: {{topic: sensor_fusion/states, fields: ["data[0..3]"]}}
+  rates: {{topic: sensor_fusion/states, fields: ["data[3..6]"]}}
+  # Gauge pressure of the external sensor, Pa: the depth of the sensor (at the stern).
+  depth: {{topic: rovio/water_pressure/data, fields: [data], unit: pa}}
+"""
+
+
+def main(bag_dir, out):
+    bag_dir, out = Path(bag_dir).resolve(), Path(out)
+    missing = [b for b, _, _, _ in RUNS if not (bag_dir / b).exists()]
+    if missing:
+        sys.exit(f"missing bags in {bag_dir}: {', '.join(missing)}")
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "pipeline.yaml").write_text(PIPELINE.format(mass=MASS_KG, u=THRUST_U, n=THRUST_N, **INERTIA))
+    for bag, role, (a, b), desc in RUNS:
+        stem, date_time = bag[:-4].split("_2016-")
+        name = f"{stem}_{date_time[6:].replace('-', '')}"  # e.g. sinPhiA1F05_084712
+        run = out / "cases" / "pool" / name
+        run.mkdir(parents=True, exist_ok=True)
+        (run / "run.yaml").write_text(RUN.format(role=role, description=desc, bag=bag_dir / bag, a=a, b=b))
+        print(f"{name:24s} {role:8s} {a:6.3f}-{b:6.3f} s of {bag}")
+
+
+if __name__ == "__main__":
+    if len(sys.argv) != 3:
+        sys.exit(__doc__)
+    main(sys.argv[1], sys.argv[2])

@@ -1,0 +1,61 @@
+//! `hydrofit inspect LOG`: what a vehicle's log holds, as `rosbag info` prints it: its
+//! format and span, and per topic its type, count, rate, whether its messages carry header
+//! stamps, and its fields by path (the paths `run.yaml`'s `log:` section names).
+
+use hydrofit_logs::Log;
+use std::path::Path;
+use std::process::ExitCode;
+
+pub fn run(path: &Path, fields: bool) -> anyhow::Result<ExitCode> {
+    let log = Log::open(path)?;
+    let start = log
+        .topics
+        .iter()
+        .filter(|t| t.count > 0)
+        .map(|t| t.first_s)
+        .fold(f64::INFINITY, f64::min);
+    let end = log
+        .topics
+        .iter()
+        .map(|t| t.last_s)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let total: u64 = log.topics.iter().map(|t| t.count).sum();
+    crate::outln!("path:      {}", path.display());
+    crate::outln!("format:    {}", log.format.name());
+    if start.is_finite() {
+        crate::outln!("start:     {start:.3} s (the log's clock)");
+        crate::outln!("duration:  {:.3} s", end - start);
+    }
+    crate::outln!("messages:  {total}");
+    crate::outln!("topics:");
+    let width = log.topics.iter().map(|t| t.name.len()).max().unwrap_or(0);
+    let twidth = log
+        .topics
+        .iter()
+        .map(|t| t.type_name.len())
+        .max()
+        .unwrap_or(0);
+    for t in &log.topics {
+        let stamps = if t.schema.has_header() {
+            "  header stamps"
+        } else {
+            ""
+        };
+        crate::outln!(
+            "  {:width$}  {:twidth$}  {:>8} msgs  {:>8.2} Hz{stamps}",
+            t.name,
+            t.type_name,
+            t.count,
+            t.rate_hz()
+        );
+        if fields {
+            for (p, ty) in t.schema.leaves() {
+                crate::outln!("      {p}: {ty}");
+            }
+        }
+    }
+    for n in log.notes() {
+        crate::outln!("note: {n}");
+    }
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,100 @@
+//! The topics common vehicle software writes, so a run folder needs no mapping for them:
+//! a BlueROV2 under ArduSub with mavros (ROS 1 or 2), an ArduSub DataFlash log, an ArduSub
+//! MAVLink telemetry log. Sources: mavros `rc_io`, `imu`, `local_position` and
+//! `global_position` plugins; ArduPilot's log messages (RCOU, ATT, IMU, BARO) and MAVLink's
+//! common messages. A default whose topic the log lacks is left out (with a note).
+
+use super::log_spec::{Frame, Source, Stack, Unit};
+
+/// The default sources of `stack`, for `n` thrusters, best first per signal (the first whose
+/// topic the log has is used).
+pub fn defaults(stack: Stack, n: usize) -> Vec<(&'static str, Source)> {
+    match stack {
+        Stack::Mavros => mavros(n),
+        Stack::Ardusub => ardusub(n),
+        Stack::ArdusubTlog => ardusub_tlog(n),
+        Stack::None => Vec::new(),
+    }
+}
+
+fn mavros(n: usize) -> Vec<(&'static str, Source)> {
+    let imu = "/mavros/imu/data";
+    vec![
+        (
+            "command",
+            Source::new("/mavros/rc/out", &[&format!("channels[0..{n}]")]),
+        ),
+        (
+            "attitude",
+            Source::quaternion(imu, "orientation", Frame::Enu),
+        ),
+        ("rates", xyz(imu, "angular_velocity").frame(Frame::Flu)),
+        (
+            "acceleration",
+            xyz(imu, "linear_acceleration").frame(Frame::Flu),
+        ),
+        (
+            "velocity",
+            xyz("/mavros/local_position/odom", "twist.twist.linear").frame(Frame::Flu),
+        ),
+        (
+            "depth",
+            Source::new("/mavros/global_position/rel_alt", &["data"]).unit(Unit::UpM),
+        ),
+    ]
+}
+
+fn ardusub(n: usize) -> Vec<(&'static str, Source)> {
+    let c: Vec<String> = (1..=n).map(|k| format!("C{k}")).collect();
+    let c: Vec<&str> = c.iter().map(String::as_str).collect();
+    let mut out = vec![
+        ("command", Source::new("RCOU", &c)),
+        (
+            "attitude",
+            Source::new("ATT", &["Roll", "Pitch", "Yaw"]).unit(Unit::Deg),
+        ),
+    ];
+    for imu in ["IMU[0]", "IMU"] {
+        out.push(("rates", Source::new(imu, &["GyrX", "GyrY", "GyrZ"])));
+        out.push(("acceleration", Source::new(imu, &["AccX", "AccY", "AccZ"])));
+    }
+    // ArduSub's external pressure sensor is the second barometer; its altitude is negative
+    // under water.
+    for baro in ["BARO[1]", "BARO"] {
+        out.push(("depth", Source::new(baro, &["Alt"]).unit(Unit::UpM)));
+    }
+    out
+}
+
+fn ardusub_tlog(n: usize) -> Vec<(&'static str, Source)> {
+    let s: Vec<String> = (1..=n).map(|k| format!("servo{k}_raw")).collect();
+    let s: Vec<&str> = s.iter().map(String::as_str).collect();
+    vec![
+        ("command", Source::new("SERVO_OUTPUT_RAW", &s)),
+        (
+            "attitude",
+            Source::new("ATTITUDE", &["roll", "pitch", "yaw"]),
+        ),
+        (
+            "rates",
+            Source::new("ATTITUDE", &["rollspeed", "pitchspeed", "yawspeed"]),
+        ),
+        (
+            "velocity",
+            Source::new("LOCAL_POSITION_NED", &["vx", "vy", "vz"]).frame(Frame::Ned),
+        ),
+        (
+            "depth",
+            Source::new("SCALED_PRESSURE2", &["press_abs"]).unit(Unit::HpaAbs),
+        ),
+    ]
+}
+
+fn xyz(topic: &str, base: &str) -> Source {
+    let f: Vec<String> = ["x", "y", "z"]
+        .iter()
+        .map(|c| format!("{base}.{c}"))
+        .collect();
+    let f: Vec<&str> = f.iter().map(String::as_str).collect();
+    Source::new(topic, &f)
+}

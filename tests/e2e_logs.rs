@@ -1,0 +1,458 @@
+//! Logs as vehicles write them: the twins' runs written as a ROS 1 bag, an MCAP file and an
+//! ArduPilot DataFlash log read back to the same logs and the same fused velocities as their
+//! CSV files, sample by sample; per-thruster PWM through a thruster layout and curve identifies
+//! the same model as the logged wrench; a run folder that names what its log lacks is a
+//! located error listing what the log holds; a real ArduSub log is read with no mapping.
+
+mod common;
+
+use common::{json, ok, run, stderr};
+use hydrofit::core::model::thrusters::{Command, Curve, Layout, NamedCurve, Thrusters};
+use hydrofit::pool::fusion;
+use hydrofit::pool::import::csvlog::Log;
+use hydrofit::pool::import::{self, PoolRun};
+use hydrofit::twin::logs::{LogFormat, write};
+use std::path::Path;
+
+const FORMATS: [LogFormat; 3] = [LogFormat::Ros1Bag, LogFormat::Mcap, LogFormat::DataFlash];
+
+fn files(root: &Path, dir: &str) -> Vec<String> {
+    hydrofit::core::fsutil::files_under(&root.join(dir), true)
+        .unwrap()
+        .into_iter()
+        .map(|f| format!("{dir}/{f}"))
+        .collect()
+}
+
+fn load(root: &Path, dir: &str, thrusters: Option<&Thrusters>) -> PoolRun {
+    import::load(root, dir, &files(root, dir), thrusters).unwrap_or_else(|e| panic!("{dir}: {e}"))
+}
+
+/// The run's meta lines (role, description) followed by `log`.
+fn run_yaml(root: &Path, csv_dir: &str, log: &str) -> String {
+    let text = std::fs::read_to_string(root.join(csv_dir).join("run.yaml")).unwrap();
+    format!("{}\n{log}", text.trim_end())
+}
+
+/// Writes the CSV run `csv_dir` as a log in a new folder `to` and loads it from there.
+fn as_log(root: &Path, csv_dir: &str, to: &str, f: LogFormat, t: Option<&Thrusters>) -> PoolRun {
+    let csv = import::load_as_logged(root, csv_dir, &files(root, csv_dir), None).unwrap();
+    std::fs::create_dir_all(root.join(to)).unwrap();
+    let log = write(&csv, &root.join(to), f, t).unwrap();
+    std::fs::write(
+        root.join(to).join("run.yaml"),
+        run_yaml(root, csv_dir, &log),
+    )
+    .unwrap();
+    load(root, to, t)
+}
+
+fn same_log(what: &str, a: &Option<Log>, b: &Option<Log>) {
+    let (Some(a), Some(b)) = (a, b) else {
+        assert_eq!(a.is_some(), b.is_some(), "{what}: present in one only");
+        return;
+    };
+    assert_eq!(a.t.len(), b.t.len(), "{what}: samples");
+    assert_eq!(a.present, b.present, "{what}: columns present");
+    for (k, (x, y)) in a.t.iter().zip(&b.t).enumerate() {
+        assert!((x - y).abs() < 1e-6, "{what}: t[{k}] {x} against {y}");
+    }
+    for (c, (ca, cb)) in a.cols.iter().zip(&b.cols).enumerate() {
+        for (k, (x, y)) in ca.iter().zip(cb).enumerate() {
+            let same = (x.is_nan() && y.is_nan()) || (x - y).abs() <= 1e-9 * (1.0 + x.abs());
+            assert!(same, "{what}: column {c} sample {k}: {x} against {y}");
+        }
+    }
+}
+
+fn same_fusion(what: &str, a: &PoolRun, b: &PoolRun) {
+    let s = fusion::Settings::default();
+    let (fa, fb) = (fusion::fuse(a, &s), fusion::fuse(b, &s));
+    assert_eq!(fa.t.len(), fb.t.len(), "{what}: fused samples");
+    for j in 0..4 {
+        let (Some(va), Some(vb)) = (&fa.vel[j], &fb.vel[j]) else {
+            assert_eq!(
+                fa.vel[j].is_some(),
+                fb.vel[j].is_some(),
+                "{what}: velocity {j}"
+            );
+            continue;
+        };
+        let worst = va
+            .iter()
+            .zip(vb)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max);
+        assert!(
+            worst < 1e-6,
+            "{what}: fused velocity {j} differs by up to {worst}"
+        );
+    }
+}
+
+#[test]
+fn every_log_format_reads_back_to_the_csv_run_and_its_fusion() {
+    let d = tempfile::tempdir().unwrap();
+    let root = d.path();
+    ok(root, &["twin", "pool", "--out", "pool", "--truth", "truth"]);
+    ok(
+        root,
+        &["twin", "field", "--out", "field", "--truth", "ftruth"],
+    );
+    let mut runs: Vec<String> = Vec::new();
+    for set in ["pool", "field"] {
+        let mut names: Vec<String> = std::fs::read_dir(root.join(set))
+            .unwrap()
+            .map(|e| format!("{set}/{}", e.unwrap().file_name().to_string_lossy()))
+            .collect();
+        names.sort();
+        // Two runs of each set: the UWB, sonar and IMU runs, and the navigation-log runs.
+        runs.extend(names.into_iter().take(2));
+    }
+    for f in FORMATS {
+        for dir in &runs {
+            let to = format!(
+                "as_{}/{}",
+                f.file_name().replace('.', "_"),
+                dir.replace('/', "_")
+            );
+            let csv = load(root, dir, None);
+            let log = as_log(root, dir, &to, f, None);
+            let what = format!("{dir} as {:?}", f);
+            same_log(
+                &format!("{what}: command"),
+                &Some(csv.thrust.clone()),
+                &Some(log.thrust.clone()),
+            );
+            same_log(&format!("{what}: UWB"), &csv.uwb, &log.uwb);
+            same_log(&format!("{what}: sonar"), &csv.sonar, &log.sonar);
+            same_log(&format!("{what}: IMU"), &csv.imu, &log.imu);
+            same_log(&format!("{what}: depth"), &csv.depth, &log.depth);
+            same_log(&format!("{what}: navigation log"), &csv.nav, &log.nav);
+            same_fusion(&what, &csv, &log);
+            let src = log.log_source.as_ref().expect("a log source");
+            assert!(src.topics.contains_key("wrench"), "{what}: {src:?}");
+        }
+    }
+}
+
+/// The Heavy's layout and T200 curve, at twice the T200's thrust: the twin's 35 kg vehicle is
+/// commanded up to 100 N, more than eight T200 give in some directions.
+fn heavy() -> Thrusters {
+    Thrusters {
+        layout: Some(Layout::Bluerov2Heavy),
+        units: vec![],
+        command: Command::Pwm,
+        neutral_us: 1500.0,
+        half_range_us: 400.0,
+        curve: Curve::Named(NamedCurve::T200_16v),
+        gain: 2.0,
+    }
+}
+
+const PIPELINE: &str = "vehicle:
+  name: twin ROV
+  mass_kg: 35.2
+  inertia_kg_m2: {zz: 1.38}
+  dofs: [surge, sway, heave, yaw]
+  structure: diagonal
+THRUSTERS
+stages:
+  pool: {kind: pool, inputs: [\"cases/pool/*/\"]}
+  fit: {kind: fit, from: [pool]}
+  validate: {kind: validate, from: [fit, pool]}
+  report: {kind: report, from: [fit, pool, validate]}
+";
+
+#[test]
+fn per_thruster_pwm_identifies_the_model_the_wrench_does() {
+    let d = tempfile::tempdir().unwrap();
+    let root = d.path();
+    ok(
+        root,
+        &[
+            "twin",
+            "pool",
+            "--out",
+            "twin/pool",
+            "--truth",
+            "truth",
+            "--effect",
+            "none",
+        ],
+    );
+    let thrusters = heavy();
+    let (wrench, pwm) = (root.join("wrench"), root.join("pwm"));
+    let mut names: Vec<String> = std::fs::read_dir(root.join("twin/pool"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
+        .collect();
+    names.sort();
+    for n in &names {
+        let from = format!("twin/pool/{n}");
+        hydrofit::core::fsutil::copy_dir(&root.join(&from), &wrench.join("cases/pool").join(n))
+            .unwrap();
+        // The same run with its command as eight PWM values in a bag.
+        let to = format!("pwm/cases/pool/{n}");
+        let run = as_log(root, &from, &to, LogFormat::Ros1Bag, Some(&thrusters));
+        let csv = load(root, &from, None);
+        // The wrench back from whole-microsecond PWM: within the curve's step per microsecond.
+        for c in 0..4 {
+            let worst = csv.thrust.cols[c]
+                .iter()
+                .zip(&run.thrust.cols[c])
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
+            assert!(worst < 1.0, "{n}: command column {c} off by {worst}");
+        }
+        for f in ["uwb.csv", "sonar.csv", "imu.csv", "depth.csv"] {
+            if root.join(&from).join(f).exists() {
+                std::fs::copy(root.join(&from).join(f), root.join(&to).join(f)).unwrap();
+            }
+        }
+        // Sensors from the CSV files, the command from the bag.
+        let yaml = std::fs::read_to_string(root.join(&to).join("run.yaml")).unwrap();
+        let kept: Vec<&str> = yaml
+            .lines()
+            .filter(|l| {
+                !l.contains("position:")
+                    && !l.contains("sonar:")
+                    && !l.contains("attitude:")
+                    && !l.contains("rates:")
+                    && !l.contains("acceleration:")
+                    && !l.contains("depth:")
+            })
+            .collect();
+        std::fs::write(root.join(&to).join("run.yaml"), kept.join("\n") + "\n").unwrap();
+    }
+    let yaml = serde_yaml_ng::to_string(&serde_json::json!({"thrusters": thrusters})).unwrap();
+    let indented: String = yaml.lines().map(|l| format!("  {l}\n")).collect();
+    std::fs::write(
+        wrench.join("pipeline.yaml"),
+        PIPELINE.replace("THRUSTERS\n", ""),
+    )
+    .unwrap();
+    std::fs::write(
+        pwm.join("pipeline.yaml"),
+        PIPELINE.replace("THRUSTERS\n", &indented),
+    )
+    .unwrap();
+    ok(&wrench, &["build"]);
+    ok(&pwm, &["build"]);
+    let params = |p: &Path| -> Vec<(String, f64, f64, bool)> {
+        json(p, "reports/parameters.json")["parameters"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| {
+                let v = |k: &str| x[k].as_f64().unwrap_or(f64::NAN);
+                let sure = x["identifiable"].as_bool().unwrap_or(true);
+                (
+                    x["name"].as_str().unwrap().to_string(),
+                    v("value"),
+                    v("stderr"),
+                    sure,
+                )
+            })
+            .collect()
+    };
+    let (a, b) = (params(&wrench), params(&pwm));
+    assert_eq!(a.len(), b.len());
+    // The same model: each coefficient the runs determine within 3 % or two standard errors
+    // (whole-microsecond PWM moves each thrust by up to a tenth of a newton). A DOF with a
+    // coefficient the runs cannot determine (the twin's heave added mass, 2.4 times its mass,
+    // sits on the 2x prior) trades its other coefficients against it: it is left out.
+    let dof = |n: &str| n.chars().next().unwrap();
+    let unsure: Vec<char> = a.iter().filter(|p| !p.3).map(|p| dof(&p.0)).collect();
+    let mut compared = 0;
+    for ((n, x, se, sure), (_, y, _, _)) in a.iter().zip(&b) {
+        if *sure && !unsure.contains(&dof(n)) {
+            let tol = (0.03 * x.abs()).max(2.0 * se);
+            assert!(
+                (x - y).abs() <= tol,
+                "{n}: {x} from the wrench, {y} from PWM (std. error {se})"
+            );
+            compared += 1;
+        }
+    }
+    assert!(
+        compared >= 8,
+        "only {compared} coefficients were identifiable"
+    );
+    // And it predicts the held-out runs as well in those DOFs.
+    let letter = |d: &str| match d {
+        "surge" => 'X',
+        "sway" => 'Y',
+        "heave" => 'Z',
+        "roll" => 'K',
+        "pitch" => 'M',
+        _ => 'N',
+    };
+    let nmae = |p: &Path| -> Vec<(String, f64)> {
+        let v = json(p, "reports/validation.json");
+        let runs = v["models"][0]["runs"].as_array().unwrap().clone();
+        let mut out = Vec::new();
+        for r in runs.iter().filter(|r| r["role"] == "validate") {
+            for (d, m) in r["dofs"].as_object().unwrap() {
+                out.push((d.clone(), m["nmae"].as_f64().unwrap()));
+            }
+        }
+        out
+    };
+    for ((d, x), (_, y)) in nmae(&wrench).iter().zip(nmae(&pwm)) {
+        if !unsure.contains(&letter(d)) {
+            assert!(
+                (x - y).abs() < 0.02,
+                "{d}: held-out NMAE {x} from the wrench, {y} from PWM"
+            );
+        }
+    }
+    let inputs = json(&pwm, "reports/parameters.json")["parameters"][0]["inputs"].clone();
+    assert!(
+        inputs
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|i| i["path"].as_str().unwrap().ends_with("run.bag")
+                && i["topics"]["command"] == "/thrusters"),
+        "the bag is an input, with its topic: {inputs}"
+    );
+}
+
+#[test]
+fn a_mapping_the_log_cannot_satisfy_is_a_located_error() {
+    let d = tempfile::tempdir().unwrap();
+    let root = d.path();
+    ok(root, &["twin", "pool", "--out", "twin", "--truth", "truth"]);
+    let mixed =
+        import::load_as_logged(root, "twin/mixed", &files(root, "twin/mixed"), None).unwrap();
+    std::fs::create_dir_all(root.join("p/cases/pool/r")).unwrap();
+    let log = write(
+        &mixed,
+        &root.join("p/cases/pool/r"),
+        LogFormat::Ros1Bag,
+        None,
+    )
+    .unwrap();
+    std::fs::write(
+        root.join("p/pipeline.yaml"),
+        PIPELINE.replace("THRUSTERS\n", ""),
+    )
+    .unwrap();
+    let cases = [
+        // A topic the log lacks: the error lists the topics it has, with types and rates.
+        (
+            log.replace("topic: /wrench", "topic: /cmd_wrench"),
+            vec![
+                "no topic `/cmd_wrench`",
+                "/wrench  geometry_msgs/WrenchStamped",
+            ],
+        ),
+        // A field the message lacks.
+        (
+            log.replace("wrench.force.x", "wrench.force.q"),
+            vec!["wrench.force.q", "wrench.force.x"],
+        ),
+        // A topic of another type: the IMU named for the wrench.
+        (
+            log.replace("wrench: {topic: /wrench", "wrench: {topic: /imu"),
+            vec!["sensor_msgs/Imu", "no field"],
+        ),
+        // A span outside the log.
+        (
+            log.replace("stack: none", "stack: none\n  span_s: [900, 1000]"),
+            vec!["span_s [900, 1000]"],
+        ),
+    ];
+    for (text, want) in cases {
+        std::fs::write(
+            root.join("p/cases/pool/r/run.yaml"),
+            format!("role: train\n{text}"),
+        )
+        .unwrap();
+        let o = run(&root.join("p"), &["build", "pool"]);
+        let e = stderr(&o);
+        assert!(!o.status.success(), "{text}");
+        for w in &want {
+            assert!(e.contains(w), "wanted `{w}` in:\n{e}");
+        }
+        assert!(e.contains("run.bag"), "the error names the log: {e}");
+    }
+    // A log cut in its middle (a copy that stopped): read up to the cut, and said.
+    let bag = root.join("p/cases/pool/r/run.bag");
+    let bytes = std::fs::read(&bag).unwrap();
+    std::fs::write(&bag, &bytes[..bytes.len() / 2]).unwrap();
+    std::fs::write(
+        root.join("p/cases/pool/r/run.yaml"),
+        format!("role: train\n{log}"),
+    )
+    .unwrap();
+    let cut = load(&root.join("p"), "cases/pool/r", None);
+    let notes = cut.notes.join("\n");
+    assert!(
+        notes.contains("run.bag: the bag ends at byte") && notes.contains("cut short"),
+        "{notes}"
+    );
+    assert!(
+        cut.thrust.t.len() < mixed.thrust.t.len() * 3 / 4,
+        "read up to the cut only"
+    );
+    // Damage in its middle: a located error.
+    let mut bytes = bytes.clone();
+    let mid = bytes.len() / 2;
+    for b in &mut bytes[mid..mid + 100] {
+        *b = 0xff;
+    }
+    std::fs::write(&bag, &bytes).unwrap();
+    let o = run(&root.join("p"), &["build", "pool"]);
+    assert!(!o.status.success(), "damage in the middle is an error");
+    let e = stderr(&o);
+    assert!(e.contains("run.bag") && e.contains("(byte "), "{e}");
+}
+
+#[test]
+fn a_real_ardusub_log_is_read_without_a_mapping() {
+    let d = tempfile::tempdir().unwrap();
+    let root = d.path();
+    let bin =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("crates/logs/tests/data/ardusub/small.BIN");
+    let out = ok(root, &["inspect", bin.to_str().unwrap()]);
+    assert!(
+        out.contains("ArduPilot DataFlash log") && out.contains("RCOU"),
+        "{out}"
+    );
+    std::fs::create_dir_all(root.join("cases/pool/dive")).unwrap();
+    std::fs::write(
+        root.join("cases/pool/dive/run.yaml"),
+        format!("role: train\nlog:\n  file: {}\n", bin.display()),
+    )
+    .unwrap();
+    let mut t = heavy();
+    t.layout = Some(Layout::Bluerov2);
+    t.gain = 1.0;
+    let run = load(root, "cases/pool/dive", Some(&t));
+    let notes = run.notes.join("\n");
+    for signal in [
+        "command from `RCOU`",
+        "attitude from `ATT`",
+        "rates from `IMU[0]`",
+        "depth from `BARO[1]`",
+    ] {
+        assert!(notes.contains(signal), "{signal} in {notes}");
+    }
+    // A bench test in air at neutral PWM: no thrust, level within a degree, at the surface.
+    assert!(run.thrust.cols[0].iter().all(|x| x.abs() < 1e-9));
+    let imu = run.imu.as_ref().expect("attitude and rates");
+    assert!(
+        imu.cols[0]
+            .iter()
+            .filter(|r| !r.is_nan())
+            .all(|r| r.abs() < 1f64.to_radians())
+    );
+    let depth = run.depth.as_ref().expect("depth");
+    assert!(
+        depth.cols[0].iter().all(|z| z.abs() < 0.05),
+        "{:?}",
+        &depth.cols[0][..5]
+    );
+}
