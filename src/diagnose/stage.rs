@@ -49,6 +49,12 @@ impl StageImpl for Settings {
             .map(|u| crate::pool::fusion::run::load_for(&u.dir, ctx.vehicle))
             .collect::<Result<_, _>>()?;
         let plant = f.plant(ctx.vehicle);
+        // The model's command lag is part of it: the runs are diagnosed under the command as
+        // the model passes it on.
+        let fused: Vec<_> = fused
+            .into_iter()
+            .map(|r| r.with_command_lag(plant.command_lag_s))
+            .collect();
         let progress = |m: &str| ctx.progress.set_message(m.to_string());
         let (mut diagnosis, figures) = diagnose(
             ctx.vehicle,

@@ -2,6 +2,7 @@
 
 pub mod fit;
 mod kernels;
+pub mod lag;
 pub mod method;
 pub mod normal;
 pub mod ols;
@@ -86,6 +87,10 @@ pub struct Fit {
     /// The prediction-error method: how its output-error refinement went.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub refinement: Option<Refinement>,
+    /// The prediction-error method: the command lag fitted with the model, when the runs
+    /// demanded one (or it was set).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub command_lag: Option<lag::LagEstimate>,
 }
 
 /// An output-error refinement from an equation-error start: its cost before and after (the
@@ -124,6 +129,8 @@ pub struct Options<'a> {
     /// Largest added mass per DOF as a multiple of its rigid-body term (the prediction-error
     /// method's plausibility prior).
     pub added_mass_prior: [f64; 6],
+    /// The prediction-error method's command lag.
+    pub command_lag: lag::CommandLag,
 }
 
 impl<'a> Options<'a> {
@@ -150,6 +157,7 @@ impl Default for Options<'_> {
             output_error: None,
             max_seconds: None,
             added_mass_prior: [pem::DEFAULT_PRIOR; 6],
+            command_lag: lag::CommandLag::None,
         }
     }
 }

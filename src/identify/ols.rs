@@ -260,6 +260,7 @@ pub(crate) fn summarise_with(
         stopped_early: None,
         trace: None,
         refinement: None,
+        command_lag: None,
     }
 }
 

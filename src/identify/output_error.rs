@@ -24,6 +24,16 @@ impl<'a> OutputError<'a> {
         vehicle: &'a crate::core::model::Vehicle,
         responses: &'a [&'a crate::core::response::Response],
     ) -> OutputError<'a> {
+        OutputError::with_lag(vehicle, responses, 0.0)
+    }
+
+    /// The objective with every command passed through a first-order lag of `lag_s` (the
+    /// thrusters' and the command path's), as the model it fits will be simulated.
+    pub fn with_lag(
+        vehicle: &'a crate::core::model::Vehicle,
+        responses: &'a [&'a crate::core::response::Response],
+        lag: f64,
+    ) -> OutputError<'a> {
         let weight = responses
             .iter()
             .map(|r| {
@@ -38,7 +48,10 @@ impl<'a> OutputError<'a> {
             .collect();
         let taus = responses
             .iter()
-            .map(|r| (0..r.len()).map(|k| r.tau(k)).collect())
+            .map(|r| {
+                let tau: Vec<Vec6> = (0..r.len()).map(|k| r.tau(k)).collect();
+                crate::core::model::dynamics::lagged(&r.t, &tau, lag)
+            })
             .collect();
         OutputError {
             vehicle,

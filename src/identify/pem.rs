@@ -13,6 +13,7 @@
 //! Without pool runs (CFD cases only) the least-squares answer is the answer: a CFD case is a
 //! clean force-in, velocity-out record, where the equation error is what seed 001 minimises.
 
+use super::lag::{CommandLag, LagEstimate};
 use super::ols::{self, Ols};
 use super::output_error::OutputError;
 use super::refine::{Bounds, output_error_lm_within};
@@ -33,6 +34,9 @@ pub struct PemSettings {
     /// Per DOF, the largest added mass (inertia) as a multiple of the rigid-body term; DOFs not
     /// listed take [`DEFAULT_PRIOR`].
     pub added_mass_prior: BTreeMap<Dof, f64>,
+    /// The lag between a logged command and the force (see [`super::lag`]): `auto`
+    /// (estimated, kept when the runs demand it), `none`, or seconds.
+    pub command_lag: CommandLag,
 }
 
 /// An open-frame vehicle's added mass is of the order of its mass; twice it bounds the
@@ -45,6 +49,7 @@ impl Default for PemSettings {
         PemSettings {
             iterations: 50,
             added_mass_prior: BTreeMap::new(),
+            command_lag: CommandLag::Auto,
         }
     }
 }
@@ -85,6 +90,7 @@ impl Estimator for Pem {
     fn apply(&self, settings: &serde_json::Value, opts: &mut Options) {
         let s = PemSettings::of(settings);
         opts.iterations = s.iterations;
+        opts.command_lag = s.command_lag;
         opts.added_mass_prior = std::array::from_fn(|i| {
             s.added_mass_prior
                 .get(&Dof::ALL[i])
@@ -109,14 +115,14 @@ impl Estimator for Pem {
         // Each run and DOF counts by its relative error (1 / its mean square velocity), as the
         // held-out NMAE scores it; weighting a DOF over all runs together let the runs that move
         // most in it decide, and the real vehicle's held-out roll NMAE doubled.
-        let oe = OutputError::new(vehicle, responses);
         let theta0: Vec<f64> = start.parameters.iter().map(|p| p.value).collect();
-        let mut r = output_error_lm_within(&oe, layout, &theta0, opts.iterations, &bounds);
+        let (lag, mut r) = with_lag(vehicle, responses, layout, &theta0, &bounds, opts);
+        let oe = OutputError::with_lag(vehicle, responses, lag.as_ref().map_or(0.0, |l| l.value_s));
         let mut demanded = Vec::new();
         // The prior is soft: an added mass on it is freed (up to the population methods'
         // search bound) and kept beyond it only when the runs demand it.
         let on_prior: Vec<usize> = (0..r.theta.len())
-            .filter(|&j| bounds.at_prior(j, r.theta[j]))
+            .filter(|&j| is_added_mass(problem, j) && bounds.at_prior(j, r.theta[j]))
             .collect();
         if !on_prior.is_empty() {
             let mut wide = bounds.clone();
@@ -159,7 +165,54 @@ impl Estimator for Pem {
                 names: layout.names(),
                 correlation: r.correlation,
             }),
+            command_lag: lag,
         })
+    }
+}
+
+/// The output-error fit from `theta0` with the command lag `opts` asks for: none, the one set,
+/// or (`auto`) the one the runs demand, searched from the fit without a lag.
+fn with_lag(
+    vehicle: &crate::core::model::Vehicle,
+    responses: &[&crate::core::response::Response],
+    layout: &crate::core::model::ParamLayout,
+    theta0: &[f64],
+    bounds: &Bounds,
+    opts: &Options,
+) -> (Option<LagEstimate>, super::refine::Refined) {
+    let fit = |lag: f64, from: &[f64]| {
+        let oe = OutputError::with_lag(vehicle, responses, lag);
+        output_error_lm_within(&oe, layout, from, opts.iterations, bounds)
+    };
+    match opts.command_lag {
+        CommandLag::None => (None, fit(0.0, theta0)),
+        CommandLag::Seconds(x) => {
+            let r = fit(x, theta0);
+            let set = LagEstimate {
+                value_s: x,
+                stderr_s: f64::NAN,
+                cost_without: f64::NAN,
+                cost_with: r.cost_after,
+                estimated: false,
+            };
+            (Some(set), r)
+        }
+        CommandLag::Auto => {
+            let r0 = fit(0.0, theta0);
+            match super::lag::search(vehicle, responses, layout, &r0.theta, r0.cost_after, bounds) {
+                Some((est, theta)) => {
+                    let r = fit(est.value_s, &theta);
+                    (
+                        Some(LagEstimate {
+                            cost_with: r.cost_after,
+                            ..est
+                        }),
+                        r,
+                    )
+                }
+                None => (None, r0),
+            }
+        }
     }
 }
 
@@ -171,13 +224,20 @@ const BEYOND_PRIOR: f64 = 5.0;
 /// prior: well above what refitting noise gains.
 const DEMAND: f64 = 0.01;
 
+/// Whether parameter `j` is a diagonal added mass (the terms with a plausibility prior).
+fn is_added_mass(problem: &Regression, j: usize) -> bool {
+    let t = problem.layout.terms[j];
+    t.group() == Group::AddedMass && t.is_diagonal()
+}
+
 /// The DOF (index) of parameter `j`'s equation.
 fn dof_of(problem: &Regression, j: usize) -> usize {
     problem.layout.terms[j].dof().index()
 }
 
-/// The range of every coefficient: its physical sign, and the added mass of each DOF at most
-/// `prior` times its rigid-body term.
+/// The range of every coefficient: its physical sign, the added mass of each DOF at most
+/// `prior` times its rigid-body term, and the diagonal drag no stiffer than a time constant of
+/// [`FASTEST_S`] (at [`SPEED_REF`] for the quadratic term) with the largest plausible mass.
 pub fn plausible(
     layout: &crate::core::model::ParamLayout,
     rigid_mass: &[f64; 6],
@@ -185,13 +245,28 @@ pub fn plausible(
 ) -> Bounds {
     let mut b = Bounds::signs(layout);
     for (j, t) in layout.terms.iter().enumerate() {
-        if t.group() == Group::AddedMass && t.is_diagonal() {
-            let i = t.dof().index();
-            b.lo[j] = -prior[i] * rigid_mass[i];
+        let i = t.dof().index();
+        let heaviest = (1.0 + prior[i]) * rigid_mass[i];
+        match t.group() {
+            Group::AddedMass if t.is_diagonal() => b.lo[j] = -prior[i] * rigid_mass[i],
+            Group::LinearDrag if t.is_diagonal() => b.lo[j] = -heaviest / FASTEST_S,
+            Group::QuadraticDrag if t.is_diagonal() => {
+                b.lo[j] = -heaviest / (FASTEST_S * SPEED_REF)
+            }
+            _ => {}
         }
     }
     b
 }
+
+/// The fastest a vehicle's velocity may settle under its drag alone, s: a drag fitted stiffer
+/// stands in for something the model lacks (a constant force it cannot otherwise explain
+/// makes the output error prefer a velocity pinned at zero), and stiffer than the simulator's
+/// step it would not even integrate.
+pub const FASTEST_S: f64 = 0.1;
+
+/// The speed at which a quadratic drag's time constant is taken, m/s or rad/s.
+const SPEED_REF: f64 = 2.0;
 
 /// Parameter `j` of the refined answer `r`: its standard error from the output error's
 /// Jacobian, not identifiable when that is over half the value or the value sits on the prior
@@ -225,6 +300,13 @@ fn estimate(
         _ if at_search_bound => (
             Some(format!(
                 "{name} ran to {BEYOND_PRIOR} times its rigid-body term: the runs push it without bound, so it stands in for something the model lacks (a lag, a filtered sensor) or they cannot tell this inertia from the damping"
+            )),
+            true,
+        ),
+        _ if at_prior && !is_added_mass(problem, j) => (
+            Some(format!(
+                "{name} sits on its stiffness bound (a time constant of {FASTEST_S} s): the runs push the drag past any vehicle's, so it stands in for something the model lacks (a constant force in {}: `constant_force`, a lag) or the runs do not move in this DOF",
+                term.dof()
             )),
             true,
         ),

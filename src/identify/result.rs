@@ -117,7 +117,10 @@ impl FitResult {
 
     /// The identified model of `vehicle` (the fit's own body when it has one).
     pub fn plant(&self, vehicle: &crate::core::model::Vehicle) -> crate::core::model::Plant {
-        crate::core::model::Plant::new(self.vehicle.as_ref().unwrap_or(vehicle), self.hydro())
+        let mut p =
+            crate::core::model::Plant::new(self.vehicle.as_ref().unwrap_or(vehicle), self.hydro());
+        p.command_lag_s = self.fit.command_lag.as_ref().map_or(0.0, |l| l.value_s);
+        p
     }
 
     /// Every input file the values depend on: CFD cases and pool runs.

@@ -39,6 +39,29 @@ impl Settings {
     }
 }
 
+impl Settings {
+    /// Recordings alone: every DOF carries a constant force unless the vehicle says which do.
+    /// A real vehicle is never exactly neutral (buoyancy, a tether's pull, a thruster's offset,
+    /// the controller's feed-forward in the command), and without the constant the simulation
+    /// error is cut by pinning the DOF's velocity at zero with a stiff drag. Returns the note.
+    fn constants_for_recordings(
+        &self,
+        ctx: &RunCtx,
+        no_cfd: bool,
+        vehicle: &mut crate::core::model::Vehicle,
+    ) -> Option<String> {
+        let pool_only = no_cfd && ctx.upstream_of(Artifact::PoolRuns).next().is_some();
+        if !(pool_only
+            && vehicle.constant_force.is_empty()
+            && self.method.estimator.minimises_output_error())
+        {
+            return None;
+        }
+        vehicle.constant_force = vehicle.dofs.clone();
+        Some("constant forces in every DOF: the vehicle's `constant_force` lists none, and a vehicle in the water is never exactly neutral (list the DOFs in `constant_force` to choose)".into())
+    }
+}
+
 impl StageImpl for Settings {
     /// Only the settings the chosen method reads, so tuning the swarm does not rerun a
     /// least-squares fit (and a deterministic method shows no seed).
@@ -48,10 +71,16 @@ impl StageImpl for Settings {
 
     fn run(&self, ctx: &RunCtx) -> anyhow::Result<()> {
         let start = std::time::Instant::now();
-        let vehicle = &self.vehicle(ctx.vehicle)?;
+        let mut vehicle = self.vehicle(ctx.vehicle)?;
         let (cases, responses) = cfd_cases(ctx)?;
-        let (runs, pool_responses, mut notes) =
+        let mut notes = Vec::new();
+        if let Some(note) = self.constants_for_recordings(ctx, cases.is_empty(), &mut vehicle) {
+            notes.push(note);
+        }
+        let vehicle = &vehicle;
+        let (runs, pool_responses, run_notes) =
             training_runs(ctx, vehicle, self.common.median_filter.as_ref())?;
+        notes.extend(run_notes);
         notes.extend(ctx.failed_notes());
         check_windows(ctx, &self.common, responses.iter().chain(&pool_responses))?;
         let labelled = cases

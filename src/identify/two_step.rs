@@ -107,6 +107,7 @@ pub fn two_step(early: &Regression, all: &Regression) -> anyhow::Result<Fit> {
         stopped_early: None,
         trace: None,
         refinement: None,
+        command_lag: None,
     })
 }
 

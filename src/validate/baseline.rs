@@ -74,7 +74,10 @@ pub fn fit_first_order(vehicle: &Vehicle, runs: &[FusedRun]) -> Result<Plant, St
     }
     let refs: Vec<&crate::core::response::Response> = responses.iter().collect();
     let problem = Regression::build(&v, &refs, 0.0);
-    let method = crate::identify::Method::parse("pem", Default::default())?;
+    // The simple model a user would write: no command lag.
+    let mut own = serde_json::Map::new();
+    own.insert("command_lag".into(), "none".into());
+    let method = crate::identify::Method::parse("pem", own)?;
     let opts = method.options(Options {
         rigid_mass: v.rigid_mass(),
         output_error: Some((&v, &refs[..])),

@@ -109,6 +109,8 @@ pub fn sim_file(model: &str, run: &str) -> String {
 pub fn simulate_run(plant: &Plant, run: &FusedRun, horizon: Horizon) -> (Vec<Vec6>, Stability) {
     let t = &run.fused.t;
     let tau: Vec<Vec6> = (0..t.len()).map(|k| run.tau(k)).collect();
+    // The model's command lag (thrusters, command path), when it has one.
+    let tau = crate::core::model::dynamics::lagged(t, &tau, plant.command_lag_s);
     // A window after the first starts from the recording's centred mean over five samples, so
     // that one sample's noise is not carried through it.
     let fused_at = |k: usize| -> Vec6 {

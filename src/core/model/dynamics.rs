@@ -136,6 +136,10 @@ pub struct Plant {
     coupled: Option<Box<Coupled>>,
     /// Why the mass matrix cannot be inverted, when it cannot.
     mass_problem: Option<String>,
+    /// The first-order lag (s) between a logged command and the force the thrusters give
+    /// (0: none), identified with the model from pool runs; applied to a run's logged command
+    /// before it is simulated (see [`lagged`]).
+    pub command_lag_s: f64,
 }
 
 impl Plant {
@@ -162,6 +166,7 @@ impl Plant {
             active,
             coupled,
             mass_problem,
+            command_lag_s: 0.0,
         }
     }
 
@@ -297,6 +302,37 @@ fn diagonal_mass_problem(m: &Vec6, active: &[bool; 6]) -> Option<String> {
             bad.join(", ")
         )
     })
+}
+
+/// The command as a first-order lag of time constant `lag_s` passes it on: per sample
+/// interval, the mean of the lag's output while the logged command `tau[k]` is held from
+/// `t[k]` to `t[k+1]` (exact for a zero-order-held command). The lag starts at the first
+/// command, as a vehicle at rest with its thrusters settled.
+pub fn lagged(t: &[f64], tau: &[Vec6], lag_s: f64) -> Vec<Vec6> {
+    if lag_s.is_nan() || lag_s <= 0.0 || tau.is_empty() {
+        return tau.to_vec();
+    }
+    let mut u = tau[0];
+    let mut out = Vec::with_capacity(tau.len());
+    for k in 0..tau.len() {
+        let dt = if k + 1 < t.len() {
+            t[k + 1] - t[k]
+        } else {
+            0.0
+        };
+        let e = (-dt / lag_s).exp();
+        // The mean over the interval of tau + (u - tau) exp(-s / T).
+        let mean_factor = if dt > 0.0 {
+            lag_s / dt * (1.0 - e)
+        } else {
+            1.0
+        };
+        out.push(std::array::from_fn(|i| {
+            tau[k][i] + (u[i] - tau[k][i]) * mean_factor
+        }));
+        u = std::array::from_fn(|i| tau[k][i] + (u[i] - tau[k][i]) * e);
+    }
+    out
 }
 
 #[cfg(test)]

@@ -238,7 +238,19 @@ impl Structure {
         } else if ix.iter().any(|&i| i == 3 || i == 4) {
             // A vehicle that rolls or pitches is held level by the moment of its weight and
             // buoyancy: without it a diagonal model of roll and pitch has no restoring term.
-            out.extend((0..3).map(Term::Moment));
+            // The vertical offset of the centre of gravity below the centre of buoyancy
+            // (eta_z) is that restoring moment. A horizontal offset gives, near level trim, a
+            // constant pitch (eta_x) or roll (eta_y) moment: where the model already has that
+            // constant (`constant_force`), the two cannot be told apart, and the offset's
+            // small cross terms (a yaw moment when rolled) would be fitted to noise.
+            let constant_in = |i: usize| constant.contains(&Dof::ALL[i]);
+            out.push(Term::Moment(2));
+            if !constant_in(4) {
+                out.push(Term::Moment(0));
+            }
+            if !constant_in(3) {
+                out.push(Term::Moment(1));
+            }
         }
         Ok(out)
     }

@@ -170,6 +170,7 @@ impl Outcome {
             stopped_early,
             trace: None,
             refinement: None,
+            command_lag: None,
         }
     }
 

@@ -299,6 +299,25 @@ impl FusedRun {
         [c[0], c[1], c[2], kk, m, c[3]]
     }
 
+    /// The run with its logged command passed through a first-order lag of `lag_s` (a model's
+    /// command lag; see [`crate::core::model::dynamics::lagged`]).
+    pub fn with_command_lag(mut self, lag_s: f64) -> FusedRun {
+        if lag_s.is_nan() || lag_s <= 0.0 {
+            return self;
+        }
+        let tau: Vec<crate::core::model::Vec6> =
+            (0..self.thrust.len()).map(|k| self.tau(k)).collect();
+        let lagged = crate::core::model::dynamics::lagged(&self.fused.t, &tau, lag_s);
+        let has_moments = !self.moments.is_empty();
+        for (k, x) in lagged.iter().enumerate() {
+            self.thrust[k] = [x[0], x[1], x[2], x[5]];
+            if has_moments {
+                self.moments[k] = [x[3], x[4]];
+            }
+        }
+        self
+    }
+
     /// Roll and pitch at sample `k` (level where no sensor gave them).
     pub fn attitude(&self, k: usize) -> [f64; 2] {
         let rp = &self.fused.roll_pitch;

@@ -1,0 +1,146 @@
+//! The lag between a logged command and the force the water sees: an ESC and a propeller
+//! spinning up, a command logged before it is sent. On closed-loop runs of half-hertz
+//! manoeuvres a tenth of a second of it is 20 degrees of phase, which a model without it makes
+//! up with a wrong inertia and damping. The prediction-error method estimates one first-order
+//! time constant for every DOF with the model (a line search on the output error, each point
+//! a short Levenberg-Marquardt refit), and keeps it only when the runs demand it.
+
+use super::output_error::OutputError;
+use super::refine::{Bounds, output_error_lm_within};
+use crate::core::model::ParamLayout;
+use serde::{Deserialize, Serialize};
+
+/// `command_lag` of a `pem` fit: `auto` (estimated; the default), `none`, or seconds.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum CommandLag {
+    #[default]
+    Auto,
+    None,
+    Seconds(f64),
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(untagged)]
+enum Repr {
+    Word(String),
+    Seconds(f64),
+}
+
+impl Serialize for CommandLag {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            CommandLag::Auto => Repr::Word("auto".into()),
+            CommandLag::None => Repr::Word("none".into()),
+            CommandLag::Seconds(x) => Repr::Seconds(*x),
+        }
+        .serialize(s)
+    }
+}
+
+impl<'de> Deserialize<'de> for CommandLag {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<CommandLag, D::Error> {
+        use serde::de::Error;
+        match Repr::deserialize(d)? {
+            Repr::Word(w) if w == "auto" => Ok(CommandLag::Auto),
+            Repr::Word(w) if w == "none" => Ok(CommandLag::None),
+            Repr::Seconds(x) if x.is_finite() && (0.0..=MAX_LAG_S).contains(&x) => {
+                Ok(CommandLag::Seconds(x))
+            }
+            Repr::Seconds(x) => Err(D::Error::custom(format!(
+                "command_lag: {x} s is not a lag hydrofit fits; give seconds from 0 to {MAX_LAG_S}, `auto` or `none`"
+            ))),
+            Repr::Word(w) => Err(D::Error::custom(format!(
+                "command_lag: `{w}`; give `auto`, `none` or a number of seconds"
+            ))),
+        }
+    }
+}
+
+/// The longest lag searched, s: beyond it a lag is not a thruster's but a missing dynamic.
+pub const MAX_LAG_S: f64 = 0.5;
+
+/// The relative drop of the output error a lag must bring to be kept: well above what
+/// refitting one more parameter to noise gains.
+const DEMAND: f64 = 0.01;
+
+/// Levenberg-Marquardt steps of each point of the line search (warm-started).
+const PROBE_STEPS: usize = 8;
+
+/// The estimated lag of a fit.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LagEstimate {
+    pub value_s: f64,
+    /// From the curvature of the output error at the estimate (white residuals: optimistic).
+    pub stderr_s: f64,
+    /// The output error without the lag and with it (weighted mean square).
+    pub cost_without: f64,
+    pub cost_with: f64,
+    /// Whether it was estimated (`auto`) or set.
+    pub estimated: bool,
+}
+
+/// The lag the runs demand: a golden-section search over [0, MAX_LAG_S] of the output error,
+/// each point refitted from `theta0` (the model fitted without a lag, whose output error is
+/// `c0`) by the same few steps, so the points compare. `None` when no lag lowers the output
+/// error by [`DEMAND`]; otherwise the estimate and the coefficients refitted at it.
+pub fn search(
+    vehicle: &crate::core::model::Vehicle,
+    responses: &[&crate::core::response::Response],
+    layout: &ParamLayout,
+    theta0: &[f64],
+    c0: f64,
+    bounds: &Bounds,
+) -> Option<(LagEstimate, Vec<f64>)> {
+    let mut best_theta = theta0.to_vec();
+    let mut best_cost = f64::INFINITY;
+    let mut p = theta0.len();
+    let mut cost = |lag: f64| {
+        let oe = OutputError::with_lag(vehicle, responses, lag);
+        let r = output_error_lm_within(&oe, layout, theta0, PROBE_STEPS, bounds);
+        p = r.stderr.len();
+        if r.cost_after < best_cost {
+            best_cost = r.cost_after;
+            best_theta = r.theta.clone();
+        }
+        r.cost_after
+    };
+    let g = (5f64.sqrt() - 1.0) / 2.0;
+    let (mut a, mut b) = (0.0, MAX_LAG_S);
+    let (mut x1, mut x2) = (b - g * (b - a), a + g * (b - a));
+    let (mut f1, mut f2) = (cost(x1), cost(x2));
+    while b - a > 0.01 {
+        if crate::core::interrupt::requested() {
+            return None;
+        }
+        if f1 < f2 {
+            (b, x2, f2) = (x2, x1, f1);
+            x1 = b - g * (b - a);
+            f1 = cost(x1);
+        } else {
+            (a, x1, f1) = (x1, x2, f2);
+            x2 = a + g * (b - a);
+            f2 = cost(x2);
+        }
+    }
+    let (best, c) = if f1 < f2 { (x1, f1) } else { (x2, f2) };
+    if c.is_nan() || c >= (1.0 - DEMAND) * c0 {
+        return None;
+    }
+    let h = 0.01;
+    let (lo, hi) = (cost((best - h).max(0.0)), cost(best + h));
+    let theta = best_theta;
+    let curvature = (lo - 2.0 * c + hi) / (h * h);
+    let n = responses.iter().map(|r| r.len()).sum::<usize>().max(p + 1);
+    let estimate = LagEstimate {
+        value_s: best,
+        stderr_s: if curvature > 0.0 {
+            (2.0 * c / ((n - p) as f64 * curvature)).sqrt()
+        } else {
+            f64::NAN
+        },
+        cost_without: c0,
+        cost_with: c,
+        estimated: true,
+    };
+    Some((estimate, theta))
+}
