@@ -80,10 +80,11 @@ pub fn copy_dir(from: &Path, to: &Path) -> std::io::Result<()> {
 }
 
 /// Reads a JSON artifact written by [`write_json`].
+/// A non-finite float a stage wrote (`null`) reads back as NaN ([`super::lenient`]).
 pub fn read_json<T: for<'de> serde::Deserialize<'de>>(path: &Path) -> anyhow::Result<T> {
     let text =
         std::fs::read_to_string(path).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-    serde_json::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
+    super::lenient::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
 }
 
 /// Writes a JSON artifact atomically (pretty, so a person can read a cached object).

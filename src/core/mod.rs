@@ -7,6 +7,7 @@ pub mod fsutil;
 pub mod html;
 pub mod input;
 pub mod interrupt;
+pub mod lenient;
 pub mod median;
 pub mod model;
 pub mod numerics;
