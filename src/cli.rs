@@ -65,6 +65,26 @@ pub enum Command {
         #[arg(long)]
         fields: bool,
     },
+    /// Write the identified model for a simulator or a toolbox (gazebo: gz-sim SDF; uuv:
+    /// uuv_simulator; stonefish; mss: MATLAB; yaml: hydrofit's own), from the last build.
+    Export {
+        /// The formats to write.
+        #[arg(long, value_enum, num_args = 1.., required = true)]
+        to: Vec<crate::export::Format>,
+        /// The fit stage whose model to write (default: the pipeline's fit of its vehicle).
+        #[arg(long)]
+        model: Option<String>,
+        /// Folder to write into, relative to the project.
+        #[arg(long, default_value = "reports")]
+        out: PathBuf,
+    },
+    /// Read a simulator's model file (SDF, URDF/xacro, Stonefish XML, MSS .m, hydrofit YAML) as
+    /// hydrofit reads it, and print it as hydrofit's model file.
+    ImportModel {
+        file: PathBuf,
+        #[arg(long, value_enum)]
+        format: Option<crate::export::Format>,
+    },
     /// Print the graph of stage instances, as text or Graphviz DOT.
     Graph {
         /// Print Graphviz DOT (for `dot -Tsvg`) instead of one line per instance with its inputs.
@@ -242,9 +262,9 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         }
         Command::Graph { dot } => cmd::graph::run(&root, dot),
         Command::Inspect { log, fields } => cmd::inspect::run(&log, fields),
-        Command::Twin {
-            what: TwinCommand::Starccm { out, seed },
-        } => cmd::twin::starccm(&root, &out, seed),
+        Command::Export { to, model, out } => cmd::export::run(&root, &to, model.as_deref(), &out),
+        Command::ImportModel { file, format } => cmd::export::import(&file, format),
+        Command::Twin { what } => twin(&root, what),
         Command::Bench {
             norm,
             objective,
@@ -274,26 +294,21 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 end_time,
             },
         ),
-        Command::Twin {
-            what: TwinCommand::Pool { to, effects },
-        } => cmd::twin::pool(&root, &to.out, &to.truth, to.seed, &effects),
-        Command::Twin {
-            what: TwinCommand::Field { to },
-        } => cmd::twin::field(&root, &to.out, &to.truth, to.seed),
-        Command::Twin {
-            what: TwinCommand::SixDof { to },
-        } => cmd::twin::six_dof(&root, &to.out, &to.truth, to.seed),
-        Command::Twin {
-            what: TwinCommand::Auv { to },
-        } => cmd::twin::auv(&root, &to.out, &to.truth, to.seed),
-        Command::Twin {
-            what: TwinCommand::Dsrv { to },
-        } => cmd::twin::dsrv(&root, &to.out, &to.truth, to.seed),
-        Command::Twin {
-            what: TwinCommand::Tank { to },
-        } => cmd::twin::tank(&root, &to.out, &to.truth, to.seed),
-        Command::Twin {
-            what: TwinCommand::CheckDiagnosis { seeds },
-        } => cmd::twin::check_diagnosis(&seeds),
+    }
+}
+
+/// The twin's commands: synthetic runs with a known truth.
+fn twin(root: &std::path::Path, what: TwinCommand) -> anyhow::Result<ExitCode> {
+    match what {
+        TwinCommand::Starccm { out, seed } => cmd::twin::starccm(root, &out, seed),
+        TwinCommand::Pool { to, effects } => {
+            cmd::twin::pool(root, &to.out, &to.truth, to.seed, &effects)
+        }
+        TwinCommand::Field { to } => cmd::twin::field(root, &to.out, &to.truth, to.seed),
+        TwinCommand::SixDof { to } => cmd::twin::six_dof(root, &to.out, &to.truth, to.seed),
+        TwinCommand::Auv { to } => cmd::twin::auv(root, &to.out, &to.truth, to.seed),
+        TwinCommand::Dsrv { to } => cmd::twin::dsrv(root, &to.out, &to.truth, to.seed),
+        TwinCommand::Tank { to } => cmd::twin::tank(root, &to.out, &to.truth, to.seed),
+        TwinCommand::CheckDiagnosis { seeds } => cmd::twin::check_diagnosis(&seeds),
     }
 }

@@ -15,6 +15,8 @@ pub const KINDS: Registry = &[
     &crate::compare::stage::KIND,
     &crate::diagnose::stage::KIND,
     &crate::report::stage::KIND,
+    &crate::export::stage::EXPORT,
+    &crate::export::stage::MODEL,
 ];
 
 pub fn kind(name: &str) -> Option<&'static Kind> {

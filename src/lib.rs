@@ -13,6 +13,7 @@ pub mod cmd;
 pub mod compare;
 pub mod core;
 pub mod diagnose;
+pub mod export;
 pub mod field;
 pub mod identify;
 pub mod kinds;

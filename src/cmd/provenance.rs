@@ -124,7 +124,7 @@ fn print_field(
 }
 
 /// The cached result of fit instance `i`; an error saying why when it is out of date.
-fn load_fit(plan: &Plan, cache: &Cache, i: usize) -> anyhow::Result<FitResult> {
+pub fn load_fit(plan: &Plan, cache: &Cache, i: usize) -> anyhow::Result<FitResult> {
     let inst = &plan.graph.instances[i];
     if !cache.has(&plan.keys[i]) {
         let why = explain::reasons(cache.records().get(&inst.id), &plan.fields[i]);

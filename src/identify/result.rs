@@ -93,6 +93,9 @@ pub struct FitResult {
     /// With `added_mass_window_s`: what the one-step fit over whole runs gives, for contrast.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub one_step: Option<Vec<Estimate>>,
+    /// A model read from a simulator's file (a `model` stage), not identified: the file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub imported_from: Option<InputFile>,
 }
 
 pub const RESULT: &str = "fit.json";
@@ -133,7 +136,60 @@ impl FitResult {
             }
         });
         cfd.chain(self.runs.iter().flat_map(|r| r.inputs.clone()))
+            .chain(self.imported_from.clone())
             .collect()
+    }
+
+    /// A model read from a file (see [`Self::imported_from`]): `parameters` in `layout`'s
+    /// order for `vehicle`, with its command lag.
+    pub fn imported(
+        stage: &str,
+        vehicle: crate::core::model::Vehicle,
+        layout: ParamLayout,
+        parameters: Vec<crate::identify::Estimate>,
+        command_lag_s: f64,
+        file: InputFile,
+    ) -> FitResult {
+        let lag = (command_lag_s > 0.0).then_some(crate::identify::lag::LagEstimate {
+            value_s: command_lag_s,
+            stderr_s: 0.0,
+            cost_without: f64::NAN,
+            cost_with: f64::NAN,
+            estimated: false,
+        });
+        FitResult {
+            stage: stage.to_string(),
+            method: "imported".into(),
+            objective: Objective::EquationError,
+            settings: serde_json::json!({ "file": file.path }),
+            structure: vehicle.structure,
+            custom_terms: vehicle.custom_terms.clone(),
+            dofs: vehicle.dofs.clone(),
+            constant_force: layout.constant.clone(),
+            fit: crate::identify::Fit {
+                parameters,
+                residual_sigma: Default::default(),
+                samples: 0,
+                condition_number: f64::NAN,
+                evaluations: None,
+                objective_value: None,
+                stopped_early: None,
+                trace: None,
+                refinement: None,
+                command_lag: lag,
+            },
+            cases: Vec::new(),
+            runs: Vec::new(),
+            notes: vec![format!(
+                "read from {} (blake3 {}), not identified",
+                file.path, file.blake3
+            )],
+            elapsed_s: 0.0,
+            vehicle: Some(vehicle),
+            expected: Default::default(),
+            one_step: None,
+            imported_from: Some(file),
+        }
     }
 }
 

@@ -145,6 +145,7 @@ impl StageImpl for Settings {
             vehicle: self.common.vehicle.clone(),
             expected: self.common.expected.clone(),
             one_step: id.one_step,
+            imported_from: None,
         };
         crate::core::fsutil::write_json(&ctx.out.join(RESULT), &result)
     }

@@ -35,6 +35,8 @@ pub enum Artifact {
     Diagnosis,
     /// The published report.
     Report,
+    /// A model written for a simulator or a toolbox.
+    Exports,
 }
 
 impl Artifact {
@@ -48,19 +50,21 @@ impl Artifact {
             Artifact::Comparison => "an estimator comparison",
             Artifact::Diagnosis => "a missing-physics diagnosis",
             Artifact::Report => "a report",
+            Artifact::Exports => "a model written for a simulator",
         }
     }
 
     pub fn example(self) -> &'static str {
         match self {
             Artifact::Responses => "a `starccm` stage",
-            Artifact::Model => "a `fit` stage",
+            Artifact::Model => "a `fit` (or `model`) stage",
             Artifact::FieldModel => "an `arx`, `integrated` or `adaptive` stage",
             Artifact::PoolRuns => "a `pool` stage",
             Artifact::Validation => "a `validate` stage",
             Artifact::Comparison => "a `compare` stage",
             Artifact::Diagnosis => "a `diagnose` stage",
             Artifact::Report => "a `report` stage",
+            Artifact::Exports => "an `export` stage",
         }
     }
 }

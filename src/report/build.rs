@@ -82,6 +82,7 @@ pub fn build(inp: &Inputs) -> anyhow::Result<Vec<(&'static str, Vec<u8>)>> {
                 model: b.model.clone(),
                 runs: run_scores(b),
                 below_baselines: vec![],
+                behind_identified: vec![],
             })
             .collect()
     });
@@ -195,11 +196,14 @@ fn score_model(
     let html = openfoam_section(inp, f, own_cases)?;
     runs.extend(pool_scores(inp, f));
     let below_baselines = pool_model(inp, &f.stage).map_or(vec![], |m| m.shortfalls.clone());
+    let behind_identified =
+        pool_model(inp, &f.stage).map_or(vec![], |m| m.behind_identified.clone());
     Ok((
         ModelScore {
             model: f.stage.clone(),
             runs,
             below_baselines,
+            behind_identified,
         },
         html,
     ))

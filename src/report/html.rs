@@ -97,7 +97,12 @@ impl Page<'_> {
             .validation
             .models
             .iter()
-            .flat_map(|m| m.below_baselines.iter().map(|s| s.sentence(&m.model)))
+            .flat_map(|m| {
+                m.below_baselines
+                    .iter()
+                    .map(|s| s.sentence(&m.model))
+                    .chain(m.behind_identified.iter().map(|b| b.sentence(&m.model)))
+            })
             .collect();
         if lines.is_empty() {
             return;

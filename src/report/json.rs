@@ -151,6 +151,10 @@ pub struct ModelScore {
     /// The DOFs in which the model does not beat both baselines on the held-out pool runs.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub below_baselines: Vec<crate::validate::pool::Shortfall>,
+    /// A model read from a simulator's file: the DOFs in which it predicts the held-out runs
+    /// worse than the identified model.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub behind_identified: Vec<crate::validate::pool::Behind>,
 }
 
 #[derive(Debug, Serialize)]

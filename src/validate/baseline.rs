@@ -4,7 +4,7 @@
 //! or pitches) fitted on the same training runs by the same prediction-error method: the
 //! 50-line script an engineer would write by hand.
 
-use super::pool::{ModelScore, RunScore, Shortfall};
+use super::pool::{Behind, ModelScore, RunScore, Shortfall};
 use crate::core::dof::Dof;
 use crate::core::model::{CustomTerms, Plant, Structure, Term, Vehicle};
 use crate::identify::{Options, Regression};
@@ -93,7 +93,7 @@ pub fn fit_first_order(vehicle: &Vehicle, runs: &[FusedRun]) -> Result<Plant, St
 
 /// The mean NMAE per DOF over the held-out runs; `None` for a DOF of a run whose simulation
 /// diverged (no mean is meaningful then).
-fn held_out(runs: &[RunScore]) -> BTreeMap<Dof, Option<f64>> {
+pub(crate) fn held_out(runs: &[RunScore]) -> BTreeMap<Dof, Option<f64>> {
     let mut acc: BTreeMap<Dof, Option<(f64, usize)>> = BTreeMap::new();
     for r in runs.iter().filter(|r| r.role == "validate") {
         for (d, s) in &r.dofs {
@@ -129,6 +129,33 @@ pub fn shortfalls(model: &ModelScore, first_order: Option<&ModelScore>) -> Vec<S
             })
         })
         .collect()
+}
+
+/// The DOFs in which `model` (read from a file) predicts the held-out runs worse than the best
+/// of the `identified` models: by a quarter of its NMAE and 0.02 at least, beyond what noise in
+/// the runs moves an NMAE.
+pub fn behind(model: &ModelScore, identified: &[&ModelScore]) -> Vec<Behind> {
+    let mine = held_out(&model.runs);
+    let mut out = Vec::new();
+    for (dof, nmae) in mine {
+        let Some(nmae) = nmae else { continue };
+        let best = identified
+            .iter()
+            .filter_map(|m| Some((m.model.clone(), held_out(&m.runs).get(&dof).copied()??)))
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        if let Some((name, x)) = best
+            && nmae > 1.25 * x
+            && nmae > x + 0.02
+        {
+            out.push(Behind {
+                dof,
+                nmae,
+                identified: name,
+                identified_nmae: x,
+            });
+        }
+    }
+    out
 }
 
 #[cfg(test)]
@@ -174,6 +201,7 @@ mod tests {
             runs,
             mean_nmae: BTreeMap::new(),
             shortfalls: vec![],
+            behind_identified: vec![],
         }
     }
 

@@ -42,6 +42,7 @@ pub fn score_models(
         models.push(score);
         simulations.extend(sims);
     }
+    let imported: Vec<bool> = fits.iter().map(|f| f.imported_from.is_some()).collect();
     let (cross, mut notes) = if opts.cross_validate {
         cross_validate(vehicle, runs, opts.max_lag_s)
     } else {
@@ -61,6 +62,26 @@ pub fn score_models(
     };
     for m in &mut models {
         m.shortfalls = super::baseline::shortfalls(m, baselines.first());
+    }
+    let behind: Vec<Vec<super::pool::Behind>> = models
+        .iter()
+        .zip(&imported)
+        .map(|(m, &from_file)| {
+            let identified: Vec<&ModelScore> = models
+                .iter()
+                .zip(&imported)
+                .filter(|(_, i)| !**i)
+                .map(|(m, _)| m)
+                .collect();
+            if from_file {
+                super::baseline::behind(m, &identified)
+            } else {
+                vec![]
+            }
+        })
+        .collect();
+    for (m, b) in models.iter_mut().zip(behind) {
+        m.behind_identified = b;
     }
     Validation {
         scores: Scores {
@@ -114,6 +135,7 @@ fn score_plant(
         runs: scored,
         mean_nmae,
         shortfalls: vec![],
+        behind_identified: vec![],
     };
     (score, simulations)
 }

@@ -58,6 +58,30 @@ pub struct ModelScore {
     /// (see [`super::baseline`]).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub shortfalls: Vec<Shortfall>,
+    /// For a model read from a simulator's file: the DOFs in which it predicts the held-out
+    /// runs clearly worse than the identified model (see [`super::baseline::behind`]).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub behind_identified: Vec<Behind>,
+}
+
+/// A DOF in which a model read from a file predicts the held-out runs worse than the model
+/// identified from them.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Behind {
+    pub dof: Dof,
+    pub nmae: f64,
+    pub identified: String,
+    pub identified_nmae: f64,
+}
+
+impl Behind {
+    /// The sentence the report shows.
+    pub fn sentence(&self, model: &str) -> String {
+        format!(
+            "{model} (read from a simulator's file) predicts the held-out runs worse than the model identified from them in {}: NMAE {:.3} against {:.3} for {}; its parameters in {} do not match these recordings",
+            self.dof, self.nmae, self.identified_nmae, self.identified, self.dof
+        )
+    }
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize)]

@@ -120,6 +120,9 @@ fn shortfalls(h: &mut String, m: &ModelScore) {
     for s in &m.shortfalls {
         let _ = writeln!(h, "<p class=\"warn\">{}</p>", esc(&s.sentence(&m.model)));
     }
+    for b in &m.behind_identified {
+        let _ = writeln!(h, "<p class=\"warn\">{}</p>", esc(&b.sentence(&m.model)));
+    }
 }
 
 /// Model `m`'s mean NMAE per DOF, one entry per run role.

@@ -171,6 +171,30 @@ pub struct CustomTerms {
     pub remove: Vec<String>,
 }
 
+impl CustomTerms {
+    /// The custom set that is exactly the terms `names` (over `dofs`, with constant forces on
+    /// `constant`): a model read from a file has the terms it has.
+    pub fn only(names: &[String], dofs: &[Dof], constant: &[Dof]) -> CustomTerms {
+        let base = Structure::FullQd
+            .terms(dofs, constant, &CustomTerms::default())
+            .unwrap_or_default();
+        let base_names: Vec<String> = base.iter().map(|t| t.name()).collect();
+        CustomTerms {
+            base: Structure::FullQd,
+            add: names
+                .iter()
+                .filter(|n| !base_names.contains(n))
+                .cloned()
+                .collect(),
+            remove: base_names
+                .iter()
+                .filter(|n| !names.contains(n))
+                .cloned()
+                .collect(),
+        }
+    }
+}
+
 impl Default for CustomTerms {
     fn default() -> Self {
         CustomTerms {
@@ -351,6 +375,16 @@ fn buoyancy_terms(ix: &[usize]) -> Vec<Term> {
 }
 
 /// Every term over `dofs`: full mass, full linear and quadratic drag, constants and buoyancy.
+/// Every term a model over all six DOFs can have, constants included.
+pub fn every_term() -> Vec<Term> {
+    all_terms(&Dof::ALL, &Dof::ALL)
+}
+
+/// Every term a model over `dofs` can have, with constant forces on `constant`.
+pub fn terms_over(dofs: &[Dof], constant: &[Dof]) -> Vec<Term> {
+    all_terms(dofs, constant)
+}
+
 fn all_terms(dofs: &[Dof], constant: &[Dof]) -> Vec<Term> {
     let ix: Vec<usize> = dofs.iter().map(|d| d.index()).collect();
     let mut out = mass_terms(&ix, true);
