@@ -18,6 +18,10 @@ fn cold_build_then_nothing_to_do() {
         "parameters.json",
         "validation.json",
         "fusion.json",
+        "fit.sdf",
+        "fit.uuv.xacro",
+        "hydrofit_fit.m",
+        "fit.model.yaml",
     ] {
         assert!(dir.join("reports").join(f).is_file(), "reports/{f} missing");
     }
@@ -192,7 +196,7 @@ fn a_new_case_reruns_only_its_import_and_what_depends_on_it() {
     std::fs::write(dir.join("cases/cfd/starccm/surge_40N_rerun.csv"), text).unwrap();
     let status = stdout(&run(dir, &["status"]));
     let lines: Vec<&str> = status.lines().collect();
-    assert_eq!(lines.len(), 6, "{status}");
+    assert_eq!(lines.len(), 7, "{status}");
     assert_eq!(
         lines[0],
         "cfd[surge_40N_rerun]: new input cases/cfd/starccm/surge_40N_rerun.csv (never built)"
@@ -202,12 +206,13 @@ fn a_new_case_reruns_only_its_import_and_what_depends_on_it() {
         "compare: new upstream cfd[surge_40N_rerun]",
         "validate: upstream fit changed",
         "diagnose: upstream fit changed",
+        "export: upstream fit changed",
     ] {
         assert!(lines.contains(&want), "{want}: {status}");
     }
-    assert!(lines[5].starts_with("report: "), "{status}");
+    assert!(lines[6].starts_with("report: "), "{status}");
     let out = ok(dir, &["build", "--explain"]);
-    assert_eq!(ran(&out), 6, "{out}");
+    assert_eq!(ran(&out), 7, "{out}");
 }
 
 #[test]
@@ -225,14 +230,14 @@ fn a_changed_setting_reruns_the_fit_but_not_the_imports() {
         status.starts_with("fit: setting.skip_start_s changed: 0.0 -> 0.1\n"),
         "{status}"
     );
-    assert_eq!(status.lines().count(), 4, "{status}");
-    assert_eq!(ran(&ok(dir, &["build"])), 4);
-    // A new vehicle mass reruns the fits (fit, compare, cylinder, sphere_fit, and what reads them: a fit's key holds the
-    // vehicle section even when the fit names its own body), not the imports or the fusion
-    // (they depend on the DOF list only).
+    assert_eq!(status.lines().count(), 5, "{status}");
+    assert_eq!(ran(&ok(dir, &["build"])), 5);
+    // A new vehicle mass reruns the fits (fit, compare, cylinder, sphere_fit: a fit's key holds
+    // the vehicle section even when the fit names its own body) and what reads them (validate,
+    // diagnose, export, report), not the imports or the fusion (they depend on the DOF list only).
     let spec = read(dir, "pipeline.yaml").replace("mass_kg: 35.2", "mass_kg: 35.3");
     std::fs::write(dir.join("pipeline.yaml"), spec).unwrap();
-    assert_eq!(ran(&ok(dir, &["build"])), 7);
+    assert_eq!(ran(&ok(dir, &["build"])), 8);
 }
 
 #[test]

@@ -69,7 +69,9 @@ fn a_bad_case_fails_only_what_depends_on_it() {
     let err = stderr(&o);
     assert!(err.contains("error: stage cfd[zz_bad] failed\n  cases/cfd/starccm/zz_bad.csv:3:9: cannot read \"0.o2\""), "{err}");
     assert!(
-        err.contains("not run because they depend on it: compare, fit, diagnose, validate, report"),
+        err.contains(
+            "not run because they depend on it: compare, fit, diagnose, export, validate, report"
+        ),
         "{err}"
     );
     assert!(!dir.join("reports/index.html").exists());
@@ -82,7 +84,7 @@ fn a_bad_case_fails_only_what_depends_on_it() {
     )
     .unwrap();
     let out = ok(dir, &["build"]);
-    assert_eq!(ran(&out), 6, "{out}");
+    assert_eq!(ran(&out), 7, "{out}");
     assert!(
         !dir.join(".hydrofit/tmp").exists()
             || std::fs::read_dir(dir.join(".hydrofit/tmp"))

@@ -38,8 +38,9 @@ pub fn example(name: &str) -> tempfile::TempDir {
     dir
 }
 
-/// Stage instances of the shipped pipeline besides the imports: fit, cylinder, validate, compare, report.
-pub const SINGLE_STAGES: usize = 7;
+/// Stage instances of the shipped pipeline besides the imports: fit, cylinder, sphere_fit,
+/// validate, diagnose, export, compare, report.
+pub const SINGLE_STAGES: usize = 8;
 
 pub fn count(dir: &Path, rel: &str) -> usize {
     std::fs::read_dir(dir.join(rel)).unwrap().count()
@@ -109,4 +110,51 @@ pub fn read(dir: &Path, rel: &str) -> String {
 
 pub fn json(dir: &Path, rel: &str) -> serde_json::Value {
     serde_json::from_str(&read(dir, rel)).unwrap()
+}
+
+/// A scratch copy of the shipped cylinder_1N run's log and tables, cut to its first `rows`
+/// time steps (the log ending there with `End`).
+pub fn openfoam_results(rows: usize) -> (tempfile::TempDir, PathBuf) {
+    use hydrofit::cfd::openfoam::{FORCE, STATE};
+    let d = tempfile::tempdir().unwrap();
+    let src = manifest_dir().join("cases/cfd/openfoam/cylinder_1N");
+    let dir = d.path().to_path_buf();
+    // The time of the `rows`-th row of the state table.
+    let state = std::fs::read_to_string(src.join(STATE)).unwrap();
+    let last_t: f64 = state
+        .lines()
+        .filter_map(|l| l.split_whitespace().next()?.parse().ok())
+        .nth(rows - 1)
+        .unwrap();
+    for rel in [STATE, FORCE] {
+        let text = std::fs::read_to_string(src.join(rel)).unwrap();
+        let head: String = text
+            .split_inclusive('\n')
+            .take_while(|l| {
+                l.split_whitespace()
+                    .next()
+                    .and_then(|t| t.parse::<f64>().ok())
+                    .is_none_or(|t| t <= last_t * (1.0 + 1e-9))
+            })
+            .collect();
+        std::fs::create_dir_all(dir.join(rel).parent().unwrap()).unwrap();
+        std::fs::write(dir.join(rel), head).unwrap();
+    }
+    // The log up to the same time, then its `End`.
+    let log = std::fs::read_to_string(src.join("log.pimpleFoam")).unwrap();
+    let mut out = String::new();
+    for l in log.lines() {
+        if let Some(t) = l
+            .strip_prefix("Time = ")
+            .and_then(|t| t.trim().parse::<f64>().ok())
+            && t > last_t * (1.0 + 1e-9)
+        {
+            break;
+        }
+        out.push_str(l);
+        out.push('\n');
+    }
+    out.push_str("\nEnd\n\n");
+    std::fs::write(dir.join("log.pimpleFoam"), out).unwrap();
+    (d, dir)
 }
