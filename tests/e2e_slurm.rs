@@ -473,3 +473,55 @@ fn a_failing_job_fails_its_stage_with_slurms_state_and_the_log_tail(cluster: &Cl
             .exists()
     );
 }
+
+/// A Slurm configuration whose controller is not there: sbatch answers "Unable to contact
+/// slurm controller" at once.
+fn unreachable_conf(dir: &Path) -> PathBuf {
+    let conf = dir.join("slurm.conf");
+    std::fs::write(
+        &conf,
+        "ClusterName=nowhere\nSlurmctldHost=localhost(127.0.0.1)\nSlurmctldPort=1\nMessageTimeout=2\n",
+    )
+    .unwrap();
+    conf
+}
+
+/// A case that must run under `executor: slurm` where no Slurm answers: the message says so,
+/// why the case had to run, and that `executor: local` runs it here.
+#[test]
+fn a_case_that_must_run_where_no_slurm_answers_says_why_and_offers_the_local_executor() {
+    let on_path = std::env::var_os("PATH")
+        .is_some_and(|p| std::env::split_paths(&p).any(|d| d.join("sbatch").is_file()));
+    if !on_path {
+        assert!(std::env::var_os("CI").is_none(), "CI installs Slurm");
+        eprintln!("skipped: no sbatch here (.ci/run installs Slurm)");
+        return;
+    }
+    let c = tempfile::tempdir().unwrap();
+    let conf = unreachable_conf(c.path());
+    let (p, o) = project_with_case("slurm", &conf, false);
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(!o.status.success(), "{err}");
+    assert!(err.contains("no Slurm controller answers"), "{err}");
+    assert!(err.contains("`executor: local`"), "{err}");
+    assert!(err.contains("it had to run because: never built"), "{err}");
+    if !openfoam_installed() {
+        return;
+    }
+    // Built here once; then one dictionary changes and the case must run again.
+    let dir = p.path();
+    std::fs::write(dir.join("pipeline.yaml"), pipeline("local")).unwrap();
+    let o = hydrofit(dir, &conf, &["build"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    std::fs::write(dir.join("pipeline.yaml"), pipeline("slurm")).unwrap();
+    let rel = "cases/cfd/openfoam/short/system/controlDict";
+    let text = std::fs::read_to_string(dir.join(rel)).unwrap();
+    std::fs::write(dir.join(rel), format!("{text}\n// checked\n")).unwrap();
+    let o = hydrofit(dir, &conf, &["build"]);
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(!o.status.success(), "{err}");
+    assert!(
+        err.contains(&format!("it had to run because: input {rel} changed")),
+        "{err}"
+    );
+}

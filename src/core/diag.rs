@@ -2,6 +2,13 @@
 
 use std::fmt;
 
+/// A stage's executor cannot run on this machine (a cluster that does not answer): the build
+/// adds to the message why the instance had to run at all, which says whether it can be
+/// avoided (restore the input) or must run elsewhere.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct ExecutorUnavailable(pub String);
+
 /// A problem in an input file, printed as `path:line:col: what`, the offending line with a
 /// caret under the column, and a `help:` line saying what to change.
 #[derive(Debug, Clone, PartialEq)]

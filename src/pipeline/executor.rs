@@ -109,6 +109,7 @@ pub fn build(plan: &Plan, opts: &Options, progress: &Progress) -> anyhow::Result
         let mut running = 0;
         loop {
             for i in schedule.ready(jobs - running) {
+                let why = schedule.why(i);
                 let failed_deps = schedule.start(i);
                 running += 1;
                 let (tx, cache, spinner) = (
@@ -117,8 +118,17 @@ pub fn build(plan: &Plan, opts: &Options, progress: &Progress) -> anyhow::Result
                     progress.spinner(&plan.graph.instances[i].id),
                 );
                 scope.spawn(move || {
-                    let r = run_one(plan, i, cache, &spinner, failed_deps)
-                        .map_err(|e| format!("{e:#}"));
+                    let r = run_one(plan, i, cache, &spinner, failed_deps).map_err(|e| {
+                        let unavailable = e
+                            .chain()
+                            .any(|c| c.is::<crate::core::diag::ExecutorUnavailable>());
+                        if unavailable {
+                            // Whether the run can be avoided depends on why it was needed.
+                            format!("{e:#}\n  it had to run because: {}", why.join("; "))
+                        } else {
+                            format!("{e:#}")
+                        }
+                    });
                     spinner.finish_and_clear();
                     let _ = tx.send((i, r));
                 });
@@ -190,7 +200,7 @@ struct Schedule<'a> {
     progress: &'a Progress,
     state: Vec<State>,
     summary: Summary,
-    /// What each instance was last built with; read only to explain (`--explain`).
+    /// What each instance was last built with, to say why one runs again.
     records: HashMap<String, Record>,
 }
 
@@ -224,11 +234,9 @@ impl<'a> Schedule<'a> {
             up_to_date: state.iter().filter(|s| **s == State::Done).count(),
             ..Default::default()
         };
-        let records = if opts.explain {
-            cache.records()
-        } else {
-            HashMap::new()
-        };
+        // What each instance was last built with: to say why it runs (`--explain`, and
+        // when its executor is not there).
+        let records = cache.records();
         Ok(Schedule {
             plan,
             opts,
@@ -261,12 +269,18 @@ impl<'a> Schedule<'a> {
             .collect()
     }
 
+    /// Why instance `i` runs: what differs from its last build.
+    fn why(&self, i: usize) -> Vec<String> {
+        let id = &self.plan.graph.instances[i].id;
+        explain::reasons(self.records.get(id), &self.plan.fields[i])
+    }
+
     /// Marks instance `i` running (saying why, with `--explain`); its failed dependencies
     /// with their errors, which it goes on without.
     fn start(&mut self, i: usize) -> Vec<(String, String)> {
         let instances = &self.plan.graph.instances;
         if self.opts.explain {
-            let why = explain::reasons(self.records.get(&instances[i].id), &self.plan.fields[i]);
+            let why = self.why(i);
             self.progress
                 .println(format!("{}: {}", instances[i].id, why.join("; ")));
         }

@@ -23,7 +23,14 @@ pub fn acquire(state_dir: &Path, waiting: impl FnOnce(&str)) -> std::io::Result<
         Err(TryLockError::WouldBlock) => {
             let mut holder = String::new();
             let _ = file.read_to_string(&mut holder);
-            waiting(holder.trim());
+            let holder = holder.trim();
+            // The holder writes its name just after taking the lock: an empty file is a
+            // build that is starting (or a hydrofit that wrote no name).
+            waiting(if holder.is_empty() {
+                "a build that is starting and has not yet written its process id to .hydrofit/lock"
+            } else {
+                holder
+            });
             file.lock()?;
         }
         Err(TryLockError::Error(e)) => return Err(e),

@@ -111,6 +111,28 @@ impl<'a> Parser<'a> {
         if let Some(f) = field {
             return self.error(&format!("{key_path}.{f}"), what, fix);
         }
+        // A setting's own check names its key: "`slurm.mem`: ...". The nearest key written
+        // on a line of its own (a flow mapping's keys share their parent's line).
+        if let Some(sub) = what
+            .strip_prefix('`')
+            .and_then(|w| w.split_once("`: "))
+            .map(|(k, _)| k)
+            .filter(|k| {
+                k.chars()
+                    .all(|c| c.is_ascii_alphanumeric() || "._".contains(c))
+            })
+        {
+            let mut path = format!("{key_path}.{sub}");
+            loop {
+                if self.index.find(&path).is_some() {
+                    return self.error(&path, what, fix);
+                }
+                match path.rsplit_once('.') {
+                    Some((parent, _)) if parent.len() > key_path.len() => path = parent.to_string(),
+                    _ => break,
+                }
+            }
+        }
         match variant.and_then(|v| self.value_after(key_path, &v)) {
             Some((l, c)) => InputError::file(self.path, what, fix)
                 .at(l, Some(c))

@@ -43,7 +43,7 @@ impl CaseRun {
         };
         let results = super::obtain_results(&dir, &rel, &files, &setup, &identity, message, exec)?;
         let (track, log, _) = super::read_track(&results.dir, &setup.application)
-            .map_err(|e| anyhow::anyhow!("case {rel}: {e}"))?;
+            .map_err(|e| e.context(format!("case {rel}")))?;
         Ok(CaseRun {
             rel,
             dir,

@@ -104,7 +104,16 @@ impl CaseSetup {
 }
 
 fn read_dict(case: &Path, rel: &str, shown: &str) -> anyhow::Result<dict::Dict> {
-    let text = std::fs::read_to_string(case.join(rel)).map_err(|e| {
+    let path = case.join(rel);
+    if path.is_dir() {
+        return Err(InputError::file(
+            format!("{shown}/{rel}"),
+            "is a folder, where OpenFOAM's dictionary file is expected",
+            "replace the folder by the dictionary (an OpenFOAM case needs system/controlDict and constant/dynamicMeshDict as files)",
+        )
+        .into());
+    }
+    let text = std::fs::read_to_string(&path).map_err(|e| {
         InputError::file(
             format!("{shown}/{rel}"),
             format!("cannot read: {e}"),
@@ -203,6 +212,17 @@ pub struct Track {
     pub omega: Vec<[f64; 3]>,
     /// Total (pressure + viscous) fluid force on the body's patches, N, when the case writes it.
     pub fluid_force: Option<Vec<[f64; 3]>>,
+    /// The file the motion was read from (the state table, or the solver log when the case
+    /// writes no table).
+    #[serde(default)]
+    pub source: String,
+    /// What the report says of how the motion and the force were read (a source used in
+    /// place of another, a force table that does not cover the run).
+    #[serde(default)]
+    pub notes: Vec<String>,
+    /// The source's line of each row, for messages.
+    #[serde(skip)]
+    pub lines: Vec<usize>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -218,7 +238,7 @@ pub enum RunError {
         tail: String,
     },
     #[error(
-        "the body's velocity reached {speed:.3e} m/s at t = {t} s: the run diverged (lower deltaT or maxCo, or relax the body's acceleration with accelerationRelaxation); last lines of {log}:\n{tail}"
+        "{log}: the body's velocity reached {speed:.3e} m/s at t = {t} s: the run diverged (lower deltaT or maxCo, or relax the body's acceleration with accelerationRelaxation), or the file was damaged (then rerun the case); last lines of the solver's log:\n{tail}"
     )]
     Diverged {
         speed: f64,
@@ -249,8 +269,16 @@ pub fn read_track(dir: &Path, solver: &str) -> anyhow::Result<(Track, results::L
         .into());
     }
     let mut track = match read_table(dir, STATE)? {
-        Some(st) => track_from_state(&st)?,
-        None => track_from_log(&log),
+        Some(st) => track_from_state(&st, &log, &log_name)?,
+        None => {
+            let mut track = track_from_log(&log, &log_name);
+            if !track.t.is_empty() {
+                track.notes.push(format!(
+                    "the body's motion was read from {log_name}: the case writes no {STATE} (add the sixDoFRigidBodyState function object to controlDict for the full precision)"
+                ));
+            }
+            track
+        }
     };
     if track.t.is_empty() {
         return Err(RunError::Results(format!(
@@ -259,19 +287,42 @@ pub fn read_track(dir: &Path, solver: &str) -> anyhow::Result<(Track, results::L
         .into());
     }
     if let Some(ft) = read_table(dir, FORCE)? {
-        track.fluid_force = force_at(&ft, &track.t);
+        match force_at(&ft, &track.t) {
+            Some(f) => track.fluid_force = Some(f),
+            None => track.notes.push(force_gap(&ft, &track.t)),
+        }
     }
-    check_speed(&track, &log_name, &tail)?;
+    check_speed(&track, &tail)?;
     if log.end != LogEnd::Finished {
         return Err(RunError::Results(format!("{log_name} stops at t = {} s without `End`: the solver was killed or is still running; last lines:\n{tail}", log.steps.last().map_or(0.0, |s| s.t))).into());
     }
     Ok((track, log, log_text))
 }
 
+/// Why the force table gave no fluid force for the motion's times.
+fn force_gap(ft: &VectorTable, times: &[f64]) -> String {
+    let (t0, t1) = (times[0], times[times.len() - 1]);
+    if ft.columns.is_empty() && !ft.t.is_empty() {
+        return format!(
+            "{FORCE} has no header line naming its columns: the fluid force is left out of the report's drag analysis (rerun the case to write the table again)"
+        );
+    }
+    match (ft.t.first(), ft.t.last()) {
+        (Some(a), Some(b)) => format!(
+            "{FORCE} covers t = {a} to {b} s, not every time step of the motion (t = {t0} to {t1} s): the fluid force is left out of the report's drag analysis (the table was cut or written at other times)"
+        ),
+        _ => {
+            format!("{FORCE} has no row: the fluid force is left out of the report's drag analysis")
+        }
+    }
+}
+
 /// The vector table `rel` of a run in `dir`, when the case writes it.
+/// A file that is there but cannot be read (a folder, a symbolic link to nowhere or to
+/// itself) is an error, never taken for a missing table.
 fn read_table(dir: &Path, rel: &str) -> anyhow::Result<Option<VectorTable>> {
     let path = dir.join(rel);
-    if !path.exists() {
+    if std::fs::symlink_metadata(&path).is_err() {
         return Ok(None);
     }
     match crate::core::input::read_path(&path, rel, "the table is written by OpenFOAM as text") {
@@ -283,23 +334,55 @@ fn read_table(dir: &Path, rel: &str) -> anyhow::Result<Option<VectorTable>> {
     }
 }
 
-/// The body's motion from the sixDoFRigidBodyState table.
-fn track_from_state(st: &VectorTable) -> Result<Track, RunError> {
+/// The body's motion from the sixDoFRigidBodyState table, which must run as far as the
+/// solver's log when the log says the run finished.
+fn track_from_state(
+    st: &VectorTable,
+    log: &results::Log,
+    log_name: &str,
+) -> Result<Track, RunError> {
+    if st.t.is_empty() {
+        return Err(RunError::Results(format!(
+            "{STATE} has no row: the run wrote no motion to it; rerun the case, or delete the table to read the body's motion from {log_name}"
+        )));
+    }
     let get = |c: &str| {
-        st.column(c)
-            .ok_or_else(|| RunError::Results(format!("{STATE} has no `{c}` column")))
+        st.column(c).ok_or_else(|| {
+            RunError::Results(format!(
+                "{STATE} has no `{c}` column (its header names: {}); it is not a sixDoFRigidBodyState table, or its header line was damaged",
+                st.columns.join(", ")
+            ))
+        })
     };
+    let last = st.t[st.t.len() - 1];
+    let log_last = log.steps.last().map(|s| s.t);
+    if let (LogEnd::Finished, Some(log_last)) = (&log.end, log_last) {
+        let behind = log
+            .steps
+            .iter()
+            .filter(|s| s.t > last * (1.0 + 1e-9) + 1e-12)
+            .count();
+        if behind > 0 {
+            return Err(RunError::Results(format!(
+                "{STATE} ends at t = {last} s (line {}) but {log_name} runs {behind} more time steps to t = {log_last} s and `End`: the table was cut; rerun the case, or delete the table to read the body's motion from {log_name}",
+                st.lines.last().copied().unwrap_or(0)
+            )));
+        }
+    }
     Ok(Track {
         t: st.t.clone(),
         position: get("centreOfMass")?,
         velocity: get("velocity")?,
         omega: get("omega")?,
         fluid_force: None,
+        source: STATE.into(),
+        notes: Vec::new(),
+        lines: st.lines.clone(),
     })
 }
 
 /// The body's motion as the solver reports it in its log, at the steps that give a velocity.
-fn track_from_log(log: &results::Log) -> Track {
+fn track_from_log(log: &results::Log, log_name: &str) -> Track {
     let steps: Vec<&results::LogStep> = log
         .steps
         .iter()
@@ -317,6 +400,9 @@ fn track_from_log(log: &results::Log) -> Track {
             .map(|s| s.angular_velocity.unwrap_or_default())
             .collect(),
         fluid_force: None,
+        source: log_name.into(),
+        notes: Vec::new(),
+        lines: steps.iter().map(|s| s.line).collect(),
     }
 }
 
@@ -326,6 +412,9 @@ fn force_at(ft: &VectorTable, times: &[f64]) -> Option<Vec<[f64; 3]>> {
     let total = ft
         .column(ft.columns.first().map_or("", String::as_str))
         .unwrap_or_default();
+    if total.len() != ft.t.len() {
+        return None;
+    }
     let mut out = Vec::with_capacity(times.len());
     let mut j = 0;
     for &t in times {
@@ -340,15 +429,18 @@ fn force_at(ft: &VectorTable, times: &[f64]) -> Option<Vec<[f64; 3]>> {
     (out.len() == times.len()).then_some(out)
 }
 
-/// A body speed that is not finite or above 1 km/s is a diverged run.
-fn check_speed(track: &Track, log_name: &str, tail: &str) -> Result<(), RunError> {
+/// A body speed that is not finite or above 1 km/s is a diverged run, or a damaged file.
+fn check_speed(track: &Track, tail: &str) -> Result<(), RunError> {
     for (k, v) in track.velocity.iter().enumerate() {
         let speed = v.iter().map(|x| x * x).sum::<f64>().sqrt();
         if !speed.is_finite() || speed > 1e3 {
             return Err(RunError::Diverged {
                 speed,
                 t: track.t[k],
-                log: log_name.to_string(),
+                log: match track.lines.get(k) {
+                    Some(l) => format!("{} line {l}", track.source),
+                    None => track.source.clone(),
+                },
                 tail: tail.to_string(),
             });
         }

@@ -5,6 +5,8 @@
 #[derive(Debug, Clone, PartialEq)]
 pub struct LogStep {
     pub t: f64,
+    /// The log's line (1-based) of this step's `Time = ` line.
+    pub line: usize,
     pub centre: Option<[f64; 3]>,
     pub linear_velocity: Option<[f64; 3]>,
     pub angular_velocity: Option<[f64; 3]>,
@@ -46,13 +48,14 @@ pub fn parse_log(text: &str) -> Log {
     let mut steps: Vec<LogStep> = Vec::new();
     let mut end = LogEnd::Truncated;
     let (mut exec, mut clock) = (None, None);
-    for line in text.lines() {
+    for (i, line) in text.lines().enumerate() {
         if let Some(t) = line
             .strip_prefix("Time = ")
             .and_then(|t| t.trim().parse::<f64>().ok())
         {
             steps.push(LogStep {
                 t,
+                line: i + 1,
                 centre: None,
                 linear_velocity: None,
                 angular_velocity: None,
@@ -124,8 +127,14 @@ pub struct VectorTable {
     pub t: Vec<f64>,
     pub columns: Vec<String>,
     pub rows: Vec<Vec<[f64; 3]>>,
+    /// The file's line (1-based) of each row.
+    pub lines: Vec<usize>,
     pub angle_units: Option<String>,
 }
+
+/// The largest magnitude a value of a results table may have: what lies beyond is a damaged
+/// file (a diverged run stops with a crash in its log, which is reported first).
+pub const MAX_VALUE: f64 = 1e9;
 
 impl VectorTable {
     pub fn column(&self, name: &str) -> Option<Vec<[f64; 3]>> {
@@ -176,15 +185,7 @@ pub fn parse_vector_table(text: &str) -> Result<VectorTable, TableError> {
         let last = i + 1 == lines.len() && !text.ends_with('\n');
         match parse_row(line) {
             Some((t, v)) if v.len() == table.columns.len() || table.columns.is_empty() => {
-                if !t.is_finite() || v.iter().flatten().any(|x| !x.is_finite()) {
-                    return Err(TableError {
-                        line: i + 1,
-                        msg: format!(
-                            "a value that is not a finite number: `{}`",
-                            crate::core::input::clip(line.trim(), 120)
-                        ),
-                    });
-                }
+                check_row(i + 1, line, t, &v)?;
                 table.t.push(t);
                 table.rows.push(v);
                 line_of.push(i + 1);
@@ -213,7 +214,29 @@ pub fn parse_vector_table(text: &str) -> Result<VectorTable, TableError> {
     }
     table.t = keep.iter().map(|&k| table.t[k]).collect();
     table.rows = keep.iter().map(|&k| table.rows[k].clone()).collect();
+    table.lines = keep.iter().map(|&k| line_of[k]).collect();
     Ok(table)
+}
+
+/// A row's numbers are finite and within [`MAX_VALUE`].
+fn check_row(line_no: usize, line: &str, t: f64, v: &[[f64; 3]]) -> Result<(), TableError> {
+    let shown = || crate::core::input::clip(line.trim(), 120);
+    if !t.is_finite() || v.iter().flatten().any(|x| !x.is_finite()) {
+        return Err(TableError {
+            line: line_no,
+            msg: format!("a value that is not a finite number: `{}`", shown()),
+        });
+    }
+    if let Some(x) = v.iter().flatten().find(|x| x.abs() > MAX_VALUE) {
+        return Err(TableError {
+            line: line_no,
+            msg: format!(
+                "the value {x:e} is beyond {MAX_VALUE:e}, which no run of a body writes: the file is damaged (`{}`); rerun the case or restore the file",
+                shown()
+            ),
+        });
+    }
+    Ok(())
 }
 
 /// A time below its predecessor whose successor is above that predecessor again is not a

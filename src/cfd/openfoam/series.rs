@@ -388,16 +388,24 @@ pub fn write_case(
     Ok(out)
 }
 
-/// The template case's folder: the one holding `system/controlDict` among `inputs`.
-pub fn template_folder(inputs: &[InputFile]) -> anyhow::Result<String> {
+/// The template case's folder: the one holding `system/controlDict` among `inputs`, the
+/// files stage `stage` declares.
+pub fn template_folder(stage: &str, inputs: &[InputFile]) -> anyhow::Result<String> {
+    if inputs.is_empty() {
+        anyhow::bail!(
+            "stage `{stage}`: its `inputs` match no file, so the series has no template case\n  help: copy an OpenFOAM case (system/controlDict, constant/dynamicMeshDict, 0/, ...) into the folder the stage's `inputs` name, or correct the pattern in pipeline.yaml"
+        );
+    }
     inputs
         .iter()
         .find_map(|i| i.path.strip_suffix("/system/controlDict"))
         .map(str::to_string)
         .ok_or_else(|| {
+            let first = &inputs[0].path;
+            let folder = first.rsplit_once('/').map_or(first.as_str(), |(d, _)| d);
             anyhow::anyhow!(
-                "{}: the series' template is not an OpenFOAM case (no system/controlDict)",
-                inputs.first().map_or("?", |i| i.path.as_str())
+                "{folder}: the series' template is not an OpenFOAM case: none of the {} files the stage `{stage}` reads is a system/controlDict\n  help: the stage's `inputs` must take in the whole template case folder (e.g. `cases/cfd/template/**`)",
+                inputs.len()
             )
         })
 }

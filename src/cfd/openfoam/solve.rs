@@ -152,7 +152,7 @@ fn run_fresh(
             case_dir, files, &path, setup, &progress, identity, opts, &name,
         ),
     }
-    .map_err(|e| anyhow::anyhow!("case {case_rel}: {e}"))?;
+    .map_err(|e| e.context(format!("case {case_rel}")))?;
     Ok(Results {
         dir: path,
         stamp,

@@ -76,7 +76,7 @@ impl Settings {
             .and_then(|s| s.strip_prefix('['))
             .and_then(|s| s.strip_suffix(']'))
             .unwrap_or(id);
-        let template = openfoam::series::template_folder(inputs)?;
+        let template = openfoam::series::template_folder(stage, inputs)?;
         let case = format!("{}/{name}", series.cases_dir(stage));
         anyhow::ensure!(
             !case.starts_with(&format!("{template}/")),

@@ -31,7 +31,13 @@ pub fn import(case: &CaseRun, dofs: &[Dof]) -> anyhow::Result<(Response, Respons
         sources: response.sources(),
         rows_read: case.track.t.len(),
         rows_kept: response.len(),
-        notes: case.results.notes.clone(),
+        notes: case
+            .results
+            .notes
+            .iter()
+            .chain(&case.track.notes)
+            .cloned()
+            .collect(),
         body_mass_kg: Some(case.setup.mass_kg),
         per_metre_of_span: case.two_dimensional(),
         all_inputs: case.inputs.clone(),

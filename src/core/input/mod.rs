@@ -110,6 +110,35 @@ fn repeated_key_line(text: &str, from: usize, key: &str) -> Option<(usize, usize
     None
 }
 
+/// The line, column (1-based, in characters) and character of the first control character
+/// YAML refuses (all but tab, line feed and carriage return).
+fn control_character(text: &str) -> Option<(usize, usize, char)> {
+    text.lines().enumerate().find_map(|(i, l)| {
+        l.chars()
+            .enumerate()
+            .find(|(_, c)| c.is_control() && !matches!(c, '\t' | '\r'))
+            .map(|(k, c)| (i + 1, k + 1, c))
+    })
+}
+
+/// The line of the marker (`---`, or `...` then anything) that starts a second document.
+fn second_document(text: &str) -> Option<usize> {
+    let mut content = false;
+    for (i, l) in text.lines().enumerate() {
+        let t = l.trim_end();
+        if t == "---" || t.starts_with("--- ") || t == "..." {
+            if content {
+                return Some(i + 1);
+            }
+            continue;
+        }
+        if !t.trim_start().is_empty() && !t.trim_start().starts_with('#') {
+            content = true;
+        }
+    }
+    None
+}
+
 /// Parses YAML after checking that no mapping repeats a key (serde keeps the last of a map's
 /// repeated keys without a word). `path` names the file in messages, `fix` says what it takes.
 pub fn yaml<T: serde::de::DeserializeOwned>(
@@ -118,12 +147,38 @@ pub fn yaml<T: serde::de::DeserializeOwned>(
     fix: &str,
 ) -> Result<T, InputError> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    if let Some((line, col, c)) = control_character(text) {
+        return Err(InputError::file(
+            path,
+            format!(
+                "a control character (U+{:04X}) that YAML does not allow: the file is damaged or is not text",
+                c as u32
+            ),
+            "remove the character (an editor shows it), or restore the file",
+        )
+        .at(line, Some(col))
+        .with_source(text));
+    }
     let located = |e: serde_yaml_ng::Error, fix: &str| {
         let msg = e.to_string();
         let msg = msg
             .rfind(" at line ")
             .map_or(msg.as_str(), |i| &msg[..i])
-            .to_string();
+            .replace(
+                "expected a YAML tag starting with '!'",
+                "expected one word (one of the names the key takes), not a list or a mapping",
+            );
+        if msg.contains("more than one document") {
+            let err = InputError::file(
+                path,
+                "a second YAML document starts here: the file holds one",
+                "remove the `---` line (and merge the two parts into one mapping), or the part after it",
+            );
+            return match second_document(text) {
+                Some(l) => err.at(l, Some(1)).with_source(text),
+                None => err,
+            };
+        }
         let mut err = InputError::file(path, clip(&msg, 300), fix);
         if let Some(l) = e.location() {
             err = err.at(l.line(), Some(l.column())).with_source(text);
@@ -166,6 +221,43 @@ mod tests {
         assert!(note.unwrap().starts_with("a.csv:3: the last line"));
         let whole = Text::new("t,x\n0,1\n");
         assert_eq!(whole.complete_lines("a.csv"), ("t,x\n0,1\n", None));
+    }
+
+    #[test]
+    fn run_yaml_shapes_are_errors_with_their_line() {
+        #[derive(serde::Deserialize, Debug)]
+        #[serde(rename_all = "snake_case")]
+        enum Role {
+            Train,
+        }
+        #[derive(serde::Deserialize, Debug)]
+        struct M {
+            #[allow(dead_code)]
+            role: Role,
+            #[serde(default)]
+            #[allow(dead_code)]
+            description: String,
+        }
+        let e = yaml::<M>("run.yaml", "role: [train]\n", "fix").unwrap_err();
+        let s = e.to_string();
+        assert!(
+            s.contains("not a list or a mapping") && !s.contains("YAML tag"),
+            "{s}"
+        );
+        assert_eq!(e.line, Some(1));
+        let e = yaml::<M>(
+            "run.yaml",
+            "# a run\nrole: train\n---\nrole: train\n",
+            "fix",
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("second YAML document"), "{e}");
+        assert_eq!(e.line, Some(3));
+        // A leading `---` is one document.
+        assert!(yaml::<M>("run.yaml", "---\nrole: train\n", "fix").is_ok());
+        let e = yaml::<M>("run.yaml", "role: train\ndescription: a\u{0}b\n", "fix").unwrap_err();
+        assert!(e.to_string().contains("U+0000"), "{e}");
+        assert_eq!((e.line, e.col), (Some(2), Some(15)));
     }
 
     #[test]
