@@ -129,6 +129,10 @@ pub struct Diagnosis {
     /// Hypotheses that could not be tested, with what the runs lack (docs/formats.md).
     #[serde(default)]
     pub untested: Vec<Untested>,
+    /// Named effects chosen first and dropped once a discovered term explained what they
+    /// were chosen for, each with the numbers that decided it.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub dropped: Vec<String>,
     /// The model's local stability along each run, and the simulation window it led to.
     #[serde(default)]
     pub stability: BTreeMap<String, crate::core::model::stability::Stability>,
@@ -185,6 +189,7 @@ impl Diagnosis {
             },
             diverged,
             untested: Vec::new(),
+            dropped: Vec::new(),
             stability: BTreeMap::new(),
             elapsed_s,
         }
@@ -239,6 +244,10 @@ pub struct Candidate {
     /// The named effect it is in disguise, if it is one.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub named_as: Option<String>,
+    /// The named effects whose form one of its terms has (a constant heave force is
+    /// `net_buoyancy`), though the whole may be more.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub named_terms: Vec<String>,
     /// Terms in the library it was chosen from.
     pub library_terms: usize,
     /// Significant peaks of the residual's spectrum, Hz.

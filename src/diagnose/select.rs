@@ -116,14 +116,22 @@ pub fn untested(data: &Data) -> Vec<Untested> {
         .iter()
         .filter(|h| !applicable(h, data))
         .map(|h| {
-            let lacking: Vec<&str> = all
+            // Grouped by what is missing, runs named under each.
+            let mut lacking: Vec<(&str, Vec<&str>)> = Vec::new();
+            for r in all.iter().filter(|r| !h.needs.met_by(r)) {
+                let what = h.needs.missing_in(r);
+                match lacking.iter_mut().find(|(w, _)| *w == what) {
+                    Some((_, runs)) => runs.push(r.name.as_str()),
+                    None => lacking.push((what, vec![r.name.as_str()])),
+                }
+            }
+            let missing: Vec<String> = lacking
                 .iter()
-                .filter(|r| !h.needs.met_by(r))
-                .map(|r| r.name.as_str())
+                .map(|(what, runs)| format!("{what} is missing in {}", runs.join(", ")))
                 .collect();
             Untested {
                 name: h.name.to_string(),
-                missing: format!("{} is missing in {}", h.needs.missing(), lacking.join(", ")),
+                missing: missing.join("; "),
             }
         })
         .collect()

@@ -4,6 +4,7 @@ use crate::twin::scenario;
 use crate::twin::world::Effect;
 
 mod discovery;
+mod joint;
 mod piloted;
 use piloted::piloted_fast_runs;
 
@@ -20,7 +21,7 @@ fn full(
     fused: &[crate::pool::fusion::run::FusedRun],
     plant: &crate::core::model::Plant,
 ) -> Diagnosis {
-    diagnose(
+    let d = diagnose(
         &crate::core::model::Vehicle::reference(),
         "fit",
         plant,
@@ -29,7 +30,40 @@ fn full(
         &|_| {},
     )
     .unwrap()
-    .0
+    .0;
+    words_agree_with_numbers(&d);
+    d
+}
+
+/// The verdict's words agree with its numbers (every scenario's diagnosis passes here): "no
+/// missing physics" only within the stated multiple of the noise floor and with nothing
+/// found; every effect found, dropped or left unexplained is said.
+fn words_agree_with_numbers(d: &Diagnosis) {
+    let v = &d.verdict;
+    let (cost, noise) = (d.baseline.validation_cost, d.baseline.noise_cost);
+    if v.starts_with("No missing physics:") {
+        assert!(
+            cost <= d.criteria.within_noise * noise && d.effects.is_empty(),
+            "{v}\ncost {cost} noise {noise}"
+        );
+        assert!(
+            v.contains(&format!("{:.1} times the noise floor", cost / noise)),
+            "{v}"
+        );
+    }
+    for e in &d.effects {
+        if e.name == "unexplained" {
+            assert!(
+                v.contains("unexplained") || v.contains("does not explain"),
+                "{v}"
+            );
+        } else {
+            assert!(v.contains(&e.name), "{} not in: {v}", e.name);
+        }
+    }
+    for dropped in &d.dropped {
+        assert!(v.contains(dropped.as_str()), "{v}");
+    }
 }
 
 fn scenario_diagnosis(effects: &[Effect], seed: u64) -> Diagnosis {
@@ -316,6 +350,20 @@ fn experiment() {
         }
         for (h, p) in &s.selected {
             eprintln!("  selected {} {:?}", h.name, p);
+        }
+        if std::env::var("FULL").is_ok() {
+            let d = scenario_diagnosis(&effects, seed);
+            eprintln!("  verdict: {}", d.verdict);
+            for e in &d.effects {
+                eprintln!(
+                    "  found {} alike {:?}",
+                    e.name,
+                    e.alike
+                        .iter()
+                        .map(|a| (&a.name, a.validation_cost))
+                        .collect::<Vec<_>>()
+                );
+            }
         }
         if std::env::var("PER_RUN").is_ok() {
             let (plant, aug) = (

@@ -50,11 +50,10 @@ pub fn diagnose(
         noise: data.noise_cost,
     };
     let (effects, mut figures, conclusion) = conclude(plant, &data, crit, &search, &costs)?;
-    let mut verdict = verdict_sentence(&effects, conclusion.unexplained, conclusion.drift, &costs);
-    if let Some(c) = effects.iter().find_map(|e| e.candidate.as_ref()) {
-        verdict.push_str(&c.verdict_sentence());
-    }
-    if let Some(fig) = figures::overlay_figure(plant, &data, &mismatch, &search.selected, model)? {
+    let verdict = compose_verdict(plant, &data, crit, &effects, &conclusion, costs);
+    if let Some(fig) =
+        figures::overlay_figure(plant, &data, &mismatch, &conclusion.selected, model)?
+    {
         figures.insert(0, fig);
     }
     if let Some(fig) = figures::residual_overview(&data, &res_before, &mismatch)? {
@@ -79,10 +78,46 @@ pub fn diagnose(
         runs: runs_record(&data, skipped),
         diverged: Vec::new(),
         untested: dx::untested(&data),
+        dropped: conclusion.dropped.clone(),
         stability,
         elapsed_s: start.elapsed().as_secs_f64(),
     };
     Ok((diagnosis, figures))
+}
+
+/// The verdict: its sentence on the costs of what survived the selection, the discovered
+/// term's, and one per named effect dropped.
+fn compose_verdict(
+    plant: &Plant,
+    data: &Data,
+    crit: &Criteria,
+    effects: &[Found],
+    conclusion: &Conclusion,
+    costs: Costs,
+) -> String {
+    let costs = Costs {
+        after_effects: if conclusion.dropped.is_empty() {
+            costs.after_effects
+        } else {
+            data.eval(plant, &dx::augmentation(&conclusion.selected), true)
+                .cost(&data.scale)
+        },
+        ..costs
+    };
+    let mut verdict = verdict_sentence(
+        effects,
+        conclusion.unexplained,
+        conclusion.drift,
+        &costs,
+        crit.within_noise,
+    );
+    if let Some(c) = effects.iter().find_map(|e| e.candidate.as_ref()) {
+        verdict.push_str(&c.verdict_sentence());
+    }
+    for d in &conclusion.dropped {
+        let _ = write!(verdict, " {d}.");
+    }
+    verdict
 }
 
 /// The runs the diagnosis trained and validated on, and those it left out.
@@ -160,10 +195,19 @@ struct Conclusion {
     drift: bool,
     /// A structured residual well above the noise remains.
     unexplained: bool,
+    /// The named effects that survive the joint selection with the discovered term.
+    selected: dx::Selection,
+    /// Named effects dropped once a discovered term explained what they were chosen for,
+    /// each with the numbers that decided it.
+    dropped: Vec<String>,
 }
 
 /// The named effects and their figures, or none when drift explains better, plus an
 /// `unexplained` entry when a structured residual well above the noise remains.
+///
+/// "Explained" is one rule: the held-out cost within `within_noise` times the noise floor
+/// *and* no DOF whose residual is both structured and above `unexplained_noise_multiple`
+/// times its own noise ([`structured_left`]). A structured residual is never "within noise".
 fn conclude(
     plant: &Plant,
     data: &Data,
@@ -171,7 +215,58 @@ fn conclude(
     search: &dx::Search,
     costs: &Costs,
 ) -> anyhow::Result<(Vec<Found>, Vec<Figure>, Conclusion)> {
-    let (mut effects, mut figures) = named_effects(plant, data, &search.selected)?;
+    let within = |c: f64| within_noise(crit, data, c);
+    // Drift wins when re-estimating the model's own parameters explains the held-out runs
+    // better than the effects did (and the CFD model itself is not already within noise).
+    let drift = costs.reestimated < costs.after_effects
+        && !within(costs.base)
+        && costs.reestimated < 0.5 * costs.base;
+    let mut selected = if drift {
+        Vec::new()
+    } else {
+        search.selected.clone()
+    };
+    let mut explained_cost = if drift {
+        costs.reestimated
+    } else {
+        costs.after_effects
+    };
+    let mut left = if drift {
+        Vec::new()
+    } else {
+        structured_left(plant, data, &dx::augmentation(&selected), crit)
+    };
+    let unexplained = |cost: f64, left: &[Dof], n_effects: usize| {
+        !left.is_empty()
+            || (!within(cost) && (cost > 0.5 * costs.base.max(1e-12) || n_effects == 0))
+    };
+    let mut dropped = Vec::new();
+    let mut found = None;
+    let mut disc_figures = Vec::new();
+    if unexplained(explained_cost, &left, selected.len()) {
+        let mut f = unexplained_residual(plant, data, &selected, explained_cost, &left, crit);
+        // Beyond the vocabulary: a closed form for what is left, kept only if the held-out
+        // runs prove it. Not after drift: the model itself is then what is wrong.
+        if !drift && crit.discover {
+            let dofs = f.dofs.clone();
+            let aug = dx::augmentation(&selected);
+            if let Some((c, figs)) = super::discover::discover(plant, data, &aug, &dofs, crit)? {
+                let (kept, c, figs, why) =
+                    joint_selection(plant, data, crit, selected.clone(), &dofs, c, figs)?;
+                (selected, dropped) = (kept, why);
+                if !dropped.is_empty() {
+                    let aug = dx::augmentation(&selected);
+                    explained_cost = data.eval(plant, &aug, true).cost(&data.scale);
+                    left = structured_left(plant, data, &aug, crit);
+                    f = unexplained_residual(plant, data, &selected, explained_cost, &left, crit);
+                }
+                f = c.into_found(f);
+                disc_figures = figs;
+            }
+        }
+        found = Some(f);
+    }
+    let (mut effects, mut figures) = named_effects(plant, data, &selected)?;
     for e in &mut effects {
         e.alike = dx::select::alike(search, crit, data, &e.name);
         if !e.alike.is_empty() {
@@ -179,50 +274,75 @@ fn conclude(
             e.evidence.push_str(&sentence);
         }
     }
-    let within = |c: f64| within_noise(crit, data, c);
-    // Drift wins when re-estimating the model's own parameters explains the held-out runs
-    // better than the effects did (and the CFD model itself is not already within noise).
-    let drift = costs.reestimated < costs.after_effects
-        && !within(costs.base)
-        && costs.reestimated < 0.5 * costs.base;
-    if drift {
-        effects.clear();
-        figures.clear();
-    }
-    let explained_cost = if drift {
-        costs.reestimated
-    } else {
-        costs.after_effects
-    };
-    let left = if drift {
-        Vec::new()
-    } else {
-        structured_left(plant, data, &dx::augmentation(&search.selected), crit)
-    };
-    let unexplained = !within(explained_cost) && explained_cost > 0.5 * costs.base.max(1e-12)
-        || (!within(explained_cost) && effects.is_empty())
-        || (!left.is_empty() && !within(explained_cost));
-    if unexplained {
-        let mut found =
-            unexplained_residual(plant, data, &search.selected, explained_cost, &left, crit);
-        // Beyond the vocabulary: a closed form for what is left, kept only if the held-out
-        // runs prove it. Not after drift: the model itself is then what is wrong.
-        if !drift
-            && crit.discover
-            && let Some((c, figs)) = super::discover::discover(
-                plant,
-                data,
-                &dx::augmentation(&search.selected),
-                &found.dofs,
-                crit,
-            )?
-        {
-            found = c.into_found(found);
-            figures.extend(figs);
+    figures.extend(disc_figures);
+    let is_unexplained = found.is_some();
+    effects.extend(found);
+    Ok((
+        effects,
+        figures,
+        Conclusion {
+            drift,
+            unexplained: is_unexplained,
+            selected,
+            dropped,
+        },
+    ))
+}
+
+/// Joint selection of the named effects and the discovered term `c`: a named effect chosen
+/// before discovery was considered stays only if, beside the term (discovered again without
+/// it), it still lowers the held-out cost by the margin an effect needs. Returns the effects
+/// kept, the term and its figures, and a sentence per effect dropped.
+fn joint_selection(
+    plant: &Plant,
+    data: &Data,
+    crit: &Criteria,
+    mut selected: dx::Selection,
+    dofs: &[Dof],
+    mut c: crate::diagnose::result::Candidate,
+    mut figs: Vec<Figure>,
+) -> anyhow::Result<(
+    dx::Selection,
+    crate::diagnose::result::Candidate,
+    Vec<Figure>,
+    Vec<String>,
+)> {
+    let mut dropped = Vec::new();
+    for i in (0..selected.len()).rev() {
+        let mut reduced = selected.clone();
+        let (h, _) = reduced.remove(i);
+        let aug = dx::augmentation(&reduced);
+        let Some((c2, figs2)) = super::discover::discover(plant, data, &aug, dofs, crit)? else {
+            continue;
+        };
+        // Discovery without the effect finds the effect again (a constant heave force for
+        // net buoyancy): the effect is confirmed, not explained away.
+        if c2.named_terms.iter().any(|n| n == h.name) {
+            continue;
         }
-        effects.push(found);
+        let (with, without) = (c.validation_cost_after, c2.validation_cost_after);
+        let gain = (without - with) / without.max(1e-300);
+        let needed = crit.min_gain + crit.gain_per_parameter * h.params.len() as f64;
+        if gain < needed || without - with < crit.min_noise_multiple * data.noise_cost {
+            let change = if with > without {
+                format!("raises the held-out error cost from {without:.4} to {with:.4}")
+            } else {
+                format!(
+                    "lowers the held-out error cost only from {without:.4} to {with:.4} ({:.1} %, where {:.0} % is needed)",
+                    100.0 * gain,
+                    100.0 * needed
+                )
+            };
+            dropped.push(format!(
+                "The named effect {} was dropped: beside the discovered term ({}) it {change}",
+                h.name, c2.expression
+            ));
+            selected = reduced;
+            c = c2;
+            figs = figs2;
+        }
     }
-    Ok((effects, figures, Conclusion { drift, unexplained }))
+    Ok((selected, c, figs, dropped))
 }
 
 /// The fused runs the diagnosis can use (every DOF fused), each with the simulation window
@@ -463,20 +583,31 @@ struct Costs {
 }
 
 /// The one-sentence verdict.
-fn verdict_sentence(effects: &[Found], unexplained: bool, drift: bool, c: &Costs) -> String {
+fn verdict_sentence(
+    effects: &[Found],
+    unexplained: bool,
+    drift: bool,
+    c: &Costs,
+    within_multiple: f64,
+) -> String {
     let (base_cost, final_cost, re_cost) = (c.base, c.after_effects, c.reestimated);
     if unexplained {
         if effects.len() == 1 {
             "The model does not explain the held-out runs, re-estimating its parameters does not either, and no effect of the table does: the residual is structured and is reported as unexplained, with where it is.".to_string()
         } else {
             format!(
-                "{} explain part of the mismatch: the held-out error cost falls from {base_cost:.4} to {final_cost:.4} ({} of the start, {:.1} times the noise floor); a structured residual remains and is reported as unexplained.",
+                "{} {} part of the mismatch: the held-out error cost falls from {base_cost:.4} to {final_cost:.4} ({} of the start, {:.1} times the noise floor); a structured residual remains and is reported as unexplained.",
                 effects
                     .iter()
                     .filter(|e| e.name != "unexplained")
                     .map(Found::name_with_alike)
                     .collect::<Vec<_>>()
                     .join(" and "),
+                if effects.len() > 2 {
+                    "explain"
+                } else {
+                    "explains"
+                },
                 pct(final_cost / base_cost),
                 final_cost / c.noise
             )
@@ -488,7 +619,8 @@ fn verdict_sentence(effects: &[Found], unexplained: bool, drift: bool, c: &Costs
         )
     } else if effects.is_empty() {
         format!(
-            "No missing physics: the model explains the held-out runs to within their noise (error cost {base_cost:.4} vs noise floor {:.4}) and no effect improves it significantly.",
+            "No missing physics: the held-out error cost {base_cost:.4} is {:.1} times the noise floor {:.4}, within the {within_multiple} times that counts as noise, no DOF's residual is structured above its noise, and no effect improves it significantly.",
+            base_cost / c.noise.max(1e-300),
             c.noise
         )
     } else {
@@ -512,10 +644,15 @@ fn verdict_sentence(effects: &[Found], unexplained: bool, drift: bool, c: &Costs
     }
 }
 
-/// The DOFs whose held-out residual, after the effects in `aug`, is both well above its noise
-/// (`unexplained_noise_multiple` times the fused variance) and structured (its autocorrelation
-/// outside the 95 % band at more than a fifth of the lags up to 5 s, seed 000): what is left
-/// there is physics the model lacks, however much the named effects already explained.
+/// The DOFs whose held-out residual, after the effects in `aug`, is structured and above its
+/// noise: what is left there is physics the model lacks, however much the named effects
+/// already explained. Structured is either
+/// - over `unexplained_noise_multiple` times the fused variance, with its autocorrelation
+///   outside the 95 % band at more than a fifth of the lags up to 5 s (seed 000), or
+/// - over [`LINE_NOISE_MULTIPLE`] times the fused variance, with a line in its pooled
+///   periodogram that no command has ([`uncommanded_line`]): a periodic force is never
+///   "within noise" (the fused velocities' own errors are coloured, so their
+///   autocorrelation alone tells little below the higher multiple, but they make no line).
 fn structured_left(plant: &Plant, data: &Data, aug: &Augmentation, crit: &Criteria) -> Vec<Dof> {
     let res = dx::residuals(plant, aug, &data.validate);
     (0..4)
@@ -532,10 +669,106 @@ fn structured_left(plant: &Plant, data: &Data, aug: &Augmentation, crit: &Criter
                 outside += crate::validate::whiteness(&e, dt, (5.0 / dt).round() as usize).outside;
                 runs += 1.0;
             }
-            runs > 0.0 && sse > crit.unexplained_noise_multiple * var && outside / runs > 0.2
+            if runs == 0.0 {
+                return false;
+            }
+            let correlated = sse > crit.unexplained_noise_multiple * var && outside / runs > 0.2;
+            correlated
+                || (sse > LINE_NOISE_MULTIPLE * var && uncommanded_line(&data.validate, &res, j))
         })
         .map(|j| DOFS[j])
         .collect()
+}
+
+/// A residual at this multiple of its noise with a spectral line is structured.
+const LINE_NOISE_MULTIPLE: f64 = 2.0;
+/// A periodogram value this many times the periodogram's median is a line (the discovery's
+/// threshold for a sine, [`super::discover`]).
+const LINE_RATIO: f64 = 25.0;
+
+/// Whether DOF `j`'s residual, pooled over `runs`, has a line no command has: its
+/// periodogram's largest value (0.05-2 Hz, a quarter of the longest run's resolution) over
+/// [`LINE_RATIO`] times its median, at a frequency where no command's periodogram has one (a
+/// manoeuvre repeated at a frequency leaves the model's error at that frequency: that is
+/// the model's response, not a force of its own).
+fn uncommanded_line(runs: &[dx::Run], res: &[[Vec<f64>; 4]], j: usize) -> bool {
+    let span = runs
+        .iter()
+        .map(|r| r.t.last().unwrap_or(&0.0) - r.t.first().unwrap_or(&0.0))
+        .fold(1.0, f64::max);
+    let df = 0.25 / span;
+    let grid: Vec<f64> = (0..)
+        .map(|i| 0.05 + i as f64 * df)
+        .take_while(|f| *f <= 2.0)
+        .collect();
+    let p = pooled_periodogram(runs, &grid, |r, k| {
+        res[r][j].get(k).copied().unwrap_or(f64::NAN)
+    });
+    let Some((peak, _)) = line(&p) else {
+        return false;
+    };
+    let ratio = local_ratio(&p, peak, df);
+    if ratio <= LINE_RATIO {
+        return false;
+    }
+    !(0..4).any(|q| {
+        let pc = pooled_periodogram(runs, &grid, |r, k| runs[r].cmd[k][q]);
+        local_ratio(&pc, peak, df) > LINE_RATIO
+    })
+}
+
+/// The periodogram `p` (bins `df` apart) at bin `at` (or a bin beside it) over its median
+/// around it, 0.15 Hz either side with the line's own lobe (0.02 Hz either side) left out:
+/// a residual's errors are coloured, so low frequencies stand above the median of the whole
+/// band without any line, but not above their neighbours.
+fn local_ratio(p: &[f64], at: usize, df: f64) -> f64 {
+    let (lobe, wide) = ((0.02 / df).ceil() as usize, (0.15 / df).ceil() as usize);
+    let around: Vec<f64> = (at.saturating_sub(wide)..(at + wide + 1).min(p.len()))
+        .filter(|&i| i.abs_diff(at) > lobe)
+        .map(|i| p[i])
+        .collect();
+    let top = (at.saturating_sub(1)..=(at + 1).min(p.len() - 1))
+        .map(|i| p[i])
+        .fold(0.0, f64::max);
+    top / median(&around).max(1e-300)
+}
+
+/// The periodogram at `grid`, pooled over `runs`, of the signal `x(run, sample)` (NaN samples
+/// left out, each run's mean removed).
+fn pooled_periodogram(runs: &[dx::Run], grid: &[f64], x: impl Fn(usize, usize) -> f64) -> Vec<f64> {
+    let mut p = vec![0.0; grid.len()];
+    for (ri, r) in runs.iter().enumerate() {
+        let pts: Vec<(f64, f64)> = (0..r.t.len())
+            .map(|k| (r.t[k], x(ri, k)))
+            .filter(|(_, v)| v.is_finite())
+            .collect();
+        if pts.len() < 20 {
+            continue;
+        }
+        let mean = pts.iter().map(|p| p.1).sum::<f64>() / pts.len() as f64;
+        for (pi, &f) in grid.iter().enumerate() {
+            let (mut re, mut im) = (0.0, 0.0);
+            for &(t, v) in &pts {
+                let (s, c) = (std::f64::consts::TAU * f * t).sin_cos();
+                re += (v - mean) * c;
+                im += (v - mean) * s;
+            }
+            p[pi] += (re * re + im * im) / pts.len() as f64;
+        }
+    }
+    p
+}
+
+fn median(p: &[f64]) -> f64 {
+    let mut sorted = p.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    sorted.get(sorted.len() / 2).copied().unwrap_or(0.0)
+}
+
+/// The index of a periodogram's largest value and its ratio to the median.
+fn line(p: &[f64]) -> Option<(usize, f64)> {
+    let (i, &top) = p.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1))?;
+    Some((i, top / median(p).max(1e-300)))
 }
 
 /// The model's parameters re-estimated on the training runs: equation error, least squares.
@@ -581,7 +814,7 @@ mod tests {
             reestimated: 0.5203,
             noise: 0.005,
         };
-        let v = verdict_sentence(&[found("thruster_lag")], false, false, &costs);
+        let v = verdict_sentence(&[found("thruster_lag")], false, false, &costs, 5.0);
         assert!(v.contains("from 0.4470 to 0.0200 (4 % of the start"), "{v}");
         assert!(
             v.contains("instead worsens it to 0.5203 (116 % of the start)"),
@@ -592,6 +825,7 @@ mod tests {
             true,
             false,
             &costs,
+            5.0,
         );
         assert!(
             v.contains("(4 % of the start, 4.0 times the noise floor)"),

@@ -202,11 +202,14 @@ pub fn discover(
             Some(Some(n)) if named.iter().all(|x| *x == Some(n)) => Some(n.to_string()),
             _ => None,
         };
+        let mut named_terms: Vec<String> = named.iter().flatten().map(|n| n.to_string()).collect();
+        named_terms.dedup();
         let candidate = Candidate {
             dof: DOFS[j],
             expression: expression(DOFS[j], &var.terms),
             terms: var.terms.clone(),
             named_as,
+            named_terms,
             library_terms: p.library_terms,
             spectrum_peaks_hz: p.peaks.clone(),
             validation_nmae_before: super::nmae_map(&before),

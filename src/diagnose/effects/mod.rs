@@ -81,19 +81,33 @@ impl Needs {
     pub fn met_by(self, r: &Run) -> bool {
         match self {
             Needs::Nothing => true,
-            Needs::Anchor => r.anchor.is_some(),
-            Needs::Pool => r.pool.is_some(),
+            Needs::Anchor => r.anchor.is_some() && has_position(r),
+            Needs::Pool => r.pool.is_some() && has_position(r),
         }
     }
 
-    /// What a run lacks when it does not meet the need.
-    pub fn missing(self) -> &'static str {
+    /// What run `r` lacks when it does not meet the need.
+    pub fn missing_in(self, r: &Run) -> &'static str {
         match self {
             Needs::Nothing => "nothing",
+            Needs::Anchor if r.anchor.is_some() => {
+                "a horizontal position at every sample (UWB or imaging sonar; a navigation log's velocity alone gives none)"
+            }
+            Needs::Pool if r.pool.is_some() => {
+                "a horizontal position at every sample (UWB or imaging sonar; a navigation log's velocity alone gives none)"
+            }
             Needs::Anchor => "tether_anchor_m in run.yaml (where the tether enters the water)",
             Needs::Pool => "pool: {length_m, width_m, depth_m} in run.yaml",
         }
     }
+}
+
+/// Whether the run's fused horizontal position is known (finite) at every sample: an effect
+/// that reads the position is never scored on a made-up one.
+fn has_position(r: &Run) -> bool {
+    !r.pos[0].is_empty()
+        && r.pos[0].len() == r.t.len()
+        && r.pos[..2].iter().all(|p| p.iter().all(|x| x.is_finite()))
 }
 
 /// The quantity an effect's evidence is plotted against, per run, sample and DOF (index into
