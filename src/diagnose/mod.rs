@@ -25,6 +25,7 @@ pub mod report;
 pub mod result;
 pub mod search;
 mod select;
+mod spectrum;
 pub mod stage;
 #[cfg(test)]
 mod tests;

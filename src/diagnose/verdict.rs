@@ -50,7 +50,7 @@ pub fn diagnose(
         noise: data.noise_cost,
     };
     let (effects, mut figures, conclusion) = conclude(plant, &data, crit, &search, &costs)?;
-    let verdict = compose_verdict(plant, &data, crit, &effects, &conclusion, costs);
+    let verdict = compose_verdict(crit, &effects, &conclusion, costs);
     if let Some(fig) =
         figures::overlay_figure(plant, &data, &mismatch, &conclusion.selected, model)?
     {
@@ -88,20 +88,13 @@ pub fn diagnose(
 /// The verdict: its sentence on the costs of what survived the selection, the discovered
 /// term's, and one per named effect dropped.
 fn compose_verdict(
-    plant: &Plant,
-    data: &Data,
     crit: &Criteria,
     effects: &[Found],
     conclusion: &Conclusion,
     costs: Costs,
 ) -> String {
     let costs = Costs {
-        after_effects: if conclusion.dropped.is_empty() {
-            costs.after_effects
-        } else {
-            data.eval(plant, &dx::augmentation(&conclusion.selected), true)
-                .cost(&data.scale)
-        },
+        after_effects: conclusion.cost_after_drop.unwrap_or(costs.after_effects),
         ..costs
     };
     let mut verdict = verdict_sentence(
@@ -200,6 +193,8 @@ struct Conclusion {
     /// Named effects dropped once a discovered term explained what they were chosen for,
     /// each with the numbers that decided it.
     dropped: Vec<String>,
+    /// The held-out cost of the effects kept, once some were dropped.
+    cost_after_drop: Option<f64>,
 }
 
 /// The named effects and their figures, or none when drift explains better, plus an
@@ -267,26 +262,32 @@ fn conclude(
         found = Some(f);
     }
     let (mut effects, mut figures) = named_effects(plant, data, &selected)?;
-    for e in &mut effects {
-        e.alike = dx::select::alike(search, crit, data, &e.name);
-        if !e.alike.is_empty() {
-            let sentence = e.alike_sentence(data.noise_cost);
-            e.evidence.push_str(&sentence);
-        }
-    }
+    list_alike(&mut effects, search, crit, data);
     figures.extend(disc_figures);
-    let is_unexplained = found.is_some();
+    let unexplained = found.is_some();
     effects.extend(found);
     Ok((
         effects,
         figures,
         Conclusion {
             drift,
-            unexplained: is_unexplained,
+            unexplained,
+            cost_after_drop: (!dropped.is_empty()).then_some(explained_cost),
             selected,
             dropped,
         },
     ))
+}
+
+/// Each effect's look-alikes: the candidates its round could not tell from it.
+fn list_alike(effects: &mut [Found], search: &dx::Search, crit: &Criteria, data: &Data) {
+    for e in effects {
+        e.alike = dx::select::alike(search, crit, data, &e.name);
+        if !e.alike.is_empty() {
+            let sentence = e.alike_sentence(data.noise_cost);
+            e.evidence.push_str(&sentence);
+        }
+    }
 }
 
 /// Joint selection of the named effects and the discovered term `c`: a named effect chosen
@@ -650,11 +651,12 @@ fn verdict_sentence(
 /// - over `unexplained_noise_multiple` times the fused variance, with its autocorrelation
 ///   outside the 95 % band at more than a fifth of the lags up to 5 s (seed 000), or
 /// - over [`LINE_NOISE_MULTIPLE`] times the fused variance, with a line in its pooled
-///   periodogram that no command has ([`uncommanded_line`]): a periodic force is never
+///   periodogram that no command has ([`super::spectrum::Lines::uncommanded`]): a periodic force is never
 ///   "within noise" (the fused velocities' own errors are coloured, so their
 ///   autocorrelation alone tells little below the higher multiple, but they make no line).
 fn structured_left(plant: &Plant, data: &Data, aug: &Augmentation, crit: &Criteria) -> Vec<Dof> {
     let res = dx::residuals(plant, aug, &data.validate);
+    let lines = super::spectrum::Lines::new(&data.validate);
     (0..4)
         .filter(|&j| {
             let (mut sse, mut var, mut outside, mut runs) = (0.0, 0.0, 0.0, 0.0);
@@ -673,8 +675,7 @@ fn structured_left(plant: &Plant, data: &Data, aug: &Augmentation, crit: &Criter
                 return false;
             }
             let correlated = sse > crit.unexplained_noise_multiple * var && outside / runs > 0.2;
-            correlated
-                || (sse > LINE_NOISE_MULTIPLE * var && uncommanded_line(&data.validate, &res, j))
+            correlated || (sse > LINE_NOISE_MULTIPLE * var && lines.uncommanded(&res, j))
         })
         .map(|j| DOFS[j])
         .collect()
@@ -682,94 +683,6 @@ fn structured_left(plant: &Plant, data: &Data, aug: &Augmentation, crit: &Criter
 
 /// A residual at this multiple of its noise with a spectral line is structured.
 const LINE_NOISE_MULTIPLE: f64 = 2.0;
-/// A periodogram value this many times the periodogram's median is a line (the discovery's
-/// threshold for a sine, [`super::discover`]).
-const LINE_RATIO: f64 = 25.0;
-
-/// Whether DOF `j`'s residual, pooled over `runs`, has a line no command has: its
-/// periodogram's largest value (0.05-2 Hz, a quarter of the longest run's resolution) over
-/// [`LINE_RATIO`] times its median, at a frequency where no command's periodogram has one (a
-/// manoeuvre repeated at a frequency leaves the model's error at that frequency: that is
-/// the model's response, not a force of its own).
-fn uncommanded_line(runs: &[dx::Run], res: &[[Vec<f64>; 4]], j: usize) -> bool {
-    let span = runs
-        .iter()
-        .map(|r| r.t.last().unwrap_or(&0.0) - r.t.first().unwrap_or(&0.0))
-        .fold(1.0, f64::max);
-    let df = 0.25 / span;
-    let grid: Vec<f64> = (0..)
-        .map(|i| 0.05 + i as f64 * df)
-        .take_while(|f| *f <= 2.0)
-        .collect();
-    let p = pooled_periodogram(runs, &grid, |r, k| {
-        res[r][j].get(k).copied().unwrap_or(f64::NAN)
-    });
-    let Some((peak, _)) = line(&p) else {
-        return false;
-    };
-    let ratio = local_ratio(&p, peak, df);
-    if ratio <= LINE_RATIO {
-        return false;
-    }
-    !(0..4).any(|q| {
-        let pc = pooled_periodogram(runs, &grid, |r, k| runs[r].cmd[k][q]);
-        local_ratio(&pc, peak, df) > LINE_RATIO
-    })
-}
-
-/// The periodogram `p` (bins `df` apart) at bin `at` (or a bin beside it) over its median
-/// around it, 0.15 Hz either side with the line's own lobe (0.02 Hz either side) left out:
-/// a residual's errors are coloured, so low frequencies stand above the median of the whole
-/// band without any line, but not above their neighbours.
-fn local_ratio(p: &[f64], at: usize, df: f64) -> f64 {
-    let (lobe, wide) = ((0.02 / df).ceil() as usize, (0.15 / df).ceil() as usize);
-    let around: Vec<f64> = (at.saturating_sub(wide)..(at + wide + 1).min(p.len()))
-        .filter(|&i| i.abs_diff(at) > lobe)
-        .map(|i| p[i])
-        .collect();
-    let top = (at.saturating_sub(1)..=(at + 1).min(p.len() - 1))
-        .map(|i| p[i])
-        .fold(0.0, f64::max);
-    top / median(&around).max(1e-300)
-}
-
-/// The periodogram at `grid`, pooled over `runs`, of the signal `x(run, sample)` (NaN samples
-/// left out, each run's mean removed).
-fn pooled_periodogram(runs: &[dx::Run], grid: &[f64], x: impl Fn(usize, usize) -> f64) -> Vec<f64> {
-    let mut p = vec![0.0; grid.len()];
-    for (ri, r) in runs.iter().enumerate() {
-        let pts: Vec<(f64, f64)> = (0..r.t.len())
-            .map(|k| (r.t[k], x(ri, k)))
-            .filter(|(_, v)| v.is_finite())
-            .collect();
-        if pts.len() < 20 {
-            continue;
-        }
-        let mean = pts.iter().map(|p| p.1).sum::<f64>() / pts.len() as f64;
-        for (pi, &f) in grid.iter().enumerate() {
-            let (mut re, mut im) = (0.0, 0.0);
-            for &(t, v) in &pts {
-                let (s, c) = (std::f64::consts::TAU * f * t).sin_cos();
-                re += (v - mean) * c;
-                im += (v - mean) * s;
-            }
-            p[pi] += (re * re + im * im) / pts.len() as f64;
-        }
-    }
-    p
-}
-
-fn median(p: &[f64]) -> f64 {
-    let mut sorted = p.to_vec();
-    sorted.sort_by(f64::total_cmp);
-    sorted.get(sorted.len() / 2).copied().unwrap_or(0.0)
-}
-
-/// The index of a periodogram's largest value and its ratio to the median.
-fn line(p: &[f64]) -> Option<(usize, f64)> {
-    let (i, &top) = p.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1))?;
-    Some((i, top / median(p).max(1e-300)))
-}
 
 /// The model's parameters re-estimated on the training runs: equation error, least squares.
 fn reestimate(

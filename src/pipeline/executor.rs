@@ -104,12 +104,11 @@ pub fn build(plan: &Plan, opts: &Options, progress: &Progress) -> anyhow::Result
     let batches = prepare_batches(plan, &schedule.state, progress);
     let bar = progress.bar(schedule.waiting() as u64, "building");
     let jobs = opts.jobs.max(1);
-    let (tx, rx) = mpsc::channel::<(usize, Result<(), String>)>();
+    let (tx, rx) = mpsc::channel::<(usize, Result<(), Failure>)>();
     std::thread::scope(|scope| {
         let mut running = 0;
         loop {
             for i in schedule.ready(jobs - running) {
-                let why = schedule.why(i);
                 let failed_deps = schedule.start(i);
                 running += 1;
                 let (tx, cache, spinner) = (
@@ -118,16 +117,11 @@ pub fn build(plan: &Plan, opts: &Options, progress: &Progress) -> anyhow::Result
                     progress.spinner(&plan.graph.instances[i].id),
                 );
                 scope.spawn(move || {
-                    let r = run_one(plan, i, cache, &spinner, failed_deps).map_err(|e| {
-                        let unavailable = e
+                    let r = run_one(plan, i, cache, &spinner, failed_deps).map_err(|e| Failure {
+                        msg: format!("{e:#}"),
+                        executor_unavailable: e
                             .chain()
-                            .any(|c| c.is::<crate::core::diag::ExecutorUnavailable>());
-                        if unavailable {
-                            // Whether the run can be avoided depends on why it was needed.
-                            format!("{e:#}\n  it had to run because: {}", why.join("; "))
-                        } else {
-                            format!("{e:#}")
-                        }
+                            .any(|c| c.is::<crate::core::diag::ExecutorUnavailable>()),
                     });
                     spinner.finish_and_clear();
                     let _ = tx.send((i, r));
@@ -193,6 +187,13 @@ fn prepare_batches(
     kept
 }
 
+/// Why a worker's instance failed.
+struct Failure {
+    msg: String,
+    /// Its executor cannot run here (a cluster that does not answer).
+    executor_unavailable: bool,
+}
+
 /// A build in progress: where each instance stands and what has been counted so far.
 struct Schedule<'a> {
     plan: &'a Plan,
@@ -200,8 +201,9 @@ struct Schedule<'a> {
     progress: &'a Progress,
     state: Vec<State>,
     summary: Summary,
-    /// What each instance was last built with, to say why one runs again.
-    records: HashMap<String, Record>,
+    /// What each instance was last built with, to say why one runs again (`--explain`,
+    /// and when its executor is not there); read when first needed.
+    records: std::cell::OnceCell<HashMap<String, Record>>,
 }
 
 impl<'a> Schedule<'a> {
@@ -234,16 +236,13 @@ impl<'a> Schedule<'a> {
             up_to_date: state.iter().filter(|s| **s == State::Done).count(),
             ..Default::default()
         };
-        // What each instance was last built with: to say why it runs (`--explain`, and
-        // when its executor is not there).
-        let records = cache.records();
         Ok(Schedule {
             plan,
             opts,
             progress,
             state,
             summary,
-            records,
+            records: std::cell::OnceCell::new(),
         })
     }
 
@@ -272,7 +271,8 @@ impl<'a> Schedule<'a> {
     /// Why instance `i` runs: what differs from its last build.
     fn why(&self, i: usize) -> Vec<String> {
         let id = &self.plan.graph.instances[i].id;
-        explain::reasons(self.records.get(id), &self.plan.fields[i])
+        let records = self.records.get_or_init(|| self.plan.cache().records());
+        explain::reasons(records.get(id), &self.plan.fields[i])
     }
 
     /// Marks instance `i` running (saying why, with `--explain`); its failed dependencies
@@ -305,7 +305,7 @@ impl<'a> Schedule<'a> {
 
     /// Records what a worker reported for instance `i`: done, stopped by Ctrl-C, or failed
     /// (which stops what depends on it).
-    fn finish(&mut self, i: usize, r: Result<(), String>) {
+    fn finish(&mut self, i: usize, r: Result<(), Failure>) {
         let id = self.plan.graph.instances[i].id.clone();
         match r {
             Ok(()) => {
@@ -317,7 +317,18 @@ impl<'a> Schedule<'a> {
                 self.state[i] = State::Failed;
                 self.progress.println(format!("{id}: stopped"));
             }
-            Err(e) => {
+            Err(f) => {
+                // Whether a run its executor cannot make here can be avoided depends on why
+                // it was needed.
+                let e = if f.executor_unavailable {
+                    format!(
+                        "{}\n  it had to run because: {}",
+                        f.msg,
+                        self.why(i).join("; ")
+                    )
+                } else {
+                    f.msg
+                };
                 self.state[i] = State::Failed;
                 self.progress.println(format!(
                     "error: stage {id} failed\n  {}",

@@ -2,15 +2,14 @@
 //! library's columns over the same rows.
 
 use super::super::effects::State;
-use super::super::{Augmentation, Data, NU, Run};
+use super::super::{Augmentation, Data, NU, Run, spectrum};
 use super::library::{Feature, Prepared};
 use crate::core::model::{Plant, Vec6};
-use std::f64::consts::TAU;
 
 /// Sampling of the regression, s (the residual is smooth at this scale).
 pub(super) const EVERY_S: f64 = 0.1;
 /// A periodogram peak is significant at this multiple of the periodogram's median.
-pub(super) const PEAK_RATIO: f64 = 25.0;
+pub(super) const PEAK_RATIO: f64 = spectrum::LINE_RATIO;
 /// Frequencies searched for peaks, Hz.
 const F_MIN: f64 = 0.05;
 const F_MAX: f64 = 2.0;
@@ -115,32 +114,24 @@ fn run_t(data: &Data, ri: usize, k: usize) -> f64 {
     data.train[ri].t[k]
 }
 
-/// Pooled periodogram of one DOF's residual over the training runs at frequencies `f`.
-fn periodogram(data: &Data, rows: &Rows, j: usize, f: &[f64]) -> Vec<f64> {
-    let mut p = vec![0.0; f.len()];
+/// One DOF's residual rows per training run, each row at its window's centre time: the
+/// segments of its pooled periodogram.
+fn segments(data: &Data, rows: &Rows, j: usize) -> Vec<(Vec<f64>, Vec<f64>)> {
+    let mut out = Vec::new();
     let mut start = 0;
     while start < rows.at.len() {
         let ri = rows.at[start].0;
         let end = start + rows.at[start..].iter().take_while(|a| a.0 == ri).count();
-        let centre = |q: usize| {
-            let (_, a, b) = rows.at[q];
-            0.5 * (run_t(data, ri, a) + run_t(data, ri, b))
-        };
-        let y = &rows.y[j][start..end];
-        let mean = y.iter().sum::<f64>() / y.len().max(1) as f64;
-        let times: Vec<f64> = (start..end).map(centre).collect();
-        for (pi, &fi) in f.iter().enumerate() {
-            let (mut re, mut im) = (0.0, 0.0);
-            for (yq, tq) in y.iter().zip(&times) {
-                let (s, c) = (TAU * fi * tq).sin_cos();
-                re += (yq - mean) * c;
-                im += (yq - mean) * s;
-            }
-            p[pi] += (re * re + im * im) / (end - start) as f64;
-        }
+        let times = (start..end)
+            .map(|q| {
+                let (_, a, b) = rows.at[q];
+                0.5 * (run_t(data, ri, a) + run_t(data, ri, b))
+            })
+            .collect();
+        out.push((times, rows.y[j][start..end].to_vec()));
         start = end;
     }
-    p
+    out
 }
 
 /// The significant peaks of the residual's pooled periodogram (at most two, refined), and
@@ -157,7 +148,8 @@ pub(super) fn peaks(data: &Data, rows: &Rows, j: usize) -> (Vec<f64>, Vec<f64>, 
         .map(|i| F_MIN + i as f64 * df)
         .take_while(|f| *f <= F_MAX)
         .collect();
-    let p = periodogram(data, rows, j, &grid);
+    let segs = segments(data, rows, j);
+    let p = spectrum::pooled(&segs, &grid);
     let mut sorted = p.clone();
     sorted.sort_by(f64::total_cmp);
     let median = sorted[sorted.len() / 2].max(1e-300);
@@ -176,8 +168,8 @@ pub(super) fn peaks(data: &Data, rows: &Rows, j: usize) -> (Vec<f64>, Vec<f64>, 
             let g = 0.5 * (5f64.sqrt() - 1.0);
             for _ in 0..20 {
                 let (c, d) = (b - g * (b - a), a + g * (b - a));
-                let pc = periodogram(data, rows, j, &[c])[0];
-                let pd = periodogram(data, rows, j, &[d])[0];
+                let pc = spectrum::pooled(&segs, &[c])[0];
+                let pd = spectrum::pooled(&segs, &[d])[0];
                 if pc > pd {
                     b = d;
                 } else {
