@@ -1,7 +1,8 @@
 //! A stage never fails on its own cache file because of a number the stage before it wrote:
 //! every artifact of real builds (the shipped project, the field-trial identifiers' examples)
-//! is read back by its own type with every float in it replaced by `null`, which is what a
-//! non-finite number becomes in JSON. A field that cannot take it is named.
+//! is read back by its own type with every float in it replaced by what a non-finite number is
+//! written as (`{"not_finite": "NaN" | "+inf" | "-inf"}`), and by `null` (what older caches and
+//! serde_json wrote). A field that cannot take it is named.
 
 mod common;
 
@@ -10,6 +11,20 @@ use std::path::Path;
 
 /// Every number with a fraction or an exponent (how a float is written) as `null`.
 fn null_floats(json: &str) -> String {
+    replace_floats(json, |_| "null".into())
+}
+
+/// Every float as the tagged non-finite value, NaN, +inf and -inf in turn.
+fn tag_floats(json: &str) -> String {
+    let words = ["NaN", "+inf", "-inf"];
+    replace_floats(json, |i| {
+        format!("{{\"not_finite\": \"{}\"}}", words[i % 3])
+    })
+}
+
+/// Every number with a fraction or an exponent as `with(its index)`.
+fn replace_floats(json: &str, with: impl Fn(usize) -> String) -> String {
+    let mut count = 0;
     let b = json.as_bytes();
     let mut out = String::with_capacity(json.len());
     let mut i = 0;
@@ -39,11 +54,12 @@ fn null_floats(json: &str) -> String {
                 i += 1;
             }
             let n = &json[start..i];
-            out.push_str(if n.contains(['.', 'e', 'E']) {
-                "null"
+            if n.contains(['.', 'e', 'E']) {
+                out.push_str(&with(count));
+                count += 1;
             } else {
-                n
-            });
+                out.push_str(n);
+            }
             continue;
         }
         out.push(c);
@@ -110,8 +126,10 @@ fn check_objects(
         }
         let text = std::fs::read_to_string(&entry).unwrap();
         read_as(&name, &text).unwrap_or_else(|e| panic!("{name} as written does not read: {e}"));
-        if let Err(e) = read_as(&name, &null_floats(&text)) {
-            bad.push(format!("{name}: {e}"));
+        for (how, altered) in [("null", null_floats(&text)), ("tagged", tag_floats(&text))] {
+            if let Err(e) = read_as(&name, &altered) {
+                bad.push(format!("{name} ({how}): {e}"));
+            }
         }
         seen.insert(name.split("__").next().unwrap().to_string());
     }
@@ -170,5 +188,9 @@ fn the_float_nuller_leaves_integers_and_strings() {
     assert_eq!(
         null_floats(r#"{"a": 1.5, "b": 3, "c": "x 2.5", "d": [-1e-3, 7], "e": "q\"1.0"}"#),
         r#"{"a": null, "b": 3, "c": "x 2.5", "d": [null, 7], "e": "q\"1.0"}"#
+    );
+    assert_eq!(
+        tag_floats(r#"[1.5, 2, 1e3, -0.5]"#),
+        r#"[{"not_finite": "NaN"}, 2, {"not_finite": "+inf"}, {"not_finite": "-inf"}]"#
     );
 }

@@ -80,7 +80,7 @@ pub fn copy_dir(from: &Path, to: &Path) -> std::io::Result<()> {
 }
 
 /// Reads a JSON artifact written by [`write_json`].
-/// A non-finite float a stage wrote (`null`) reads back as NaN ([`super::lenient`]).
+/// A non-finite float a stage wrote (tagged, or `null`) reads back as itself ([`super::lenient`]).
 pub fn read_json<T: for<'de> serde::Deserialize<'de>>(path: &Path) -> anyhow::Result<T> {
     let text =
         std::fs::read_to_string(path).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
@@ -93,24 +93,34 @@ pub fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> anyhow::Result
     Ok(())
 }
 
-/// `value` as every JSON artifact and published file is written (pretty-printed).
+/// `value` as every JSON artifact and published file is written (pretty-printed, a non-finite
+/// float as `{"not_finite": ...}`: [`super::finite`]).
 pub fn json_bytes<T: serde::Serialize>(value: &T) -> anyhow::Result<Vec<u8>> {
-    Ok(serde_json::to_string_pretty(value)?.into_bytes())
+    Ok(super::finite::to_string_pretty(value)?.into_bytes())
 }
 
-/// JSON has no NaN: serde_json writes it as `null`; read `null` back as NaN.
+/// JSON has no NaN: a non-finite float is written tagged (or, by older caches, as `null`);
+/// read either back as the float, also where serde buffers the field (a flattened struct).
 pub fn f64_or_nan<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
-    Ok(<Option<f64> as serde::Deserialize>::deserialize(d)?.unwrap_or(f64::NAN))
+    <super::finite::Loose as serde::Deserialize>::deserialize(d)?
+        .value()
+        .map_err(serde::de::Error::custom)
 }
 
-/// Series of numbers per DOF whose `null`s (NaN written by serde_json) read back as NaN.
+/// Series of numbers per DOF whose non-finite values (tagged, or `null`) read back as floats.
 pub fn series_or_nan<'de, D: serde::Deserializer<'de>>(
     d: D,
 ) -> Result<std::collections::BTreeMap<crate::core::dof::Dof, Vec<f64>>, D::Error> {
-    let raw: std::collections::BTreeMap<crate::core::dof::Dof, Vec<Option<f64>>> =
+    let raw: std::collections::BTreeMap<crate::core::dof::Dof, Vec<super::finite::Loose>> =
         serde::Deserialize::deserialize(d)?;
-    Ok(raw
-        .into_iter()
-        .map(|(k, v)| (k, v.into_iter().map(|x| x.unwrap_or(f64::NAN)).collect()))
-        .collect())
+    raw.into_iter()
+        .map(|(k, v)| {
+            let v = v
+                .into_iter()
+                .map(super::finite::Loose::value)
+                .collect::<Result<Vec<f64>, String>>();
+            v.map(|v| (k, v))
+        })
+        .collect::<Result<_, String>>()
+        .map_err(serde::de::Error::custom)
 }

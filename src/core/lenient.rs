@@ -1,8 +1,9 @@
 //! Reading an artifact back whatever number a stage wrote into it. JSON has no NaN or infinity:
-//! serde writes a non-finite float as `null`, the explicit absence of a number. Read through
-//! [`Lenient`], a `null` where a float is expected is that absence again (NaN), which every
-//! report cell renders as "not finite", instead of an error that makes the next stage fail on
-//! its own cache file. Everything else reads exactly as it would without it.
+//! artifacts write a non-finite float as `{"not_finite": "NaN" | "+inf" | "-inf"}`
+//! ([`super::finite`]). Read through [`Lenient`], that object where a float is expected is the
+//! float again, and so is a `null` (what serde_json, and older caches, wrote for it: NaN),
+//! which every report cell renders as "not finite", instead of an error that makes the next
+//! stage fail on its own cache file. Everything else reads exactly as it would without it.
 
 use serde::de::{self, DeserializeSeed, Deserializer, MapAccess, SeqAccess, Visitor};
 use std::fmt;
@@ -38,6 +39,25 @@ impl<'de, V: Visitor<'de>> Visitor<'de> for Float<V> {
 
     fn visit_none<E: de::Error>(self) -> Result<V::Value, E> {
         self.0.visit_f64(f64::NAN)
+    }
+
+    /// `{"not_finite": "NaN" | "+inf" | "-inf"}`, as [`super::finite`] writes them.
+    fn visit_map<A: MapAccess<'de>>(self, mut a: A) -> Result<V::Value, A::Error> {
+        let tag = super::finite::KEY;
+        let Some(key) = a.next_key::<String>()? else {
+            return Err(de::Error::invalid_value(de::Unexpected::Map, &self));
+        };
+        if key != tag {
+            return Err(de::Error::unknown_field(&key, &[super::finite::KEY]));
+        }
+        let word: String = a.next_value()?;
+        let x = super::finite::from_word(&word).ok_or_else(|| {
+            de::Error::invalid_value(de::Unexpected::Str(&word), &"NaN, +inf or -inf")
+        })?;
+        if a.next_key::<String>()?.is_some() {
+            return Err(de::Error::invalid_length(2, &"one entry, not_finite"));
+        }
+        self.0.visit_f64(x)
     }
 }
 

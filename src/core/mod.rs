@@ -3,6 +3,7 @@
 
 pub mod diag;
 pub mod dof;
+pub mod finite;
 pub mod fsutil;
 pub mod html;
 pub mod input;

@@ -9,7 +9,7 @@ use std::fmt::Write as _;
 /// Significant-figure formatting for tables.
 fn num(v: f64) -> String {
     if !v.is_finite() {
-        return "–".into();
+        return format!("not finite ({})", crate::core::finite::word(v));
     }
     let a = v.abs();
     if a != 0.0 && !(1e-3..1e5).contains(&a) {

@@ -11,6 +11,8 @@ pub struct Parameter {
     pub name: String,
     pub value: f64,
     pub unit: String,
+    /// `null` when the method gives none.
+    #[serde(serialize_with = "crate::core::finite::nan_as_null")]
     pub stderr: f64,
     /// Range over seeded restarts (qpso, pso, ga).
     #[serde(skip_serializing_if = "Option::is_none")]

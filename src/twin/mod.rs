@@ -34,7 +34,7 @@ pub fn write_run(
     )?;
     crate::core::fsutil::write_atomic(
         &truth_dir.join(format!("{name}.json")),
-        serde_json::to_string_pretty(record)?.as_bytes(),
+        &crate::core::fsutil::json_bytes(record)?,
     )?;
     Ok(dir)
 }

@@ -144,7 +144,7 @@ impl StageImpl for Settings {
             estimation_runs: est.iter().map(|r| r.meta.run.clone()).collect(),
             validation_runs: val.iter().map(|r| r.meta.run.clone()).collect(),
             parameters,
-            detail: serde_json::to_value(detail)?,
+            detail: crate::core::finite::to_value(&detail)?,
             notes: ctx.failed_notes(),
         };
         crate::core::fsutil::write_json(&ctx.out.join(crate::field::RESULT), &result)

@@ -143,7 +143,7 @@ impl StageImpl for Settings {
             estimation_runs: est_runs.iter().map(|r| r.meta.run.clone()).collect(),
             validation_runs: val_runs.iter().map(|r| r.meta.run.clone()).collect(),
             parameters,
-            detail: serde_json::to_value(detail)?,
+            detail: crate::core::finite::to_value(&detail)?,
             notes,
         };
         crate::core::fsutil::write_json(&ctx.out.join(crate::field::RESULT), &result)
