@@ -78,6 +78,40 @@ pub enum Command {
         #[arg(long, default_value = "reports")]
         out: PathBuf,
     },
+    /// Propose the next pool run to fly (from the last build): the command profile that most
+    /// shrinks the flagged parameters' uncertainty within the pool and the command limits;
+    /// writes thrust.csv, run.yaml, the planned track and design.json with the standard
+    /// errors now and predicted after (and after a PRBS of the same length, for comparison).
+    Design {
+        /// The fit stage whose model to improve (default: the pipeline's fit of its vehicle).
+        #[arg(long)]
+        model: Option<String>,
+        /// Folder to write into, relative to the project.
+        #[arg(long, default_value = "reports/design")]
+        out: PathBuf,
+        /// The run's length, s.
+        #[arg(long, default_value_t = 120.0)]
+        duration: f64,
+        /// Distance to keep from the walls, the floor and the surface, m.
+        #[arg(long, default_value_t = 1.0)]
+        margin: f64,
+        /// The pool, LENGTHxWIDTHxDEPTH in m (default: the training runs' run.yaml).
+        #[arg(long, value_parser = crate::cmd::design::parse_pool)]
+        pool: Option<crate::core::model::Pool>,
+        /// Where the run starts: x,y,z,heading_deg (default: the pool's middle, half depth,
+        /// heading along its length).
+        #[arg(long, value_parser = crate::cmd::design::parse_start, allow_hyphen_values = true)]
+        start: Option<[f64; 4]>,
+        /// Parameters to design for, comma-separated (default: those the report flags as not
+        /// identifiable, else those with a standard error above 10 % of their value).
+        #[arg(long = "for", value_delimiter = ',')]
+        targets: Vec<String>,
+        /// Random candidates per family (steps, PRBS, multisine); as many local changes follow.
+        #[arg(long, default_value_t = 40)]
+        candidates: usize,
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+    },
     /// Read a simulator's model file (SDF, URDF/xacro, Stonefish XML, MSS .m, hydrofit YAML) as
     /// hydrofit reads it, and print it as hydrofit's model file.
     ImportModel {
@@ -192,6 +226,23 @@ pub enum TwinCommand {
         #[arg(long = "effect")]
         effects: Vec<String>,
     },
+    /// Fly a designed run (`hydrofit design`'s thrust.csv) with the twin, open loop from the
+    /// design's start, and write it as a pool run folder with its sensors and truth.
+    Fly {
+        /// The command to fly: a thrust.csv (the start is read from design.json beside it).
+        thrust: PathBuf,
+        /// The run's name (its folder under --out).
+        #[arg(long)]
+        name: String,
+        /// Its role in the project.
+        #[arg(long, default_value = "train")]
+        role: String,
+        #[command(flatten)]
+        to: TwinRuns,
+        /// Concealed effect as name=magnitude (repeatable), as for `twin pool`.
+        #[arg(long = "effect")]
+        effects: Vec<String>,
+    },
     /// Field logs of a tethered 30 kg ROV under closed-loop control (commanded wrench by
     /// receive time, a DVL navigation log, depth, horizontal UWB; no IMU, no CFD), with hidden
     /// buoyancy, tether drag, thruster saturation and navigation latency.
@@ -264,6 +315,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Inspect { log, fields } => cmd::inspect::run(&log, fields),
         Command::Export { to, model, out } => cmd::export::run(&root, &to, model.as_deref(), &out),
         Command::ImportModel { file, format } => cmd::export::import(&file, format),
+        asked @ Command::Design { .. } => design(&root, asked),
         Command::Twin { what } => twin(&root, what),
         Command::Bench {
             norm,
@@ -297,6 +349,38 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     }
 }
 
+/// `hydrofit design`'s arguments, as the command reads them.
+fn design(root: &std::path::Path, what: Command) -> anyhow::Result<ExitCode> {
+    let Command::Design {
+        model,
+        out,
+        duration,
+        margin,
+        pool,
+        start,
+        targets,
+        candidates,
+        seed,
+    } = what
+    else {
+        unreachable!("called for the design command only")
+    };
+    cmd::design::run(
+        root,
+        &cmd::design::Ask {
+            model: model.as_deref(),
+            out: &out,
+            duration_s: duration,
+            margin_m: margin,
+            pool,
+            start,
+            targets: &targets,
+            draws: candidates.max(1),
+            seed,
+        },
+    )
+}
+
 /// The twin's commands: synthetic runs with a known truth.
 fn twin(root: &std::path::Path, what: TwinCommand) -> anyhow::Result<ExitCode> {
     match what {
@@ -304,6 +388,24 @@ fn twin(root: &std::path::Path, what: TwinCommand) -> anyhow::Result<ExitCode> {
         TwinCommand::Pool { to, effects } => {
             cmd::twin::pool(root, &to.out, &to.truth, to.seed, &effects)
         }
+        TwinCommand::Fly {
+            thrust,
+            name,
+            role,
+            to,
+            effects,
+        } => cmd::twin::fly(
+            root,
+            &cmd::twin::Flight {
+                thrust: &thrust,
+                name: &name,
+                role: &role,
+                out: &to.out,
+                truth: &to.truth,
+                seed: to.seed,
+                effects: &effects,
+            },
+        ),
         TwinCommand::Field { to } => cmd::twin::field(root, &to.out, &to.truth, to.seed),
         TwinCommand::SixDof { to } => cmd::twin::six_dof(root, &to.out, &to.truth, to.seed),
         TwinCommand::Auv { to } => cmd::twin::auv(root, &to.out, &to.truth, to.seed),

@@ -12,6 +12,7 @@ pub mod cli;
 pub mod cmd;
 pub mod compare;
 pub mod core;
+pub mod design;
 pub mod diagnose;
 pub mod export;
 pub mod field;

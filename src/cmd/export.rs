@@ -17,40 +17,7 @@ pub fn run(
 ) -> anyhow::Result<ExitCode> {
     let plan = Plan::load(root, crate::kinds::KINDS)?;
     let cache = plan.cache();
-    let g = &plan.graph;
-    let fits: Vec<usize> = (0..g.instances.len())
-        .filter(|&i| g.stage_of(i).kind.name == "fit")
-        .collect();
-    let names: Vec<&str> = fits.iter().map(|&i| g.instances[i].id.as_str()).collect();
-    let pick = match model {
-        Some(m) => fits
-            .iter()
-            .copied()
-            .find(|&i| g.instances[i].id == m)
-            .ok_or_else(|| {
-                anyhow::anyhow!(
-                    "--model {m}: no fit stage of that name; fit stages: {}",
-                    names.join(", ")
-                )
-            })?,
-        None => {
-            let own: Vec<usize> = fits
-                .iter()
-                .copied()
-                .filter(|&i| {
-                    crate::cmd::provenance::load_fit(&plan, &cache, i)
-                        .is_ok_and(|f| f.vehicle.is_none())
-                })
-                .collect();
-            match own[..] {
-                [i] => i,
-                _ => anyhow::bail!(
-                    "which model? the pipeline has fit stages {}: name one with --model",
-                    names.join(", ")
-                ),
-            }
-        }
-    };
+    let pick = pick_fit(&plan, model)?;
     let f = crate::cmd::provenance::load_fit(&plan, &cache, pick)?;
     let m = Model::of(&f, &plan.graph.spec.vehicle);
     let dir = if out.is_absolute() {
@@ -68,6 +35,47 @@ pub fn run(
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The fit stage named `model`, or the pipeline's only fit of its own vehicle.
+pub fn pick_fit(plan: &Plan, model: Option<&str>) -> anyhow::Result<usize> {
+    let cache = plan.cache();
+    let g = &plan.graph;
+    let fits: Vec<usize> = (0..g.instances.len())
+        .filter(|&i| g.stage_of(i).kind.name == "fit")
+        .collect();
+    let names: Vec<&str> = fits.iter().map(|&i| g.instances[i].id.as_str()).collect();
+    let pick = match model {
+        Some(m) => fits
+            .iter()
+            .copied()
+            .find(|&i| g.instances[i].id == m)
+            .ok_or_else(|| {
+                anyhow::anyhow!(
+                    "--model {m}: no fit stage of that name; fit stages: {}",
+                    names.join(", ")
+                )
+            })?,
+        None if fits.len() == 1 => fits[0],
+        None => {
+            let own: Vec<usize> = fits
+                .iter()
+                .copied()
+                .filter(|&i| {
+                    crate::cmd::provenance::load_fit(plan, &cache, i)
+                        .is_ok_and(|f| f.vehicle.is_none())
+                })
+                .collect();
+            match own[..] {
+                [i] => i,
+                _ => anyhow::bail!(
+                    "which model? the pipeline has fit stages {}: name one with --model",
+                    names.join(", ")
+                ),
+            }
+        }
+    };
+    Ok(pick)
 }
 
 /// Reads `file` (format by its name unless given) and prints it as hydrofit's model file.

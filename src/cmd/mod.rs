@@ -4,6 +4,7 @@ pub mod bench;
 pub mod bench_six;
 pub mod build;
 pub mod clean;
+pub mod design;
 pub mod export;
 pub mod graph;
 pub mod inspect;

@@ -46,32 +46,142 @@ pub fn pool(
     effects: &[String],
 ) -> anyhow::Result<ExitCode> {
     let abs = |p: &Path| under(root, p);
-    let effects = if effects.is_empty() {
-        twin::pool::default_effects()
-    } else if effects.iter().any(|e| e == "none") {
-        Vec::new()
-    } else {
-        effects
-            .iter()
-            .map(|e| crate::twin::world::Effect::from_arg(e))
-            .collect::<Result<Vec<_>, _>>()
-            .map_err(anyhow::Error::msg)?
-    };
+    let effects = pool_effects(effects)?;
     let runs = twin::pool::default_runs();
     let written = twin::pool::write_runs(&abs(out), &abs(truth), &runs, &effects, seed)?;
-    let names: Vec<&str> = effects.iter().map(|e| e.name()).collect();
     eprintln!(
         "hydrofit: wrote {} pool runs to {} and their truth to {} (seed {seed}, concealed: {})",
         written.len(),
         abs(out).display(),
         abs(truth).display(),
-        if names.is_empty() {
-            "nothing".into()
+        concealed(&effects)
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `--effect` of the pool twins: none given, the default set; `none`, nothing.
+fn pool_effects(effects: &[String]) -> anyhow::Result<Vec<Effect>> {
+    if effects.is_empty() {
+        Ok(twin::pool::default_effects())
+    } else if effects.iter().any(|e| e == "none") {
+        Ok(Vec::new())
+    } else {
+        effects
+            .iter()
+            .map(|e| Effect::from_arg(e))
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(anyhow::Error::msg)
+    }
+}
+
+fn concealed(effects: &[Effect]) -> String {
+    let names: Vec<&str> = effects.iter().map(|e| e.name()).collect();
+    if names.is_empty() {
+        "nothing".into()
+    } else {
+        names.join(", ")
+    }
+}
+
+/// What `twin fly` is asked.
+pub struct Flight<'a> {
+    pub thrust: &'a Path,
+    pub name: &'a str,
+    pub role: &'a str,
+    pub out: &'a Path,
+    pub truth: &'a Path,
+    pub seed: u64,
+    pub effects: &'a [String],
+}
+
+/// Flies a designed command (a thrust.csv at 20 Hz) with the pool twin, open loop from the
+/// start its design.json gives (else the pool's middle at half depth, heading +x).
+pub fn fly(root: &Path, f: &Flight) -> anyhow::Result<ExitCode> {
+    let abs = |p: &Path| under(root, p);
+    let effects = pool_effects(f.effects)?;
+    let path = abs(f.thrust);
+    let cmd = read_thrust(&path)?;
+    let start = design_start(&path)?;
+    let world = twin::pool::world(&effects);
+    let truth = twin::pool::fly(&world, &cmd, start);
+    let spec = twin::pool::RunSpec {
+        name: f.name.to_string(),
+        role: f.role.to_string(),
+        manoeuvre: twin::pool::Manoeuvre::Designed,
+        duration_s: (cmd.len().saturating_sub(1)) as f64 * 0.05,
+        sonar: true,
+    };
+    let dir = twin::pool::write_truth(&abs(f.out), &abs(f.truth), &spec, &truth, &effects, f.seed)?;
+    // The design travels with its run (as when the folder `hydrofit design` wrote is copied
+    // into cases/pool/ and the logs added), so the report can hold the run to it.
+    let design = path.with_file_name("design.json");
+    if path.file_name().is_some_and(|n| n == "thrust.csv") && design.exists() {
+        std::fs::copy(&design, dir.join("design.json"))?;
+    }
+    let p = twin::pool::POOL;
+    let left = truth.states.iter().any(|s| {
+        p.wall_distance(s.pos[0], s.pos[1]) < 0.0 || s.pos[2] < 0.0 || s.pos[2] > p.depth_m
+    });
+    eprintln!(
+        "hydrofit: flew {} ({:.0} s, concealed: {}) into {}{}",
+        path.display(),
+        spec.duration_s,
+        concealed(&effects),
+        dir.display(),
+        if left {
+            "; warning: the twin left the pool on the way (the model the design flew differs from the twin)"
         } else {
-            names.join(", ")
+            ""
         }
     );
     Ok(ExitCode::SUCCESS)
+}
+
+/// `t,X_N,Y_N,Z_N,N_Nm` at 20 Hz, as `hydrofit design` writes it.
+fn read_thrust(path: &Path) -> anyhow::Result<Vec<[f64; 4]>> {
+    let text =
+        std::fs::read_to_string(path).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    let mut out = Vec::new();
+    for (i, line) in text.lines().enumerate().skip(1) {
+        let v: Vec<f64> = line
+            .split(',')
+            .map(|x| x.trim().parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|e| anyhow::anyhow!("{}:{}: {e}", path.display(), i + 1))?;
+        anyhow::ensure!(
+            v.len() == 5 && v.iter().all(|x| x.is_finite()),
+            "{}:{}: expected five finite numbers t,X_N,Y_N,Z_N,N_Nm",
+            path.display(),
+            i + 1
+        );
+        anyhow::ensure!(
+            (v[0] - out.len() as f64 * 0.05).abs() < 1e-3,
+            "{}:{}: t = {} s, expected {:.2} s (the twin flies a 20 Hz command from t = 0)",
+            path.display(),
+            i + 1,
+            v[0],
+            out.len() as f64 * 0.05
+        );
+        out.push([v[1], v[2], v[3], v[4]]);
+    }
+    anyhow::ensure!(out.len() >= 10, "{}: fewer than 10 rows", path.display());
+    Ok(out)
+}
+
+/// The start of the design whose `design.json` sits beside the command.
+fn design_start(thrust: &Path) -> anyhow::Result<twin::world::State> {
+    let p = twin::pool::POOL;
+    let file = thrust.with_file_name("design.json");
+    let [x, y, z, psi_deg] = if file.exists() {
+        crate::core::fsutil::read_json::<crate::design::written::Written>(&file)?.start
+    } else {
+        [p.length_m / 2.0, p.width_m / 2.0, p.depth_m / 2.0, 0.0]
+    };
+    Ok(twin::world::State {
+        pos: [x, y, z],
+        psi: psi_deg.to_radians(),
+        ..Default::default()
+    })
 }
 
 pub fn field(root: &Path, out: &Path, truth: &Path, seed: u64) -> anyhow::Result<ExitCode> {

@@ -83,6 +83,9 @@ pub struct PoolRun {
     pub log_source: Option<from_log::LogSource>,
     /// Where the command came from (`thrust.csv`, or the log and its topic), for messages.
     pub command_path: String,
+    /// The `design.json` of a run `hydrofit design` proposed, as written (the report holds
+    /// the flown run to its prediction).
+    pub design: Option<serde_json::Value>,
 }
 
 pub const THRUST: [&str; 7] = ["t", "X_N", "Y_N", "Z_N", "N_Nm", "K_Nm", "M_Nm"];
@@ -114,6 +117,13 @@ pub const NAV: [&str; 10] = [
     "p_dps",
     "q_dps",
     "r_dps",
+];
+/// What `hydrofit design` writes beside the command: part of a designed run's folder.
+const DESIGN_FILES: [&str; 4] = [
+    "design.json",
+    "plan.csv",
+    "trajectory.svg",
+    "prbs_thrust.csv",
 ];
 const KNOWN: [&str; 8] = [
     "run.yaml",
@@ -229,7 +239,31 @@ pub fn load_as_logged(
         repairs: Vec::new(),
         log_source: logged.source,
         command_path,
+        design: read_design(root, files)?,
     })
+}
+
+/// The run's `design.json`, when `hydrofit design` proposed it: any JSON object (its fields
+/// are read by the report, which says when they are not what a design writes).
+fn read_design(root: &Path, files: &[String]) -> Result<Option<serde_json::Value>, InputError> {
+    let Some(p) = find(files, "design.json") else {
+        return Ok(None);
+    };
+    let text =
+        crate::core::input::read(root, &p, "keep the design.json `hydrofit design` wrote")?.text;
+    match serde_json::from_str::<serde_json::Value>(&text) {
+        Ok(v) if v.is_object() => Ok(Some(v)),
+        Ok(_) => Err(InputError::file(
+            p,
+            "is not a JSON object",
+            "keep the design.json `hydrofit design` wrote, or remove it",
+        )),
+        Err(e) => Err(InputError::file(
+            p,
+            format!("is not JSON: line {}, column {}: {e}", e.line(), e.column()),
+            "keep the design.json `hydrofit design` wrote, or remove it",
+        )),
+    }
 }
 
 /// The command log, where it came from, and whether forces were logged: `thrust.csv`, the
@@ -287,7 +321,10 @@ fn find(files: &[String], n: &str) -> Option<String> {
 fn unknown_files(files: &[String]) -> Vec<String> {
     files
         .iter()
-        .filter(|f| !KNOWN.contains(&f.rsplit('/').next().unwrap_or("")))
+        .filter(|f| {
+            let n = f.rsplit('/').next().unwrap_or("");
+            !KNOWN.contains(&n) && !DESIGN_FILES.contains(&n)
+        })
         .map(|f| format!("{f}: not a pool log hydrofit reads; ignored"))
         .collect()
 }

@@ -70,6 +70,7 @@ impl StageImpl for Settings {
             repairs: run.repairs.clone(),
             force_logged: run.force_logged,
             actuators,
+            design: run.design.clone(),
         };
         crate::core::fsutil::write_json(&ctx.out.join(run::META), &meta)
     }

@@ -139,7 +139,13 @@ fn pool_html(
     let diagnosis_html = inp.diagnosis.as_ref().map_or(String::new(), |(d, figs)| {
         crate::diagnose::report::section(d, figs)
     });
+    let designed_html = crate::design::report::section(
+        &inp.pool_runs,
+        &inp.fits,
+        inp.diagnosis.as_ref().map(|(d, _)| d),
+    );
     Ok(compare_html
+        + &designed_html
         + &diagnosis_html
         + &crate::pool::report::thrusters_section(inp.vehicle.thrusters.as_ref())?
         + &crate::pool::report::section(&inp.pool_runs, accuracy)

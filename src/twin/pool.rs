@@ -43,6 +43,8 @@ pub enum Manoeuvre {
     Prbs,
     /// Overlapping sinusoids on every DOF.
     Mixed,
+    /// A command profile given from outside (`hydrofit design`), flown open loop.
+    Designed,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -177,6 +179,7 @@ fn program(m: Manoeuvre, t: f64, prbs: &mut [(f64, f64); 4], rng: &mut Rng) -> [
             20.0 * (0.41 * t).sin(),
             3.5 * (0.27 * t + 0.5).sin(),
         ],
+        Manoeuvre::Designed => [0.0; 4],
     }
 }
 
@@ -297,39 +300,79 @@ pub fn write_runs(
     seed: u64,
 ) -> anyhow::Result<Vec<PathBuf>> {
     let w = world(effects);
-    let latency = Latency::of(effects);
-    std::fs::create_dir_all(truth_dir)?;
     let mut written = Vec::new();
     for spec in runs {
         let truth = simulate(&w, spec, seed);
-        let sensors = Sensors::draw(&mut Rng::derive(
-            seed,
-            &format!("pool/{}/errors", spec.name),
-        ));
-        let mut files = render(spec, &truth, &sensors, latency, seed);
-        files.retain(|(name, _)| spec.sonar || *name != "sonar.csv");
-        let record = TruthRecord {
-            run: spec.name.clone(),
-            seed,
-            effects: effects.to_vec(),
-            spec: spec.clone(),
-            sensors,
-        };
-        let dir = super::write_run(
-            cases_dir,
-            truth_dir,
-            &spec.name,
-            &files,
-            &truth_csv(&truth),
-            &record,
-        )?;
-        // A run without sonar: no sonar log left from an earlier write either.
-        if !spec.sonar {
-            let _ = std::fs::remove_file(dir.join("sonar.csv"));
-        }
-        written.push(dir);
+        written.push(write_truth(
+            cases_dir, truth_dir, spec, &truth, effects, seed,
+        )?);
     }
     Ok(written)
+}
+
+/// Flies `cmd` ([X, Y, Z, N] at the thrust log's 20 Hz) open loop from `start`: no pilot, the
+/// command exactly as given (a designed run, whose plan kept it off the walls).
+pub fn fly(world: &WorldPlant, cmd: &[[f64; 4]], start: State) -> Truth {
+    let n = cmd.len().saturating_sub(1) * LOG_EVERY + 1;
+    let mut truth = Truth {
+        t: Vec::with_capacity(n),
+        states: Vec::with_capacity(n),
+        accel: Vec::with_capacity(n),
+        cmd: Vec::with_capacity(cmd.len()),
+    };
+    let mut s = start;
+    let mut c = [0.0; 6];
+    for k in 0..n {
+        let t = k as f64 * STEP;
+        if k % LOG_EVERY == 0 {
+            let b = cmd[k / LOG_EVERY];
+            c = [b[0], b[1], b[2], 0.0, 0.0, b[3]];
+            truth.cmd.push(c);
+        }
+        truth.t.push(t);
+        truth.states.push(s);
+        truth.accel.push(world.accel(&s, &c, t));
+        s = world.step(&s, &c, STEP, t);
+    }
+    truth
+}
+
+/// Writes the run folder and the truth of one simulated run.
+pub fn write_truth(
+    cases_dir: &Path,
+    truth_dir: &Path,
+    spec: &RunSpec,
+    truth: &Truth,
+    effects: &[Effect],
+    seed: u64,
+) -> anyhow::Result<PathBuf> {
+    std::fs::create_dir_all(truth_dir)?;
+    let sensors = Sensors::draw(&mut Rng::derive(
+        seed,
+        &format!("pool/{}/errors", spec.name),
+    ));
+    let mut files = render(spec, truth, &sensors, Latency::of(effects), seed);
+    files.retain(|(name, _)| spec.sonar || *name != "sonar.csv");
+    let record = TruthRecord {
+        run: spec.name.clone(),
+        seed,
+        effects: effects.to_vec(),
+        spec: spec.clone(),
+        sensors,
+    };
+    let dir = super::write_run(
+        cases_dir,
+        truth_dir,
+        &spec.name,
+        &files,
+        &truth_csv(truth),
+        &record,
+    )?;
+    // A run without sonar: no sonar log left from an earlier write either.
+    if !spec.sonar {
+        let _ = std::fs::remove_file(dir.join("sonar.csv"));
+    }
+    Ok(dir)
 }
 
 #[cfg(test)]

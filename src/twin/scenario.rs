@@ -51,6 +51,7 @@ pub fn fuse_folder(root: &std::path::Path, name: &str) -> anyhow::Result<FusedRu
         repairs: run.repairs.clone(),
         force_logged: true,
         actuators: Vec::new(),
+        design: None,
     };
     Ok(FusedRun {
         meta,

@@ -58,6 +58,7 @@ fn straight_meta(i: usize) -> crate::pool::fusion::run::RunMeta {
         repairs: vec![],
         force_logged: true,
         actuators: vec![],
+        design: None,
     }
 }
 

@@ -34,6 +34,9 @@ pub struct RunMeta {
     /// The actuators of `actuators.csv`, held on the command clock in [`ACTUATORS`].
     #[serde(default)]
     pub actuators: Vec<String>,
+    /// The run's `design.json`, when `hydrofit design` proposed it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub design: Option<serde_json::Value>,
 }
 
 fn yes() -> bool {
@@ -407,6 +410,7 @@ mod tests {
             repairs: vec![],
             force_logged: true,
             actuators: vec![],
+            design: None,
         };
         let fused = Fused {
             t: vec![0.0, 1.0],

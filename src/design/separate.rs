@@ -1,0 +1,191 @@
+//! The run that tells two look-alike effects apart. When the diagnosis keeps an effect and
+//! lists another that fits the held-out runs within their noise (a thruster lag and a late
+//! velocity log), the design flies each candidate twice on paper, the model with the one and
+//! with the other (the other effects found kept in both), and scores how far the two predicted
+//! recordings differ: the normalised mean square difference over the DOFs, as a multiple of
+//! the noise floor the diagnosis compares held-out costs with. A run on which that multiple
+//! is above the diagnosis's own margin is one its held-out cost can decide on.
+
+use crate::core::model::Plant;
+use crate::diagnose::result::Diagnosis;
+use crate::diagnose::{self, Run, Selection};
+
+/// Two effects the diagnosis could not tell apart, each with the other effects it kept.
+pub struct Pair {
+    pub kept: String,
+    pub alike: String,
+    with_kept: Selection,
+    with_alike: Selection,
+}
+
+/// The recorded runs' scale of each DOF (mean square velocity) and noise (mean variance of
+/// the fused velocity), as the diagnosis normalises its costs.
+#[derive(Debug, Clone, Copy)]
+pub struct Noise {
+    pub scale: [f64; 4],
+    pub variance: [f64; 4],
+}
+
+impl Noise {
+    pub fn of(runs: &[Run]) -> Noise {
+        let mean = |f: &dyn Fn(&Run) -> &Vec<f64>| {
+            let (s, n) = runs.iter().fold((0.0, 0.0), |(s, n), r| {
+                let v = f(r);
+                (s + v.iter().map(|x| x * x).sum::<f64>(), n + v.len() as f64)
+            });
+            s / n.max(1.0)
+        };
+        Noise {
+            scale: std::array::from_fn(|j| mean(&|r: &Run| &r.vel[j]).max(1e-12)),
+            variance: std::array::from_fn(|j| mean(&|r: &Run| &r.std[j])),
+        }
+    }
+
+    /// The noise floor of the normalised cost.
+    pub fn floor(&self) -> f64 {
+        (0..4).map(|j| self.variance[j] / self.scale[j]).sum()
+    }
+}
+
+/// The effects a found effect's parameters name, as a selection.
+fn selection(found: &[(&str, &std::collections::BTreeMap<String, f64>)]) -> Option<Selection> {
+    found
+        .iter()
+        .map(|(name, params)| {
+            let h = diagnose::hypothesis(name)?;
+            let p = h
+                .params
+                .iter()
+                .map(|q| params.get(q.name).copied())
+                .collect::<Option<Vec<f64>>>()?;
+            Some((h, p))
+        })
+        .collect()
+}
+
+impl Pair {
+    /// Every look-alike pair of a diagnosis (effects it cannot rebuild are left out).
+    pub fn of(d: &Diagnosis) -> Vec<Pair> {
+        let mut out = Vec::new();
+        for (i, f) in d.effects.iter().enumerate() {
+            for a in &f.alike {
+                let others = d
+                    .effects
+                    .iter()
+                    .enumerate()
+                    .filter(|(k, _)| *k != i)
+                    .map(|(_, o)| (o.name.as_str(), &o.parameters));
+                let kept: Vec<_> = others
+                    .clone()
+                    .chain([(f.name.as_str(), &f.parameters)])
+                    .collect();
+                let alike: Vec<_> = others.chain([(a.name.as_str(), &a.parameters)]).collect();
+                if let (Some(with_kept), Some(with_alike)) = (selection(&kept), selection(&alike)) {
+                    out.push(Pair {
+                        kept: f.name.clone(),
+                        alike: a.name.clone(),
+                        with_kept,
+                        with_alike,
+                    });
+                }
+            }
+        }
+        out
+    }
+
+    /// How far the recordings predicted with either effect differ on `run`, in multiples of
+    /// the noise floor.
+    pub fn separation(&self, plant: &Plant, run: &Run, noise: &Noise) -> f64 {
+        let predict = |sel: &Selection| {
+            let aug = diagnose::augmentation(sel);
+            diagnose::residual(&diagnose::simulate(plant, &aug, run), run, aug.delay_s)
+        };
+        let (a, b) = (predict(&self.with_kept), predict(&self.with_alike));
+        let cost: f64 = (0..4)
+            .map(|j| {
+                let (s, n) = a[j]
+                    .iter()
+                    .zip(&b[j])
+                    .filter(|(x, y)| x.is_finite() && y.is_finite())
+                    .fold((0.0f64, 0.0f64), |(s, n), (x, y)| {
+                        (s + (x - y).powi(2), n + 1.0)
+                    });
+                s / n.max(1.0) / noise.scale[j]
+            })
+            .sum();
+        cost / noise.floor().max(1e-12)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::core::model::{Hydro, Vehicle};
+
+    /// A run of the reference vehicle under `cmd(t)` at 20 Hz, its velocities simulated.
+    fn run(plant: &Plant, cmd: impl Fn(f64) -> [f64; 4]) -> Run {
+        let t: Vec<f64> = (0..1200).map(|k| k as f64 * 0.05).collect();
+        let c: Vec<[f64; 4]> = t.iter().map(|&x| cmd(x)).collect();
+        let tau: Vec<[f64; 6]> = c
+            .iter()
+            .map(|c| [c[0], c[1], c[2], 0.0, 0.0, c[3]])
+            .collect();
+        let nu = plant.simulate(&t, &tau, [0.0; 6], 0.01);
+        let col = |i: usize| nu.iter().map(|v| v[i]).collect::<Vec<f64>>();
+        Run {
+            name: "r".into(),
+            validate: true,
+            cmd: c,
+            vel: [col(0), col(1), col(2), col(5)],
+            std: std::array::from_fn(|_| vec![0.01; t.len()]),
+            pos: std::array::from_fn(|_| vec![1.0; t.len()]),
+            psi: vec![0.0; t.len()],
+            t,
+            pool: None,
+            anchor: None,
+            anchors_s: Vec::new(),
+        }
+    }
+
+    /// A lag of the thrust and a delay of the log are alike on slow steps and apart on a fast
+    /// command: the criterion sees it, and the pair's order does not matter.
+    #[test]
+    fn fast_commands_tell_a_thruster_lag_from_a_sensor_delay_and_slow_steps_do_not() {
+        let plant = Plant::new(&Vehicle::reference(), Hydro::reference());
+        let sel = |name: &str, p: f64| -> Selection {
+            vec![(diagnose::hypothesis(name).unwrap(), vec![p])]
+        };
+        let pair = Pair {
+            kept: "thruster_lag".into(),
+            alike: "sensor_delay".into(),
+            with_kept: sel("thruster_lag", 0.3),
+            with_alike: sel("sensor_delay", 0.3),
+        };
+        let slow = run(&plant, |t| {
+            let s = if (t / 20.0).fract() < 0.5 { 1.0 } else { -1.0 };
+            [40.0 * s, 0.0, 0.0, 0.0]
+        });
+        let fast = run(&plant, |t| {
+            let w = 2.0 * std::f64::consts::PI;
+            [
+                40.0 * (0.8 * w * t).sin(),
+                30.0 * (1.1 * w * t).sin(),
+                0.0,
+                3.0 * (0.6 * w * t).sin(),
+            ]
+        });
+        let noise = Noise::of(std::slice::from_ref(&slow));
+        let (a, b) = (
+            pair.separation(&plant, &slow, &noise),
+            pair.separation(&plant, &fast, &noise),
+        );
+        assert!(a.is_finite() && b > 5.0 * a, "slow {a}, fast {b}");
+        let swapped = Pair {
+            kept: pair.alike.clone(),
+            alike: pair.kept.clone(),
+            with_kept: pair.with_alike.clone(),
+            with_alike: pair.with_kept.clone(),
+        };
+        assert!((swapped.separation(&plant, &fast, &noise) - b).abs() < 1e-9 * b);
+    }
+}

@@ -1,0 +1,56 @@
+//! `design.json`: what `hydrofit design` proposed and predicted. Copied into the run folder
+//! with the run's logs, it travels with the run through the pool stage, and the report holds
+//! the flown run to its promise.
+
+use crate::core::model::Pool;
+use serde::{Deserialize, Serialize};
+
+/// `design.json`.
+#[derive(Debug, Serialize, Deserialize)]
+pub struct Written {
+    pub model: String,
+    pub method: String,
+    pub profile: super::signal::Profile,
+    pub description: String,
+    pub duration_s: f64,
+    /// x, y, z (m, pool frame, z down) and heading (deg) the run starts from.
+    pub start: [f64; 4],
+    pub pool: Pool,
+    pub margin_m: f64,
+    pub clearance_m: f64,
+    pub prbs_clearance_m: f64,
+    /// Largest command per DOF: X, Y, Z (N), N (N m).
+    pub limits: [f64; 4],
+    pub limits_from: String,
+    pub parameters: Vec<Row>,
+    /// The training runs the prediction starts from.
+    pub runs: Vec<String>,
+    /// When the diagnosis could not tell two effects apart: how far the run tells them apart.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub separates: Option<Separation>,
+}
+
+/// How far the predicted recordings with either look-alike effect differ, as multiples of the
+/// noise floor; the diagnosis tells two effects apart on held-out runs when their costs differ
+/// by more than `margin` of it.
+#[derive(Debug, Serialize, Deserialize)]
+pub struct Separation {
+    pub kept: String,
+    pub alike: String,
+    /// The largest over the recorded runs.
+    pub recorded: f64,
+    pub designed: f64,
+    pub prbs: f64,
+    pub margin: f64,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+pub struct Row {
+    pub name: String,
+    pub value: f64,
+    pub unit: String,
+    pub target: bool,
+    pub stderr_now: f64,
+    pub predicted_after: f64,
+    pub predicted_after_prbs: f64,
+}
