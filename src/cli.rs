@@ -365,20 +365,17 @@ fn design(root: &std::path::Path, what: Command) -> anyhow::Result<ExitCode> {
     else {
         unreachable!("called for the design command only")
     };
-    cmd::design::run(
-        root,
-        &cmd::design::Ask {
-            model: model.as_deref(),
-            out: &out,
-            duration_s: duration,
-            margin_m: margin,
-            pool,
-            start,
-            targets: &targets,
-            draws: candidates.max(1),
-            seed,
-        },
-    )
+    let ask = crate::design::propose::Ask {
+        model,
+        duration_s: duration,
+        margin_m: margin,
+        pool,
+        start,
+        targets,
+        candidates: candidates.max(1),
+        seed,
+    };
+    cmd::design::run(root, &ask, &out)
 }
 
 /// The twin's commands: synthetic runs with a known truth.

@@ -17,6 +17,7 @@ pub const KINDS: Registry = &[
     &crate::report::stage::KIND,
     &crate::export::stage::EXPORT,
     &crate::export::stage::MODEL,
+    &crate::design::stage::KIND,
 ];
 
 pub fn kind(name: &str) -> Option<&'static Kind> {

@@ -26,6 +26,11 @@ stages:
 
 /// The project: twin runs with nothing concealed, without the training PRBS.
 fn project() -> tempfile::TempDir {
+    project_with(PIPELINE)
+}
+
+/// The twin's runs without the training PRBS, built with `pipeline`.
+fn project_with(pipeline: &str) -> tempfile::TempDir {
     let d = tempfile::tempdir().unwrap();
     let root = d.path();
     ok(
@@ -42,7 +47,7 @@ fn project() -> tempfile::TempDir {
         ],
     );
     std::fs::remove_dir_all(root.join("cases/pool/prbs_a")).unwrap();
-    std::fs::write(root.join("pipeline.yaml"), PIPELINE).unwrap();
+    std::fs::write(root.join("pipeline.yaml"), pipeline).unwrap();
     ok(root, &["build"]);
     d
 }
@@ -190,4 +195,93 @@ fn a_design_says_what_it_needs_when_it_cannot_run() {
     let o = common::run(root, &["design", "--pool", "25x12"]);
     assert!(!o.status.success());
     assert!(common::stderr(&o).contains("LENGTHxWIDTHxDEPTH"));
+}
+
+/// One row of a CSV of numbers.
+fn numbers(line: &str) -> Vec<f64> {
+    line.split(',').map(|x| x.parse().unwrap()).collect()
+}
+
+#[test]
+fn a_design_stage_proposes_at_every_build_with_the_commands_of_each_thruster() {
+    use hydrofit::core::model::thrusters::{Command, Curve, Layout, NamedCurve, Thrusters};
+    let pipeline = PIPELINE
+        .replace(
+            "  command_limits:",
+            "  thrusters: {layout: bluerov2_heavy, curve: t200_16v}\n  command_limits:",
+        )
+        .replace(
+            "  report: {kind: report, from: [fit, pool]}",
+            "  report: {kind: report, from: [fit, pool]}\n  design: {kind: design, from: [fit, pool], settings: {duration_s: 60, candidates: 8, seed: 3}}",
+        );
+    let p = project_with(&pipeline);
+    let root = p.path();
+    // The stage's proposal is the command's, for the same settings.
+    ok(
+        root,
+        &[
+            "design",
+            "--duration",
+            "60",
+            "--candidates",
+            "8",
+            "--seed",
+            "3",
+            "--out",
+            "cli",
+        ],
+    );
+    for file in ["thrust.csv", "thrusters.csv", "plan.csv"] {
+        assert_eq!(
+            read(root, &format!("reports/design/{file}")),
+            read(root, &format!("cli/{file}")),
+            "{file}"
+        );
+    }
+    // Each row of thrusters.csv, through the allocation and the thrust curve, gives the
+    // designed wrench of thrust.csv (within the rounding and the curve's resolution), except
+    // where a thruster would need more than its curve: those rows are the ones design.json
+    // counts.
+    let a = Thrusters {
+        layout: Some(Layout::Bluerov2Heavy),
+        units: vec![],
+        command: Command::Pwm,
+        neutral_us: 1500.0,
+        half_range_us: 400.0,
+        curve: Curve::Named(NamedCurve::T200_16v),
+        gain: 1.0,
+    }
+    .allocation();
+    let limits = [60.0, 50.0, 40.0, 6.0];
+    let wrench = read(root, "reports/design/thrust.csv");
+    let per_thruster = read(root, "reports/design/thrusters.csv");
+    assert!(
+        per_thruster.starts_with("t,thruster_1_us,"),
+        "{per_thruster}"
+    );
+    let (mut clipped, mut rows) = (0, 0);
+    for (w, c) in wrench.lines().zip(per_thruster.lines()).skip(1) {
+        let (w, c) = (numbers(w), numbers(c));
+        assert_eq!((c.len(), w[0]), (9, c[0]));
+        rows += 1;
+        if c[1..].iter().any(|&u| u <= 1100.0 || u >= 1900.0) {
+            clipped += 1;
+            continue;
+        }
+        let got = a.wrench(&c[1..]);
+        for (i, dof) in [0, 1, 2, 5].into_iter().enumerate() {
+            assert!(
+                (got[dof] - w[i + 1]).abs() <= 0.02 * limits[i],
+                "t = {}: {got:?} for {w:?}",
+                w[0]
+            );
+        }
+    }
+    let design = json(root, "reports/design/design.json");
+    assert_eq!(rows, 1201, "0 to 60 s at 20 Hz");
+    assert_eq!(design["thrusters"]["samples"], rows);
+    assert_eq!(design["thrusters"]["clipped_samples"], clipped);
+    // Nothing changed: the next build proposes nothing new.
+    let again = ok(root, &["build"]);
+    assert_eq!(common::ran(&again), 0, "{again}");
 }

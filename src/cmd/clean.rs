@@ -11,7 +11,8 @@ pub fn run(root: &Path) -> anyhow::Result<ExitCode> {
         let _lock = lock::acquire(&state, |holder| {
             eprintln!("hydrofit: waiting for a build to finish ({holder})")
         })?;
-        // Published files are those of report stages; other files in reports/ are the user's.
+        // Published files are those of report and design stages; other files in reports/ are
+        // the user's.
         let published: Vec<String> = match Plan::load(root, crate::kinds::KINDS) {
             Ok(plan) => plan
                 .graph
@@ -24,7 +25,10 @@ pub fn run(root: &Path) -> anyhow::Result<ExitCode> {
             Err(_) => vec!["reports".into()],
         };
         for dir in published {
-            for name in crate::report::stage::FILES {
+            for name in crate::report::stage::FILES
+                .iter()
+                .chain(crate::design::files::FILES)
+            {
                 let p = root.join(&dir).join(name);
                 if p.exists() {
                     std::fs::remove_file(&p)?;

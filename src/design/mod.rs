@@ -6,10 +6,14 @@
 //! of the same length and limits is scored beside it, so the engineer sees what the design
 //! buys over the default excitation.
 
+pub mod files;
 pub mod info;
+pub mod propose;
 pub mod report;
 pub mod separate;
 pub mod signal;
+pub mod stage;
+pub mod thrusters;
 pub mod written;
 
 use crate::core::dof::Dof;

@@ -28,6 +28,9 @@ pub struct Written {
     /// When the diagnosis could not tell two effects apart: how far the run tells them apart.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub separates: Option<Separation>,
+    /// The per-thruster commands (`thrusters.csv`), where the vehicle describes its thrusters.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub thrusters: Option<super::thrusters::ThrusterPlan>,
 }
 
 /// How far the predicted recordings with either look-alike effect differ, as multiples of the

@@ -37,6 +37,8 @@ pub enum Artifact {
     Report,
     /// A model written for a simulator or a toolbox.
     Exports,
+    /// The next run to fly, designed for what the runs could not tell.
+    Design,
 }
 
 impl Artifact {
@@ -51,6 +53,7 @@ impl Artifact {
             Artifact::Diagnosis => "a missing-physics diagnosis",
             Artifact::Report => "a report",
             Artifact::Exports => "a model written for a simulator",
+            Artifact::Design => "a designed run",
         }
     }
 
@@ -65,6 +68,7 @@ impl Artifact {
             Artifact::Diagnosis => "a `diagnose` stage",
             Artifact::Report => "a `report` stage",
             Artifact::Exports => "an `export` stage",
+            Artifact::Design => "a `design` stage",
         }
     }
 }

@@ -331,6 +331,52 @@ impl Allocation {
         self.gain * interp(&self.curve.0, &self.curve.1, x)
     }
 
+    /// The command (as logged) that gives thrust `f` (N), and whether the thruster cannot
+    /// give that much (the command is then the curve's end in that direction). Where the
+    /// curve gives `f` at several commands (a deadband's flat zero), the one nearest neutral.
+    pub fn command_for(&self, f: f64) -> (f64, bool) {
+        let (x, y) = (&self.curve.0, &self.curve.1);
+        let want = f / self.gain;
+        let mut best: Option<f64> = None;
+        for k in 1..x.len() {
+            let (x0, x1, y0, y1) = (x[k - 1], x[k], y[k - 1], y[k]);
+            if want < y0.min(y1) || want > y0.max(y1) {
+                continue;
+            }
+            let at = if (y1 - y0).abs() < 1e-12 {
+                0.0_f64.clamp(x0, x1)
+            } else {
+                x0 + (x1 - x0) * (want - y0) / (y1 - y0)
+            };
+            if best.is_none_or(|b| at.abs() < b.abs()) {
+                best = Some(at);
+            }
+        }
+        let (at, clipped) = match best {
+            Some(at) => (at, false),
+            None => {
+                // Beyond the curve: its strongest point in the wanted direction.
+                let ends = x.iter().zip(y.iter());
+                let end = if want > 0.0 {
+                    ends.max_by(|a, b| a.1.total_cmp(b.1))
+                } else {
+                    ends.min_by(|a, b| a.1.total_cmp(b.1))
+                };
+                (*end.expect("a curve has points").0, true)
+            }
+        };
+        let logged = match self.command {
+            Command::Pwm => self.neutral_us + at * self.half_range_us,
+            Command::Normalised | Command::Rpm => at,
+        };
+        (logged, clipped)
+    }
+
+    /// What a logged command is (`pwm`, `normalised`, `rpm`).
+    pub fn command_kind(&self) -> Command {
+        self.command
+    }
+
     /// `n` points of the thrust curve over its commands: (command as logged, thrust in N).
     pub fn curve_points(&self, n: usize) -> (Vec<f64>, Vec<f64>) {
         let (x0, x1) = (self.curve.0[0], self.curve.0[self.curve.0.len() - 1]);
@@ -406,6 +452,22 @@ mod tests {
             curve: Curve::Named(NamedCurve::T200_16v),
             gain: 1.0,
         }
+    }
+
+    #[test]
+    fn a_thrust_gives_back_its_command() {
+        let a = thrusters(Layout::Bluerov2).allocation();
+        for pwm in [1150.0, 1300.0, 1420.0, 1580.0, 1700.0, 1890.0] {
+            let (c, clipped) = a.command_for(a.thrust(pwm));
+            assert!(!clipped && (c - pwm).abs() < 0.5, "{pwm} -> {c}");
+        }
+        // Zero thrust is neutral (the deadband's nearest point), too much is clipped.
+        let (c, clipped) = a.command_for(0.0);
+        assert!(!clipped && (c - 1500.0).abs() < 30.0, "{c}");
+        let (c, clipped) = a.command_for(1e4);
+        assert!(clipped && (c - 1900.0).abs() < 1e-9, "{c}");
+        let (c, clipped) = a.command_for(-1e4);
+        assert!(clipped && (c - 1100.0).abs() < 1e-9, "{c}");
     }
 
     #[test]
