@@ -234,9 +234,10 @@ pub enum TwinCommand {
         /// The run's name (its folder under --out).
         #[arg(long)]
         name: String,
-        /// Its role in the project.
-        #[arg(long, default_value = "train")]
-        role: String,
+        /// Its role in the project (default: the role in the run.yaml beside the command, as
+        /// `hydrofit design` wrote it, else train).
+        #[arg(long)]
+        role: Option<String>,
         #[command(flatten)]
         to: TwinRuns,
         /// Concealed effect as name=magnitude (repeatable), as for `twin pool`.
@@ -396,7 +397,7 @@ fn twin(root: &std::path::Path, what: TwinCommand) -> anyhow::Result<ExitCode> {
             &cmd::twin::Flight {
                 thrust: &thrust,
                 name: &name,
-                role: &role,
+                role: role.as_deref(),
                 out: &to.out,
                 truth: &to.truth,
                 seed: to.seed,

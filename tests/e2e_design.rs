@@ -285,3 +285,108 @@ fn a_design_stage_proposes_at_every_build_with_the_commands_of_each_thruster() {
     let again = ok(root, &["build"]);
     assert_eq!(common::ran(&again), 0, "{again}");
 }
+
+#[test]
+fn a_designed_run_tells_a_hidden_sensor_delay_from_a_thruster_lag() {
+    // A twin hiding a 0.3 s sensor delay, recorded with slow steps only (surge; sway and
+    // heave) and held out on the mixed run: the diagnosis cannot tell it from a thruster lag.
+    let d = tempfile::tempdir().unwrap();
+    let root = d.path();
+    let twin = |args: &[&str]| {
+        let mut a = args.to_vec();
+        a.extend([
+            "--out",
+            "cases/pool",
+            "--truth",
+            "truth",
+            "--effect",
+            "sensor_delay=0.3",
+        ]);
+        ok(root, &a);
+    };
+    twin(&["twin", "pool"]);
+    for r in ["prbs_a", "prbs_b", "yaw_turns"] {
+        std::fs::remove_dir_all(root.join("cases/pool").join(r)).unwrap();
+    }
+    let pipeline = PIPELINE
+        .replace(
+            "  report: {kind: report, from: [fit, pool]}",
+            "  diagnose: {kind: diagnose, from: [fit, pool]}\n  report: {kind: report, from: [fit, pool, diagnose]}",
+        );
+    std::fs::write(root.join("pipeline.yaml"), pipeline).unwrap();
+    ok(root, &["build"]);
+    let alike = |d: &serde_json::Value, name: &str| -> Option<Vec<String>> {
+        d["effects"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|e| e["name"] == name)
+            .map(|e| {
+                e["alike"]
+                    .as_array()
+                    .map(|a| {
+                        a.iter()
+                            .map(|x| x["name"].as_str().unwrap().to_string())
+                            .collect()
+                    })
+                    .unwrap_or_default()
+            })
+    };
+    let before = json(root, "reports/diagnosis.json");
+    assert_eq!(
+        alike(&before, "sensor_delay"),
+        Some(vec!["thruster_lag".to_string()]),
+        "{}",
+        before["verdict"]
+    );
+    // The design is for telling them apart, and predicts the runs so far cannot.
+    let out = ok(root, &["design", "--duration", "90", "--candidates", "15"]);
+    assert!(
+        out.contains("tells sensor_delay from thruster_lag"),
+        "{out}"
+    );
+    let design = json(root, "reports/design/design.json");
+    let s = &design["separates"];
+    assert!(
+        s["designed"].as_f64().unwrap() > s["margin"].as_f64().unwrap()
+            && s["recorded"].as_f64().unwrap() < s["margin"].as_f64().unwrap(),
+        "{s}"
+    );
+    assert!(read(root, "reports/design/run.yaml").starts_with("role: validate"));
+    // Flown twice, once to train and once held out (as the design's run.yaml says).
+    twin(&[
+        "twin",
+        "fly",
+        "reports/design/thrust.csv",
+        "--name",
+        "next_train",
+        "--role",
+        "train",
+        "--seed",
+        "7",
+    ]);
+    twin(&[
+        "twin",
+        "fly",
+        "reports/design/thrust.csv",
+        "--name",
+        "next_held",
+        "--seed",
+        "8",
+    ]);
+    assert!(read(root, "cases/pool/next_held/run.yaml").starts_with("role: validate"));
+    ok(root, &["build"]);
+    let after = json(root, "reports/diagnosis.json");
+    assert_eq!(
+        alike(&after, "sensor_delay"),
+        Some(vec![]),
+        "{}",
+        after["verdict"]
+    );
+    assert_eq!(alike(&after, "thruster_lag"), None, "{}", after["verdict"]);
+    let page = read(root, "reports/index.html");
+    assert!(
+        page.contains("the diagnosis now names sensor_delay alone"),
+        "the report does not hold the design to its promise"
+    );
+}

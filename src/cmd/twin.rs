@@ -87,11 +87,22 @@ fn concealed(effects: &[Effect]) -> String {
 pub struct Flight<'a> {
     pub thrust: &'a Path,
     pub name: &'a str,
-    pub role: &'a str,
+    /// None: the design's (its run.yaml beside the command), else train.
+    pub role: Option<&'a str>,
     pub out: &'a Path,
     pub truth: &'a Path,
     pub seed: u64,
     pub effects: &'a [String],
+}
+
+/// The role `hydrofit design` gave the run (the run.yaml beside its thrust.csv: a run to tell
+/// two effects apart is held out), else train.
+fn design_role(thrust: &Path) -> String {
+    std::fs::read_to_string(thrust.with_file_name("run.yaml"))
+        .ok()
+        .and_then(|t| serde_yaml_ng::from_str::<serde_yaml_ng::Value>(&t).ok())
+        .and_then(|v| v.get("role")?.as_str().map(String::from))
+        .unwrap_or_else(|| "train".into())
 }
 
 /// Flies a designed command (a thrust.csv at 20 Hz) with the pool twin, open loop from the
@@ -106,7 +117,10 @@ pub fn fly(root: &Path, f: &Flight) -> anyhow::Result<ExitCode> {
     let truth = twin::pool::fly(&world, &cmd, start);
     let spec = twin::pool::RunSpec {
         name: f.name.to_string(),
-        role: f.role.to_string(),
+        role: match f.role {
+            Some(r) => r.to_string(),
+            None => design_role(&path),
+        },
         manoeuvre: twin::pool::Manoeuvre::Designed,
         duration_s: (cmd.len().saturating_sub(1)) as f64 * 0.05,
         sonar: true,

@@ -168,6 +168,9 @@ impl Written {
             s.prbs,
             s.margin
         ));
+            out.push(
+                "  fly it twice: once with role train (the effects' parameters are fitted on it) and once held out as run.yaml says (role validate: the diagnosis decides on it)".into(),
+            );
         }
         if let Some(t) = &w.thrusters {
             let e = t.max_wrench_error;

@@ -63,17 +63,27 @@ fn selection(found: &[(&str, &std::collections::BTreeMap<String, f64>)]) -> Opti
         .collect()
 }
 
+/// Whether a found effect is one of the table's, with its parameters (not a discovered closed
+/// form in an effect's form, not the unexplained residual).
+pub fn named(f: &crate::diagnose::result::Found) -> bool {
+    selection(&[(f.name.as_str(), &f.parameters)]).is_some()
+}
+
 impl Pair {
     /// Every look-alike pair of a diagnosis (effects it cannot rebuild are left out).
     pub fn of(d: &Diagnosis) -> Vec<Pair> {
         let mut out = Vec::new();
         for (i, f) in d.effects.iter().enumerate() {
             for a in &f.alike {
+                // The other effects found are kept in both; a discovered closed form or an
+                // unexplained residual cannot be rebuilt as an effect, and is left out of both.
                 let others = d
                     .effects
                     .iter()
                     .enumerate()
-                    .filter(|(k, _)| *k != i)
+                    .filter(|(k, o)| {
+                        *k != i && selection(&[(o.name.as_str(), &o.parameters)]).is_some()
+                    })
                     .map(|(_, o)| (o.name.as_str(), &o.parameters));
                 let kept: Vec<_> = others
                     .clone()
