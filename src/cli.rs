@@ -106,6 +106,10 @@ pub enum Command {
         /// identifiable, else those with a standard error above 10 % of their value).
         #[arg(long = "for", value_delimiter = ',')]
         targets: Vec<String>,
+        /// d: the smallest joint confidence region of the targets; a: their smallest mean
+        /// relative variance.
+        #[arg(long, value_enum, default_value = "d")]
+        criterion: crate::design::Criterion,
         /// Random candidates per family (steps, PRBS, multisine); as many local changes follow.
         #[arg(long, default_value_t = 40)]
         candidates: usize,
@@ -360,6 +364,7 @@ fn design(root: &std::path::Path, what: Command) -> anyhow::Result<ExitCode> {
         pool,
         start,
         targets,
+        criterion,
         candidates,
         seed,
     } = what
@@ -373,6 +378,7 @@ fn design(root: &std::path::Path, what: Command) -> anyhow::Result<ExitCode> {
         pool,
         start,
         targets,
+        criterion,
         candidates: candidates.max(1),
         seed,
     };

@@ -281,6 +281,43 @@ fn a_design_stage_proposes_at_every_build_with_the_commands_of_each_thruster() {
     assert_eq!(rows, 1201, "0 to 60 s at 20 Hz");
     assert_eq!(design["thrusters"]["samples"], rows);
     assert_eq!(design["thrusters"]["clipped_samples"], clipped);
+    // A-optimal: the mean relative variance of the targets (relative to the values the plan
+    // is flown with), predicted, below the D-optimal design's and the PRBS's (the same
+    // candidates are drawn for both criteria).
+    ok(
+        root,
+        &[
+            "design",
+            "--duration",
+            "60",
+            "--candidates",
+            "8",
+            "--seed",
+            "3",
+            "--out",
+            "a",
+            "--criterion",
+            "a",
+        ],
+    );
+    let a = json(root, "a/design.json");
+    assert_eq!(a["criterion"], "A-optimal");
+    assert_eq!(design["criterion"], "D-optimal");
+    let relative = |d: &serde_json::Value, key: &str| -> f64 {
+        d["parameters"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|r| r["target"] == true)
+            .map(|r| (r[key].as_f64().unwrap() / r["planning_value"].as_f64().unwrap()).powi(2))
+            .sum()
+    };
+    let (by_a, by_d) = (
+        relative(&a, "predicted_after"),
+        relative(&design, "predicted_after"),
+    );
+    assert!(by_a <= by_d, "A-optimal {by_a} vs D-optimal {by_d}");
+    assert!(by_a < relative(&a, "predicted_after_prbs"));
     // Nothing changed: the next build proposes nothing new.
     let again = ok(root, &["build"]);
     assert_eq!(common::ran(&again), 0, "{again}");

@@ -109,6 +109,25 @@ pub fn log_det_block(cov: &DMatrix<f64>, targets: &[usize]) -> f64 {
     }
 }
 
+/// The A-optimal criterion on the parameters `targets`: log of the sum of their predicted
+/// variances, each relative to its value squared (the coefficients carry different units, so
+/// the trace is taken of the relative covariance; a value near zero is scaled by its standard
+/// error instead). Smaller is better: the mean relative error of the targets.
+pub fn log_relative_trace(se_after: &[f64], value: &[f64], targets: &[usize]) -> f64 {
+    targets
+        .iter()
+        .map(|&j| {
+            let scale = if value[j].abs() > 1e-9 {
+                value[j].abs()
+            } else {
+                se_after[j].max(1e-12)
+            };
+            (se_after[j] / scale).powi(2)
+        })
+        .sum::<f64>()
+        .ln()
+}
+
 /// The correlation of parameters `i` and `j` under `cov`.
 pub fn correlation(cov: &DMatrix<f64>, i: usize, j: usize) -> f64 {
     cov[(i, j)] / (cov[(i, i)] * cov[(j, j)]).sqrt()
@@ -152,6 +171,17 @@ pub fn predicted(
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn the_a_criterion_weighs_each_target_by_its_value() {
+        // Halving the relative error of one of two equal targets: from 2 x 0.01 to 0.01 + 0.0025.
+        let a = super::log_relative_trace(&[0.1, 10.0, 5.0], &[1.0, 100.0, 0.0], &[0, 1]);
+        let b = super::log_relative_trace(&[0.05, 10.0, 5.0], &[1.0, 100.0, 0.0], &[0, 1]);
+        assert!((a - 0.02f64.ln()).abs() < 1e-12 && (b - 0.0125f64.ln()).abs() < 1e-12);
+        // A zero value is scaled by its own error.
+        let c = super::log_relative_trace(&[0.1, 10.0, 5.0], &[1.0, 100.0, 0.0], &[2]);
+        assert!(c.abs() < 1e-12);
+    }
+
     use super::*;
 
     #[test]

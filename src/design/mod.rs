@@ -36,6 +36,28 @@ const MAX_STEP: f64 = 0.01;
 /// vertically), m.
 pub const PILOT_ZONE_M: f64 = 2.0;
 
+/// The optimality criterion on the targets.
+#[derive(
+    Debug,
+    Clone,
+    Copy,
+    Default,
+    PartialEq,
+    Eq,
+    serde::Serialize,
+    serde::Deserialize,
+    clap::ValueEnum,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum Criterion {
+    /// D-optimal: the smallest joint confidence region (log det of the targets' covariance).
+    #[default]
+    D,
+    /// A-optimal: the smallest mean relative variance of the targets (each scaled by its
+    /// value, as the coefficients carry different units).
+    A,
+}
+
 /// Everything a design is scored against.
 pub struct Setup {
     pub vehicle: Vehicle,
@@ -45,8 +67,9 @@ pub struct Setup {
     pub reported: Vec<f64>,
     /// The values the fit reported.
     pub value: Vec<f64>,
-    /// The recorded (training) runs' information.
+    /// The recorded (training) runs' information, and the covariance it gives.
     pub before: DMatrix<f64>,
+    pub covariance_before: DMatrix<f64>,
     /// Whether the fit minimised the output error (a prediction-error fit, a swarm on the
     /// output error): its information is then the simulation's sensitivity, not the
     /// regressor's.
@@ -69,6 +92,8 @@ pub struct Setup {
     /// Two look-alike effects to tell apart (the criterion is then their separation), with
     /// the recorded runs' noise.
     pub separate: Option<(separate::Pair, separate::Noise)>,
+    /// How the targets' uncertainty is summed (D: joint volume; A: mean relative variance).
+    pub criterion: Criterion,
 }
 
 /// A scored candidate: the profile as flown (amplitudes shrunk until it stays in the pool).
@@ -121,11 +146,6 @@ impl Setup {
                 self.skip_start_s,
             )
         }
-    }
-
-    /// The covariance of the recorded runs alone.
-    pub fn covariance_before(&self) -> DMatrix<f64> {
-        info::covariance(&self.before)
     }
 
     /// `profile` flown from the start, its amplitudes (of the translations, then of all DOFs)
@@ -281,21 +301,20 @@ impl Setup {
     ) -> Candidate {
         let added = self.information(&[response]);
         let after = info::covariance(&(&self.before + added));
-        let se_after = info::predicted(
-            &self.reported,
-            &self.value,
-            &self.covariance_before(),
-            &after,
-        );
+        let se_after =
+            info::predicted(&self.reported, &self.value, &self.covariance_before, &after);
         let separation = self
             .separate
             .as_ref()
             .map(|(pair, noise)| pair.separation(&self.plant, &self.as_run(&cmd, &states), noise));
         Candidate {
             profile,
-            criterion: match separation {
-                Some(x) => -x,
-                None => info::log_det_block(&after, &self.targets),
+            criterion: match (separation, self.criterion) {
+                (Some(x), _) => -x,
+                (None, Criterion::D) => info::log_det_block(&after, &self.targets),
+                (None, Criterion::A) => {
+                    info::log_relative_trace(&se_after, &self.theta, &self.targets)
+                }
             },
             cmd,
             states,

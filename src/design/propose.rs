@@ -37,6 +37,9 @@ pub struct Ask {
     /// Parameters to design for (default: those the report flags).
     #[serde(rename = "for", skip_serializing_if = "Vec::is_empty")]
     pub targets: Vec<String>,
+    /// `d` (joint volume of the targets' confidence region, the default) or `a` (their mean
+    /// relative variance).
+    pub criterion: super::Criterion,
     /// Random candidates per family (steps, PRBS, multisine); as many local changes follow.
     pub candidates: usize,
     pub seed: u64,
@@ -51,6 +54,7 @@ impl Default for Ask {
             pool: None,
             start: None,
             targets: Vec::new(),
+            criterion: super::Criterion::D,
             candidates: 40,
             seed: 1,
         }
@@ -129,6 +133,10 @@ pub fn propose(
         limits_from: limits_source(&setup, runs),
         parameters: rows(f, &setup, &best, &prbs),
         runs: run_names(runs),
+        criterion: match setup.separate {
+            Some(_) => "separation".into(),
+            None => format!("{:?}-optimal", ask.criterion),
+        },
         separates: None,
         thrusters: None,
     };
@@ -204,6 +212,7 @@ fn setup(
         layout,
         reported,
         value: f.fit.parameters.iter().map(|x| x.value).collect(),
+        covariance_before: super::info::covariance(&before),
         before,
         output_error,
         theta,
@@ -216,6 +225,7 @@ fn setup(
         skip_start_s,
         anchor: runs.iter().find_map(|r| r.meta.tether_anchor_m),
         separate: None,
+        criterion: ask.criterion,
     })
 }
 
@@ -396,6 +406,7 @@ fn rows(f: &FitResult, setup: &Setup, best: &Candidate, prbs: &Candidate) -> Vec
         .map(|(j, p)| Row {
             name: p.name.clone(),
             value: p.value,
+            planning_value: setup.theta[j],
             unit: p.unit.clone(),
             target: setup.targets.contains(&j),
             stderr_now: p.stderr,

@@ -25,6 +25,9 @@ pub struct Written {
     pub parameters: Vec<Row>,
     /// The training runs the prediction starts from.
     pub runs: Vec<String>,
+    /// What the design optimised: `D-optimal`, `A-optimal` or `separation`.
+    #[serde(default)]
+    pub criterion: String,
     /// When the diagnosis could not tell two effects apart: how far the run tells them apart.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub separates: Option<Separation>,
@@ -51,6 +54,10 @@ pub struct Separation {
 pub struct Row {
     pub name: String,
     pub value: f64,
+    /// The value the plan was flown with: the fit's, or for a coefficient the runs did not
+    /// determine, the mean of the same kind of term in the DOFs they did.
+    #[serde(default)]
+    pub planning_value: f64,
     pub unit: String,
     pub target: bool,
     pub stderr_now: f64,

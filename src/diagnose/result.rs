@@ -76,7 +76,7 @@ impl Found {
     }
 
     /// " sensor_delay (delay_s = 0.270; ...) fits the held-out runs within noise of it: these
-    /// runs cannot tell them apart."
+    /// runs cannot tell them apart. `hydrofit design` proposes a run that does ..."
     pub fn alike_sentence(&self, noise: f64) -> String {
         let others: Vec<String> = self
             .alike
@@ -96,7 +96,7 @@ impl Found {
             })
             .collect();
         format!(
-            " {} fits the held-out runs within noise of it ({:.4}; noise floor {noise:.4}): these runs cannot tell them apart.",
+            " {} fits the held-out runs within noise of it ({:.4}; noise floor {noise:.4}): these runs cannot tell them apart. `hydrofit design` proposes a run that does (fly it twice, once to train and once held out).",
             others.join(" and "),
             self.validation_cost_after
         )

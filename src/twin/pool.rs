@@ -218,7 +218,7 @@ pub fn simulate(world: &WorldPlant, spec: &RunSpec, seed: u64) -> Truth {
     let mut rng = Rng::derive(seed, &format!("pool/{}/program", spec.name));
     let mut prbs = [(0.0, 0.0); 4];
     let n = (spec.duration_s / STEP).round() as usize + 1;
-    let mut s = State {
+    let start = State {
         pos: [
             POOL.length_m / 2.0 + 2.0 * rng.uniform() - 1.0,
             POOL.width_m / 2.0 + rng.uniform() - 0.5,
@@ -227,27 +227,40 @@ pub fn simulate(world: &WorldPlant, spec: &RunSpec, seed: u64) -> Truth {
         psi: std::f64::consts::PI * (2.0 * rng.uniform() - 1.0),
         ..State::default()
     };
+    step_through(world, start, n, |t, s| {
+        let p = program(spec.manoeuvre, t, &mut prbs, &mut rng);
+        let f = pilot(s);
+        let (c, sn) = (s.psi.cos(), s.psi.sin());
+        let body = [
+            p[0] + c * f[0] + sn * f[1],
+            p[1] - sn * f[0] + c * f[1],
+            p[2] + f[2],
+            p[3],
+        ];
+        let b: [f64; 4] = std::array::from_fn(|i| (body[i] * 10.0).round() / 10.0);
+        std::array::from_fn(|i| b[i].clamp(-LIMITS[i], LIMITS[i]))
+    })
+}
+
+/// `n` steps of the world plant from `start`, the command [X, Y, Z, N] asked of `command` at
+/// each logged sample (time, state) and held until the next.
+fn step_through(
+    world: &WorldPlant,
+    start: State,
+    n: usize,
+    mut command: impl FnMut(f64, &State) -> [f64; 4],
+) -> Truth {
     let mut truth = Truth {
         t: Vec::with_capacity(n),
         states: Vec::with_capacity(n),
         accel: Vec::with_capacity(n),
-        cmd: Vec::new(),
+        cmd: Vec::with_capacity(n / LOG_EVERY + 1),
     };
-    let mut cmd = [0.0; 6];
+    let (mut s, mut cmd) = (start, [0.0; 6]);
     for k in 0..n {
         let t = k as f64 * STEP;
         if k % LOG_EVERY == 0 {
-            let p = program(spec.manoeuvre, t, &mut prbs, &mut rng);
-            let f = pilot(&s);
-            let (c, sn) = (s.psi.cos(), s.psi.sin());
-            let body = [
-                p[0] + c * f[0] + sn * f[1],
-                p[1] - sn * f[0] + c * f[1],
-                p[2] + f[2],
-                p[3],
-            ];
-            let b: [f64; 4] = std::array::from_fn(|i| (body[i] * 10.0).round() / 10.0);
-            let b: [f64; 4] = std::array::from_fn(|i| b[i].clamp(-LIMITS[i], LIMITS[i]));
+            let b = command(t, &s);
             cmd = [b[0], b[1], b[2], 0.0, 0.0, b[3]];
             truth.cmd.push(cmd);
         }
@@ -314,27 +327,10 @@ pub fn write_runs(
 /// command exactly as given (a designed run, whose plan kept it off the walls).
 pub fn fly(world: &WorldPlant, cmd: &[[f64; 4]], start: State) -> Truth {
     let n = cmd.len().saturating_sub(1) * LOG_EVERY + 1;
-    let mut truth = Truth {
-        t: Vec::with_capacity(n),
-        states: Vec::with_capacity(n),
-        accel: Vec::with_capacity(n),
-        cmd: Vec::with_capacity(cmd.len()),
-    };
-    let mut s = start;
-    let mut c = [0.0; 6];
-    for k in 0..n {
-        let t = k as f64 * STEP;
-        if k % LOG_EVERY == 0 {
-            let b = cmd[k / LOG_EVERY];
-            c = [b[0], b[1], b[2], 0.0, 0.0, b[3]];
-            truth.cmd.push(c);
-        }
-        truth.t.push(t);
-        truth.states.push(s);
-        truth.accel.push(world.accel(&s, &c, t));
-        s = world.step(&s, &c, STEP, t);
-    }
-    truth
+    let mut next = cmd.iter();
+    step_through(world, start, n, |_, _| {
+        *next.next().expect("one command per logged sample")
+    })
 }
 
 /// Writes the run folder and the truth of one simulated run.
