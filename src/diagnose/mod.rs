@@ -27,6 +27,7 @@ pub mod search;
 mod select;
 mod spectrum;
 pub mod stage;
+pub mod start;
 #[cfg(test)]
 mod tests;
 mod verdict;

@@ -72,6 +72,41 @@ fn intro(h: &mut String, d: &Diagnosis) {
         d.criteria.min_noise_multiple,
         d.elapsed_s
     );
+    started_from(h, d);
+}
+
+/// Which fits of the vehicle the diagnosis chose between, and how each predicts the held-out
+/// runs.
+fn started_from(h: &mut String, d: &Diagnosis) {
+    if d.started_from.is_empty() {
+        return;
+    }
+    let each: Vec<String> = d
+        .started_from
+        .iter()
+        .map(|s| {
+            let score = match &s.note {
+                Some(n) => format!("not scored: {}", esc(n)),
+                None => format!(
+                    "held-out cost {:.4}, NMAE {}",
+                    s.validation_cost,
+                    nmae(&s.validation_nmae)
+                ),
+            };
+            let chosen = if s.chosen { " — diagnosed" } else { "" };
+            format!(
+                "<li><code>{}</code> ({}): {score}{chosen}</li>",
+                esc(&s.model),
+                esc(&s.method)
+            )
+        })
+        .collect();
+    let _ = writeln!(
+        h,
+        "<p>Started from <code>{}</code>: of the fits of the vehicle among <code>from</code>, a CFD model when there is one (the physics it leaves out is what is diagnosed; a pool fit absorbs some of it), else the one that predicts the held-out runs best. Set <code>model</code> in the stage's settings to choose. Held out:</p><ul>\n{}\n</ul>",
+        esc(&d.baseline.model),
+        each.join("\n")
+    );
 }
 
 /// The hypotheses not tested, each with what the runs lack for it.

@@ -133,6 +133,11 @@ pub struct Diagnosis {
     /// were chosen for, each with the numbers that decided it.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub dropped: Vec<String>,
+    /// The fits of the vehicle among `from` the diagnosis chose between (when the stage names
+    /// no `model` and there are several), each with its held-out error; the chosen one is
+    /// `baseline.model`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub started_from: Vec<Start>,
     /// The model's local stability along each run, and the simulation window it led to.
     #[serde(default)]
     pub stability: BTreeMap<String, crate::core::model::stability::Stability>,
@@ -144,6 +149,25 @@ pub struct Diagnosis {
 pub struct Figure {
     pub caption: String,
     pub svg: String,
+}
+
+/// One model the diagnosis could start from, with its held-out error.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Start {
+    pub model: String,
+    pub method: String,
+    /// Identified from CFD cases (alone or with pool runs).
+    pub from_cfd: bool,
+    /// The held-out error cost (as the diagnosis's baseline); NaN when the model's
+    /// simulation diverged.
+    #[serde(deserialize_with = "crate::core::fsutil::f64_or_nan")]
+    pub validation_cost: f64,
+    pub validation_nmae: BTreeMap<Dof, f64>,
+    /// The one diagnosed.
+    pub chosen: bool,
+    /// Why it could not be scored, when it could not.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub note: Option<String>,
 }
 
 pub const RESULT: &str = "diagnosis.json";
@@ -190,6 +214,7 @@ impl Diagnosis {
             diverged,
             untested: Vec::new(),
             dropped: Vec::new(),
+            started_from: Vec::new(),
             stability: BTreeMap::new(),
             elapsed_s,
         }

@@ -4,6 +4,7 @@
 
 use crate::diagnose::result::{FIGURES, RESULT};
 use crate::diagnose::{Criteria, DOFS, diagnose};
+use crate::identify::result::FitResult;
 use crate::pipeline::contract::{Artifact, Kind, RunCtx, StageImpl, parse_as};
 use serde::{Deserialize, Serialize};
 
@@ -29,14 +30,15 @@ impl StageImpl for Settings {
     }
 
     fn run(&self, ctx: &RunCtx) -> anyhow::Result<()> {
-        let fits: Vec<crate::identify::result::FitResult> = ctx
+        let fits: Vec<FitResult> = ctx
             .upstream_of(Artifact::Model)
             .map(|u| crate::identify::result::load(&u.dir))
             .collect::<Result<_, _>>()?;
-        let f = match &self.model {
-            Some(name) => fits.iter().find(|f| &f.stage == name).ok_or_else(|| anyhow::anyhow!("model `{name}` is not among this stage's `from` fits ({})", fits.iter().map(|f| f.stage.as_str()).collect::<Vec<_>>().join(", ")))?,
-            None => fits.iter().find(|f| f.vehicle.is_none()).ok_or_else(|| anyhow::anyhow!("no fit of the pipeline's vehicle among `from`\n  help: name a `fit` stage that identifies the vehicle"))?,
-        };
+        let fused: Vec<crate::pool::fusion::run::FusedRun> = ctx
+            .upstream_of(Artifact::PoolRuns)
+            .map(|u| crate::pool::fusion::run::load_for(&u.dir, ctx.vehicle))
+            .collect::<Result<_, _>>()?;
+        let (f, started_from) = self.pick(&fits, &fused, ctx)?;
         if !DOFS.iter().all(|d| f.dofs.contains(d)) {
             anyhow::bail!(
                 "the diagnosis simulates surge, sway, heave and yaw; model `{}` has {:?}",
@@ -44,10 +46,6 @@ impl StageImpl for Settings {
                 f.dofs
             );
         }
-        let fused: Vec<crate::pool::fusion::run::FusedRun> = ctx
-            .upstream_of(Artifact::PoolRuns)
-            .map(|u| crate::pool::fusion::run::load_for(&u.dir, ctx.vehicle))
-            .collect::<Result<_, _>>()?;
         let plant = f.plant(ctx.vehicle);
         // The model's command lag is part of it: the runs are diagnosed under the command as
         // the model passes it on.
@@ -65,7 +63,43 @@ impl StageImpl for Settings {
             &progress,
         )?;
         diagnosis.runs.skipped.extend(ctx.failed_notes());
+        diagnosis.started_from = started_from;
         crate::core::fsutil::write_json(&ctx.out.join(RESULT), &diagnosis)?;
         crate::core::fsutil::write_json(&ctx.out.join(FIGURES), &figures)
+    }
+}
+
+impl Settings {
+    /// The fit to diagnose: the one named, else the only fit of the vehicle among `from`, else
+    /// as [`crate::diagnose::start::choose`] chooses (each one's score returned).
+    fn pick<'a>(
+        &self,
+        fits: &'a [FitResult],
+        fused: &[crate::pool::fusion::run::FusedRun],
+        ctx: &RunCtx,
+    ) -> anyhow::Result<(&'a FitResult, Vec<crate::diagnose::start::Start>)> {
+        let own: Vec<&FitResult> = fits.iter().filter(|f| f.vehicle.is_none()).collect();
+        let mut started_from = Vec::new();
+        let f = match &self.model {
+            Some(name) => fits.iter().find(|f| &f.stage == name).ok_or_else(|| anyhow::anyhow!("model `{name}` is not among this stage's `from` fits ({})", fits.iter().map(|f| f.stage.as_str()).collect::<Vec<_>>().join(", ")))?,
+            None if own.len() > 1 => {
+                // Several fits of the vehicle: start from a CFD one (else the one that
+                // predicts the held-out runs best), and say how each did.
+                started_from = own
+                    .iter()
+                    .filter(|f| DOFS.iter().all(|d| f.dofs.contains(d)))
+                    .map(|f| {
+                        crate::diagnose::start::held_out(f, &f.plant(ctx.vehicle), fused, &self.criteria)
+                    })
+                    .collect();
+                let i = crate::diagnose::start::choose(&mut started_from);
+                match started_from.get(i) {
+                    Some(s) => own.iter().copied().find(|f| f.stage == s.model).expect("scored from these"),
+                    None => own[0],
+                }
+            }
+            None => own.first().copied().ok_or_else(|| anyhow::anyhow!("no fit of the pipeline's vehicle among `from`\n  help: name a `fit` stage that identifies the vehicle"))?,
+        };
+        Ok((f, started_from))
     }
 }

@@ -79,6 +79,7 @@ pub fn diagnose(
         diverged: Vec::new(),
         untested: dx::untested(&data),
         dropped: conclusion.dropped.clone(),
+        started_from: Vec::new(),
         stability,
         elapsed_s: start.elapsed().as_secs_f64(),
     };
@@ -123,7 +124,7 @@ fn runs_record(data: &Data, skipped: Vec<String>) -> Runs {
 }
 
 /// The runs on which the model's simulation diverges, with the time it does.
-fn diverged_runs(plant: &Plant, data: &Data) -> Vec<String> {
+pub(super) fn diverged_runs(plant: &Plant, data: &Data) -> Vec<String> {
     data.train
         .iter()
         .chain(&data.validate)
@@ -348,7 +349,7 @@ fn joint_selection(
 
 /// The fused runs the diagnosis can use (every DOF fused), each with the simulation window
 /// its local stability asks for; the runs left out, and the stability along each run.
-fn prepare_runs(
+pub(super) fn prepare_runs(
     plant: &Plant,
     fused: &[crate::pool::fusion::run::FusedRun],
     crit: &Criteria,
