@@ -216,10 +216,9 @@ fn a_design_stage_proposes_at_every_build_with_the_commands_of_each_thruster() {
         );
     let p = project_with(&pipeline);
     let root = p.path();
-    // The stage's proposal is the command's, for the same settings.
-    ok(
-        root,
-        &[
+    // `hydrofit design` with the stage's settings, into `out`.
+    let design_into = |out: &str, more: &[&str]| {
+        let mut args = vec![
             "design",
             "--duration",
             "60",
@@ -228,9 +227,13 @@ fn a_design_stage_proposes_at_every_build_with_the_commands_of_each_thruster() {
             "--seed",
             "3",
             "--out",
-            "cli",
-        ],
-    );
+            out,
+        ];
+        args.extend(more);
+        ok(root, &args);
+    };
+    // The stage's proposal is the command's, for the same settings.
+    design_into("cli", &[]);
     for file in ["thrust.csv", "thrusters.csv", "plan.csv"] {
         assert_eq!(
             read(root, &format!("reports/design/{file}")),
@@ -284,22 +287,7 @@ fn a_design_stage_proposes_at_every_build_with_the_commands_of_each_thruster() {
     // A-optimal: the mean relative variance of the targets (relative to the values the plan
     // is flown with), predicted, below the D-optimal design's and the PRBS's (the same
     // candidates are drawn for both criteria).
-    ok(
-        root,
-        &[
-            "design",
-            "--duration",
-            "60",
-            "--candidates",
-            "8",
-            "--seed",
-            "3",
-            "--out",
-            "a",
-            "--criterion",
-            "a",
-        ],
-    );
+    design_into("a", &["--criterion", "a"]);
     let a = json(root, "a/design.json");
     assert_eq!(a["criterion"], "A-optimal");
     assert_eq!(design["criterion"], "D-optimal");
