@@ -1,8 +1,7 @@
 //! Every estimator on the shipped twin CFD cases against the twin's truth (seed 001 Table 1),
 //! and reproducibility of the stochastic ones.
 
-mod common;
-use common::*;
+use crate::common::*;
 use hydrofit::cfd::starccm::{ColumnMap, ImportOptions, parse};
 use hydrofit::core::model::{Hydro, ParamLayout, Vehicle};
 use hydrofit::identify::{self, Options, Regression, swarm::Norm};

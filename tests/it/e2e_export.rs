@@ -3,9 +3,7 @@
 //! cache; and a simulator's model with its damping 30 % off, read by a `model` stage, is
 //! flagged by the validation against the pool runs beside the identified model.
 
-mod common;
-
-use common::{json, ok, run, stderr};
+use crate::common::{json, ok, run, stderr};
 use std::path::Path;
 
 const PIPELINE: &str = "vehicle:

@@ -3,8 +3,7 @@
 //! The twins fly with simulators of their own (src/twin/tank.rs); the identifiers never see
 //! that code, and the truth they are checked against comes from the twin's own model.
 
-mod common;
-use common::*;
+use crate::common::*;
 use serde_json::Value;
 use std::path::Path;
 

@@ -4,9 +4,7 @@
 //! the same model as the logged wrench; a run folder that names what its log lacks is a
 //! located error listing what the log holds; a real ArduSub log is read with no mapping.
 
-mod common;
-
-use common::{json, ok, run, stderr};
+use crate::common::{json, ok, run, stderr};
 use hydrofit::core::model::thrusters::{Command, Curve, Layout, NamedCurve, Thrusters};
 use hydrofit::pool::fusion;
 use hydrofit::pool::import::csvlog::Log;

@@ -9,8 +9,7 @@
 
 #![allow(clippy::result_large_err)] // InputError is the library's error, as it returns it
 
-mod common;
-use common::manifest_dir;
+use crate::common::manifest_dir;
 use hydrofit::core::rng::Rng;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -614,7 +613,7 @@ fn openfoam_run_results_under_mutation() {
     use hydrofit::cfd::openfoam::{FORCE, STATE, read_track};
     let dog = Watchdog::new("OpenFOAM run results");
     let mut rng = Rng::derive(9, "openfoam-results");
-    let (_d, dir) = common::openfoam_results(120);
+    let (_d, dir) = crate::common::openfoam_results(120);
     type Read = (
         Vec<f64>,
         Vec<[f64; 3]>,

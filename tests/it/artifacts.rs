@@ -4,9 +4,7 @@
 //! written as (`{"not_finite": "NaN" | "+inf" | "-inf"}`), and by `null` (what older caches and
 //! serde_json wrote). A field that cannot take it is named.
 
-mod common;
-
-use common::{example, ok, project};
+use crate::common::{example, ok, project};
 use std::path::Path;
 
 /// Every number with a fraction or an exponent (how a float is written) as `null`.

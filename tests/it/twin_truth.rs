@@ -1,8 +1,7 @@
 //! Numerical truth: the shipped cases are exactly the twin's output, and least squares on them
 //! recovers the reference vehicle (seed 001 Table 1) within 2 %.
 
-mod common;
-use common::*;
+use crate::common::*;
 use hydrofit::cfd::starccm::{ColumnMap, ImportOptions, parse};
 use hydrofit::core::model::{Hydro, ParamLayout, Vehicle};
 use hydrofit::identify::{Estimator, Regression};

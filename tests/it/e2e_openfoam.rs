@@ -3,8 +3,7 @@
 //! potential-flow theory, rerunning only an edited case, and a crashing case. Skipped, with a
 //! message, where OpenFOAM is not installed (.ci/run installs it).
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::path::Path;
 
 const ADDED_MASS: f64 = 1000.0 * std::f64::consts::PI * 0.1 * 0.1;

@@ -1,12 +1,11 @@
 //! Reading an OpenFOAM run's results when a file is damaged, cut or replaced: every outcome
 //! is a located message or a result whose notes say what was read in place of what.
 
-mod common;
 use hydrofit::cfd::openfoam::{FORCE, STATE, read_track};
 use std::path::Path;
 
 fn results() -> (tempfile::TempDir, std::path::PathBuf) {
-    common::openfoam_results(200)
+    crate::common::openfoam_results(200)
 }
 
 fn err(dir: &Path) -> String {

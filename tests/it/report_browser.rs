@@ -1,8 +1,7 @@
 //! The report as a person sees it: opened in a real headless Chromium (Debian's `chromium`),
 //! with the network unreachable, screenshotted, and checked for drawn plots.
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::process::Command;
 
 fn chromium() -> Option<String> {

@@ -3,8 +3,7 @@
 //! that wrote them hides its effects with forms of its own (src/twin/field.rs), not the
 //! diagnosis's, so what the diagnosis names here is not fitted back from its own code.
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::path::Path;
 
 fn hidden(dir: &Path) -> serde_json::Value {

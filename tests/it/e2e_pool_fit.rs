@@ -6,9 +6,7 @@
 //! and beats both baselines on the held-out runs in every DOF; a model worse than predicting
 //! rest is flagged.
 
-mod common;
-
-use common::{json, ok};
+use crate::common::{json, ok};
 use hydrofit::twin::field::{Hidden, default_runs, write_runs};
 use std::path::Path;
 

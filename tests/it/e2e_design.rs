@@ -6,9 +6,7 @@
 //! rebuilt with the flown run, the standard errors shrink as predicted, and more than with the
 //! PRBS. Every planned and flown track stays in the pool and every command in the limits.
 
-mod common;
-
-use common::{json, ok, read};
+use crate::common::{json, ok, read};
 use std::path::Path;
 
 const PIPELINE: &str = "vehicle:
@@ -182,19 +180,19 @@ fn the_designed_run_shrinks_the_flagged_errors_as_predicted_and_beats_a_prbs() {
 fn a_design_says_what_it_needs_when_it_cannot_run() {
     let p = project();
     let root = p.path();
-    let o = common::run(root, &["design", "--for", "X_nope"]);
+    let o = crate::common::run(root, &["design", "--for", "X_nope"]);
     assert!(!o.status.success());
-    assert!(common::stderr(&o).contains("--for X_nope: the model has no such parameter"));
-    let o = common::run(root, &["design", "--start", "0.5,6,2,0"]);
+    assert!(crate::common::stderr(&o).contains("--for X_nope: the model has no such parameter"));
+    let o = crate::common::run(root, &["design", "--start", "0.5,6,2,0"]);
     assert!(!o.status.success());
     assert!(
-        common::stderr(&o).contains("within the 1 m margin"),
+        crate::common::stderr(&o).contains("within the 1 m margin"),
         "{}",
-        common::stderr(&o)
+        crate::common::stderr(&o)
     );
-    let o = common::run(root, &["design", "--pool", "25x12"]);
+    let o = crate::common::run(root, &["design", "--pool", "25x12"]);
     assert!(!o.status.success());
-    assert!(common::stderr(&o).contains("LENGTHxWIDTHxDEPTH"));
+    assert!(crate::common::stderr(&o).contains("LENGTHxWIDTHxDEPTH"));
 }
 
 /// One row of a CSV of numbers.
@@ -308,7 +306,7 @@ fn a_design_stage_proposes_at_every_build_with_the_commands_of_each_thruster() {
     assert!(by_a < relative(&a, "predicted_after_prbs"));
     // Nothing changed: the next build proposes nothing new.
     let again = ok(root, &["build"]);
-    assert_eq!(common::ran(&again), 0, "{again}");
+    assert_eq!(crate::common::ran(&again), 0, "{again}");
 }
 
 #[test]

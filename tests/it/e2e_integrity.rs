@@ -2,8 +2,7 @@
 //! build moves a result whose files changed aside and rebuilds it (or, with
 //! `--strict-cache`, stops), and `hydrofit verify` checks the cache and the published reports.
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 

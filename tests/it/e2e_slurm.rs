@@ -5,8 +5,7 @@
 //! case fails its stage with Slurm's state and the solver log's tail. Skipped, with a
 //! message, without OpenFOAM or where the cluster cannot be started (never in CI).
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 

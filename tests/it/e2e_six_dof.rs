@@ -4,8 +4,7 @@
 //! analogues and each set against the twin's coefficients. The twin flies with a simulator
 //! of its own (src/twin/six.rs) and hides a linear roll drag that only CUSTOM has.
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::collections::BTreeMap;
 
 /// Mean held-out normalised MAE per model and DOF.

@@ -1,7 +1,6 @@
 //! End-to-end: bad inputs, killed builds and concurrent builds.
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 

@@ -1,7 +1,6 @@
 //! End-to-end: the real binary on a temporary copy of the shipped project.
 
-mod common;
-use common::*;
+use crate::common::*;
 
 #[test]
 fn cold_build_then_nothing_to_do() {

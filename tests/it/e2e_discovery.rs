@@ -4,8 +4,7 @@
 //! fit and a pool fit of the same vehicle among `from`, the diagnosis starts from the CFD
 //! model and reports the held-out error of both; with two pool fits, from the better one.
 
-mod common;
-use common::*;
+use crate::common::*;
 
 #[test]
 fn the_wave_example_reports_the_discovered_sine() {

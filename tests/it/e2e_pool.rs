@@ -1,7 +1,6 @@
 //! End-to-end: pool runs through import, fusion and validation, on the real binary.
 
-mod common;
-use common::*;
+use crate::common::*;
 
 #[test]
 fn a_new_pool_run_reruns_only_its_fusion_and_the_validation() {

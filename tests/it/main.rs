@@ -1,0 +1,28 @@
+//! The integration tests, one binary: each module was once its own test crate. One binary links
+//! the library (and polars) once rather than once per file, which keeps a clean build's disk use
+//! and link time down. Filter by module as before: `cargo test --release --test it e2e_design`.
+
+mod architecture;
+mod artifacts;
+mod common;
+mod e2e_build;
+mod e2e_design;
+mod e2e_discovery;
+mod e2e_export;
+mod e2e_field;
+mod e2e_field_identifiers;
+mod e2e_integrity;
+mod e2e_logs;
+mod e2e_openfoam;
+mod e2e_pool;
+mod e2e_pool_fit;
+mod e2e_robust;
+mod e2e_six_dof;
+mod e2e_slurm;
+mod estimators;
+mod fuzz_inputs;
+mod openfoam_results;
+mod readme;
+mod report_browser;
+mod six_dof;
+mod twin_truth;
