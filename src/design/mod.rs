@@ -345,6 +345,7 @@ impl Setup {
                 col(&|s| s.nu[5]),
             ],
             std: std::array::from_fn(|_| vec![0.0; t.len()]),
+            noise_share: [1.0; 4],
             pos: [col(&|s| s.pos[0]), col(&|s| s.pos[1]), col(&|s| s.pos[2])],
             psi: col(&|s| s.psi),
             t,

@@ -37,7 +37,10 @@ impl Noise {
         };
         Noise {
             scale: std::array::from_fn(|j| mean(&|r: &Run| &r.vel[j]).max(1e-12)),
-            variance: std::array::from_fn(|j| mean(&|r: &Run| &r.std[j])),
+            variance: std::array::from_fn(|j| {
+                let n: usize = runs.iter().map(|r| r.std[j].len()).sum();
+                runs.iter().map(|r| r.noise_sum(j)).sum::<f64>() / n.max(1) as f64
+            }),
         }
     }
 
@@ -148,6 +151,7 @@ mod tests {
             cmd: c,
             vel: [col(0), col(1), col(2), col(5)],
             std: std::array::from_fn(|_| vec![0.01; t.len()]),
+            noise_share: [1.0; 4],
             pos: std::array::from_fn(|_| vec![1.0; t.len()]),
             psi: vec![0.0; t.len()],
             t,

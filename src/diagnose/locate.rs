@@ -212,7 +212,7 @@ fn error_windows(run: &Run, j: usize, sq: &[f64], scale: f64) -> Vec<[f64; 2]> {
         pre[k + 1] = pre[k] + sq[k];
     }
     let mean = pre[n] / n.max(1) as f64;
-    let noise = run.std[j].iter().map(|s| s * s).sum::<f64>() / n.max(1) as f64;
+    let noise = run.noise_sum(j) / n.max(1) as f64;
     let thr = (2.0 * mean).max(4.0 * noise);
     let mov = |k: usize| {
         let (a, b) = (k.saturating_sub(half), (k + half + 1).min(n));

@@ -65,6 +65,9 @@ pub struct Run {
     pub cmd: Vec<[f64; 4]>,
     pub vel: [Vec<f64>; 4],
     pub std: [Vec<f64>; 4],
+    /// Per DOF, the share of `std` that is the sensor's own noise (below 1 for a navigation
+    /// log's velocities, whose smoother assumes more): the noise floor counts only that.
+    pub noise_share: [f64; 4],
     pub pos: [Vec<f64>; 3],
     pub psi: Vec<f64>,
     pub pool: Option<Pool>,
@@ -75,6 +78,12 @@ pub struct Run {
 }
 
 impl Run {
+    /// The sum over the run of DOF `j`'s noise variance: the fused variance, the sensor's own
+    /// share ([`Run::noise_share`]). Every noise floor of the diagnosis is made of these.
+    pub fn noise_sum(&self, j: usize) -> f64 {
+        self.std[j].iter().map(|s| s * s).sum::<f64>() * self.noise_share[j].powi(2)
+    }
+
     /// None when a DOF was not fused (the run lacks a sensor it needs).
     pub fn from_fused(r: &FusedRun) -> Option<Run> {
         let validate = r.meta.role == crate::pool::import::Role::Validate;
@@ -115,6 +124,7 @@ impl Run {
             cmd: thrust.to_vec(),
             vel,
             std,
+            noise_share: f.noise_share(),
             pos: [f.x.clone(), f.y.clone(), f.z.clone()],
             psi: f.psi.clone(),
             pool,
@@ -405,7 +415,8 @@ pub struct Data {
     /// Huber thresholds per DOF: a quarter of the RMS velocity, and at least three times the
     /// fused velocity's mean standard deviation (noise is never down-weighted).
     pub delta: [f64; 4],
-    /// Noise floor of the normalised cost on the held-out runs (fused variances).
+    /// Noise floor of the normalised cost on the held-out runs (fused variances, the sensors'
+    /// own share: [`Run::noise_share`]).
     pub noise_cost: f64,
     /// The effects to test ([`effects::REGISTRY`] unless a caller chooses others).
     pub effects: effects::Registry,
@@ -434,10 +445,7 @@ impl Data {
         let noise_cost = (0..4)
             .map(|j| {
                 let (s, n) = validate.iter().fold((0.0, 0.0), |(s, n), r| {
-                    (
-                        s + r.std[j].iter().map(|v| v * v).sum::<f64>(),
-                        n + r.std[j].len() as f64,
-                    )
+                    (s + r.noise_sum(j), n + r.std[j].len() as f64)
                 });
                 s / n.max(1.0) / scale[j]
             })

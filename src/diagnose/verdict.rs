@@ -517,10 +517,7 @@ fn unexplained_dofs(data: &Data, s: &dx::Sums, left: &[Dof], crit: &Criteria) ->
         .collect();
     let noise_dof: Vec<f64> = (0..4)
         .map(|j| {
-            data.validate
-                .iter()
-                .map(|r| r.std[j].iter().map(|x| x * x).sum::<f64>())
-                .sum::<f64>()
+            data.validate.iter().map(|r| r.noise_sum(j)).sum::<f64>()
                 / data
                     .validate
                     .iter()
@@ -668,7 +665,7 @@ fn structured_left(plant: &Plant, data: &Data, aug: &Augmentation, crit: &Criter
                 }
                 let dt = (r.t[r.t.len() - 1] - r.t[0]) / (r.t.len() - 1) as f64;
                 sse += e.iter().map(|x| x * x).sum::<f64>();
-                var += r.std[j].iter().map(|x| x * x).sum::<f64>();
+                var += r.noise_sum(j);
                 outside += crate::validate::whiteness(&e, dt, (5.0 / dt).round() as usize).outside;
                 runs += 1.0;
             }

@@ -399,6 +399,11 @@ fn thrust_csv(recv: &[f64], truth: &Truth) -> String {
     thrust
 }
 
+/// The DVL's sample interval, s (8 Hz).
+pub const DVL_PERIOD_S: f64 = 0.125;
+/// The DVL's velocity noise (standard deviation of each sample), m/s.
+pub const DVL_NOISE_M_S: f64 = 0.01;
+
 /// `nav.csv`: the navigation filter's output. DVL velocity (1 cm/s noise) at 8 Hz through an
 /// exponential low-pass, written at an irregular 5-7 Hz, `nav_latency_s` late; AHRS heading
 /// with 0.4 deg noise.
@@ -409,11 +414,11 @@ fn nav_csv(h: &Hidden, truth: &Truth, end: f64, rng: &mut Rng) -> String {
     while t_out < end - 0.6 {
         while t_dvl <= t_out - h.nav_latency_s {
             let (nu, _, _) = at(truth, t_dvl);
-            let a = (-0.125 / h.nav_filter_s).exp();
+            let a = (-DVL_PERIOD_S / h.nav_filter_s).exp();
             for i in 0..3 {
-                filt[i] = a * filt[i] + (1.0 - a) * (nu[i] + 0.01 * rng.normal());
+                filt[i] = a * filt[i] + (1.0 - a) * (nu[i] + DVL_NOISE_M_S * rng.normal());
             }
-            t_dvl += 0.125;
+            t_dvl += DVL_PERIOD_S;
         }
         let (_, _, psi) = at(truth, t_out - h.nav_latency_s);
         let yaw = wrap(psi + 0.4f64.to_radians() * rng.normal()).to_degrees();

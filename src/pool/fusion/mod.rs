@@ -164,6 +164,14 @@ pub struct Stats {
     /// Noise of each navigation-log velocity channel (u, v, w), when the run has one.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub nav: Vec<(String, nav::Noise)>,
+    /// The sensor's own noise in the same channels, told apart from the manoeuvres
+    /// ([`motion::noise_level`]): what the diagnosis's noise floor counts. The smoother keeps
+    /// the larger figure above (the equation-error fits differentiate its velocities, and
+    /// smoothing them less doubled six-DOF held-out errors); taken as the floor, that figure
+    /// counted a closed-loop vehicle's manoeuvres as noise (10-19 times the DVL's noise on
+    /// `examples/six_dof_rov`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub nav_sensor: Vec<(String, nav::Noise)>,
     pub uwb_fixes: usize,
     pub uwb_rejected_median: usize,
     pub uwb_rejected_gate: usize,
@@ -173,6 +181,27 @@ pub struct Stats {
     pub gyro_bias_dps: Option<f64>,
     pub noise: Noise,
     pub notes: Vec<String>,
+}
+
+impl Fused {
+    /// Per DOF (u, v, w, r), the share of the stated standard deviation that is the sensor's own
+    /// noise: for a navigation-log channel, its sensor noise over the noise the smoother
+    /// assumed (at most 1); 1 elsewhere.
+    pub fn noise_share(&self) -> [f64; 4] {
+        let sigma = |list: &[(String, nav::Noise)], name: &str| {
+            list.iter().find(|(n, _)| n == name).map(|(_, n)| n.sigma)
+        };
+        std::array::from_fn(|j| {
+            let name = ["u", "v", "w", "r"][j];
+            match (
+                sigma(&self.stats.nav_sensor, name),
+                sigma(&self.stats.nav, name),
+            ) {
+                (Some(sensor), Some(smoothed)) if smoothed > 0.0 => (sensor / smoothed).min(1.0),
+                _ => 1.0,
+            }
+        })
+    }
 }
 
 /// Fuses one run. Fails only when the thrust log is empty (the importer prevents that).
@@ -214,11 +243,13 @@ fn use_nav(fused: &mut Fused, nav: &Log, hd: Option<&Heading>) {
     for (j, name) in ["u", "v", "w"].iter().enumerate() {
         let Some(z) = nav.col(j) else { continue };
         let noise = nav::noise_level(&nav.t, z, floors[j]);
+        let sensor = motion::noise_level(&nav.t, z, floors[j]);
         let (s, jerk) = nav::smooth_ml(&nav.t, z, &fused.t, noise);
         fused.stats.notes.push(format!("navigation log {name}: jerk density {jerk} (m/s^3)^2 s chosen by the likelihood of its innovations"));
         fused.vel[j] = Some(s.v);
         fused.std[j] = Some(s.std);
         fused.stats.nav.push((name.to_string(), noise));
+        fused.stats.nav_sensor.push((name.to_string(), sensor));
     }
     if fused.vel[3].is_none()
         && hd.is_none()

@@ -121,3 +121,69 @@ fn quantiles() {
     assert!((normal_quantile(0.975) - 1.959964).abs() < 1e-5);
     assert!((chi2_quantile(0.999, 3) - 16.266).abs() < 0.3);
 }
+
+/// The navigation log's velocity noise is the sensor's, not the manoeuvres': on the field twin's
+/// closed-loop flights (a DVL's white noise through the navigation filter's low-pass, written
+/// at 5-7 Hz, no UWB), three filter time constants and seeds, the sensor noise the fusion
+/// states (what the diagnosis's noise floor counts) is within a factor 1.5 of the noise the
+/// twin added in most channels and within 2.5 in every one. The smoother's own figure (the
+/// largest spread over lags) is up to 6 times that noise on the figure-eight.
+#[test]
+fn navigation_log_noise_is_told_from_the_manoeuvres() {
+    use crate::twin::field;
+    let mut ratios = Vec::new();
+    for (tau, seed) in [(0.25, 1), (0.1, 2), (0.5, 3)] {
+        let h = field::Hidden {
+            nav_filter_s: tau,
+            ..field::Hidden::default()
+        };
+        let a = (-field::DVL_PERIOD_S / tau).exp();
+        let added = field::DVL_NOISE_M_S * ((1.0 - a) / (1.0 + a)).sqrt();
+        let d = tempfile::tempdir().unwrap();
+        let runs = field::default_runs();
+        field::write_runs(
+            &d.path().join("cases"),
+            &d.path().join("truth"),
+            &runs,
+            &h,
+            seed,
+        )
+        .unwrap();
+        for spec in &runs {
+            let dir = format!("cases/{}", spec.name);
+            std::fs::remove_file(d.path().join(&dir).join("uwb.csv")).unwrap();
+            let files: Vec<String> = ["depth.csv", "nav.csv", "run.yaml", "thrust.csv"]
+                .iter()
+                .map(|f| format!("{dir}/{f}"))
+                .collect();
+            let run = crate::pool::import::load(d.path(), &dir, &files, None).unwrap();
+            let f = fuse(&run, &Settings::default());
+            for (j, (name, noise)) in f.stats.nav_sensor.iter().enumerate() {
+                let ratio = noise.sigma / added;
+                let smoothed = f.stats.nav[j].1.sigma;
+                eprintln!(
+                    "filter {tau} s, {} {name}: sensor {:.4} m/s, smoother {smoothed:.4}, added {added:.4} ({ratio:.2})",
+                    spec.name, noise.sigma
+                );
+                assert!(
+                    (1.0 / 2.5..2.5).contains(&ratio),
+                    "filter {tau} s, {} {name}: sigma {} against {added}",
+                    spec.name,
+                    noise.sigma
+                );
+                assert!(f.noise_share()[j] <= 1.0);
+                ratios.push(ratio);
+            }
+        }
+    }
+    assert_eq!(ratios.len(), 54);
+    let within = ratios
+        .iter()
+        .filter(|r| (1.0 / 1.5..1.5).contains(*r))
+        .count();
+    assert!(
+        within * 5 >= ratios.len() * 4,
+        "{within} of {} channels within a factor 1.5: {ratios:?}",
+        ratios.len()
+    );
+}
