@@ -37,10 +37,7 @@ impl Noise {
         };
         Noise {
             scale: std::array::from_fn(|j| mean(&|r: &Run| &r.vel[j]).max(1e-12)),
-            variance: std::array::from_fn(|j| {
-                let n: usize = runs.iter().map(|r| r.std[j].len()).sum();
-                runs.iter().map(|r| r.noise_sum(j)).sum::<f64>() / n.max(1) as f64
-            }),
+            variance: diagnose::noise_per_dof(runs, &[1.0; 4]),
         }
     }
 

@@ -18,6 +18,7 @@
 //! velocities' own variances.
 
 pub mod discover;
+mod drift;
 pub mod effects;
 mod figures;
 mod locate;
@@ -30,6 +31,7 @@ pub mod stage;
 pub mod start;
 #[cfg(test)]
 mod tests;
+mod unexplained;
 mod verdict;
 pub mod world;
 
@@ -407,6 +409,15 @@ pub fn sums(sim: &[[f64; 4]], run: &Run, delay: f64, delta: &[f64; 4]) -> Sums {
     s
 }
 
+/// Per DOF, the noise floor of the normalised cost on `runs`: their mean noise variance
+/// ([`Run::noise_sum`]) over the DOF's scale. The diagnosis's floor is the sum over DOFs.
+pub fn noise_per_dof(runs: &[Run], scale: &[f64; 4]) -> [f64; 4] {
+    std::array::from_fn(|j| {
+        let n: usize = runs.iter().map(|r| r.std[j].len()).sum();
+        runs.iter().map(|r| r.noise_sum(j)).sum::<f64>() / n.max(1) as f64 / scale[j]
+    })
+}
+
 /// The data of one diagnosis: runs split by role, with the scale of each DOF.
 pub struct Data {
     pub train: Vec<Run>,
@@ -442,14 +453,7 @@ impl Data {
             });
             (s / n.max(1.0)).max(1e-12)
         });
-        let noise_cost = (0..4)
-            .map(|j| {
-                let (s, n) = validate.iter().fold((0.0, 0.0), |(s, n), r| {
-                    (s + r.noise_sum(j), n + r.std[j].len() as f64)
-                });
-                s / n.max(1.0) / scale[j]
-            })
-            .sum();
+        let noise_cost = noise_per_dof(&validate, &scale).iter().sum();
         let delta: [f64; 4] = std::array::from_fn(|j| {
             let (s, n) = all().fold((0.0, 0.0), |(s, n), r| {
                 (s + r.std[j].iter().sum::<f64>(), n + r.std[j].len() as f64)

@@ -1,0 +1,145 @@
+//! What the named effects leave: whether a DOF's held-out residual is structured and above its
+//! noise, and the `unexplained` entry the verdict reports for it.
+
+use super::result::{Found, pct};
+use super::{self as dx, Augmentation, Criteria, DOFS, Data, Mismatch};
+use crate::core::dof::Dof;
+use crate::core::model::Plant;
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+
+/// The structured residual no effect explains, as an `unexplained` entry: its DOFs, where it
+/// is and the regime it concentrates in.
+pub(super) fn unexplained_residual(
+    plant: &Plant,
+    data: &Data,
+    selected: &dx::Selection,
+    explained_cost: f64,
+    left: &[Dof],
+    crit: &Criteria,
+) -> Found {
+    let after_aug = dx::augmentation(selected);
+    let res_after = dx::residuals(plant, &after_aug, &data.validate);
+    let loc = dx::locate(&data.validate, &res_after, &data.scale);
+    let regs = dx::regime_shares(&data.validate, &res_after, &data.scale);
+    let s = data.eval(plant, &after_aug, true);
+    let dofs = unexplained_dofs(data, &s, left, crit);
+    let top = regs
+        .iter()
+        .filter(|r| r.share_of_time > 0.05)
+        .max_by(|a, b| {
+            (a.share_of_error / a.share_of_time).total_cmp(&(b.share_of_error / b.share_of_time))
+        });
+    let ev = unexplained_evidence(explained_cost, data.noise_cost, loc.first(), top);
+    let nm = dx::nmae_map(&s);
+    Found {
+        name: "unexplained".into(),
+        dofs,
+        parameters: BTreeMap::new(),
+        evidence: ev,
+        validation_nmae_before: nm.clone(),
+        validation_nmae_after: nm,
+        validation_cost_before: explained_cost,
+        validation_cost_after: explained_cost,
+        alike: Vec::new(),
+        candidate: None,
+    }
+}
+
+/// The DOFs whose held-out residual after the effects is above the noise, and those found
+/// structured (`left`).
+fn unexplained_dofs(data: &Data, s: &dx::Sums, left: &[Dof], crit: &Criteria) -> Vec<Dof> {
+    let per_dof: Vec<f64> = (0..4)
+        .map(|j| s.sse[j] / s.n[j].max(1.0) / data.scale[j])
+        .collect();
+    let noise_dof = dx::noise_per_dof(&data.validate, &data.scale);
+    let mut dofs: Vec<Dof> = (0..4)
+        .filter(|&j| per_dof[j] > crit.within_noise * noise_dof[j])
+        .map(|j| DOFS[j])
+        .collect();
+    for d in left {
+        if !dofs.contains(d) {
+            dofs.push(*d);
+        }
+    }
+    dofs
+}
+
+/// The evidence sentence of the `unexplained` entry: its size against the noise floor, where
+/// most of it is, and the regime it concentrates in.
+fn unexplained_evidence(
+    explained_cost: f64,
+    noise_cost: f64,
+    worst: Option<&Mismatch>,
+    top: Option<&dx::RegimeShare>,
+) -> String {
+    let mut ev = format!(
+        "After the effects above the held-out error cost is {explained_cost:.4}, {:.1} times the noise floor, and no effect of the table lowers it significantly",
+        explained_cost / noise_cost
+    );
+    if let Some(m) = worst {
+        let _ = write!(
+            ev,
+            "; most of it is in {} {} ({} of the error, windows {:?} s)",
+            m.run,
+            m.dof,
+            pct(m.share_of_error),
+            m.windows_s
+        );
+    }
+    if let Some(r) = top {
+        let _ = write!(
+            ev,
+            "; it concentrates {} ({} of the error in {} of the time)",
+            r.label,
+            pct(r.share_of_error),
+            pct(r.share_of_time)
+        );
+    }
+    ev.push('.');
+    ev
+}
+
+/// The DOFs whose held-out residual, after the effects in `aug`, is structured and above its
+/// noise: what is left there is physics the model lacks, however much the named effects
+/// already explained. Structured is either
+/// - over `unexplained_noise_multiple` times the fused variance, with its autocorrelation
+///   outside the 95 % band at more than a fifth of the lags up to 5 s (seed 000), or
+/// - over [`LINE_NOISE_MULTIPLE`] times the fused variance, with a line in its pooled
+///   periodogram that no command has ([`super::spectrum::Lines::uncommanded`]): a periodic force is never
+///   "within noise" (the fused velocities' own errors are coloured, so their
+///   autocorrelation alone tells little below the higher multiple, but they make no line).
+pub(super) fn structured_left(
+    plant: &Plant,
+    data: &Data,
+    aug: &Augmentation,
+    crit: &Criteria,
+) -> Vec<Dof> {
+    let res = dx::residuals(plant, aug, &data.validate);
+    let lines = super::spectrum::Lines::new(&data.validate);
+    (0..4)
+        .filter(|&j| {
+            let (mut sse, mut var, mut outside, mut runs) = (0.0, 0.0, 0.0, 0.0);
+            for (r, e) in data.validate.iter().zip(&res) {
+                let e: Vec<f64> = e[j].iter().copied().filter(|x| x.is_finite()).collect();
+                if e.len() < 20 {
+                    continue;
+                }
+                let dt = (r.t[r.t.len() - 1] - r.t[0]) / (r.t.len() - 1) as f64;
+                sse += e.iter().map(|x| x * x).sum::<f64>();
+                var += r.noise_sum(j);
+                outside += crate::validate::whiteness(&e, dt, (5.0 / dt).round() as usize).outside;
+                runs += 1.0;
+            }
+            if runs == 0.0 {
+                return false;
+            }
+            let correlated = sse > crit.unexplained_noise_multiple * var && outside / runs > 0.2;
+            correlated || (sse > LINE_NOISE_MULTIPLE * var && lines.uncommanded(&res, j))
+        })
+        .map(|j| DOFS[j])
+        .collect()
+}
+
+/// A residual at this multiple of its noise with a spectral line is structured.
+const LINE_NOISE_MULTIPLE: f64 = 2.0;
