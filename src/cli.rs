@@ -56,10 +56,11 @@ pub enum Command {
         #[arg(long, value_name = "STAGE")]
         model: Option<String>,
     },
-    /// List what a vehicle's log holds (ROS 1 bag, MCAP, ArduPilot .BIN or .tlog): topics,
-    /// types, counts, rates and, with --fields, every field's path.
+    /// List what a vehicle's log holds (ROS 1 bag, ROS 2 bag (MCAP or .db3, or its folder),
+    /// ArduPilot .BIN or .tlog): topics, types, counts, rates and, with --fields, every
+    /// field's path.
     Inspect {
-        /// The log.
+        /// The log, or a rosbag2 folder.
         log: PathBuf,
         /// Also list every field of every topic by the path run.yaml's `log:` names it.
         #[arg(long)]

@@ -20,7 +20,8 @@ pub fn run(path: &Path, fields: bool) -> anyhow::Result<ExitCode> {
         .map(|t| t.last_s)
         .fold(f64::NEG_INFINITY, f64::max);
     let total: u64 = log.topics.iter().map(|t| t.count).sum();
-    crate::outln!("path:      {}", path.display());
+    // A rosbag2 folder is read through its storage file: show that file.
+    crate::outln!("path:      {}", log.path.display());
     crate::outln!("format:    {}", log.format.name());
     if start.is_finite() {
         crate::outln!("start:     {start:.3} s (the log's clock)");

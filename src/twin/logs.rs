@@ -1,5 +1,5 @@
-//! The twin's runs written as a vehicle would log them: a ROS 1 bag, an MCAP file (ROS 2) or
-//! an ArduPilot DataFlash log, holding the same numbers as the run's CSV files, with the
+//! The twin's runs written as a vehicle would log them: a ROS 1 bag, a ROS 2 bag (MCAP or
+//! SQLite `.db3`) or an ArduPilot DataFlash log, holding the same numbers as the run's CSV files, with the
 //! `log:` section of `run.yaml` that maps them. Optionally the command as per-thruster PWM
 //! through a thruster layout and curve (the wrench split over the thrusters by the
 //! allocation's pseudo-inverse, each thrust through the inverse of the curve, rounded to whole
@@ -10,8 +10,10 @@ use crate::core::model::thrusters::{Allocation, Thrusters};
 use crate::pool::import::PoolRun;
 use crate::pool::import::csvlog::Log;
 use anyhow::Context;
-use hydrofit_logs::write::{self, BagCompression, BagWriter, McapCompression, McapWriter};
-use hydrofit_logs::{Schema, Value};
+use hydrofit_logs::write::{
+    self, BagCompression, BagWriter, Db3Layout, Db3Writer, McapCompression, McapWriter,
+};
+use hydrofit_logs::{LogError, Schema, Value};
 use std::path::Path;
 
 /// The formats the twin writes.
@@ -19,6 +21,8 @@ use std::path::Path;
 pub enum LogFormat {
     Ros1Bag,
     Mcap,
+    /// A ROS 2 Humble SQLite bag (no definitions inside: the reader's built-in types).
+    Db3,
     DataFlash,
 }
 
@@ -27,6 +31,7 @@ impl LogFormat {
         match self {
             LogFormat::Ros1Bag => "run.bag",
             LogFormat::Mcap => "run.mcap",
+            LogFormat::Db3 => "run.db3",
             LogFormat::DataFlash => "run.BIN",
         }
     }
@@ -65,8 +70,21 @@ pub fn write(
     let (streams, rows, yaml) = plan(run, alloc.as_ref(), format)?;
     let path = dir.join(format.file_name());
     match format {
-        LogFormat::Ros1Bag => write_bag(&path, &streams, &rows)?,
-        LogFormat::Mcap => write_mcap(&path, &streams, &rows)?,
+        LogFormat::Ros1Bag => {
+            let mut w = BagWriter::create(&path, BagCompression::Lz4)?;
+            write_ros(&mut w, &streams, &rows)?;
+            w.finish()?;
+        }
+        LogFormat::Mcap => {
+            let mut w = McapWriter::create(&path, McapCompression::Zstd)?;
+            write_ros(&mut w, &streams, &rows)?;
+            w.finish()?;
+        }
+        LogFormat::Db3 => {
+            let mut w = Db3Writer::create(&path, Db3Layout::Humble)?;
+            write_ros(&mut w, &streams, &rows)?;
+            w.finish()?;
+        }
         LogFormat::DataFlash => write_dataflash(&path, &streams, &rows)?,
     }
     Ok(format!(
@@ -467,39 +485,50 @@ fn ros_message(schema: &Schema, s: &Stream, r: &Row) -> anyhow::Result<Value> {
     Ok(v)
 }
 
-fn write_bag(path: &Path, streams: &[Stream], rows: &[Row]) -> anyhow::Result<()> {
-    let mut w = BagWriter::create(path, BagCompression::Lz4)?;
-    let mut ids = Vec::new();
-    for s in streams {
-        ids.push((s.name, w.add_topic(s.ros_topic, s.ros_type)?, s));
-    }
-    for r in rows {
-        let (_, id, s) = ids
-            .iter()
-            .find(|(n, _, _)| *n == r.stream)
-            .context("a stream")?;
-        let schema = w.schema(*id).context("a schema")?.clone();
-        w.write(*id, EPOCH_S + r.t, &ros_message(&schema, s, r)?)?;
-    }
-    w.finish()?;
-    Ok(())
+/// What the twin needs of a ROS writer (bag, MCAP or `.db3`): topics of built-in types,
+/// their layouts, and messages.
+trait RosWriter {
+    type Id: Copy;
+    fn topic(&mut self, topic: &str, type_name: &str) -> Result<Self::Id, LogError>;
+    fn layout(&self, id: Self::Id) -> Option<&Schema>;
+    fn put(&mut self, id: Self::Id, time_s: f64, value: &Value) -> Result<(), LogError>;
 }
 
-fn write_mcap(path: &Path, streams: &[Stream], rows: &[Row]) -> anyhow::Result<()> {
-    let mut w = McapWriter::create(path, McapCompression::Zstd)?;
+macro_rules! ros_writer {
+    ($w:ty, $id:ty) => {
+        impl RosWriter for $w {
+            type Id = $id;
+            fn topic(&mut self, topic: &str, type_name: &str) -> Result<$id, LogError> {
+                self.add_topic(topic, type_name)
+            }
+            fn layout(&self, id: $id) -> Option<&Schema> {
+                self.schema(id)
+            }
+            fn put(&mut self, id: $id, time_s: f64, value: &Value) -> Result<(), LogError> {
+                self.write(id, time_s, value)
+            }
+        }
+    };
+}
+
+ros_writer!(BagWriter, u32);
+ros_writer!(McapWriter, u16);
+ros_writer!(Db3Writer, i64);
+
+/// Writes every stream's rows through `w` (the caller finishes the file).
+fn write_ros<W: RosWriter>(w: &mut W, streams: &[Stream], rows: &[Row]) -> anyhow::Result<()> {
     let mut ids = Vec::new();
     for s in streams {
-        ids.push((s.name, w.add_topic(s.ros_topic, s.ros_type)?, s));
+        ids.push((s.name, w.topic(s.ros_topic, s.ros_type)?, s));
     }
     for r in rows {
         let (_, id, s) = ids
             .iter()
             .find(|(n, _, _)| *n == r.stream)
             .context("a stream")?;
-        let schema = w.schema(*id).context("a schema")?.clone();
-        w.write(*id, EPOCH_S + r.t, &ros_message(&schema, s, r)?)?;
+        let schema = w.layout(*id).context("a schema")?.clone();
+        w.put(*id, EPOCH_S + r.t, &ros_message(&schema, s, r)?)?;
     }
-    w.finish()?;
     Ok(())
 }
 

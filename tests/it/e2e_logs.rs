@@ -1,5 +1,5 @@
-//! Logs as vehicles write them: the twins' runs written as a ROS 1 bag, an MCAP file and an
-//! ArduPilot DataFlash log read back to the same logs and the same fused velocities as their
+//! Logs as vehicles write them: the twins' runs written as a ROS 1 bag, an MCAP file, a ROS 2
+//! SQLite bag and an ArduPilot DataFlash log read back to the same logs and the same fused velocities as their
 //! CSV files, sample by sample; per-thruster PWM through a thruster layout and curve identifies
 //! the same model as the logged wrench; a run folder that names what its log lacks is a
 //! located error listing what the log holds; a real ArduSub log is read with no mapping.
@@ -12,7 +12,12 @@ use hydrofit::pool::import::{self, PoolRun};
 use hydrofit::twin::logs::{LogFormat, write};
 use std::path::Path;
 
-const FORMATS: [LogFormat; 3] = [LogFormat::Ros1Bag, LogFormat::Mcap, LogFormat::DataFlash];
+const FORMATS: [LogFormat; 4] = [
+    LogFormat::Ros1Bag,
+    LogFormat::Mcap,
+    LogFormat::Db3,
+    LogFormat::DataFlash,
+];
 
 fn files(root: &Path, dir: &str) -> Vec<String> {
     hydrofit::core::fsutil::files_under(&root.join(dir), true)
@@ -186,13 +191,18 @@ fn per_thruster_pwm_identifies_the_model_the_wrench_does() {
         .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
         .collect();
     names.sort();
-    for n in &names {
+    for (k, n) in names.iter().enumerate() {
         let from = format!("twin/pool/{n}");
         hydrofit::core::fsutil::copy_dir(&root.join(&from), &wrench.join("cases/pool").join(n))
             .unwrap();
-        // The same run with its command as eight PWM values in a bag.
+        // The same run with its command as eight PWM values in a ROS 1 bag, or every other
+        // run in a ROS 2 SQLite bag.
         let to = format!("pwm/cases/pool/{n}");
-        let run = as_log(root, &from, &to, LogFormat::Ros1Bag, Some(&thrusters));
+        let format = [LogFormat::Ros1Bag, LogFormat::Db3][k % 2];
+        let run = as_log(root, &from, &to, format, Some(&thrusters));
+        if format == LogFormat::Db3 {
+            into_rosbag2_folder(&root.join(&to));
+        }
         let csv = load(root, &from, None);
         // The wrench back from whole-microsecond PWM: within the curve's step per microsecond.
         for c in 0..4 {
@@ -311,15 +321,35 @@ fn per_thruster_pwm_identifies_the_model_the_wrench_does() {
         }
     }
     let inputs = json(&pwm, "reports/parameters.json")["parameters"][0]["inputs"].clone();
-    assert!(
-        inputs
-            .as_array()
-            .unwrap()
-            .iter()
-            .any(|i| i["path"].as_str().unwrap().ends_with("run.bag")
-                && i["topics"]["command"] == "/thrusters"),
-        "the bag is an input, with its topic: {inputs}"
-    );
+    for file in ["run.bag", "bag/run.db3"] {
+        assert!(
+            inputs.as_array().unwrap().iter().any(|i| {
+                i["path"].as_str().unwrap().ends_with(file)
+                    && i["topics"]["command"] == "/thrusters"
+                    && i["blake3"].as_str().is_some_and(|h| h.len() == 64)
+            }),
+            "{file} is an input, with its topic and hash: {inputs}"
+        );
+    }
+}
+
+/// Moves the run folder's `run.db3` into a rosbag2 folder `bag/` (with a `metadata.yaml`, as
+/// `ros2 bag record` leaves it) and points `run.yaml` at the folder.
+fn into_rosbag2_folder(run: &Path) {
+    std::fs::create_dir_all(run.join("bag")).unwrap();
+    std::fs::rename(run.join("run.db3"), run.join("bag/run.db3")).unwrap();
+    std::fs::write(
+        run.join("bag/metadata.yaml"),
+        "rosbag2_bagfile_information:\n  storage_identifier: sqlite3\n",
+    )
+    .unwrap();
+    let yaml = std::fs::read_to_string(run.join("run.yaml")).unwrap();
+    assert!(yaml.contains("file: run.db3"), "{yaml}");
+    std::fs::write(
+        run.join("run.yaml"),
+        yaml.replace("file: run.db3", "file: bag"),
+    )
+    .unwrap();
 }
 
 #[test]

@@ -1,11 +1,14 @@
 //! Reading speed: writes a synthetic vehicle run of about `MB` megabytes (default 200) as a
-//! ROS 1 bag with bz2 chunks, one with lz4 chunks and a zstd MCAP file (mostly
+//! ROS 1 bag with bz2 chunks, one with lz4 chunks, a zstd MCAP file and a ROS 2 SQLite bag
+//! (`.db3`, Humble's tables) (mostly
 //! `sensor_msgs/Imu` at 200 Hz, plus odometry, pressure, thruster and RC topics), then times
 //! `Log::open` and reading the IMU topic whole.
 //!
 //! `cargo run --release --example bench_read -- [MB] [folder]` (files are removed afterwards).
 
-use hydrofit_logs::write::{self, BagCompression, BagWriter, McapCompression, McapWriter};
+use hydrofit_logs::write::{
+    self, BagCompression, BagWriter, Db3Layout, Db3Writer, McapCompression, McapWriter,
+};
 use hydrofit_logs::{Log, LogError, Schema, Value};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -22,13 +25,26 @@ const TOPICS: [(&str, &str); 5] = [
 enum Out {
     Bag(BagWriter, Vec<u32>),
     Mcap(McapWriter, Vec<u16>),
+    Db3(Db3Writer, Vec<i64>),
 }
 
 impl Out {
     fn create(path: &Path) -> Result<(Out, Vec<Schema>), LogError> {
         let name = path.to_string_lossy();
         let mut schemas = Vec::new();
-        let out = if name.ends_with(".mcap") {
+        let out = if name.ends_with(".db3") {
+            let mut w = Db3Writer::create(path, Db3Layout::Humble)?;
+            let mut ids = Vec::new();
+            for (topic, ty) in TOPICS {
+                ids.push(w.add_topic(topic, ty)?);
+                schemas.push(
+                    w.schema(*ids.last().expect("pushed"))
+                        .expect("added")
+                        .clone(),
+                );
+            }
+            Out::Db3(w, ids)
+        } else if name.ends_with(".mcap") {
             let mut w = McapWriter::create(path, McapCompression::Zstd)?;
             let mut ids = Vec::new();
             for (topic, ty) in TOPICS {
@@ -65,6 +81,7 @@ impl Out {
         match self {
             Out::Bag(w, ids) => w.write(ids[topic], t, v),
             Out::Mcap(w, ids) => w.write(ids[topic], t, v),
+            Out::Db3(w, ids) => w.write(ids[topic], t, v),
         }
     }
 
@@ -72,6 +89,7 @@ impl Out {
         match self {
             Out::Bag(w, _) => w.finish(),
             Out::Mcap(w, _) => w.finish(),
+            Out::Db3(w, _) => w.finish(),
         }
     }
 }
@@ -173,6 +191,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "hydrofit-bench-bz2.bag",
         "hydrofit-bench-lz4.bag",
         "hydrofit-bench-zstd.mcap",
+        "hydrofit-bench.db3",
     ] {
         let path = dir.join(name);
         let start = Instant::now();

@@ -109,6 +109,17 @@ pub(crate) fn compress(codec: Codec, data: &[u8]) -> std::io::Result<Vec<u8>> {
     }
 }
 
+/// Inflates a whole zstd frame of unknown size, up to `max` bytes (a message rosbag2
+/// compressed on its own).
+pub(crate) fn unzstd_whole(data: &[u8], max: u64) -> Result<Vec<u8>, String> {
+    let mut out = Vec::new();
+    unzstd(data, max + 1, &mut out).map_err(|e| format!("the zstd data is damaged ({e})"))?;
+    if out.len() as u64 > max {
+        return Err(format!("the zstd data inflates to more than {max} bytes"));
+    }
+    Ok(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,5 +1,5 @@
-//! Logs as vehicles write them, read without user code: ROS 1 bags (`.bag`), MCAP files
-//! (`.mcap`, ROS 2 with CDR payloads), ArduPilot DataFlash logs (`.BIN`) and MAVLink
+//! Logs as vehicles write them, read without user code: ROS 1 bags (`.bag`), ROS 2 bags
+//! (MCAP `.mcap` and SQLite `.db3`, CDR payloads), ArduPilot DataFlash logs (`.BIN`) and MAVLink
 //! telemetry logs (`.tlog`). The first three describe their own messages (a ROS message
 //! definition, an MCAP schema, a DataFlash FMT record), so any message is decoded into a
 //! [`Value`] tree without compiled-in types; MAVLink is not self-describing, so the tlog
@@ -16,6 +16,7 @@
 
 mod compress;
 pub mod dataflash;
+pub mod db3;
 mod encode;
 pub mod error;
 pub mod mcap;
@@ -44,6 +45,8 @@ pub enum Format {
     DataFlash,
     /// MAVLink telemetry log (`.tlog`): receive times and MAVLink 1/2 packets.
     Tlog,
+    /// ROS 2 bag in SQLite (`.db3`), CDR messages.
+    Db3,
 }
 
 impl Format {
@@ -53,6 +56,7 @@ impl Format {
             Format::Mcap => "MCAP",
             Format::DataFlash => "ArduPilot DataFlash log",
             Format::Tlog => "MAVLink telemetry log",
+            Format::Db3 => "ROS 2 SQLite bag",
         }
     }
 }
@@ -120,19 +124,23 @@ enum Inner {
     Mcap(mcap::File),
     DataFlash(dataflash::Bin),
     Tlog(tlog::Tlog),
+    Db3(db3::Db3),
 }
 
 /// The first bytes of each format.
 const ROS1_MAGIC: &[u8] = b"#ROSBAG V2.0\n";
 const MCAP_MAGIC: &[u8] = b"\x89MCAP0\r\n";
 const DATAFLASH_MAGIC: &[u8] = &[0xA3, 0x95];
+const ZSTD_MAGIC: &[u8] = &[0x28, 0xB5, 0x2F, 0xFD];
 
 impl Log {
     /// Opens `path`, recognises its format by its first bytes (not its extension) and lists
     /// its topics. Reads the index where the format has one, otherwise scans the file once.
     /// A tlog has no magic bytes: a file whose first bytes are none of the others' is read as
-    /// a tlog when its name ends in `.tlog`.
+    /// a tlog when its name ends in `.tlog`. A rosbag2 folder is opened through its storage
+    /// file ([`db3::storage_file`]), which is then the log's `path`.
     pub fn open(path: &Path) -> Result<Log, LogError> {
+        let path = &db3::storage_file(path)?;
         let data = std::fs::read(path).map_err(|e| {
             LogError::new(path, format!("cannot read the log: {e}"))
                 .fix("give the path of a ROS 1 bag, an MCAP file, an ArduPilot .BIN log or a .tlog")
@@ -153,13 +161,17 @@ impl Log {
         } else if is_tlog(path) {
             let (tlog, topics) = tlog::Tlog::open(path, data)?;
             (Format::Tlog, topics, Inner::Tlog(tlog))
-        } else if data.starts_with(b"SQLite format 3") {
+        } else if data.starts_with(db3::MAGIC) {
+            drop(data);
+            let (db, topics) = db3::Db3::open(path)?;
+            (Format::Db3, topics, Inner::Db3(db))
+        } else if data.starts_with(ZSTD_MAGIC) {
             return Err(LogError::new(
                 path,
-                "a ROS 2 SQLite bag (.db3), which hydrofit does not read",
+                "a zstd-compressed file (a rosbag2 bag compressed in `file` mode?)",
             )
             .at(0)
-            .fix("convert it to MCAP: `ros2 bag convert` or record with `--storage mcap`"));
+            .fix("inflate it first (`zstd -d bag_0.db3.zstd`) and give the inflated file"));
         } else {
             return Err(LogError::new(
                 path,
@@ -193,6 +205,7 @@ impl Log {
             Inner::Mcap(f) => f.read(&self.path, &self.topics, wanted, each),
             Inner::DataFlash(b) => b.read(&self.path, &self.topics, wanted, each),
             Inner::Tlog(t) => t.read(&self.path, &self.topics, wanted, each),
+            Inner::Db3(d) => d.read(&self.path, &self.topics, wanted, each),
         }
     }
 
@@ -205,6 +218,7 @@ impl Log {
             Inner::Mcap(f) => f.notes(),
             Inner::DataFlash(b) => b.notes(),
             Inner::Tlog(t) => t.notes(),
+            Inner::Db3(d) => d.notes(),
         }
     }
 }

@@ -1,4 +1,4 @@
-//! Writing logs: the ROS 1 bag and MCAP writers, and helpers to build the [`Value`] of a
+//! Writing logs: the ROS 1 bag, MCAP and ROS 2 SQLite (`.db3`) writers, and helpers to build the [`Value`] of a
 //! message from its schema by field paths, for tests and for simulators that write their
 //! synthetic runs as logs.
 //!
@@ -14,6 +14,7 @@
 //! # Ok(()) }
 //! ```
 
+pub use crate::db3::{Layout as Db3Layout, Writer as Db3Writer};
 pub use crate::mcap::{Compression as McapCompression, Writer as McapWriter};
 pub use crate::ros1::{Compression as BagCompression, Writer as BagWriter};
 

@@ -73,11 +73,17 @@ pub fn read(
     spec: &LogSpec,
     thrusters: Option<&Thrusters>,
 ) -> Result<FromLog, InputError> {
-    let (abs, shown) = resolve(root, dir, &spec.file);
+    let (abs, mut shown) = resolve(root, dir, &spec.file);
     let log = VehicleLog::open(&abs).map_err(|e| {
         let at = e.offset.map_or(String::new(), |o| format!(" (byte {o})"));
         InputError::file(&shown, format!("{}{at}", e.what), e.fix)
     })?;
+    // A rosbag2 folder was opened through its storage file: that file is the input.
+    if log.path != abs
+        && let Some(name) = log.path.file_name()
+    {
+        shown = format!("{}/{}", shown.trim_end_matches('/'), name.to_string_lossy());
+    }
     let mut out = FromLog::default();
     let sources = sources(&log, spec, thrusters, &mut out.notes);
     let (start, end) = span(&log, spec, &shown)?;

@@ -2,6 +2,7 @@
 `rosbags` package (uncompressed, bz2, lz4) and MCAP files written by the `mcap` and
 `mcap-ros2-support` packages (zstd, lz4, uncompressed): other implementations than ours.
 Run from the crate root: pip install rosbags mcap mcap-ros2-support; python3 tests/data/make_fixtures.py
+The last part writes a ROS 2 SQLite bag folder (`py-rosbag2/`) with the MCAP files' /cmd messages.
 Message i has header.stamp = 1700000000 + i // 100 + (i % 100) * 0.01 s; the bags' /imu has
 header.seq = i and angular_velocity.x = 0.5 i; the MCAP files' /cmd has twist.linear.x = 0.25 i
 and twist.angular.z = -0.5 i.
@@ -32,3 +33,16 @@ for comp in ['zstd', 'lz4', 'none']:
         for i in range(300):
             w.write_message('/cmd', schema, {'header': {'stamp': {'sec': 1700000000 + i//100, 'nanosec': (i%100)*10_000_000}, 'frame_id': 'base'}, 'twist': {'linear': {'x': i*0.25, 'y': 0, 'z': 0}, 'angular': {'x': 0, 'y': 0, 'z': -i*0.5}}}, log_time=1700000000*10**9 + i*10_000_000 + 7, publish_time=0)
         w.finish()
+# A ROS 2 SQLite bag (a rosbag2 folder: metadata.yaml and its .db3), written by `rosbags`'
+# rosbag2 writer with the same /cmd messages as the MCAP files.
+import shutil
+from rosbags.rosbag2 import Writer as Bag2Writer, StoragePlugin
+ts2 = get_typestore(Stores.ROS2_HUMBLE)
+TS = ts2.types['geometry_msgs/msg/TwistStamped']; H2 = ts2.types['std_msgs/msg/Header']; T2 = ts2.types['builtin_interfaces/msg/Time']
+Tw = ts2.types['geometry_msgs/msg/Twist']; V2 = ts2.types['geometry_msgs/msg/Vector3']
+shutil.rmtree('tests/data/py-rosbag2', ignore_errors=True)
+with Bag2Writer('tests/data/py-rosbag2', version=8, storage_plugin=StoragePlugin.SQLITE3) as w:
+    c = w.add_connection('/cmd', TS.__msgtype__, typestore=ts2)
+    for i in range(300):
+        m = TS(H2(T2(1700000000 + i//100, (i%100)*10_000_000), 'base'), Tw(V2(i*0.25, 0, 0), V2(0, 0, -i*0.5)))
+        w.write(c, 1700000000*10**9 + i*10_000_000 + 7, ts2.serialize_cdr(m, TS.__msgtype__))

@@ -1,4 +1,5 @@
-//! Files written by other implementations (Python `rosbags`, `mcap` + `mcap-ros2-support`;
+//! Files written by other implementations (Python `rosbags` (ROS 1 bags and a ROS 2 SQLite bag
+//! folder), `mcap` + `mcap-ros2-support`;
 //! see tests/data/make_fixtures.py), and our files' shape as they expect it.
 
 use hydrofit_logs::Log;
@@ -21,6 +22,13 @@ fn files_other_writers_wrote_read_right() {
         ),
         (
             "py-zstd.mcap",
+            "twist.linear.x",
+            0.25,
+            "twist.angular.z",
+            -0.5,
+        ),
+        (
+            "py-rosbag2",
             "twist.linear.x",
             0.25,
             "twist.angular.z",

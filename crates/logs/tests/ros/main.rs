@@ -2,6 +2,7 @@
 
 mod bag;
 mod common;
+mod db3;
 mod fuzz;
 mod interop;
 mod mcap;
