@@ -102,6 +102,7 @@ fn identify(data: &Data, c: &Candidate) -> anyhow::Result<Identified> {
         method: c.method,
         objective: c.objective,
         added_mass_window_s: None,
+        thrust_gain: Default::default(),
         progress: None,
     };
     fit::identify(&d, &req)

@@ -332,7 +332,7 @@ impl Setup {
             .iter()
             .map(|c| [c[0], c[1], c[2], 0.0, 0.0, c[3]])
             .collect();
-        let lagged = crate::core::model::dynamics::lagged(&t, &six, self.plant.command_lag_s);
+        let lagged = self.plant.command(&t, &six);
         let col = |f: &dyn Fn(&State) -> f64| states.iter().map(f).collect::<Vec<f64>>();
         crate::diagnose::Run {
             name: "designed".into(),

@@ -288,9 +288,7 @@ fn look_alikes(
 /// The training runs as the diagnosis reads them (the command through the model's lag).
 fn recorded_runs(setup: &Setup, runs: &[FusedRun]) -> Vec<crate::diagnose::Run> {
     runs.iter()
-        .filter_map(|r| {
-            crate::diagnose::Run::from_fused(&r.clone().with_command_lag(setup.plant.command_lag_s))
-        })
+        .filter_map(|r| crate::diagnose::Run::from_fused(&r.clone().with_command_of(&setup.plant)))
         .collect()
 }
 

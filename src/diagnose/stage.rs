@@ -51,7 +51,7 @@ impl StageImpl for Settings {
         // the model passes it on.
         let fused: Vec<_> = fused
             .into_iter()
-            .map(|r| r.with_command_lag(plant.command_lag_s))
+            .map(|r| r.with_command_of(&plant))
             .collect();
         let progress = |m: &str| ctx.progress.set_message(m.to_string());
         let (mut diagnosis, figures) = diagnose(

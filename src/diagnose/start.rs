@@ -22,7 +22,7 @@ pub fn held_out(
 ) -> Start {
     let fused: Vec<FusedRun> = fused
         .iter()
-        .map(|r| r.clone().with_command_lag(plant.command_lag_s))
+        .map(|r| r.clone().with_command_of(plant))
         .collect();
     let (runs, _, _) = super::verdict::prepare_runs(plant, &fused, crit);
     let scored = Data::new(runs).map_err(|e| e.to_string()).and_then(|data| {

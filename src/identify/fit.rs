@@ -3,6 +3,7 @@
 //! residual level), the method with its settings, the objective, and the optional two-step
 //! added-mass window.
 
+use super::gain::{self, ThrustGain};
 use super::result::Objective;
 use super::sources::combine;
 use super::two_step::{truncate, two_step};
@@ -27,6 +28,8 @@ pub struct Request<'a> {
     pub objective: Objective,
     /// Two-step least squares: the added mass from this window after `skip_start_s`.
     pub added_mass_window_s: Option<f64>,
+    /// Whether the logged command's gain is identified against the CFD cases (see [`gain`]).
+    pub thrust_gain: ThrustGain,
     pub progress: Option<&'a (dyn Fn(f64) + Sync)>,
 }
 
@@ -55,18 +58,30 @@ impl Data<'_> {
     /// each source was regressed with. Cases that state their own body mass (OpenFOAM) are
     /// regressed with it.
     fn problem(&self, notes: &mut Vec<String>) -> (Regression, Vec<f64>) {
-        let mut cfd = Regression::build(self.vehicle, &[], self.skip_start_s);
-        let mut masses = Vec::new();
-        for (r, mass) in &self.cases {
-            let v = self.with_mass(*mass);
-            masses.push(v.mass_kg);
-            cfd.append(Regression::build(&v, &[r], self.skip_start_s));
-        }
+        let cfd = self.cfd_rows();
+        let mut masses: Vec<f64> = self
+            .cases
+            .iter()
+            .map(|(_, mass)| self.with_mass(*mass).mass_kg)
+            .collect();
         let pool = Regression::build(self.vehicle, &self.pool, self.skip_start_s);
         if !self.pool.is_empty() {
             masses.push(self.vehicle.mass_kg);
         }
         (combine(cfd, pool, notes), masses)
+    }
+
+    /// The CFD cases' rows, each case regressed with the body mass it states.
+    pub(crate) fn cfd_rows(&self) -> Regression {
+        let mut cfd = Regression::build(self.vehicle, &[], self.skip_start_s);
+        for (r, mass) in &self.cases {
+            cfd.append(Regression::build(
+                &self.with_mass(*mass),
+                &[r],
+                self.skip_start_s,
+            ));
+        }
+        cfd
     }
 
     /// The CFD cases' rows up to `window` after `skip_start_s`: the accelerations from rest.
@@ -94,6 +109,33 @@ impl Data<'_> {
 
 /// Identifies the model of `data.vehicle` as `req` asks.
 pub fn identify(data: &Data, req: &Request) -> anyhow::Result<Identified> {
+    if req.thrust_gain == ThrustGain::Fit {
+        let gain = gain::estimate(&gain::Sources {
+            vehicle: data.vehicle,
+            cfd: data.cfd_rows(),
+            pool: &data.pool,
+            skip_start_s: data.skip_start_s,
+        })?;
+        let scaled: Vec<Response> = data
+            .pool
+            .iter()
+            .map(|r| gain::scaled(r, gain.value))
+            .collect();
+        let data = Data {
+            pool: scaled.iter().collect(),
+            cases: data.cases.clone(),
+            ..*data
+        };
+        let mut id = identify_as_logged(&data, req)?;
+        id.notes.insert(0, gain.sentence());
+        id.fit.thrust_gain = Some(gain);
+        return Ok(id);
+    }
+    identify_as_logged(data, req)
+}
+
+/// [`identify`] with the pool runs' command taken as the force.
+fn identify_as_logged(data: &Data, req: &Request) -> anyhow::Result<Identified> {
     let mut notes = Vec::new();
     let (problem, masses) = data.problem(&mut notes);
     let one_mass = masses.windows(2).all(|w| w[0] == w[1]);

@@ -1,6 +1,7 @@
 //! Estimators of the hydrodynamic parameters, behind one registry so `pipeline.yaml` can name them.
 
 pub mod fit;
+pub mod gain;
 mod kernels;
 pub mod lag;
 pub mod method;
@@ -91,6 +92,9 @@ pub struct Fit {
     /// demanded one (or it was set).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub command_lag: Option<lag::LagEstimate>,
+    /// `thrust_gain: fit`: the logged command's gain against the CFD cases' force scale.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub thrust_gain: Option<gain::GainEstimate>,
 }
 
 /// An output-error refinement from an equation-error start: its cost before and after (the

@@ -261,6 +261,7 @@ pub(crate) fn summarise_with(
         trace: None,
         refinement: None,
         command_lag: None,
+        thrust_gain: None,
     }
 }
 

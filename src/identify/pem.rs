@@ -166,6 +166,7 @@ impl Estimator for Pem {
                 correlation: r.correlation,
             }),
             command_lag: lag,
+            thrust_gain: None,
         })
     }
 }

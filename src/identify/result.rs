@@ -123,6 +123,7 @@ impl FitResult {
         let mut p =
             crate::core::model::Plant::new(self.vehicle.as_ref().unwrap_or(vehicle), self.hydro());
         p.command_lag_s = self.fit.command_lag.as_ref().map_or(0.0, |l| l.value_s);
+        p.command_gain = self.fit.thrust_gain.as_ref().map_or(1.0, |g| g.value);
         p
     }
 
@@ -177,6 +178,7 @@ impl FitResult {
                 trace: None,
                 refinement: None,
                 command_lag: lag,
+                thrust_gain: None,
             },
             cases: Vec::new(),
             runs: Vec::new(),

@@ -56,10 +56,19 @@ pub struct Common {
     /// (length 9, 0.03 m/s, 0.3 deg/s^2). Off when not set.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub median_filter: Option<crate::core::median::MedianFilter>,
+    /// `fit`: identify the gain of the pool runs' logged command against the CFD cases' force
+    /// scale (needs both in `from`); `fixed` (the default): the command is the force.
+    #[serde(skip_serializing_if = "is_fixed")]
+    pub thrust_gain: crate::identify::gain::ThrustGain,
 }
 
-const COMMON_KEYS: [&str; 10] = [
+fn is_fixed(g: &crate::identify::gain::ThrustGain) -> bool {
+    *g == crate::identify::gain::ThrustGain::Fixed
+}
+
+const COMMON_KEYS: [&str; 11] = [
     "median_filter",
+    "thrust_gain",
     "structure",
     "custom_terms",
     "method",
@@ -113,6 +122,7 @@ impl Default for Common {
             structure: None,
             custom_terms: None,
             median_filter: None,
+            thrust_gain: Default::default(),
         }
     }
 }

@@ -62,6 +62,19 @@ impl Settings {
     }
 }
 
+impl Settings {
+    /// What `fit::identify` is asked, with `progress` told the fraction done.
+    fn request<'a>(&'a self, progress: &'a (dyn Fn(f64) + Sync)) -> fit::Request<'a> {
+        fit::Request {
+            method: &self.method,
+            objective: self.common.objective,
+            added_mass_window_s: self.common.added_mass_window_s,
+            thrust_gain: self.common.thrust_gain,
+            progress: Some(progress),
+        }
+    }
+}
+
 impl StageImpl for Settings {
     /// Only the settings the chosen method reads, so tuning the swarm does not rerun a
     /// least-squares fit (and a deterministic method shows no seed).
@@ -107,15 +120,7 @@ impl StageImpl for Settings {
             .set_message(format!("fitting with {}", self.method.name()));
         let bar = ctx.progress;
         let report = move |f: f64| bar.set_message(format!("{:.0} %", 100.0 * f));
-        let id = fit::identify(
-            &data,
-            &fit::Request {
-                method: &self.method,
-                objective: self.common.objective,
-                added_mass_window_s: self.common.added_mass_window_s,
-                progress: Some(&report),
-            },
-        )?;
+        let id = fit::identify(&data, &self.request(&report))?;
         notes.extend(id.notes);
         let mut fit = id.fit;
         let objective = match fit.refinement {

@@ -108,6 +108,7 @@ pub fn two_step(early: &Regression, all: &Regression) -> anyhow::Result<Fit> {
         trace: None,
         refinement: None,
         command_lag: None,
+        thrust_gain: None,
     })
 }
 

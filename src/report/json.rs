@@ -59,15 +59,15 @@ pub fn parameters(fits: &[FitResult]) -> Parameters {
                 inputs: inputs.clone(),
             });
         }
-        if let Some(l) = &f.fit.command_lag {
-            let (stderr, note) = lag_note(l);
+        // The command path's parameters, identified with the model.
+        let mut extra = |name: &str, value, unit: &str, stderr, identifiable, note| {
             out.push(Parameter {
-                name: "T_cmd".into(),
-                value: l.value_s,
-                unit: "s".into(),
+                name: name.into(),
+                value,
+                unit: unit.into(),
                 stderr,
                 interval: None,
-                identifiable: l.estimated && stderr.is_finite() && stderr < 0.5 * l.value_s,
+                identifiable,
                 note: Some(note),
                 model: f.stage.clone(),
                 stage: f.stage.clone(),
@@ -75,6 +75,15 @@ pub fn parameters(fits: &[FitResult]) -> Parameters {
                 settings: settings.clone(),
                 inputs: inputs.clone(),
             });
+        };
+        if let Some(l) = &f.fit.command_lag {
+            let (stderr, note) = lag_note(l);
+            let sure = l.estimated && stderr.is_finite() && stderr < 0.5 * l.value_s;
+            extra("T_cmd", l.value_s, "s", stderr, sure, note);
+        }
+        if let Some(g) = &f.fit.thrust_gain {
+            let sure = g.consistent && g.stderr < 0.1 * g.value.abs();
+            extra("k_thrust", g.value, "-", g.stderr, sure, g.sentence());
         }
     }
     Parameters { parameters: out }

@@ -133,8 +133,8 @@ pub fn sim_file(model: &str, run: &str) -> String {
 pub fn simulate_run(plant: &Plant, run: &FusedRun, horizon: Horizon) -> (Vec<Vec6>, Stability) {
     let t = &run.fused.t;
     let tau: Vec<Vec6> = (0..t.len()).map(|k| run.tau(k)).collect();
-    // The model's command lag (thrusters, command path), when it has one.
-    let tau = crate::core::model::dynamics::lagged(t, &tau, plant.command_lag_s);
+    // The model's command lag (thrusters, command path) and gain, when it has them.
+    let tau = plant.command(t, &tau);
     // A window after the first starts from the recording's centred mean over five samples, so
     // that one sample's noise is not carried through it.
     let fused_at = |k: usize| -> Vec6 {
@@ -179,7 +179,8 @@ pub fn ahead(plant: &Plant, run: &FusedRun, dofs: &[Dof], k: usize) -> BTreeMap<
     if n <= k {
         return BTreeMap::new();
     }
-    let tau: Vec<Vec6> = (0..n).map(|i| run.tau(i)).collect();
+    let gain = plant.command_gain;
+    let tau: Vec<Vec6> = (0..n).map(|i| run.tau(i).map(|f| f * gain)).collect();
     let measured: Vec<(Dof, &Vec<f64>)> = dofs
         .iter()
         .filter_map(|d| Some((*d, run.velocity(*d)?)))

@@ -19,6 +19,7 @@ mod e2e_pool_fit;
 mod e2e_robust;
 mod e2e_six_dof;
 mod e2e_slurm;
+mod e2e_thrust_gain;
 mod estimators;
 mod fuzz_inputs;
 mod openfoam_results;

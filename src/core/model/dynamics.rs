@@ -140,6 +140,9 @@ pub struct Plant {
     /// (0: none), identified with the model from pool runs; applied to a run's logged command
     /// before it is simulated (see [`lagged`]).
     pub command_lag_s: f64,
+    /// The force per unit of logged command (1: the command is the force), identified against
+    /// CFD cases (`thrust_gain: fit`); applied with the lag (see [`Plant::command`]).
+    pub command_gain: f64,
 }
 
 impl Plant {
@@ -167,7 +170,20 @@ impl Plant {
             coupled,
             mass_problem,
             command_lag_s: 0.0,
+            command_gain: 1.0,
         }
+    }
+
+    /// The force a run's logged command `tau` (at times `t`) gives this model's vehicle:
+    /// through its command lag, times its command gain.
+    pub fn command(&self, t: &[f64], tau: &[Vec6]) -> Vec<Vec6> {
+        let mut out = lagged(t, tau, self.command_lag_s);
+        if self.command_gain != 1.0 {
+            for x in &mut out {
+                x.iter_mut().for_each(|f| *f *= self.command_gain);
+            }
+        }
+        out
     }
 
     /// The diagonal of M_RB - M_A.

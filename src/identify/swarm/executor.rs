@@ -171,6 +171,7 @@ impl Outcome {
             trace: None,
             refinement: None,
             command_lag: None,
+            thrust_gain: None,
         }
     }
 

@@ -302,17 +302,20 @@ impl FusedRun {
         [c[0], c[1], c[2], kk, m, c[3]]
     }
 
-    /// The run with its logged command passed through a first-order lag of `lag_s` (a model's
-    /// command lag; see [`crate::core::model::dynamics::lagged`]).
-    pub fn with_command_lag(mut self, lag_s: f64) -> FusedRun {
-        if lag_s.is_nan() || lag_s <= 0.0 {
+    /// The run with its logged command replaced by the force `plant` says it gives: through
+    /// the model's command lag and times its command gain ([`Plant::command`]).
+    ///
+    /// [`Plant::command`]: crate::core::model::Plant::command
+    pub fn with_command_of(mut self, plant: &crate::core::model::Plant) -> FusedRun {
+        let no_lag = plant.command_lag_s.is_nan() || plant.command_lag_s <= 0.0;
+        if no_lag && plant.command_gain == 1.0 {
             return self;
         }
         let tau: Vec<crate::core::model::Vec6> =
             (0..self.thrust.len()).map(|k| self.tau(k)).collect();
-        let lagged = crate::core::model::dynamics::lagged(&self.fused.t, &tau, lag_s);
+        let given = plant.command(&self.fused.t, &tau);
         let has_moments = !self.moments.is_empty();
-        for (k, x) in lagged.iter().enumerate() {
+        for (k, x) in given.iter().enumerate() {
             self.thrust[k] = [x[0], x[1], x[2], x[5]];
             if has_moments {
                 self.moments[k] = [x[3], x[4]];
