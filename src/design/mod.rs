@@ -351,6 +351,7 @@ impl Setup {
             t,
             pool: Some(self.pool),
             anchor: self.anchor,
+            dead_reckoned: false,
             anchors_s: Vec::new(),
         }
     }

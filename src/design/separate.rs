@@ -154,6 +154,7 @@ mod tests {
             t,
             pool: None,
             anchor: None,
+            dead_reckoned: false,
             anchors_s: Vec::new(),
         }
     }

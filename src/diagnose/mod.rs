@@ -22,6 +22,7 @@ mod drift;
 pub mod effects;
 mod figures;
 mod locate;
+pub mod reckon;
 pub mod report;
 pub mod result;
 pub mod search;
@@ -74,6 +75,9 @@ pub struct Run {
     pub psi: Vec<f64>,
     pub pool: Option<Pool>,
     pub anchor: Option<[f64; 3]>,
+    /// Whether `pos` is dead-reckoned from the navigation log's velocity and heading (no
+    /// position sensor; run.yaml's `start_m` gave the start), see [`reckon`].
+    pub dead_reckoned: bool,
     /// Times at which simulations of this run are re-anchored to the fused velocity (multiple
     /// shooting, where the model is locally unstable along it); empty: the whole run.
     pub anchors_s: Vec<f64>,
@@ -97,6 +101,28 @@ impl Run {
             r.meta.pool,
             r.meta.tether_anchor_m,
         )
+        .map(|run| run.reckoned_from(r.meta.start_m))
+    }
+
+    /// Without a horizontal position, the track dead-reckoned from `start` (when given) and
+    /// the run's velocity and heading; the run unchanged otherwise.
+    pub fn reckoned_from(mut self, start: Option<[f64; 2]>) -> Run {
+        let Some(start) = start else {
+            return self;
+        };
+        if effects::has_position(&self) {
+            return self;
+        }
+        if let Some([x, y]) = reckon::track(&self.t, &self.vel[0], &self.vel[1], &self.psi, start) {
+            let n = self.t.len();
+            if self.pos[2].len() != n || self.pos[2].iter().any(|z| !z.is_finite()) {
+                self.pos[2] = vec![0.0; n];
+            }
+            self.pos[0] = x;
+            self.pos[1] = y;
+            self.dead_reckoned = true;
+        }
+        self
     }
 
     pub fn from_parts(
@@ -131,6 +157,7 @@ impl Run {
             psi: f.psi.clone(),
             pool,
             anchor,
+            dead_reckoned: false,
             anchors_s: Vec::new(),
         })
     }

@@ -111,6 +111,13 @@ fn started_from(h: &mut String, d: &Diagnosis) {
 
 /// The hypotheses not tested, each with what the runs lack for it.
 fn untested(h: &mut String, d: &Diagnosis) {
+    if !d.runs.dead_reckoned.is_empty() {
+        h.push_str("<p>Without a position sensor, the position the tether and wall hypotheses read is dead-reckoned from the navigation log's velocity and heading:</p><ul>\n");
+        for r in &d.runs.dead_reckoned {
+            let _ = writeln!(h, "<li>{}</li>", esc(r));
+        }
+        h.push_str("</ul>\n");
+    }
     if d.untested.is_empty() {
         return;
     }

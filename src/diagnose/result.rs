@@ -108,6 +108,33 @@ pub struct Runs {
     pub train: Vec<String>,
     pub validate: Vec<String>,
     pub skipped: Vec<String>,
+    /// Runs whose position (for the tether's length, the distance to a wall) is dead-reckoned
+    /// from the navigation log's velocity and heading, each with the drift it may carry.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub dead_reckoned: Vec<String>,
+}
+
+impl Runs {
+    /// The record of `data`'s runs, with those left out.
+    pub fn of(data: &super::Data, skipped: Vec<String>) -> Runs {
+        let all = || data.train.iter().chain(&data.validate);
+        Runs {
+            train: data.train.iter().map(|r| r.name.clone()).collect(),
+            validate: data.validate.iter().map(|r| r.name.clone()).collect(),
+            skipped,
+            dead_reckoned: all()
+                .filter(|r| r.dead_reckoned)
+                .map(|r| {
+                    format!(
+                        "{}: from start_m over {:.0} s; a velocity bias of 1 cm/s would move it {:.1} m",
+                        r.name,
+                        r.t.last().unwrap_or(&0.0) - r.t.first().unwrap_or(&0.0),
+                        super::reckon::drift_m(&r.t)
+                    )
+                })
+                .collect(),
+        }
+    }
 }
 
 /// `diagnosis.json` (docs/formats.md), with the evidence behind it.
@@ -206,11 +233,7 @@ impl Diagnosis {
             regimes: Vec::new(),
             hypotheses: Vec::new(),
             criteria: crit.clone(),
-            runs: Runs {
-                train: data.train.iter().map(|r| r.name.clone()).collect(),
-                validate: data.validate.iter().map(|r| r.name.clone()).collect(),
-                skipped,
-            },
+            runs: Runs::of(data, skipped),
             diverged,
             untested: Vec::new(),
             dropped: Vec::new(),

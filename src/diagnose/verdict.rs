@@ -77,7 +77,7 @@ pub fn diagnose(
         regimes,
         hypotheses: search.tested,
         criteria: crit.clone(),
-        runs: runs_record(&data, skipped),
+        runs: Runs::of(&data, skipped),
         diverged: Vec::new(),
         untested: dx::untested(&data),
         dropped: conclusion.dropped.clone(),
@@ -114,15 +114,6 @@ fn compose_verdict(
         let _ = write!(verdict, " {d}.");
     }
     verdict
-}
-
-/// The runs the diagnosis trained and validated on, and those it left out.
-fn runs_record(data: &Data, skipped: Vec<String>) -> Runs {
-    Runs {
-        train: data.train.iter().map(|r| r.name.clone()).collect(),
-        validate: data.validate.iter().map(|r| r.name.clone()).collect(),
-        skipped,
-    }
 }
 
 /// The runs on which the model's simulation diverges, with the time it does.

@@ -47,6 +47,11 @@ pub struct RunMeta {
     pub pool: Option<Pool>,
     #[serde(default)]
     pub tether_anchor_m: Option<[f64; 3]>,
+    /// Where the vehicle was at the run's start, [x, y] in metres in the frame of `pool` and
+    /// `tether_anchor_m`: a run without a position sensor is then dead-reckoned from its
+    /// navigation log's velocity and heading, for the effects that need a position.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start_m: Option<[f64; 2]>,
     /// The log the vehicle wrote, when the run's signals come from it rather than from CSV
     /// files (`log: {file: dive.bag, ...}`, see [`log_spec`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -342,7 +347,7 @@ fn read_meta(root: &Path, dir: &str, files: &[String]) -> Result<RunMeta, InputE
     let meta: RunMeta = crate::core::input::yaml(
         &meta_path,
         &text,
-        "run.yaml takes role (train | validate), description, pool {length_m, width_m, depth_m} and tether_anchor_m [x, y, z]",
+        "run.yaml takes role (train | validate), description, pool {length_m, width_m, depth_m}, tether_anchor_m [x, y, z], start_m [x, y] and log",
     )?;
     meta.check(&meta_path, &text)?;
     Ok(meta)
@@ -381,6 +386,15 @@ impl RunMeta {
                 "tether_anchor_m",
                 format!("tether_anchor_m is {a:?}; it must be three finite coordinates"),
                 "write where the tether enters the water, [x, y, z] in metres in the pool frame",
+            ));
+        }
+        if let Some(a) = self.start_m
+            && a.iter().any(|x| !x.is_finite())
+        {
+            return Err(err(
+                "start_m",
+                format!("start_m is {a:?}; it must be two finite coordinates"),
+                "write where the vehicle was when the run started, [x, y] in metres in the pool frame",
             ));
         }
         Ok(())

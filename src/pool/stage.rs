@@ -61,6 +61,7 @@ impl StageImpl for Settings {
             description: run.meta.description.clone(),
             pool: run.meta.pool,
             tether_anchor_m: run.meta.tether_anchor_m,
+            start_m: run.meta.start_m,
             sources: sources(ctx, &run)?,
             known: std::array::from_fn(|j| fused.vel[j].is_some()),
             sensors,

@@ -42,6 +42,7 @@ pub fn fuse_folder(root: &std::path::Path, name: &str) -> anyhow::Result<FusedRu
         description: run.meta.description.clone(),
         pool: run.meta.pool,
         tether_anchor_m: run.meta.tether_anchor_m,
+        start_m: run.meta.start_m,
         sources: vec![],
         known: std::array::from_fn(|j| fused.vel[j].is_some()),
         sensors: vec![],

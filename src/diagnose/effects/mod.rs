@@ -90,21 +90,20 @@ impl Needs {
     pub fn missing_in(self, r: &Run) -> &'static str {
         match self {
             Needs::Nothing => "nothing",
-            Needs::Anchor if r.anchor.is_some() => {
-                "a horizontal position at every sample (UWB or imaging sonar; a navigation log's velocity alone gives none)"
-            }
-            Needs::Pool if r.pool.is_some() => {
-                "a horizontal position at every sample (UWB or imaging sonar; a navigation log's velocity alone gives none)"
-            }
+            Needs::Anchor if r.anchor.is_some() => NO_POSITION,
+            Needs::Pool if r.pool.is_some() => NO_POSITION,
             Needs::Anchor => "tether_anchor_m in run.yaml (where the tether enters the water)",
             Needs::Pool => "pool: {length_m, width_m, depth_m} in run.yaml",
         }
     }
 }
 
+/// What a run without a position lacks, and how to give it one.
+const NO_POSITION: &str = "a horizontal position at every sample: UWB or an imaging sonar, or start_m [x, y] in run.yaml (where the run started) to dead-reckon one from the navigation log's velocity and heading";
+
 /// Whether the run's fused horizontal position is known (finite) at every sample: an effect
 /// that reads the position is never scored on a made-up one.
-fn has_position(r: &Run) -> bool {
+pub(crate) fn has_position(r: &Run) -> bool {
     !r.pos[0].is_empty()
         && r.pos[0].len() == r.t.len()
         && r.pos[..2].iter().all(|p| p.iter().all(|x| x.is_finite()))

@@ -49,6 +49,7 @@ fn straight_meta(i: usize) -> crate::pool::fusion::run::RunMeta {
             depth_m: 10.0,
         }),
         tether_anchor_m: Some([0.0, 20.0, 0.0]),
+        start_m: None,
         sources: vec![],
         known: [true; 4],
         sensors: vec![],

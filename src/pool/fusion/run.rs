@@ -17,6 +17,9 @@ pub struct RunMeta {
     pub description: String,
     pub pool: Option<Pool>,
     pub tether_anchor_m: Option<[f64; 3]>,
+    /// Where the run started, [x, y] (run.yaml's `start_m`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start_m: Option<[f64; 2]>,
     pub sources: Vec<InputFile>,
     /// Which of u, v, w, r the sensors gave.
     pub known: [bool; 4],
@@ -404,6 +407,7 @@ mod tests {
             description: String::new(),
             pool: None,
             tether_anchor_m: None,
+            start_m: None,
             sources: vec![],
             known: [true; 4],
             sensors: vec![],
