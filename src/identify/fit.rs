@@ -180,6 +180,13 @@ fn identify_as_logged(data: &Data, req: &Request) -> anyhow::Result<Identified> 
             r.steps,
             fit.objective_value.unwrap_or(f64::NAN)
         ));
+        if !r.per_run.is_empty() {
+            let said: Vec<String> = r.per_run.iter().map(|s| s.sentence()).collect();
+            notes.push(format!(
+                "per-run nuisance parameters estimated with the model: {}",
+                said.join("; ")
+            ));
+        }
     }
     Ok(Identified {
         fit,

@@ -82,11 +82,12 @@ pub struct LagEstimate {
 /// The lag the runs demand: a golden-section search over [0, MAX_LAG_S] of the output error,
 /// each point refitted from `theta0` (the model fitted without a lag, whose output error is
 /// `c0`) by the same few steps, so the points compare. `None` when no lag lowers the output
-/// error by [`DEMAND`]; otherwise the estimate and the coefficients refitted at it.
+/// error by [`DEMAND`]; otherwise the estimate and the coefficients refitted at it (followed by
+/// the per-run nuisance values of `per_run`, which `theta0` may carry too).
 pub fn search(
     vehicle: &crate::core::model::Vehicle,
     responses: &[&crate::core::response::Response],
-    layout: &ParamLayout,
+    (layout, per_run): (&ParamLayout, super::per_run::Kinds),
     theta0: &[f64],
     c0: f64,
     bounds: &Bounds,
@@ -95,12 +96,12 @@ pub fn search(
     let mut best_cost = f64::INFINITY;
     let mut p = theta0.len();
     let mut cost = |lag: f64| {
-        let oe = OutputError::with_lag(vehicle, responses, lag);
+        let oe = OutputError::with_lag(vehicle, responses, lag).with_per_run(per_run);
         let r = output_error_lm_within(&oe, layout, theta0, PROBE_STEPS, bounds);
-        p = r.stderr.len();
+        p = r.stderr.len() + r.nuisance.len();
         if r.cost_after < best_cost {
             best_cost = r.cost_after;
-            best_theta = r.theta.clone();
+            best_theta = [r.theta.as_slice(), &r.nuisance].concat();
         }
         r.cost_after
     };

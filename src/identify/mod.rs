@@ -9,6 +9,7 @@ pub mod normal;
 pub mod ols;
 pub mod output_error;
 pub mod pem;
+pub mod per_run;
 pub mod refine;
 pub mod regression;
 pub mod result;
@@ -108,6 +109,9 @@ pub struct Refinement {
     /// Correlation matrix of the coefficients (empty when `J^T J` is singular).
     #[serde(default)]
     pub correlation: Vec<Vec<f64>>,
+    /// What the per-run nuisance parameters came to, per kind and DOF.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub per_run: Vec<per_run::Summary>,
 }
 
 /// What an estimator may be told besides the data (the fit stage's settings).
@@ -135,6 +139,8 @@ pub struct Options<'a> {
     pub added_mass_prior: [f64; 6],
     /// The prediction-error method's command lag.
     pub command_lag: lag::CommandLag,
+    /// The per-run nuisance parameters the prediction-error method estimates.
+    pub per_run: per_run::Kinds,
 }
 
 impl<'a> Options<'a> {
@@ -162,6 +168,7 @@ impl Default for Options<'_> {
             max_seconds: None,
             added_mass_prior: [pem::DEFAULT_PRIOR; 6],
             command_lag: lag::CommandLag::None,
+            per_run: per_run::Kinds::DEFAULT,
         }
     }
 }

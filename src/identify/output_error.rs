@@ -1,7 +1,11 @@
 //! The output-error objective (seed 001 eq. 9): every candidate model simulated under each
 //! case's force and compared with the recorded velocities. The population methods minimise
 //! its cost; the local refinement ([`super::refine`]) its residuals.
+//!
+//! A model's coefficients are followed, where the prediction-error method asks, by per-run
+//! nuisance parameters ([`super::per_run`]): a vector longer than the layout carries them.
 
+use super::per_run::{self, Nuisance, Offsets};
 use crate::core::model::lanes::{LANES, LanePlants};
 use crate::core::model::{Plant, Vec6};
 
@@ -14,6 +18,8 @@ pub struct OutputError<'a> {
     pub weight: Vec<[f64; 6]>,
     /// Per case, the applied force at each sample (read once, simulated many times).
     taus: Vec<Vec<Vec6>>,
+    /// The per-run nuisance parameters that follow the model's coefficients.
+    pub nuisance: Vec<Nuisance>,
 }
 
 /// Integration step bound of the objective's simulations, s.
@@ -58,7 +64,52 @@ impl<'a> OutputError<'a> {
             responses,
             weight,
             taus,
+            nuisance: Vec::new(),
         }
+    }
+
+    /// The objective with the per-run nuisance parameters of `kinds` after the coefficients.
+    pub fn with_per_run(mut self, kinds: per_run::Kinds) -> OutputError<'a> {
+        let dofs: Vec<Vec<_>> = self
+            .responses
+            .iter()
+            .map(|r| r.dofs.keys().copied().collect())
+            .collect();
+        self.nuisance = per_run::layout(kinds, &dofs);
+        self
+    }
+
+    /// Per case, its offsets from the nuisance values that follow the `layout`'s coefficients
+    /// in `theta` (none when `theta` has none).
+    fn offsets(&self, layout: &crate::core::model::ParamLayout, theta: &[f64]) -> Vec<Offsets> {
+        let x = theta.get(layout.len()..).unwrap_or(&[]);
+        per_run::offsets(&self.nuisance, x, self.responses.len())
+    }
+
+    /// The residuals of case `c` alone, in the order [`OutputError::residuals`] gives them.
+    pub fn case_residuals(
+        &self,
+        layout: &crate::core::model::ParamLayout,
+        theta: &[f64],
+        c: usize,
+    ) -> Vec<f64> {
+        let mut out = Vec::new();
+        self.errors(layout, &[theta], Some(c), &mut |e| {
+            out.push(if e[0].is_finite() { e[0] } else { 1e3 })
+        });
+        out
+    }
+
+    /// Where each case's residuals start in [`OutputError::residuals`], and their total.
+    pub fn case_starts(&self) -> Vec<usize> {
+        let mut at = 0;
+        let mut out = Vec::with_capacity(self.responses.len() + 1);
+        for r in self.responses {
+            out.push(at);
+            at += r.len() * r.dofs.len();
+        }
+        out.push(at);
+        out
     }
 
     /// Integration steps and recorded values one evaluation simulates and compares.
@@ -82,31 +133,45 @@ impl<'a> OutputError<'a> {
     fn plants(&self, layout: &crate::core::model::ParamLayout, thetas: &[&[f64]]) -> LanePlants {
         let plants: Vec<Plant> = thetas
             .iter()
-            .map(|t| Plant::new(self.vehicle, layout.to_hydro(t)))
+            .map(|t| Plant::new(self.vehicle, layout.to_hydro(&t[..layout.len()])))
             .collect();
         LanePlants::new(&plants)
     }
 
-    /// Every case simulated for up to [`LANES`] models at once; `visit` gets each recorded
-    /// value's error per lane, weighted by the square root of its weight.
+    /// Every case (or case `only`) simulated for up to [`LANES`] models at once; `visit` gets
+    /// each recorded value's error per lane, weighted by the square root of its weight. The
+    /// models share the first one's nuisance values.
     fn errors(
         &self,
         layout: &crate::core::model::ParamLayout,
         thetas: &[&[f64]],
+        only: Option<usize>,
         visit: &mut dyn FnMut(&[f64; LANES]),
     ) {
         if !layout.is_diagonal_model() {
-            return self.errors_coupled(layout, thetas, visit);
+            return self.errors_coupled(layout, thetas, only, visit);
         }
         let lp = self.plants(layout, thetas);
+        let offsets = self.offsets(layout, thetas[0]);
         for (c, (r, w)) in self.responses.iter().zip(&self.weight).enumerate() {
-            let cols = columns(r, w);
-            lp.simulate(&r.t, &self.taus[c], r.nu(0), MAX_STEP, &mut |k, nu| {
-                for (i, sw, v) in &cols {
-                    let e: [f64; LANES] = std::array::from_fn(|l| sw * (nu[*i][l] - v[k]));
-                    visit(&e);
-                }
-            });
+            if only.is_some_and(|o| o != c) {
+                continue;
+            }
+            let (cols, o) = (columns(r, w), &offsets[c]);
+            let taus = forced(&self.taus[c], o);
+            lp.simulate(
+                &r.t,
+                &taus,
+                plus(r.nu(0), o.start),
+                MAX_STEP,
+                &mut |k, nu| {
+                    for (i, sw, v) in &cols {
+                        let e: [f64; LANES] =
+                            std::array::from_fn(|l| sw * (nu[*i][l] + o.bias[*i] - v[k]));
+                        visit(&e);
+                    }
+                },
+            );
         }
     }
 
@@ -117,19 +182,26 @@ impl<'a> OutputError<'a> {
         &self,
         layout: &crate::core::model::ParamLayout,
         thetas: &[&[f64]],
+        only: Option<usize>,
         visit: &mut dyn FnMut(&[f64; LANES]),
     ) {
         let plants: Vec<Plant> = thetas
             .iter()
-            .map(|t| Plant::new(self.vehicle, layout.to_hydro(t)))
+            .map(|t| Plant::new(self.vehicle, layout.to_hydro(&t[..layout.len()])))
             .collect();
         let lp = crate::core::model::lanes_coupled::CoupledLanes::new(&plants);
+        let offsets = self.offsets(layout, thetas[0]);
         for (c, (r, w)) in self.responses.iter().zip(&self.weight).enumerate() {
-            let cols = columns(r, w);
-            let start = (r.nu(0), r.attitude(0));
-            lp.simulate(&r.t, &self.taus[c], start, MAX_STEP, &mut |k, nu| {
+            if only.is_some_and(|o| o != c) {
+                continue;
+            }
+            let (cols, o) = (columns(r, w), &offsets[c]);
+            let taus = forced(&self.taus[c], o);
+            let start = (plus(r.nu(0), o.start), r.attitude(0));
+            lp.simulate(&r.t, &taus, start, MAX_STEP, &mut |k, nu| {
                 for (i, sw, v) in &cols {
-                    let e: [f64; LANES] = std::array::from_fn(|l| sw * (nu[*i][l] - v[k]));
+                    let e: [f64; LANES] =
+                        std::array::from_fn(|l| sw * (nu[*i][l] + o.bias[*i] - v[k]));
                     visit(&e);
                 }
             });
@@ -149,7 +221,7 @@ impl<'a> OutputError<'a> {
         thetas: &[&[f64]],
     ) -> Vec<Vec<f64>> {
         let mut out = vec![Vec::new(); thetas.len()];
-        self.errors(layout, thetas, &mut |e| {
+        self.errors(layout, thetas, None, &mut |e| {
             for (o, x) in out.iter_mut().zip(e) {
                 o.push(if x.is_finite() { *x } else { 1e3 });
             }
@@ -170,13 +242,27 @@ impl<'a> OutputError<'a> {
     ) -> Vec<f64> {
         let mut s = [0.0; LANES];
         let mut n = 0usize;
-        self.errors(layout, thetas, &mut |e| {
+        self.errors(layout, thetas, None, &mut |e| {
             for l in 0..LANES {
                 s[l] += if e[l].is_finite() { e[l] * e[l] } else { 1e6 };
             }
             n += 1;
         });
         (0..thetas.len()).map(|l| s[l] / n.max(1) as f64).collect()
+    }
+}
+
+/// `a + b`.
+fn plus(a: Vec6, b: Vec6) -> Vec6 {
+    std::array::from_fn(|i| a[i] + b[i])
+}
+
+/// A case's forces with its per-run force offset (borrowed when it has none).
+fn forced<'t>(taus: &'t [Vec6], o: &Offsets) -> std::borrow::Cow<'t, [Vec6]> {
+    if o.force == [0.0; 6] {
+        std::borrow::Cow::Borrowed(taus)
+    } else {
+        taus.iter().map(|t| plus(*t, o.force)).collect()
     }
 }
 

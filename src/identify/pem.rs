@@ -16,6 +16,7 @@
 use super::lag::{CommandLag, LagEstimate};
 use super::ols::{self, Ols};
 use super::output_error::OutputError;
+use super::per_run::{Kind, Kinds};
 use super::refine::{Bounds, output_error_lm_within};
 use super::{Estimate, EstimateError, Estimator, Fit, Options, Regression};
 use crate::core::dof::Dof;
@@ -37,6 +38,9 @@ pub struct PemSettings {
     /// The lag between a logged command and the force (see [`super::lag`]): `auto`
     /// (estimated, kept when the runs demand it), `none`, or seconds.
     pub command_lag: CommandLag,
+    /// The per-run nuisance parameters estimated with the model (see [`super::per_run`]):
+    /// any of `initial_state`, `force`, `sensor_bias`; none by default.
+    pub per_run: Vec<Kind>,
 }
 
 /// An open-frame vehicle's added mass is of the order of its mass; twice it bounds the
@@ -50,6 +54,7 @@ impl Default for PemSettings {
             iterations: 50,
             added_mass_prior: BTreeMap::new(),
             command_lag: CommandLag::Auto,
+            per_run: Vec::new(),
         }
     }
 }
@@ -91,6 +96,7 @@ impl Estimator for Pem {
         let s = PemSettings::of(settings);
         opts.iterations = s.iterations;
         opts.command_lag = s.command_lag;
+        opts.per_run = Kinds::of(&s.per_run);
         opts.added_mass_prior = std::array::from_fn(|i| {
             s.added_mass_prior
                 .get(&Dof::ALL[i])
@@ -117,7 +123,8 @@ impl Estimator for Pem {
         // most in it decide, and the real vehicle's held-out roll NMAE doubled.
         let theta0: Vec<f64> = start.parameters.iter().map(|p| p.value).collect();
         let (lag, mut r) = with_lag(vehicle, responses, layout, &theta0, &bounds, opts);
-        let oe = OutputError::with_lag(vehicle, responses, lag.as_ref().map_or(0.0, |l| l.value_s));
+        let oe = OutputError::with_lag(vehicle, responses, lag.as_ref().map_or(0.0, |l| l.value_s))
+            .with_per_run(opts.per_run);
         let mut demanded = Vec::new();
         // The prior is soft: an added mass on it is freed (up to the population methods'
         // search bound) and kept beyond it only when the runs demand it.
@@ -130,7 +137,8 @@ impl Estimator for Pem {
                 wide.lo[j] = bounds.lo[j] * BEYOND_PRIOR
                     / opts.added_mass_prior[dof_of(problem, j)].max(1e-9);
             }
-            let freed = output_error_lm_within(&oe, layout, &r.theta, opts.iterations, &wide);
+            let from = [r.theta.as_slice(), &r.nuisance].concat();
+            let freed = output_error_lm_within(&oe, layout, &from, opts.iterations, &wide);
             if freed.cost_after < (1.0 - DEMAND) * r.cost_after {
                 demanded = on_prior
                     .iter()
@@ -164,6 +172,7 @@ impl Estimator for Pem {
                 steps: r.steps,
                 names: layout.names(),
                 correlation: r.correlation,
+                per_run: super::per_run::summarise(&oe.nuisance, &r.nuisance, responses.len()),
             }),
             command_lag: lag,
             thrust_gain: None,
@@ -182,7 +191,7 @@ fn with_lag(
     opts: &Options,
 ) -> (Option<LagEstimate>, super::refine::Refined) {
     let fit = |lag: f64, from: &[f64]| {
-        let oe = OutputError::with_lag(vehicle, responses, lag);
+        let oe = OutputError::with_lag(vehicle, responses, lag).with_per_run(opts.per_run);
         output_error_lm_within(&oe, layout, from, opts.iterations, bounds)
     };
     match opts.command_lag {
@@ -200,7 +209,9 @@ fn with_lag(
         }
         CommandLag::Auto => {
             let r0 = fit(0.0, theta0);
-            match super::lag::search(vehicle, responses, layout, &r0.theta, r0.cost_after, bounds) {
+            let from = [r0.theta.as_slice(), &r0.nuisance].concat();
+            let on = (layout, opts.per_run);
+            match super::lag::search(vehicle, responses, on, &from, r0.cost_after, bounds) {
                 Some((est, theta)) => {
                     let r = fit(est.value_s, &theta);
                     (

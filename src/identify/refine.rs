@@ -16,6 +16,8 @@ use nalgebra::{DMatrix, DVector};
 /// The refined coefficients and their standard errors (NaN where `J^T J` is singular).
 pub struct Refined {
     pub theta: Vec<f64>,
+    /// The per-run nuisance parameters' values, in the order of the objective's `nuisance`.
+    pub nuisance: Vec<f64>,
     pub stderr: Vec<f64>,
     /// The coefficients' correlation matrix from `(J^T J)^-1` (empty where it is singular).
     pub correlation: Vec<Vec<f64>>,
@@ -76,7 +78,10 @@ impl Bounds {
     }
 }
 
-/// [`output_error_lm`] with every coefficient kept within `bounds`.
+/// [`output_error_lm`] with every coefficient kept within `bounds`. `theta0` may carry the
+/// objective's nuisance values after the coefficients; without them they start at zero.
+/// Standard errors and correlations are the coefficients' (the nuisance parameters', estimated
+/// alongside, are marginalised out).
 pub fn output_error_lm_within(
     oe: &OutputError,
     layout: &ParamLayout,
@@ -84,8 +89,10 @@ pub fn output_error_lm_within(
     iterations: usize,
     bounds: &Bounds,
 ) -> Refined {
-    let p = theta0.len();
+    let m = layout.len();
     let mut theta = theta0.to_vec();
+    theta.resize(m + oe.nuisance.len(), 0.0);
+    let p = theta.len();
     bounds.clamp(&mut theta);
     let r = oe.residuals(layout, &theta);
     let cost = sum_sq(&r);
@@ -114,9 +121,14 @@ pub fn output_error_lm_within(
         steps += 1;
     }
     let n = lm.r.len();
-    let (stderr, correlation) = standard_errors(&lm.r, lm.cost, a);
+    let (mut stderr, mut correlation) = standard_errors(&lm.r, lm.cost, a);
+    stderr.truncate(m);
+    correlation.truncate(m);
+    correlation.iter_mut().for_each(|row| row.truncate(m));
+    let nuisance = lm.theta.split_off(m);
     Refined {
         theta: lm.theta,
+        nuisance,
         stderr,
         correlation,
         cost_before,
@@ -177,13 +189,51 @@ fn sum_sq(r: &[f64]) -> f64 {
     r.iter().map(|x| x * x).sum::<f64>()
 }
 
+/// One column of the Jacobian, zero outside its segments (a nuisance parameter moves its own
+/// run's residuals, a contrast the first run's too): each segment's start and values.
+struct Column(Vec<(usize, Vec<f64>)>);
+
+impl Column {
+    fn dense(values: Vec<f64>) -> Column {
+        Column(vec![(0, values)])
+    }
+
+    fn dot(&self, other: &Column) -> f64 {
+        let mut s = 0.0;
+        for (a0, a) in &self.0 {
+            for (b0, b) in &other.0 {
+                let (lo, hi) = ((*a0).max(*b0), (a0 + a.len()).min(b0 + b.len()));
+                if lo < hi {
+                    s += a[lo - a0..hi - a0]
+                        .iter()
+                        .zip(&b[lo - b0..hi - b0])
+                        .map(|(x, y)| x * y)
+                        .sum::<f64>();
+                }
+            }
+        }
+        s
+    }
+
+    fn dot_dense(&self, r: &[f64]) -> f64 {
+        self.0
+            .iter()
+            .map(|(a0, a)| a.iter().zip(&r[*a0..]).map(|(x, y)| x * y).sum::<f64>())
+            .sum()
+    }
+}
+
 /// The Gauss-Newton normal equations from the Jacobian's columns `jac`: `J^T J` and `J^T r`.
-fn normal_equations(jac: &[Vec<f64>], r: &[f64]) -> (DMatrix<f64>, DVector<f64>) {
+fn normal_equations(jac: &[Column], r: &[f64]) -> (DMatrix<f64>, DVector<f64>) {
     let p = jac.len();
-    let a = DMatrix::from_fn(p, p, |i, j| {
-        jac[i].iter().zip(&jac[j]).map(|(x, y)| x * y).sum()
-    });
-    let g = DVector::from_fn(p, |i, _| jac[i].iter().zip(r).map(|(x, y)| x * y).sum());
+    let mut a = DMatrix::zeros(p, p);
+    for i in 0..p {
+        for j in i..p {
+            let x = jac[i].dot(&jac[j]);
+            (a[(i, j)], a[(j, i)]) = (x, x);
+        }
+    }
+    let g = DVector::from_fn(p, |i, _| jac[i].dot_dense(r));
     (a, g)
 }
 
@@ -230,11 +280,58 @@ fn standard_errors(r: &[f64], cost: f64, a: DMatrix<f64>) -> (Vec<f64>, Vec<Vec<
 }
 
 /// Columns of d(residual)/d(theta_j) by forward differences, the perturbed models simulated
-/// [`LANES`] at a time.
-fn jacobian(oe: &OutputError, layout: &ParamLayout, theta: &[f64], r0: &[f64]) -> Vec<Vec<f64>> {
+/// [`LANES`] at a time; then the nuisance parameters', each over the runs it moves.
+fn jacobian(oe: &OutputError, layout: &ParamLayout, theta: &[f64], r0: &[f64]) -> Vec<Column> {
+    let mut cols = model_columns(oe, layout, theta, r0);
+    cols.extend(nuisance_columns(oe, layout, theta, r0));
+    cols
+}
+
+/// The Jacobian's columns of the nuisance parameters: a run's residuals, simulated alone (the
+/// first run's too for a contrast, whose offset moves against it).
+fn nuisance_columns(
+    oe: &OutputError,
+    layout: &ParamLayout,
+    theta: &[f64],
+    r0: &[f64],
+) -> Vec<Column> {
     use rayon::prelude::*;
-    let steps: Vec<f64> = theta.iter().map(|x| 1e-4 * x.abs().max(1e-2)).collect();
-    let perturbed: Vec<Vec<f64>> = (0..theta.len())
+    let (m, starts) = (layout.len(), oe.case_starts());
+    oe.nuisance
+        .par_iter()
+        .enumerate()
+        .map(|(q, n)| {
+            let h = 1e-4 * theta[m + q].abs().max(1e-3);
+            let mut t = theta.to_vec();
+            t[m + q] += h;
+            let mut cases = vec![n.case];
+            if n.kind.contrast() && n.case != 0 {
+                cases.push(0);
+            }
+            Column(
+                cases
+                    .into_iter()
+                    .map(|c| {
+                        let rc = oe.case_residuals(layout, &t, c);
+                        let base = &r0[starts[c]..starts[c + 1]];
+                        let d = rc.iter().zip(base).map(|(a, b)| (a - b) / h).collect();
+                        (starts[c], d)
+                    })
+                    .collect(),
+            )
+        })
+        .collect()
+}
+
+/// The model coefficients' columns of the Jacobian.
+fn model_columns(oe: &OutputError, layout: &ParamLayout, theta: &[f64], r0: &[f64]) -> Vec<Column> {
+    use rayon::prelude::*;
+    let m = layout.len();
+    let steps: Vec<f64> = theta[..m]
+        .iter()
+        .map(|x| 1e-4 * x.abs().max(1e-2))
+        .collect();
+    let perturbed: Vec<Vec<f64>> = (0..m)
         .map(|j| {
             let mut t = theta.to_vec();
             t[j] += steps[j];
@@ -252,7 +349,7 @@ fn jacobian(oe: &OutputError, layout: &ParamLayout, theta: &[f64], r0: &[f64]) -
                 .enumerate()
                 .map(move |(q, rj)| {
                     let h = steps[c * LANES + q];
-                    rj.iter().zip(r0).map(|(a, b)| (a - b) / h).collect()
+                    Column::dense(rj.iter().zip(r0).map(|(a, b)| (a - b) / h).collect())
                 })
         })
         .collect()
