@@ -95,7 +95,7 @@ impl<'a> OutputError<'a> {
     ) -> Vec<f64> {
         let mut out = Vec::new();
         self.errors(layout, &[theta], Some(c), &mut |e| {
-            out.push(if e[0].is_finite() { e[0] } else { 1e3 })
+            out.push(finite_or_diverged(e[0]))
         });
         out
     }
@@ -223,7 +223,7 @@ impl<'a> OutputError<'a> {
         let mut out = vec![Vec::new(); thetas.len()];
         self.errors(layout, thetas, None, &mut |e| {
             for (o, x) in out.iter_mut().zip(e) {
-                o.push(if x.is_finite() { *x } else { 1e3 });
+                o.push(finite_or_diverged(*x));
             }
         });
         out
@@ -250,6 +250,11 @@ impl<'a> OutputError<'a> {
         });
         (0..thetas.len()).map(|l| s[l] / n.max(1) as f64).collect()
     }
+}
+
+/// A residual, or a large error where the simulation diverged.
+fn finite_or_diverged(x: f64) -> f64 {
+    if x.is_finite() { x } else { 1e3 }
 }
 
 /// `a + b`.

@@ -287,8 +287,9 @@ fn jacobian(oe: &OutputError, layout: &ParamLayout, theta: &[f64], r0: &[f64]) -
     cols
 }
 
-/// The Jacobian's columns of the nuisance parameters: a run's residuals, simulated alone (the
-/// first run's too for a contrast, whose offset moves against it).
+/// The Jacobian's columns of the nuisance parameters: a run's residuals, simulated alone. A
+/// contrast moves the first run's residuals too, against its own, alike for every run of
+/// its kind and DOF: that segment is simulated once per kind and DOF and shared.
 fn nuisance_columns(
     oe: &OutputError,
     layout: &ParamLayout,
@@ -297,28 +298,37 @@ fn nuisance_columns(
 ) -> Vec<Column> {
     use rayon::prelude::*;
     let (m, starts) = (layout.len(), oe.case_starts());
+    // The segment of case `c`'s residuals when nuisance value `q` moves.
+    let segment = |q: usize, c: usize| {
+        let h = 1e-4 * theta[m + q].abs().max(1e-3);
+        let mut t = theta.to_vec();
+        t[m + q] += h;
+        let rc = oe.case_residuals(layout, &t, c);
+        let base = &r0[starts[c]..starts[c + 1]];
+        let d: Vec<f64> = rc.iter().zip(base).map(|(a, b)| (a - b) / h).collect();
+        (starts[c], d)
+    };
+    let first_run: Vec<_> = oe
+        .nuisance
+        .iter()
+        .enumerate()
+        .filter(|(q, n)| {
+            n.kind.contrast()
+                && !oe.nuisance[..*q]
+                    .iter()
+                    .any(|p| (p.kind, p.dof) == (n.kind, n.dof))
+        })
+        .map(|(q, n)| ((n.kind, n.dof), segment(q, 0)))
+        .collect();
     oe.nuisance
         .par_iter()
         .enumerate()
         .map(|(q, n)| {
-            let h = 1e-4 * theta[m + q].abs().max(1e-3);
-            let mut t = theta.to_vec();
-            t[m + q] += h;
-            let mut cases = vec![n.case];
-            if n.kind.contrast() && n.case != 0 {
-                cases.push(0);
+            let mut segs = vec![segment(q, n.case)];
+            if let Some((_, s)) = first_run.iter().find(|(k, _)| *k == (n.kind, n.dof)) {
+                segs.push(s.clone());
             }
-            Column(
-                cases
-                    .into_iter()
-                    .map(|c| {
-                        let rc = oe.case_residuals(layout, &t, c);
-                        let base = &r0[starts[c]..starts[c + 1]];
-                        let d = rc.iter().zip(base).map(|(a, b)| (a - b) / h).collect();
-                        (starts[c], d)
-                    })
-                    .collect(),
-            )
+            Column(segs)
         })
         .collect()
 }
