@@ -66,19 +66,44 @@ fn is_fixed(g: &crate::identify::gain::ThrustGain) -> bool {
     *g == crate::identify::gain::ThrustGain::Fixed
 }
 
-const COMMON_KEYS: [&str; 11] = [
-    "median_filter",
-    "thrust_gain",
-    "structure",
-    "custom_terms",
-    "method",
-    "objective",
-    "skip_start_s",
-    "vehicle",
-    "expected",
-    "reference_length_m",
-    "added_mass_window_s",
-];
+/// The keys [`Common`] reads, as its derived `Deserialize` names them: the split between the
+/// common settings and the method's own follows the struct, with no list kept by hand.
+fn common_keys() -> &'static [&'static str] {
+    static KEYS: std::sync::OnceLock<&'static [&'static str]> = std::sync::OnceLock::new();
+    KEYS.get_or_init(|| {
+        let mut fields: &'static [&'static str] = &[];
+        let _ = Common::deserialize(FieldNames(&mut fields));
+        assert!(!fields.is_empty(), "Common deserializes as a struct");
+        fields
+    })
+}
+
+/// A deserializer that only records the field names a derived struct asks for, then stops.
+struct FieldNames<'a>(&'a mut &'static [&'static str]);
+
+impl<'de> serde::Deserializer<'de> for FieldNames<'_> {
+    type Error = serde::de::value::Error;
+
+    fn deserialize_any<V: serde::de::Visitor<'de>>(self, _: V) -> Result<V::Value, Self::Error> {
+        Err(serde::de::Error::custom("field names only"))
+    }
+
+    fn deserialize_struct<V: serde::de::Visitor<'de>>(
+        self,
+        _name: &'static str,
+        fields: &'static [&'static str],
+        _visitor: V,
+    ) -> Result<V::Value, Self::Error> {
+        *self.0 = fields;
+        Err(serde::de::Error::custom("field names only"))
+    }
+
+    serde::forward_to_deserialize_any! {
+        bool i8 i16 i32 i64 i128 u8 u16 u32 u64 u128 f32 f64 char str string bytes byte_buf
+        option unit unit_struct newtype_struct seq tuple tuple_struct map enum identifier
+        ignored_any
+    }
+}
 
 /// A method's "unknown field" error, with every key the fit reads as the expected ones (so
 /// a misspelled common key is suggested too) and what the method itself reads.
@@ -93,7 +118,7 @@ fn unknown_key(e: &str, method: &str) -> String {
         .map_or(vec![], |s| s.split('`').skip(1).step_by(2).collect());
     let all: Vec<String> = own
         .iter()
-        .chain(COMMON_KEYS.iter())
+        .chain(common_keys().iter())
         .map(|k| format!("`{k}`"))
         .collect();
     let reads = if own.is_empty() {
@@ -157,8 +182,8 @@ impl<'de> Deserialize<'de> for Settings {
         use serde::de::Error;
         let mut all = serde_json::Map::<String, serde_json::Value>::deserialize(d)?;
         let mut common = serde_json::Map::new();
-        for k in COMMON_KEYS {
-            if let Some(v) = all.remove(k) {
+        for k in common_keys() {
+            if let Some(v) = all.remove(*k) {
                 common.insert(k.to_string(), v);
             }
         }

@@ -134,6 +134,16 @@ fn each_method_reads_only_its_own_settings() {
     assert!(e.contains("method ols reads no settings of its own"), "{e}");
     let e = err(&OK.replace("method: ols", "method: qpso\n      populaton: 60"));
     assert!(e.contains("did you mean `population`?"), "{e}");
+    let e = err(&OK.replace("method: ols", "method: qpso\n      skip_start: 0.2"));
+    assert!(e.contains("did you mean `skip_start_s`?"), "{e}");
+    for key in [
+        "thrust_gain",
+        "median_filter",
+        "added_mass_window_s",
+        "population",
+    ] {
+        assert!(e.contains(&format!("`{key}`")), "{key} listed: {e}");
+    }
     let e = err(&OK.replace("method: ols", "method: rls\n      forgetting: 1.5"));
     assert!(e.contains("outside (0, 1]"), "{e}");
     let s = parse(
