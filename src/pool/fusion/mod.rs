@@ -243,7 +243,7 @@ fn use_nav(fused: &mut Fused, nav: &Log, hd: Option<&Heading>) {
     for (j, name) in ["u", "v", "w"].iter().enumerate() {
         let Some(z) = nav.col(j) else { continue };
         let noise = nav::noise_level(&nav.t, z, floors[j]);
-        let sensor = motion::noise_level(&nav.t, z, floors[j]);
+        let sensor = motion::sensor_noise(&nav.t, z, floors[j]);
         let (s, jerk) = nav::smooth_ml(&nav.t, z, &fused.t, noise);
         fused.stats.notes.push(format!("navigation log {name}: jerk density {jerk} (m/s^3)^2 s chosen by the likelihood of its innovations"));
         fused.vel[j] = Some(s.v);

@@ -70,6 +70,45 @@ pub fn noise_level(t: &[f64], z: &[f64], floor: f64) -> Noise {
     }
 }
 
+/// Length of the windows in which [`sensor_noise`] measures the noise, s: five times
+/// [`MAX_LAG_S`], so each window has the lags the fit needs.
+const WINDOW_S: f64 = 10.0;
+
+/// Fewest finite samples in a window that [`sensor_noise`] measures.
+const WINDOW_MIN_SAMPLES: usize = 30;
+
+/// The sensor's own noise in samples `z` at times `t` (sorted; NaN rows left out): the
+/// median over half-overlapping windows of [`WINDOW_S`] of [`noise_level`] in each, or
+/// [`noise_level`] of the whole when fewer than three windows have enough samples.
+///
+/// A step manoeuvre (a depth change, a turn) is a kink in the velocity that every second
+/// difference spanning it sees, and with lags up to [`MAX_LAG_S`] a few steps reach a large
+/// share of a run's differences: over a whole run they read as noise (up to twice a
+/// navigation log's true noise on the field twin's depth steps and transects). In a window
+/// between the steps the motion is smooth, and the median over the windows is taken from
+/// those.
+pub fn sensor_noise(t: &[f64], z: &[f64], floor: f64) -> Noise {
+    let whole = || noise_level(t, z, floor);
+    let (Some(&t0), Some(&t1)) = (t.first(), t.last()) else {
+        return whole();
+    };
+    let mut found = Vec::new();
+    let mut start = t0;
+    while start + WINDOW_S <= t1 + 1e-9 {
+        let i0 = t.partition_point(|&x| x < start);
+        let i1 = t.partition_point(|&x| x < start + WINDOW_S);
+        if z[i0..i1].iter().filter(|v| v.is_finite()).count() >= WINDOW_MIN_SAMPLES {
+            found.push(noise_level(&t[i0..i1], &z[i0..i1], floor));
+        }
+        start += WINDOW_S / 2.0;
+    }
+    if found.len() < 3 {
+        return whole();
+    }
+    found.sort_by(|a, b| a.sigma.total_cmp(&b.sigma));
+    found[found.len() / 2]
+}
+
 /// Lags 1, 2, 3, 4, 6, 8, 11, 16 .. (about sqrt 2 apart) up to `max_lag`.
 fn lag_ladder(max_lag: usize) -> Vec<usize> {
     let mut lags = vec![1];

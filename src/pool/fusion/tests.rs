@@ -126,8 +126,10 @@ fn quantiles() {
 /// closed-loop flights (a DVL's white noise through the navigation filter's low-pass, written
 /// at 5-7 Hz, no UWB), three filter time constants and seeds, the sensor noise the fusion
 /// states (what the diagnosis's noise floor counts) is within a factor 1.5 of the noise the
-/// twin added in most channels and within 2.5 in every one. The smoother's own figure (the
-/// largest spread over lags) is up to 6 times that noise on the figure-eight.
+/// twin added in 85 % of the channels and within 2.5 in every one. The smoother's own figure
+/// (the largest spread over lags) is up to 6 times that noise on the figure-eight. Measured
+/// over the whole of each run rather than in windows between the manoeuvres, the depth steps
+/// and transects read up to 2.2 times the noise and only 80 % of the channels were within 1.5.
 #[test]
 fn navigation_log_noise_is_told_from_the_manoeuvres() {
     use crate::twin::field;
@@ -182,7 +184,7 @@ fn navigation_log_noise_is_told_from_the_manoeuvres() {
         .filter(|r| (1.0 / 1.5..1.5).contains(*r))
         .count();
     assert!(
-        within * 5 >= ratios.len() * 4,
+        within * 20 >= ratios.len() * 17,
         "{within} of {} channels within a factor 1.5: {ratios:?}",
         ratios.len()
     );
