@@ -4,7 +4,8 @@
 //! - `core` names no feature, the engine (`pipeline`) no feature, and a feature's stage adapter
 //!   is named only by the registry of kinds (`kinds.rs`) and the command line;
 //! - no function is longer than 80 lines;
-//! - `docs/architecture.md` names every stage kind and top-level folder, and nothing else.
+//! - `docs/architecture.md` names every stage kind and top-level folder, and nothing else;
+//! - every source path the documents name exists.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -466,6 +467,38 @@ fn the_architecture_document_names_what_the_code_has() {
         documented, registered,
         "docs/architecture.md's stage kinds against kinds::KINDS"
     );
+}
+
+/// Every source path the documents name in backticks (`src/pool/fusion/nav.rs`,
+/// `crates/logs/src/mcap.rs`, `tests/it/e2e_field.rs`) exists: a file moved by a reshape
+/// leaves no reader looking for it where it was.
+#[test]
+fn the_documents_name_source_paths_that_exist() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut docs: Vec<PathBuf> = std::fs::read_dir(root.join("docs"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "md"))
+        .collect();
+    docs.push(root.join("README.md"));
+    let mut missing = Vec::new();
+    for doc in &docs {
+        let text = std::fs::read_to_string(doc).unwrap();
+        let spans = text
+            .lines()
+            .filter(|l| !l.trim_start().starts_with("```"))
+            .flat_map(|l| l.split('`').skip(1).step_by(2));
+        for quoted in spans {
+            let named = ["src/", "crates/", "tests/"]
+                .iter()
+                .any(|p| quoted.starts_with(p));
+            let path = quoted.split([':', '#', ' ']).next().unwrap_or_default();
+            if named && !path.contains('*') && !root.join(path).exists() {
+                missing.push(format!("{}: {quoted}", doc.display()));
+            }
+        }
+    }
+    assert!(missing.is_empty(), "paths that do not exist: {missing:#?}");
 }
 
 #[test]
