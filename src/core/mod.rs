@@ -11,6 +11,7 @@ pub mod interrupt;
 pub mod lenient;
 pub mod median;
 pub mod model;
+pub mod natural;
 pub mod numerics;
 pub mod plot;
 pub mod progress;

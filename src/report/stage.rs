@@ -57,6 +57,8 @@ impl StageImpl for Settings {
                 })
             })
             .collect::<Result<_, _>>()?;
+        let mut pool_runs = pool_runs;
+        pool_runs.sort_by(|a, b| crate::core::natural::cmp(&a.meta.run, &b.meta.run));
         let field: Vec<crate::field::FieldResult> = ctx
             .upstream_of(Artifact::FieldModel)
             .map(|u| crate::field::load(&u.dir))
@@ -112,5 +114,6 @@ fn cfd_cases(ctx: &RunCtx) -> anyhow::Result<Vec<build::Case>> {
             two_dimensional: meta.per_metre_of_span,
         });
     }
+    cases.sort_by(|a, b| crate::core::natural::cmp(&a.name, &b.name));
     Ok(cases)
 }

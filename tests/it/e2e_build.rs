@@ -34,6 +34,12 @@ fn cold_build_then_nothing_to_do() {
             "{case}: {job}"
         );
     }
+    // Cases list in the order of their numbers, not of their characters.
+    let at = |case: &str| {
+        html.find(&format!(">{case}<"))
+            .unwrap_or_else(|| panic!("{case}"))
+    };
+    assert!(at("surge_2N") < at("surge_10N") && at("surge_10N") < at("surge_100N"));
     let out = ok(dir, &["build"]);
     assert_eq!(ran(&out), 0, "{out}");
     assert!(out.contains("hydrofit: up to date"), "{out}");
