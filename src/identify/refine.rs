@@ -137,6 +137,10 @@ pub fn output_error_lm_within(
     }
 }
 
+/// The relative drop of the output error below which a step ends the refinement: what is
+/// left is well inside the run-to-run scatter of any cost the fit is compared on.
+const MIN_GAIN: f64 = 1e-5;
+
 /// Levenberg-Marquardt's state: the coefficients, their residuals and cost, and the damping.
 struct Lm<'a, 'o> {
     oe: &'a OutputError<'o>,
@@ -176,7 +180,7 @@ impl Lm<'_, '_> {
                 let gain = (self.cost - cn) / self.cost;
                 (self.theta, self.r, self.cost) = (next, rn, cn);
                 self.lambda = (self.lambda / 3.0).max(1e-9);
-                return gain > 1e-7;
+                return gain > MIN_GAIN;
             }
             self.lambda *= 4.0;
         }
