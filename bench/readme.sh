@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
-# Every figure the README quotes about time and speed, measured on this machine and printed in
-# the README's form (its "Measured figures" section), with the machine and the date.
+# Every figure docs/benchmarks.md quotes about time and speed, measured on this machine and
+# printed in its form (its "Measured figures" section), with the machine and the date.
 #   bash bench/readme.sh           # ~12 min: test run, cold and no-op build, diagnosis, benchmarks
 #   FULL=1 bash bench/readme.sh    # also the first build and first test run from an empty
 #                                  # target folder (~35 min more on 2 cores)
-#   bash bench/readme.sh --write   # and put the section into README.md (figures not measured
+#   bash bench/readme.sh --write   # and put the section into docs/benchmarks.md (figures not measured
 #                                  # this time are kept from it, with the date they were)
 #   SKIP_PYTHON=1 ...              # leave out the numpy/pyswarms comparison (needs PyPI once)
 set -euo pipefail
@@ -30,8 +30,8 @@ cores=$(nproc)
 rows="$out/rows"
 : >"$rows"
 row() { printf '| %s | %s |\n' "$1" "$2" >>"$rows"; }
-kept() { # the README's current row starting with $1, if any
-  sed -n '/<!-- measured:begin/,/<!-- measured:end/p' README.md | grep -F "| $1 |" | head -1 || true
+kept() { # the current row of docs/benchmarks.md starting with $1, if any
+  sed -n '/<!-- measured:begin/,/<!-- measured:end/p' docs/benchmarks.md | grep -F "| $1 |" | head -1 || true
 }
 
 if [ "${FULL:-0}" = 1 ]; then
@@ -146,11 +146,11 @@ if [ "$write" = 1 ]; then
   python3 - "$block" <<'PY'
 import re, sys
 block = open(sys.argv[1]).read().rstrip("\n")
-text = open("README.md").read()
+text = open("docs/benchmarks.md").read()
 pattern = re.compile(r"<!-- measured:begin.*?<!-- measured:end -->", re.S)
 if not pattern.search(text):
-    sys.exit("README.md has no <!-- measured:begin --> ... <!-- measured:end --> section")
-open("README.md", "w").write(pattern.sub(lambda _: block, text, count=1))
+    sys.exit("docs/benchmarks.md has no <!-- measured:begin --> ... <!-- measured:end --> section")
+open("docs/benchmarks.md", "w").write(pattern.sub(lambda _: block, text, count=1))
 PY
-  say "README.md updated"
+  say "docs/benchmarks.md updated"
 fi
