@@ -45,7 +45,7 @@ impl StageImpl for Settings {
             .map(|u| crate::identify::result::load(&u.dir))
             .collect::<Result<_, _>>()?;
         let cases = cfd_cases(ctx)?;
-        let pool_runs: Vec<crate::pool::fusion::run::FusedRun> = ctx
+        let mut pool_runs: Vec<crate::pool::fusion::run::FusedRun> = ctx
             .upstream_of(Artifact::PoolRuns)
             .map(|u| {
                 // A run steered by its actuators alone (no force log) is shown, not simulated.
@@ -57,7 +57,6 @@ impl StageImpl for Settings {
                 })
             })
             .collect::<Result<_, _>>()?;
-        let mut pool_runs = pool_runs;
         pool_runs.sort_by(|a, b| crate::core::natural::cmp(&a.meta.run, &b.meta.run));
         let field: Vec<crate::field::FieldResult> = ctx
             .upstream_of(Artifact::FieldModel)
