@@ -1,0 +1,141 @@
+use super::*;
+
+fn folder(files: &[(&str, &str)]) -> (tempfile::TempDir, Vec<String>) {
+    let d = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(d.path().join("cases/pool/r1")).unwrap();
+    let mut list = Vec::new();
+    for (n, text) in files {
+        std::fs::write(d.path().join("cases/pool/r1").join(n), text).unwrap();
+        list.push(format!("cases/pool/r1/{n}"));
+    }
+    (d, list)
+}
+
+fn thrust() -> String {
+    let mut s = String::from("t,X_N,Y_N,Z_N,N_Nm\n");
+    for k in 0..20 {
+        s += &format!("{},{},0,0,0\n", k as f64 * 0.05, k);
+    }
+    s
+}
+
+#[test]
+fn optional_sensors_may_be_missing_and_units_are_converted() {
+    let t = thrust();
+    let (d, files) = folder(&[
+        ("run.yaml", "role: validate\n"),
+        ("thrust.csv", &t),
+        (
+            "imu.csv",
+            "t,roll_deg,pitch_deg,yaw_deg,p_dps,q_dps,r_dps,ax_g,ay_g,az_g\n0,0,0,90,0,0,180,0,0,-1\n0.02,0,0,90,0,0,180,0,0,-1\n",
+        ),
+        ("notes.txt", "x"),
+    ]);
+    let run = load(d.path(), "cases/pool/r1", &files, None).unwrap();
+    assert_eq!(run.meta.role, Role::Validate);
+    assert!(run.uwb.is_none() && run.sonar.is_none() && run.depth.is_none() && run.nav.is_none());
+    let imu = run.imu.unwrap();
+    assert!((imu.cols[2][0] - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+    assert!((imu.cols[5][0] - std::f64::consts::PI).abs() < 1e-12);
+    assert!((imu.cols[8][0] + G).abs() < 1e-12);
+    assert!(run.notes.iter().any(|n| n.contains("notes.txt")));
+}
+
+#[test]
+fn a_missing_thrust_log_or_bad_run_yaml_is_an_error() {
+    let (d, files) = folder(&[("run.yaml", "role: train\n")]);
+    let e = load(d.path(), "cases/pool/r1", &files, None)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("no command log") && e.contains("actuators.csv"),
+        "{e}"
+    );
+    let t = thrust();
+    let (d, files) = folder(&[("run.yaml", "role: tran\n"), ("thrust.csv", &t)]);
+    let e = load(d.path(), "cases/pool/r1", &files, None)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("run.yaml:1:") && e.contains("tran"), "{e}");
+    let (d, files) = folder(&[("thrust.csv", &t)]);
+    let e = load(d.path(), "cases/pool/r1", &files, None)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("no run.yaml"), "{e}");
+}
+
+#[test]
+fn a_bad_run_yaml_or_a_folder_for_a_file_is_located() {
+    let t = thrust();
+    let cases = [
+        (
+            "role: train\npool: {length_m: .nan, width_m: 2, depth_m: 1}\n",
+            "run.yaml:2:",
+        ),
+        (
+            "role: train\npool:\n  length_m: 10\n  width_m: -2\n  depth_m: 1\n",
+            "run.yaml:4:",
+        ),
+        (
+            "role: train\nrole: validate\n",
+            "run.yaml:2:1: duplicate entry",
+        ),
+        (
+            "role: train\ntether_anchor_m: [0, .inf, 0]\n",
+            "run.yaml:2:",
+        ),
+    ];
+    for (yaml, want) in cases {
+        let (d, files) = folder(&[("run.yaml", yaml), ("thrust.csv", &t)]);
+        let e = load(d.path(), "cases/pool/r1", &files, None)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(want) && e.contains("help:"), "{yaml:?}: {e}");
+    }
+    let (d, files) = folder(&[("run.yaml", "\u{feff}role: train\n"), ("thrust.csv", &t)]);
+    std::fs::create_dir_all(d.path().join("cases/pool/r1/imu.csv")).unwrap();
+    let e = load(d.path(), "cases/pool/r1", &files, None)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("imu.csv: is a folder"), "{e}");
+    std::fs::remove_dir(d.path().join("cases/pool/r1/imu.csv")).unwrap();
+    assert!(
+        load(d.path(), "cases/pool/r1", &files, None).is_ok(),
+        "BOM in run.yaml"
+    );
+}
+
+/// A navigation log as a DVL writes it when it loses bottom lock: empty or `nan` values in
+/// some rows, no rate columns. The gaps are NaN in their own channel only, the rest of the
+/// row is kept, and both the gaps and the missing columns are said.
+#[test]
+fn a_navigation_log_with_gaps_and_no_rates_is_read() {
+    let t = thrust();
+    let nav = "t,u_m_s,v_m_s,w_m_s,yaw_deg\n0.0,0.10,0.00,0.01,90\n0.2,,nan,0.02,91\n0.4,0.12,NaN,0.02,92\n0.6,0.13,0.01,0.03,93\n";
+    let (d, files) = folder(&[
+        ("run.yaml", "role: train\n"),
+        ("thrust.csv", &t),
+        ("nav.csv", nav),
+    ]);
+    let run = load(d.path(), "cases/pool/r1", &files, None).unwrap();
+    let nav = run.nav.unwrap();
+    assert_eq!(nav.len(), 4);
+    assert!(nav.cols[0][1].is_nan() && nav.cols[1][1].is_nan() && nav.cols[1][2].is_nan());
+    assert_eq!(nav.cols[2][1], 0.02);
+    assert!((nav.cols[5][3] - 93f64.to_radians()).abs() < 1e-12);
+    assert!(!nav.has(6) && !nav.has(8), "no rates in this log");
+    let notes = run.notes.join("\n");
+    assert!(notes.contains("3 values missing"), "{notes}");
+    assert!(
+        notes.contains("no roll_deg, pitch_deg, p_dps, q_dps, r_dps columns"),
+        "{notes}"
+    );
+    // Time itself may not be missing.
+    let bad = "t,u_m_s\n0.0,0.1\n,0.2\n";
+    let (d, files) = folder(&[
+        ("run.yaml", "role: train\n"),
+        ("thrust.csv", &t),
+        ("nav.csv", bad),
+    ]);
+    assert!(load(d.path(), "cases/pool/r1", &files, None).is_err());
+}
