@@ -3,7 +3,8 @@
 //! manoeuvres a tenth of a second of it is 20 degrees of phase, which a model without it makes
 //! up with a wrong inertia and damping. The prediction-error method estimates one first-order
 //! time constant for every DOF with the model (a line search on the output error, each point
-//! a short Levenberg-Marquardt refit), and keeps it only when the runs demand it.
+//! a short Levenberg-Marquardt refit), and keeps it only when the runs demand it; the method
+//! then steps the lag and the coefficients together (`pem::polish_lag`).
 
 use super::output_error::OutputError;
 use super::refine::{Bounds, output_error_lm_within};
@@ -63,9 +64,9 @@ pub const MAX_LAG_S: f64 = 0.5;
 /// refitting one more parameter to noise gains.
 const DEMAND: f64 = 0.01;
 
-/// The width of the bracket at which the line search stops, s: a tenth of a sample at 50 Hz
-/// either side of the estimate, well inside its standard error on real runs.
-const RESOLUTION_S: f64 = 0.02;
+/// The width of the bracket at which the line search stops, s: a sample at 50 Hz. The
+/// prediction-error method's Gauss-Newton steps of the lag take it from there.
+pub const RESOLUTION_S: f64 = 0.02;
 
 /// Levenberg-Marquardt steps of each point of the line search (warm-started).
 const PROBE_STEPS: usize = 8;
@@ -74,7 +75,8 @@ const PROBE_STEPS: usize = 8;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct LagEstimate {
     pub value_s: f64,
-    /// From the curvature of the output error at the estimate (white residuals: optimistic).
+    /// With the lag counted as a parameter beside the coefficients, from the output error's
+    /// Jacobian (residuals correlated from sample to sample as [`super::refine`] allows for).
     pub stderr_s: f64,
     /// The output error without the lag and with it (weighted mean square).
     pub cost_without: f64,
@@ -98,17 +100,13 @@ pub fn search(
 ) -> Option<(LagEstimate, Vec<f64>)> {
     let mut best_theta = theta0.to_vec();
     let mut best_cost = f64::INFINITY;
-    let mut p = theta0.len();
-    let probes = std::cell::RefCell::new(Vec::<(f64, f64)>::new());
     let mut cost = |lag: f64| {
         let oe = OutputError::with_lag(vehicle, responses, lag).with_per_run(per_run);
         let r = output_error_lm_within(&oe, layout, theta0, PROBE_STEPS, bounds);
-        p = r.stderr.len() + r.nuisance.len();
         if r.cost_after < best_cost {
             best_cost = r.cost_after;
             best_theta = [r.theta.as_slice(), &r.nuisance].concat();
         }
-        probes.borrow_mut().push((lag, r.cost_after));
         r.cost_after
     };
     let g = (5f64.sqrt() - 1.0) / 2.0;
@@ -133,49 +131,14 @@ pub fn search(
     if c.is_nan() || c >= (1.0 - DEMAND) * c0 {
         return None;
     }
-    // The curvature from the probes on either side of the best, or from two more beside it
-    // where the best lies at the end of the range.
-    let near = neighbours(&probes.borrow(), best);
-    let curvature = match near {
-        Some([l, r]) => second_derivative([l, (best, c), r]),
-        None => {
-            let h = RESOLUTION_S;
-            let lo = (best - h).max(0.0);
-            let (cl, cr) = (cost(lo), cost(best + h));
-            second_derivative([(lo, cl), (best, c), (best + h, cr)])
-        }
-    };
-    let theta = best_theta;
-    let n = responses.iter().map(|r| r.len()).sum::<usize>().max(p + 1);
     let estimate = LagEstimate {
         value_s: best,
-        stderr_s: if curvature > 0.0 {
-            (2.0 * c / ((n - p) as f64 * curvature)).sqrt()
-        } else {
-            f64::NAN
-        },
+        // Counted with the coefficients, once they are refitted at the lag (see
+        // `pem::joint_with_lag`).
+        stderr_s: f64::NAN,
         cost_without: c0,
         cost_with: c,
         estimated: true,
     };
-    Some((estimate, theta))
-}
-
-/// The probes nearest to `x` below and above it, when there are both.
-fn neighbours(probes: &[(f64, f64)], x: f64) -> Option<[(f64, f64); 2]> {
-    let nearest = |side: f64| {
-        probes
-            .iter()
-            .copied()
-            .filter(|(at, _)| (at - x) * side > 1e-12)
-            .min_by(|p, q| (p.0 - x).abs().total_cmp(&(q.0 - x).abs()))
-    };
-    Some([nearest(-1.0)?, nearest(1.0)?])
-}
-
-/// The second derivative of the parabola through three points.
-fn second_derivative([(x0, f0), (x1, f1), (x2, f2)]: [(f64, f64); 3]) -> f64 {
-    2.0 * (f0 / ((x0 - x1) * (x0 - x2))
-        + f1 / ((x1 - x0) * (x1 - x2))
-        + f2 / ((x2 - x0) * (x2 - x1)))
+    Some((estimate, best_theta))
 }

@@ -227,6 +227,56 @@ impl Column {
     }
 }
 
+/// The coefficients of a refined fit with one more parameter beside them, which the fit held
+/// fixed (the command lag): see [`errors_with`].
+pub struct Joint {
+    /// The coefficients' standard errors, then the extra parameter's.
+    pub stderr: Vec<f64>,
+    /// Their correlations, the extra parameter's last (empty where `J^T J` is singular).
+    pub correlation: Vec<Vec<f64>>,
+    /// The joint Gauss-Newton step: the coefficients', the nuisance values' and the extra
+    /// parameter's, last (empty where `J^T J` is singular).
+    pub step: Vec<f64>,
+}
+
+/// The standard errors and correlations of the coefficients of `refined` (fitted on `oe`) and
+/// of one more parameter held fixed in the fit, whose residuals' derivative is `extra` (the
+/// command lag's): the coefficients' uncertainty then includes what they trade with it, as
+/// MATLAB's `pem` reports for every free parameter of a grey-box model. The nuisance
+/// parameters are marginalised out.
+pub fn errors_with(
+    oe: &OutputError,
+    layout: &ParamLayout,
+    refined: &Refined,
+    extra: Vec<f64>,
+) -> Joint {
+    let m = layout.len();
+    let theta = [refined.theta.as_slice(), &refined.nuisance].concat();
+    let r = oe.residuals(layout, &theta);
+    let mut jac = jacobian(oe, layout, &theta, &r);
+    jac.push(Column::dense(extra));
+    let (a, g) = normal_equations(&jac, &r);
+    let last = jac.len() - 1;
+    let step = a
+        .clone()
+        .lu()
+        .solve(&g)
+        .map_or(Vec::new(), |d| d.iter().map(|x| -x).collect());
+    let (stderr, correlation) = standard_errors(&r, sum_sq(&r), a);
+    let keep: Vec<usize> = (0..m).chain([last]).collect();
+    let pick = |row: &[f64]| keep.iter().map(|&k| row[k]).collect::<Vec<f64>>();
+    let correlation = if correlation.is_empty() {
+        correlation
+    } else {
+        keep.iter().map(|&k| pick(&correlation[k])).collect()
+    };
+    Joint {
+        stderr: pick(&stderr),
+        correlation,
+        step,
+    }
+}
+
 /// The Gauss-Newton normal equations from the Jacobian's columns `jac`: `J^T J` and `J^T r`.
 fn normal_equations(jac: &[Column], r: &[f64]) -> (DMatrix<f64>, DVector<f64>) {
     let p = jac.len();

@@ -312,6 +312,8 @@ fn separating(a: &str, b: &str) -> &'static str {
     let kind = |n: &str| {
         if n.ends_with("dot") {
             'm'
+        } else if n == "T_cmd" {
+            'l'
         } else if n.ends_with("_0") {
             'c'
         } else if n.starts_with("eta_") || n == "W-B" {
@@ -329,6 +331,12 @@ fn separating(a: &str, b: &str) -> &'static str {
         }
         ('c', 'd') | ('d', 'c') => {
             ": a constant force against damping; runs in both directions of the DOF separate them"
+        }
+        ('l', 'm') | ('m', 'l') => {
+            ": a command lag against inertia; steps of the command separate them, since a lag delays the whole response and an inertia only slows its start"
+        }
+        ('l', _) | (_, 'l') => {
+            ": a command lag against the rest of the model; runs at more than one frequency of the command (a chirp or a PRBS) separate them"
         }
         ('d', 'd') => {
             ": linear against quadratic damping; runs at both low and high speed separate them"

@@ -100,7 +100,7 @@ fn lag_note(l: &crate::identify::lag::LagEstimate) -> (f64, String) {
         l.value_s
     };
     let note = format!(
-        "the first-order lag between the logged command and the force (thrusters, command path), identified with the model: it lowered the output error of the training runs from {:.4} to {:.4}; its standard error assumes white residuals",
+        "the first-order lag between the logged command and the force (thrusters, command path), identified with the model: it lowered the output error of the training runs from {:.4} to {:.4}; its standard error counts it as a parameter beside the coefficients, whose errors include what they trade with it",
         l.cost_without, l.cost_with
     );
     (stderr, note)
