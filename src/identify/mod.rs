@@ -188,39 +188,62 @@ pub trait Estimator: Sync {
         false
     }
     /// Reads and checks the method's own settings (the keys of a fit's settings that are not
-    /// common to every method), returning them with defaults filled in: the form the cache key
-    /// and the provenance record. Unknown keys are errors.
+    /// common to every method), returning them typed, with defaults filled in. Unknown keys
+    /// are errors.
     fn settings(
         &self,
         own: serde_json::Map<String, serde_json::Value>,
-    ) -> Result<serde_json::Value, String> {
-        own_settings::<NoSettings>(own)
-    }
-    /// Puts the method's settings (as [`Estimator::settings`] returned them) into `opts`.
-    fn apply(&self, _settings: &serde_json::Value, _opts: &mut Options) {}
-    /// What tells two configurations of the method apart in a table, if anything (a norm).
-    fn detail(&self, _settings: &serde_json::Value) -> Option<String> {
-        None
+    ) -> Result<OwnSettings, String> {
+        own_settings::<NoSettings>(own).map(OwnSettings::None)
     }
     fn fit(&self, problem: &Regression, opts: &Options) -> Result<Fit, EstimateError>;
 }
 
-/// Parses a method's own settings into `S` (whose serde attributes reject unknown keys and
-/// fill defaults) and back to JSON.
-pub fn own_settings<S>(
-    own: serde_json::Map<String, serde_json::Value>,
-) -> Result<serde_json::Value, String>
+/// Parses a method's own settings into `S`, whose serde attributes reject unknown keys and
+/// fill defaults.
+pub fn own_settings<S>(own: serde_json::Map<String, serde_json::Value>) -> Result<S, String>
 where
-    S: serde::de::DeserializeOwned + Serialize,
+    S: serde::de::DeserializeOwned,
 {
-    let s: S = serde_json::from_value(serde_json::Value::Object(own)).map_err(|e| e.to_string())?;
-    Ok(serde_json::to_value(s).expect("settings serialise"))
+    serde_json::from_value(serde_json::Value::Object(own)).map_err(|e| e.to_string())
 }
 
 /// The settings of a method that has none of its own.
-#[derive(Debug, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct NoSettings {}
+
+/// A method's own settings, typed from `pipeline.yaml` to the solver: each kind puts itself
+/// into the [`Options`] a fit runs with. Serialised (untagged, as the settings struct itself)
+/// only for the cache key and the provenance.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum OwnSettings {
+    None(NoSettings),
+    Pem(pem::PemSettings),
+    Population(swarm::PopulationSettings),
+    Rls(rls::RlsSettings),
+}
+
+impl OwnSettings {
+    /// Puts the settings into `opts`.
+    pub fn apply(&self, opts: &mut Options) {
+        match self {
+            OwnSettings::None(_) => {}
+            OwnSettings::Pem(s) => s.apply(opts),
+            OwnSettings::Population(s) => s.apply(opts),
+            OwnSettings::Rls(s) => opts.forgetting = s.forgetting,
+        }
+    }
+
+    /// What tells two configurations of a method apart in a table, if anything (a norm).
+    pub fn detail(&self) -> Option<String> {
+        match self {
+            OwnSettings::Population(s) => Some(format!("{:?}", s.norm)),
+            _ => None,
+        }
+    }
+}
 
 /// Every estimator `pipeline.yaml` can name.
 pub const REGISTRY: &[&dyn Estimator] = &[

@@ -27,7 +27,7 @@ use std::collections::BTreeMap;
 pub struct Pem;
 
 /// The method's own settings.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct PemSettings {
     /// Accepted Levenberg-Marquardt steps at most.
@@ -60,8 +60,17 @@ impl Default for PemSettings {
 }
 
 impl PemSettings {
-    fn of(v: &serde_json::Value) -> PemSettings {
-        serde_json::from_value(v.clone()).unwrap_or_default()
+    /// Puts the settings into `opts`.
+    pub fn apply(&self, opts: &mut Options) {
+        opts.iterations = self.iterations;
+        opts.command_lag = self.command_lag;
+        opts.per_run = Kinds::of(&self.per_run);
+        opts.added_mass_prior = std::array::from_fn(|i| {
+            self.added_mass_prior
+                .get(&Dof::ALL[i])
+                .copied()
+                .unwrap_or(DEFAULT_PRIOR)
+        });
     }
 }
 
@@ -77,9 +86,8 @@ impl Estimator for Pem {
     fn settings(
         &self,
         own: serde_json::Map<String, serde_json::Value>,
-    ) -> Result<serde_json::Value, String> {
-        let v = super::own_settings::<PemSettings>(own)?;
-        let s = PemSettings::of(&v);
+    ) -> Result<super::OwnSettings, String> {
+        let s = super::own_settings::<PemSettings>(own)?;
         if let Some((d, x)) = s
             .added_mass_prior
             .iter()
@@ -89,20 +97,7 @@ impl Estimator for Pem {
                 "added_mass_prior.{d} = {x}: the prior is a multiple of the rigid-body term, a finite number >= 0"
             ));
         }
-        Ok(v)
-    }
-
-    fn apply(&self, settings: &serde_json::Value, opts: &mut Options) {
-        let s = PemSettings::of(settings);
-        opts.iterations = s.iterations;
-        opts.command_lag = s.command_lag;
-        opts.per_run = Kinds::of(&s.per_run);
-        opts.added_mass_prior = std::array::from_fn(|i| {
-            s.added_mass_prior
-                .get(&Dof::ALL[i])
-                .copied()
-                .unwrap_or(DEFAULT_PRIOR)
-        });
+        Ok(super::OwnSettings::Pem(s))
     }
 
     fn fit(&self, problem: &Regression, opts: &Options) -> Result<Fit, EstimateError> {
@@ -125,29 +120,7 @@ impl Estimator for Pem {
         let (mut lag, mut r) = with_lag(vehicle, responses, layout, &theta0, &bounds, opts);
         let oe = OutputError::with_lag(vehicle, responses, lag.as_ref().map_or(0.0, |l| l.value_s))
             .with_per_run(opts.per_run);
-        let mut demanded = Vec::new();
-        // The prior is soft: an added mass on it is freed (up to the population methods'
-        // search bound) and kept beyond it only when the runs demand it.
-        let on_prior: Vec<usize> = (0..r.theta.len())
-            .filter(|&j| is_added_mass(problem, j) && bounds.at_prior(j, r.theta[j]))
-            .collect();
-        if !on_prior.is_empty() {
-            let mut wide = bounds.clone();
-            for &j in &on_prior {
-                wide.lo[j] = bounds.lo[j] * BEYOND_PRIOR
-                    / opts.added_mass_prior[dof_of(problem, j)].max(1e-9);
-            }
-            let from = [r.theta.as_slice(), &r.nuisance].concat();
-            let freed = output_error_lm_within(&oe, layout, &from, opts.iterations, &wide);
-            if freed.cost_after < (1.0 - DEMAND) * r.cost_after {
-                demanded = on_prior
-                    .iter()
-                    .filter(|&&j| freed.theta[j] < bounds.lo[j])
-                    .map(|&j| (j, r.cost_after, freed.cost_after))
-                    .collect();
-                r = freed;
-            }
-        }
+        let demanded = free_prior(problem, &oe, &bounds, opts, &mut r);
         // The lag was found by a line search, the coefficients at it: counted as a parameter,
         // its trade with the inertia and damping widens their errors.
         if let Some(l) = lag.as_mut().filter(|l| l.estimated) {
@@ -191,6 +164,42 @@ impl Estimator for Pem {
             thrust_gain: None,
         })
     }
+}
+
+/// The prior is soft: an added mass on it is freed (up to the population methods' search
+/// bound) and kept beyond it only when the runs demand it; then `r` is the freed fit. Returns
+/// the parameters the runs took beyond their prior, with the output error held on it and
+/// freed.
+fn free_prior(
+    problem: &Regression,
+    oe: &OutputError,
+    bounds: &Bounds,
+    opts: &Options,
+    r: &mut super::refine::Refined,
+) -> Vec<(usize, f64, f64)> {
+    let on_prior: Vec<usize> = (0..r.theta.len())
+        .filter(|&j| is_added_mass(problem, j) && bounds.at_prior(j, r.theta[j]))
+        .collect();
+    if on_prior.is_empty() {
+        return Vec::new();
+    }
+    let mut wide = bounds.clone();
+    for &j in &on_prior {
+        wide.lo[j] =
+            bounds.lo[j] * BEYOND_PRIOR / opts.added_mass_prior[dof_of(problem, j)].max(1e-9);
+    }
+    let from = [r.theta.as_slice(), &r.nuisance].concat();
+    let freed = output_error_lm_within(oe, &problem.layout, &from, opts.iterations, &wide);
+    if freed.cost_after.is_nan() || freed.cost_after >= (1.0 - DEMAND) * r.cost_after {
+        return Vec::new();
+    }
+    let demanded = on_prior
+        .iter()
+        .filter(|&&j| freed.theta[j] < bounds.lo[j])
+        .map(|&j| (j, r.cost_after, freed.cost_after))
+        .collect();
+    *r = freed;
+    demanded
 }
 
 /// The output-error fit from `theta0` with the command lag `opts` asks for: none, the one set,
@@ -524,7 +533,7 @@ mod tests {
                 output_error: Some((&vehicle, &refs[..])),
                 ..Options::default()
             };
-            Pem.apply(&Pem.settings(Default::default()).unwrap(), &mut o);
+            Pem.settings(Default::default()).unwrap().apply(&mut o);
             // The reference vehicle's heave added mass is 2.4 times its mass: within reach
             // (held at 2, the lag grows to make up the missing inertia).
             o.added_mass_prior[2] = 3.0;

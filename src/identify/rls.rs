@@ -32,21 +32,15 @@ impl Estimator for Rls {
     fn settings(
         &self,
         own: serde_json::Map<String, serde_json::Value>,
-    ) -> Result<serde_json::Value, String> {
-        let v = super::own_settings::<RlsSettings>(own)?;
-        let f = v["forgetting"].as_f64().unwrap_or(f64::NAN);
+    ) -> Result<super::OwnSettings, String> {
+        let s = super::own_settings::<RlsSettings>(own)?;
+        let f = s.forgetting;
         if !(f > 0.0 && f <= 1.0) {
             return Err(format!(
                 "forgetting = {f} is outside (0, 1]: 1 keeps every row, 0.99 forgets over ~100 rows"
             ));
         }
-        Ok(v)
-    }
-
-    fn apply(&self, settings: &serde_json::Value, opts: &mut Options) {
-        opts.forgetting = settings["forgetting"]
-            .as_f64()
-            .expect("checked when parsed");
+        Ok(super::OwnSettings::Rls(s))
     }
 
     fn fit(&self, problem: &Regression, opts: &Options) -> Result<Fit, EstimateError> {

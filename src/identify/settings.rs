@@ -205,8 +205,8 @@ impl Serialize for Settings {
     fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         let mut v = serde_json::to_value(&self.common).map_err(serde::ser::Error::custom)?;
         let obj = v.as_object_mut().expect("settings are a map");
-        if let Some(own) = self.method.settings.as_object() {
-            obj.extend(own.clone());
+        if let Ok(serde_json::Value::Object(own)) = serde_json::to_value(&self.method.settings) {
+            obj.extend(own);
         }
         v.serialize(s)
     }

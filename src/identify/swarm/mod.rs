@@ -461,8 +461,14 @@ impl Default for PopulationSettings {
 }
 
 impl PopulationSettings {
-    fn of(settings: &serde_json::Value) -> PopulationSettings {
-        serde_json::from_value(settings.clone()).expect("checked when parsed")
+    /// Puts the settings into `opts`.
+    pub fn apply(&self, opts: &mut Options) {
+        opts.seed = self.seed;
+        opts.population = self.population.max(2);
+        opts.iterations = self.iterations.max(1);
+        opts.restarts = self.restarts.max(1);
+        opts.norm = self.norm;
+        opts.max_seconds = self.max_seconds;
     }
 }
 
@@ -478,22 +484,8 @@ impl super::Estimator for Population {
     fn settings(
         &self,
         own: serde_json::Map<String, serde_json::Value>,
-    ) -> Result<serde_json::Value, String> {
-        super::own_settings::<PopulationSettings>(own)
-    }
-
-    fn apply(&self, settings: &serde_json::Value, opts: &mut Options) {
-        let s = PopulationSettings::of(settings);
-        opts.seed = s.seed;
-        opts.population = s.population.max(2);
-        opts.iterations = s.iterations.max(1);
-        opts.restarts = s.restarts.max(1);
-        opts.norm = s.norm;
-        opts.max_seconds = s.max_seconds;
-    }
-
-    fn detail(&self, settings: &serde_json::Value) -> Option<String> {
-        Some(format!("{:?}", PopulationSettings::of(settings).norm))
+    ) -> Result<super::OwnSettings, String> {
+        super::own_settings::<PopulationSettings>(own).map(super::OwnSettings::Population)
     }
 
     fn fit(&self, problem: &Regression, opts: &Options) -> Result<Fit, EstimateError> {
