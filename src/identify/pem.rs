@@ -117,19 +117,33 @@ impl Estimator for Pem {
         // held-out NMAE scores it; weighting a DOF over all runs together let the runs that move
         // most in it decide, and the real vehicle's held-out roll NMAE doubled.
         let theta0: Vec<f64> = start.parameters.iter().map(|p| p.value).collect();
-        let (mut lag, mut r) = with_lag(vehicle, responses, layout, &theta0, &bounds, opts);
+        let (mut lag, mut r, polished) =
+            with_lag(vehicle, responses, layout, &theta0, &bounds, opts);
         let oe = OutputError::with_lag(vehicle, responses, lag.as_ref().map_or(0.0, |l| l.value_s))
             .with_per_run(opts.per_run);
-        let demanded = free_prior(problem, &oe, &bounds, opts, &mut r);
+        let (demanded, freed) = free_prior(problem, &oe, &bounds, opts, &mut r);
         // The lag was found by a line search, the coefficients at it: counted as a parameter,
-        // its trade with the inertia and damping widens their errors.
+        // its trade with the inertia and damping widens their errors. The polish's last joint
+        // view is of this very fit unless the prior was freed since.
         if let Some(l) = lag.as_mut().filter(|l| l.estimated) {
-            l.stderr_s = joint_with_lag(vehicle, responses, layout, opts, l.value_s, &mut r);
+            let j = match polished {
+                Some(j) if !freed => j,
+                _ => joint(vehicle, responses, layout, opts.per_run, l.value_s, &r),
+            };
+            l.stderr_s = with_joint_errors(j, &mut r);
+            // A freed prior's fit is not the one the profile's bounds would hold.
+            if !freed {
+                let from = [r.theta.as_slice(), &r.nuisance].concat();
+                let on = (layout, opts.per_run);
+                let at = (l.value_s, r.cost_after);
+                l.profile = super::lag::profile(vehicle, responses, on, at, &from, &bounds);
+            }
         }
         let parameters = (0..r.theta.len())
             .map(|j| {
                 let beyond = demanded.iter().find(|d| d.0 == j).map(|d| (d.1, d.2));
-                estimate(problem, &bounds, &r, j, opts, beyond)
+                let e = estimate(problem, &bounds, &r, j, opts, beyond);
+                over_the_lag(e, lag.as_ref(), j, problem)
             })
             .collect();
         let residual = ols::residual_sigma(problem, &r.theta);
@@ -169,19 +183,19 @@ impl Estimator for Pem {
 /// The prior is soft: an added mass on it is freed (up to the population methods' search
 /// bound) and kept beyond it only when the runs demand it; then `r` is the freed fit. Returns
 /// the parameters the runs took beyond their prior, with the output error held on it and
-/// freed.
+/// freed, and whether `r` was replaced by the freed fit.
 fn free_prior(
     problem: &Regression,
     oe: &OutputError,
     bounds: &Bounds,
     opts: &Options,
     r: &mut super::refine::Refined,
-) -> Vec<(usize, f64, f64)> {
+) -> (Vec<(usize, f64, f64)>, bool) {
     let on_prior: Vec<usize> = (0..r.theta.len())
         .filter(|&j| is_added_mass(problem, j) && bounds.at_prior(j, r.theta[j]))
         .collect();
     if on_prior.is_empty() {
-        return Vec::new();
+        return (Vec::new(), false);
     }
     let mut wide = bounds.clone();
     for &j in &on_prior {
@@ -191,7 +205,7 @@ fn free_prior(
     let from = [r.theta.as_slice(), &r.nuisance].concat();
     let freed = output_error_lm_within(oe, &problem.layout, &from, opts.iterations, &wide);
     if freed.cost_after.is_nan() || freed.cost_after >= (1.0 - DEMAND) * r.cost_after {
-        return Vec::new();
+        return (Vec::new(), false);
     }
     let demanded = on_prior
         .iter()
@@ -199,11 +213,12 @@ fn free_prior(
         .map(|&j| (j, r.cost_after, freed.cost_after))
         .collect();
     *r = freed;
-    demanded
+    (demanded, true)
 }
 
 /// The output-error fit from `theta0` with the command lag `opts` asks for: none, the one set,
-/// or (`auto`) the one the runs demand, searched from the fit without a lag.
+/// or (`auto`) the one the runs demand, searched from the fit without a lag; with the joint
+/// view of the fit and the lag where the search's polish left one at that fit.
 fn with_lag(
     vehicle: &crate::core::model::Vehicle,
     responses: &[&crate::core::response::Response],
@@ -211,13 +226,17 @@ fn with_lag(
     theta0: &[f64],
     bounds: &Bounds,
     opts: &Options,
-) -> (Option<LagEstimate>, super::refine::Refined) {
+) -> (
+    Option<LagEstimate>,
+    super::refine::Refined,
+    Option<super::refine::Joint>,
+) {
     let fit = |lag: f64, from: &[f64]| {
         let oe = OutputError::with_lag(vehicle, responses, lag).with_per_run(opts.per_run);
         output_error_lm_within(&oe, layout, from, opts.iterations, bounds)
     };
     match opts.command_lag {
-        CommandLag::None => (None, fit(0.0, theta0)),
+        CommandLag::None => (None, fit(0.0, theta0), None),
         CommandLag::Seconds(x) => {
             let r = fit(x, theta0);
             let set = LagEstimate {
@@ -226,8 +245,9 @@ fn with_lag(
                 cost_without: f64::NAN,
                 cost_with: r.cost_after,
                 estimated: false,
+                profile: Vec::new(),
             };
-            (Some(set), r)
+            (Some(set), r, None)
         }
         CommandLag::Auto => {
             let r0 = fit(0.0, theta0);
@@ -239,7 +259,7 @@ fn with_lag(
                         joint(vehicle, responses, layout, opts.per_run, lag, r)
                     };
                     let r = fit(est.value_s, &theta);
-                    let (value_s, r) = polish_lag(&fit, &joint_at, est.value_s, r);
+                    let (value_s, r, last) = polish_lag(&fit, &joint_at, est.value_s, r);
                     (
                         Some(LagEstimate {
                             value_s,
@@ -247,9 +267,10 @@ fn with_lag(
                             ..est
                         }),
                         r,
+                        last,
                     )
                 }
-                None => (None, r0),
+                None => (None, r0, None),
             }
         }
     }
@@ -284,19 +305,11 @@ fn joint(
     super::refine::errors_with(&oe, layout, r, column)
 }
 
-/// The coefficients' standard errors and correlations of `r` (fitted at the estimated command
-/// lag `lag`) with the lag counted as a parameter: a lag traded against inertia and damping
-/// on the runs leaves those uncertain, which errors conditional on the lag would hide. The
+/// The coefficients' standard errors and correlations of `r` from `j`, its joint view with the
+/// estimated command lag counted as a parameter: a lag traded against inertia and damping on
+/// the runs leaves those uncertain, which errors conditional on the lag would hide. The
 /// correlations then have the lag as their last row and column; returns its standard error.
-fn joint_with_lag(
-    vehicle: &crate::core::model::Vehicle,
-    responses: &[&crate::core::response::Response],
-    layout: &crate::core::model::ParamLayout,
-    opts: &Options,
-    lag: f64,
-    r: &mut super::refine::Refined,
-) -> f64 {
-    let mut j = joint(vehicle, responses, layout, opts.per_run, lag, r);
+fn with_joint_errors(mut j: super::refine::Joint, r: &mut super::refine::Refined) -> f64 {
     let lag_stderr = j.stderr.pop().unwrap_or(f64::NAN);
     r.stderr = j.stderr;
     r.correlation = j.correlation;
@@ -305,17 +318,19 @@ fn joint_with_lag(
 
 /// A Gauss-Newton step of the lag and the coefficients together from the line search's best
 /// (its bracket and short probe fits leave the lag a few hundredths of a second off), the
-/// coefficients refitted at the new lag, kept when the output error falls.
+/// coefficients refitted at the new lag, kept when the output error falls. Returns the lag, the
+/// fit, and the joint view of the two where the last one computed is of them.
 fn polish_lag(
     fit: &dyn Fn(f64, &[f64]) -> super::refine::Refined,
     joint_at: &dyn Fn(f64, &super::refine::Refined) -> super::refine::Joint,
     mut lag: f64,
     mut r: super::refine::Refined,
-) -> (f64, super::refine::Refined) {
+) -> (f64, super::refine::Refined, Option<super::refine::Joint>) {
     for _ in 0..LAG_POLISH_STEPS {
+        // Every way out of the loop but the last step leaves `j` the view of (lag, r).
         let j = joint_at(lag, &r);
         let Some((&dlag, rest)) = j.step.split_last().filter(|(d, _)| d.is_finite()) else {
-            break;
+            return (lag, r, Some(j));
         };
         let next = lag + dlag;
         // A step well inside the lag's standard error changes nothing a user reads; one out
@@ -323,7 +338,7 @@ fn polish_lag(
         let stderr = j.stderr.last().copied().unwrap_or(f64::NAN);
         let small = stderr.is_nan() || dlag.abs() < POLISHED * stderr;
         if small || !(0.0..=super::lag::MAX_LAG_S).contains(&next) {
-            break;
+            return (lag, r, Some(j));
         }
         let from: Vec<f64> = r
             .theta
@@ -334,11 +349,48 @@ fn polish_lag(
             .collect();
         let tried = fit(next, &from);
         if tried.cost_after.is_nan() || tried.cost_after >= r.cost_after {
-            break;
+            return (lag, r, Some(j));
         }
         (lag, r) = (next, tried);
     }
-    (lag, r)
+    (lag, r, None)
+}
+
+/// Estimate `e` of coefficient `j` with its range over the command lags the runs cannot tell
+/// apart (`lag`'s profile) as its interval; where that range reaches beyond two standard
+/// errors, said in its note, and where it is wider than the value itself, not identifiable
+/// (the rule a standard error over half the value follows).
+fn over_the_lag(
+    mut e: Estimate,
+    lag: Option<&LagEstimate>,
+    j: usize,
+    problem: &Regression,
+) -> Estimate {
+    let Some(l) = lag else {
+        return e;
+    };
+    let (Some([lo, hi]), Some([a, b])) = (l.range_of(j, e.value), l.lag_range()) else {
+        return e;
+    };
+    e.interval = Some([lo, hi]);
+    let spread = hi - lo;
+    if spread <= 4.0 * e.stderr {
+        return e;
+    }
+    let dof = problem.layout.terms[j].dof();
+    let said = format!(
+        "{} is {lo:.4} to {hi:.4} over the command lags {a:.2}-{b:.2} s, whose output errors are within {:.0} % of the fit's: the runs cannot tell this coefficient's share from the lag's, whatever its standard error says; steps of the command in {dof}, which a lag delays and an inertia or damping shapes, would",
+        e.name,
+        100.0 * super::lag::DEMAND,
+    );
+    e.note = Some(match e.note.take() {
+        Some(n) => format!("{n}; {said}"),
+        None => said,
+    });
+    if spread > e.value.abs() {
+        e.identifiable = false;
+    }
+    e
 }
 
 /// Gauss-Newton steps of the lag at most, and the step, in standard errors of the lag, below
@@ -556,6 +608,94 @@ mod tests {
             assert_eq!((r.names.len(), r.correlation.len()), (n, n));
             assert!(r.correlation.iter().all(|row| row.len() == n));
             assert!((r.correlation[n - 1][n - 1] - 1.0).abs() < 1e-9);
+            // Steps of the command tell a lag from an inertia: no lag a profile step away is
+            // within the margin, and no coefficient gets a range over lags.
+            assert!(l.profile.is_empty(), "seed {seed}: {:?}", l.profile);
+            assert!(fit.parameters.iter().all(|p| p.interval.is_none()));
+        }
+    }
+
+    /// A coefficient that moves with the lag over lags the runs cannot tell apart gets that
+    /// range as its interval and says so; one wider than its value is not identifiable, and one
+    /// within its standard errors is left alone.
+    #[test]
+    fn a_coefficient_that_trades_with_the_lag_says_its_range() {
+        let vehicle = Vehicle::reference();
+        let t = vec![0.0, 0.1];
+        let responses = [lagged_run_stub(&t)];
+        let refs: Vec<_> = responses.iter().collect();
+        let reg = Regression::build(&vehicle, &refs, 0.0);
+        let n = reg.layout.len();
+        let point = |lag_s: f64, x: f64| super::super::lag::LagPoint {
+            lag_s,
+            cost: 0.5,
+            theta: (0..n).map(|j| if j == 0 { x } else { -1.0 }).collect(),
+        };
+        let lag = LagEstimate {
+            value_s: 0.2,
+            stderr_s: 0.005,
+            cost_without: 0.6,
+            cost_with: 0.5,
+            estimated: true,
+            profile: vec![point(0.1, -3.0), point(0.3, -0.5)],
+        };
+        let est = |value: f64, stderr: f64| Estimate {
+            name: "X".into(),
+            value,
+            unit: "kg".into(),
+            stderr,
+            interval: None,
+            identifiable: true,
+            note: None,
+        };
+        // Coefficient 0 runs from -3 to -0.5 over 0.1-0.3 s: wider than its value -2.
+        let e = over_the_lag(est(-2.0, 0.05), Some(&lag), 0, &reg);
+        assert_eq!(e.interval, Some([-3.0, -0.5]));
+        assert!(!e.identifiable);
+        assert!(
+            e.note.as_deref().unwrap().contains("0.10-0.30 s"),
+            "{:?}",
+            e.note
+        );
+        // Wider than four standard errors but narrower than the value: said, still trusted.
+        let e = over_the_lag(est(-20.0, 0.05), Some(&lag), 0, &reg);
+        assert!(e.identifiable && e.note.is_some());
+        // Coefficient 1 stays at -1 over the lags: an interval, nothing to say.
+        let e = over_the_lag(est(-1.0, 0.05), Some(&lag), 1, &reg);
+        assert_eq!(e.interval, Some([-1.0, -1.0]));
+        assert!(e.identifiable && e.note.is_none());
+        // No profile, no interval.
+        let bare = LagEstimate {
+            profile: Vec::new(),
+            ..lag
+        };
+        assert!(
+            over_the_lag(est(-2.0, 0.05), Some(&bare), 0, &reg)
+                .interval
+                .is_none()
+        );
+    }
+
+    /// A two-sample run of the reference vehicle's DOFs at rest: enough for a layout.
+    fn lagged_run_stub(t: &[f64]) -> Response {
+        let dofs = Vehicle::reference()
+            .dofs
+            .iter()
+            .map(|&d| {
+                let series = Series {
+                    force: vec![0.0; t.len()],
+                    accel: vec![0.0; t.len()],
+                    velocity: vec![0.0; t.len()],
+                    force_source: Source::Column,
+                    accel_source: Source::Differentiated,
+                };
+                (d, series)
+            })
+            .collect();
+        Response {
+            t: t.to_vec(),
+            dofs,
+            attitude: Vec::new(),
         }
     }
 }

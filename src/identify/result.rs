@@ -157,6 +157,7 @@ impl FitResult {
             cost_without: f64::NAN,
             cost_with: f64::NAN,
             estimated: false,
+            profile: Vec::new(),
         });
         FitResult {
             stage: stage.to_string(),

@@ -353,7 +353,8 @@ const FOLD_ABOVE: usize = 40;
 fn parameter_row(h: &mut String, f: &FitResult, p: &Parameter) {
     let rel = 100.0 * p.stderr / p.value.abs();
     let flag = match (p.identifiable, &p.note) {
-        (true, _) => String::new(),
+        (true, Some(what)) => format!(" <span class=\"small\">{}</span>", esc(what)),
+        (true, None) => String::new(),
         (false, Some(why)) => format!(
             " <span class=\"warn\">not identifiable: {}</span>",
             esc(why)
@@ -365,7 +366,15 @@ fn parameter_row(h: &mut String, f: &FitResult, p: &Parameter) {
         "<tr><td><code>{n}</code>{flag}</td><td>{v}</td><td>{e}</td><td>{u}</td><td>{r:.2} %</td><td><a href=\"#prov-{s}-{n}\">inputs</a></td></tr>",
         n = esc(&p.name),
         v = num(p.value),
-        e = num(p.stderr),
+        e = match p.interval {
+            Some([lo, hi]) => format!(
+                "{}<br><span class=\"small\">range {} to {}</span>",
+                num(p.stderr),
+                num(lo),
+                num(hi)
+            ),
+            None => num(p.stderr),
+        },
         u = esc(&p.unit),
         r = rel,
         s = esc(&f.stage),

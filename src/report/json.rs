@@ -60,13 +60,13 @@ pub fn parameters(fits: &[FitResult]) -> Parameters {
             });
         }
         // The command path's parameters, identified with the model.
-        let mut extra = |name: &str, value, unit: &str, stderr, identifiable, note| {
+        let mut extra = |name: &str, value, unit: &str, stderr, interval, identifiable, note| {
             out.push(Parameter {
                 name: name.into(),
                 value,
                 unit: unit.into(),
                 stderr,
-                interval: None,
+                interval,
                 identifiable,
                 note: Some(note),
                 model: f.stage.clone(),
@@ -78,12 +78,17 @@ pub fn parameters(fits: &[FitResult]) -> Parameters {
         };
         if let Some(l) = &f.fit.command_lag {
             let (stderr, note) = lag_note(l);
-            let sure = l.estimated && stderr.is_finite() && stderr < 0.5 * l.value_s;
-            extra("T_cmd", l.value_s, "s", stderr, sure, note);
+            let range = l.lag_range();
+            let spread = range.map_or(0.0, |[a, b]| b - a);
+            let sure = l.estimated
+                && stderr.is_finite()
+                && stderr < 0.5 * l.value_s
+                && spread <= l.value_s;
+            extra("T_cmd", l.value_s, "s", stderr, range, sure, note);
         }
         if let Some(g) = &f.fit.thrust_gain {
             let sure = g.consistent && g.stderr < 0.1 * g.value.abs();
-            extra("k_thrust", g.value, "-", g.stderr, sure, g.sentence());
+            extra("k_thrust", g.value, "-", g.stderr, None, sure, g.sentence());
         }
     }
     Parameters { parameters: out }
@@ -99,10 +104,16 @@ fn lag_note(l: &crate::identify::lag::LagEstimate) -> (f64, String) {
     } else {
         l.value_s
     };
-    let note = format!(
+    let mut note = format!(
         "the first-order lag between the logged command and the force (thrusters, command path), identified with the model: it lowered the output error of the training runs from {:.4} to {:.4}; its standard error counts it as a parameter beside the coefficients, whose errors include what they trade with it",
         l.cost_without, l.cost_with
     );
+    if let Some([a, b]) = l.lag_range() {
+        note.push_str(&format!(
+            "; refitted with the lag held from {a:.2} to {b:.2} s the output error stays within {:.0} % of this fit's, so the runs do not tell those lags apart (the interval; the coefficients' intervals are their values over those lags)",
+            100.0 * crate::identify::lag::DEMAND
+        ));
+    }
     (stderr, note)
 }
 
