@@ -1,0 +1,176 @@
+use super::*;
+use crate::core::model::dynamics::lagged;
+use crate::core::model::{Hydro, Plant, Vehicle};
+use crate::core::response::{Response, Series, Source, differentiate};
+use crate::core::rng::Rng;
+
+/// A run of the reference vehicle under random steps of the command, delivered through a
+/// first-order lag of `lag_s`, its velocities noisy.
+fn lagged_run(plant: &Plant, lag_s: f64, rng: &mut Rng) -> Response {
+    let t: Vec<f64> = (0..1200).map(|k| k as f64 * 0.05).collect();
+    let scale = [40.0, 40.0, 40.0, 0.0, 0.0, 8.0];
+    let mut level = [0.0; 6];
+    let cmd: Vec<[f64; 6]> = (0..t.len())
+        .map(|k| {
+            if k % 50 == 0 {
+                level = std::array::from_fn(|i| scale[i] * (2.0 * rng.uniform() - 1.0));
+            }
+            level
+        })
+        .collect();
+    let nu = plant.simulate(&t, &lagged(&t, &cmd, lag_s), [0.0; 6], 0.01);
+    let dofs = Vehicle::reference()
+        .dofs
+        .iter()
+        .map(|&d| {
+            let i = d.index();
+            let velocity: Vec<f64> = nu.iter().map(|v| v[i] + 0.005 * rng.normal()).collect();
+            let series = Series {
+                force: cmd.iter().map(|c| c[i]).collect(),
+                accel: differentiate(&t, &velocity),
+                velocity,
+                force_source: Source::Column,
+                accel_source: Source::Differentiated,
+            };
+            (d, series)
+        })
+        .collect();
+    Response {
+        t,
+        dofs,
+        attitude: Vec::new(),
+    }
+}
+
+/// A known command lag is found within three of its standard errors (counted beside the
+/// coefficients; the line search alone leaves it up to its 0.02 s bracket off, a hundred
+/// of them), and the correlation matrix has its row.
+#[test]
+fn the_command_lag_is_found_and_counted_with_the_coefficients() {
+    let vehicle = Vehicle::reference();
+    let plant = Plant::new(&vehicle, Hydro::reference());
+    for (seed, truth) in [(1, 0.25), (3, 0.1), (4, 0.4)] {
+        let mut rng = Rng::derive(seed, "lagged runs");
+        let responses: Vec<_> = (0..4)
+            .map(|_| lagged_run(&plant, truth, &mut rng))
+            .collect();
+        let refs: Vec<_> = responses.iter().collect();
+        let reg = Regression::build(&vehicle, &refs, 0.0);
+        let mut o = Options {
+            rigid_mass: vehicle.rigid_mass(),
+            output_error: Some((&vehicle, &refs[..])),
+            ..Options::default()
+        };
+        Pem.settings(Default::default()).unwrap().apply(&mut o);
+        // The reference vehicle's heave added mass is 2.4 times its mass: within reach
+        // (held at 2, the lag grows to make up the missing inertia).
+        o.added_mass_prior[2] = 3.0;
+        let fit = Pem.fit(&reg, &o).unwrap();
+        let l = fit.command_lag.expect("a lag found");
+        assert!(
+            (l.value_s - truth).abs() <= 3.0 * l.stderr_s,
+            "seed {seed}: T_cmd {} ± {} for {truth}",
+            l.value_s,
+            l.stderr_s
+        );
+        assert!(
+            l.stderr_s > 0.0 && l.stderr_s < 0.01,
+            "seed {seed}: T_cmd ± {}",
+            l.stderr_s
+        );
+        let r = fit.refinement.as_ref().unwrap();
+        let n = fit.parameters.len() + 1;
+        assert_eq!(r.names.last().map(String::as_str), Some("T_cmd"));
+        assert_eq!((r.names.len(), r.correlation.len()), (n, n));
+        assert!(r.correlation.iter().all(|row| row.len() == n));
+        assert!((r.correlation[n - 1][n - 1] - 1.0).abs() < 1e-9);
+        // Steps of the command tell a lag from an inertia: no lag a profile step away is
+        // within the margin, and no coefficient gets a range over lags.
+        assert!(l.profile.is_empty(), "seed {seed}: {:?}", l.profile);
+        assert!(fit.parameters.iter().all(|p| p.interval.is_none()));
+    }
+}
+
+/// A coefficient that moves with the lag over lags the runs cannot tell apart gets that
+/// range as its interval and says so; one wider than its value is not identifiable, and one
+/// within its standard errors is left alone.
+#[test]
+fn a_coefficient_that_trades_with_the_lag_says_its_range() {
+    let vehicle = Vehicle::reference();
+    let t = vec![0.0, 0.1];
+    let responses = [lagged_run_stub(&t)];
+    let refs: Vec<_> = responses.iter().collect();
+    let reg = Regression::build(&vehicle, &refs, 0.0);
+    let n = reg.layout.len();
+    let point = |lag_s: f64, x: f64| super::super::lag::LagPoint {
+        lag_s,
+        cost: 0.5,
+        theta: (0..n).map(|j| if j == 0 { x } else { -1.0 }).collect(),
+    };
+    let lag = LagEstimate {
+        value_s: 0.2,
+        stderr_s: 0.005,
+        cost_without: 0.6,
+        cost_with: 0.5,
+        estimated: true,
+        profile: vec![point(0.1, -3.0), point(0.3, -0.5)],
+    };
+    let est = |value: f64, stderr: f64| Estimate {
+        name: "X".into(),
+        value,
+        unit: "kg".into(),
+        stderr,
+        interval: None,
+        identifiable: true,
+        note: None,
+    };
+    // Coefficient 0 runs from -3 to -0.5 over 0.1-0.3 s: wider than its value -2.
+    let e = over_the_lag(est(-2.0, 0.05), Some(&lag), 0, &reg);
+    assert_eq!(e.interval, Some([-3.0, -0.5]));
+    assert!(!e.identifiable);
+    assert!(
+        e.note.as_deref().unwrap().contains("0.10-0.30 s"),
+        "{:?}",
+        e.note
+    );
+    // Wider than four standard errors but narrower than the value: said, still trusted.
+    let e = over_the_lag(est(-20.0, 0.05), Some(&lag), 0, &reg);
+    assert!(e.identifiable && e.note.is_some());
+    // Coefficient 1 stays at -1 over the lags: an interval, nothing to say.
+    let e = over_the_lag(est(-1.0, 0.05), Some(&lag), 1, &reg);
+    assert_eq!(e.interval, Some([-1.0, -1.0]));
+    assert!(e.identifiable && e.note.is_none());
+    // No profile, no interval.
+    let bare = LagEstimate {
+        profile: Vec::new(),
+        ..lag
+    };
+    assert!(
+        over_the_lag(est(-2.0, 0.05), Some(&bare), 0, &reg)
+            .interval
+            .is_none()
+    );
+}
+
+/// A two-sample run of the reference vehicle's DOFs at rest: enough for a layout.
+fn lagged_run_stub(t: &[f64]) -> Response {
+    let dofs = Vehicle::reference()
+        .dofs
+        .iter()
+        .map(|&d| {
+            let series = Series {
+                force: vec![0.0; t.len()],
+                accel: vec![0.0; t.len()],
+                velocity: vec![0.0; t.len()],
+                force_source: Source::Column,
+                accel_source: Source::Differentiated,
+            };
+            (d, series)
+        })
+        .collect();
+    Response {
+        t: t.to_vec(),
+        dofs,
+        attitude: Vec::new(),
+    }
+}
