@@ -6,6 +6,7 @@ use crate::twin::world::Effect;
 mod discovery;
 mod guards;
 mod joint;
+mod nav_only;
 mod piloted;
 use piloted::piloted_fast_runs;
 

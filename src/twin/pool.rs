@@ -13,7 +13,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 mod render;
-pub use render::{Latency, render};
+pub use render::{Latency, NAV_DVL_NOISE_M_S, render, render_nav};
 
 pub const POOL: Pool = Pool {
     length_m: 25.0,
@@ -312,12 +312,36 @@ pub fn write_runs(
     effects: &[Effect],
     seed: u64,
 ) -> anyhow::Result<Vec<PathBuf>> {
+    write_runs_seen(cases_dir, truth_dir, runs, effects, seed, Logs::Sensors)
+}
+
+/// What a run folder holds: the pool's own sensors ([`render`]: UWB, sonar, IMU, depth) or the
+/// vehicle's navigation log ([`render_nav`]: DVL and AHRS, depth).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Logs {
+    Sensors,
+    Navigation,
+}
+
+/// [`write_runs`] with the run folders holding `logs`.
+pub fn write_runs_seen(
+    cases_dir: &Path,
+    truth_dir: &Path,
+    runs: &[RunSpec],
+    effects: &[Effect],
+    seed: u64,
+    logs: Logs,
+) -> anyhow::Result<Vec<PathBuf>> {
     let w = world(effects);
     let mut written = Vec::new();
     for spec in runs {
         let truth = simulate(&w, spec, seed);
-        written.push(write_truth(
-            cases_dir, truth_dir, spec, &truth, effects, seed,
+        written.push(write_truth_seen(
+            (cases_dir, truth_dir),
+            spec,
+            &truth,
+            (effects, seed),
+            logs,
         )?);
     }
     Ok(written)
@@ -342,12 +366,28 @@ pub fn write_truth(
     effects: &[Effect],
     seed: u64,
 ) -> anyhow::Result<PathBuf> {
+    let dirs = (cases_dir, truth_dir);
+    write_truth_seen(dirs, spec, truth, (effects, seed), Logs::Sensors)
+}
+
+/// [`write_truth`] with the run folder holding `logs`.
+fn write_truth_seen(
+    (cases_dir, truth_dir): (&Path, &Path),
+    spec: &RunSpec,
+    truth: &Truth,
+    (effects, seed): (&[Effect], u64),
+    logs: Logs,
+) -> anyhow::Result<PathBuf> {
     std::fs::create_dir_all(truth_dir)?;
     let sensors = Sensors::draw(&mut Rng::derive(
         seed,
         &format!("pool/{}/errors", spec.name),
     ));
-    let mut files = render(spec, truth, &sensors, Latency::of(effects), seed);
+    let latency = Latency::of(effects);
+    let mut files = match logs {
+        Logs::Sensors => render(spec, truth, &sensors, latency, seed),
+        Logs::Navigation => render_nav(spec, truth, &sensors, latency, seed),
+    };
     files.retain(|(name, _)| spec.sonar || *name != "sonar.csv");
     let record = TruthRecord {
         run: spec.name.clone(),

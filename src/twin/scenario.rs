@@ -9,15 +9,26 @@ use rayon::prelude::*;
 
 /// The fused runs of one generated scenario, as the `pool` stage would store them.
 pub fn fused_runs(effects: &[Effect], seed: u64) -> anyhow::Result<Vec<FusedRun>> {
+    fused_runs_seen(effects, seed, twin::Logs::Sensors)
+}
+
+/// [`fused_runs`] with the run folders holding `logs` (the pool's sensors or the vehicle's
+/// navigation log).
+pub fn fused_runs_seen(
+    effects: &[Effect],
+    seed: u64,
+    logs: twin::Logs,
+) -> anyhow::Result<Vec<FusedRun>> {
     let tmp = tempfile::tempdir()?;
     let root = tmp.path();
     let specs = twin::default_runs();
-    twin::write_runs(
+    twin::write_runs_seen(
         &root.join("cases/pool"),
         &root.join("truth/pool"),
         &specs,
         effects,
         seed,
+        logs,
     )?;
     specs
         .par_iter()

@@ -119,6 +119,78 @@ pub fn render(
     files
 }
 
+/// The files of one run folder of a vehicle that logs its own navigation only (a DVL's
+/// velocity and an AHRS's attitude in `nav.csv`, and a depth gauge): no UWB, sonar or IMU, the
+/// run's start position in `run.yaml` so that a position can be dead-reckoned. The same truth
+/// and effects as [`render`]; `latency` (a concealed `sensor_delay`) makes the navigation log
+/// and the depth late as it does the other sensors.
+pub fn render_nav(
+    spec: &RunSpec,
+    truth: &Truth,
+    sensors: &Sensors,
+    latency: Latency,
+    seed: u64,
+) -> Vec<(&'static str, String)> {
+    let mut rng = Rng::derive(seed, &format!("pool/{}/navigation log", spec.name));
+    let end = *truth.t.last().unwrap();
+    let filtered;
+    let sensed = if latency.filter_s > 0.0 {
+        filtered = low_pass(truth, latency.filter_s);
+        &filtered
+    } else {
+        truth
+    };
+    let seen = |t: f64| at(sensed, t - latency.delay_s);
+    let start = truth.states[0].pos;
+    let run = format!(
+        "{}start_m: [{:.3}, {:.3}]\n",
+        run_yaml(spec),
+        start[0],
+        start[1]
+    );
+    vec![
+        ("run.yaml", run),
+        ("thrust.csv", thrust_csv(truth)),
+        ("nav.csv", nav_csv(&seen, end, &mut rng)),
+        ("depth.csv", depth_csv(&seen, end, sensors, &mut rng)),
+    ]
+}
+
+/// The DVL's velocity noise (white, each ping), m/s, of [`render_nav`]'s navigation log.
+pub const NAV_DVL_NOISE_M_S: f64 = 0.012;
+
+/// The DVL's ping interval, s.
+const NAV_DVL_PERIOD_S: f64 = 0.125;
+
+/// `nav.csv`: the vehicle's navigation output at an irregular 4-6 Hz, each row the last DVL
+/// ping's body velocity (white noise [`NAV_DVL_NOISE_M_S`]) and the AHRS's attitude (0.3 deg
+/// noise on roll and pitch, 0.5 deg on the heading).
+fn nav_csv(seen: &Seen, end: f64, rng: &mut Rng) -> String {
+    let mut nav = String::from("t,u_m_s,v_m_s,w_m_s,roll_deg,pitch_deg,yaw_deg\n");
+    let (mut ping, mut t) = (0.1, 0.2 + 0.1 * rng.uniform());
+    let mut dvl = [0.0; 3];
+    while t <= end {
+        while ping <= t {
+            let (s, _) = seen(ping);
+            dvl = std::array::from_fn(|i| s.nu[i] + NAV_DVL_NOISE_M_S * rng.normal());
+            ping += NAV_DVL_PERIOD_S;
+        }
+        let (s, _) = seen(t);
+        let _ = writeln!(
+            nav,
+            "{t:.3},{:.4},{:.4},{:.4},{:.2},{:.2},{:.2}",
+            dvl[0],
+            dvl[1],
+            dvl[2],
+            0.3 * rng.normal(),
+            0.3 * rng.normal(),
+            wrap_deg(s.psi.to_degrees() + 0.5 * rng.normal()),
+        );
+        t += 1.0 / (4.0 + 2.0 * rng.uniform());
+    }
+    nav
+}
+
 /// What a sensor sees at time t: the (late, filtered) state and body acceleration.
 type Seen<'a> = dyn Fn(f64) -> (State, Vec6) + 'a;
 

@@ -1,0 +1,128 @@
+//! The diagnosis of a vehicle that logs its own navigation only (a DVL's velocity and an AHRS's
+//! heading at 4-6 Hz, a depth gauge; no UWB, sonar or IMU), its position dead-reckoned from the
+//! run's start: the twin's pool runs, flown with effects concealed, rendered as such a log
+//! (`twin::pool::render_nav`, written apart from the diagnosis's forms).
+
+use super::*;
+use crate::twin::pool::Logs;
+
+fn nav_diagnosis(effects: &[Effect], seed: u64) -> Diagnosis {
+    let fused = scenario::fused_runs_seen(effects, seed, Logs::Navigation).unwrap();
+    let d = full(&fused, &scenario::cfd_fit_plant(1).unwrap());
+    eprintln!(
+        "{effects:?} seed {seed}: {:?}\n  {}",
+        d.effects
+            .iter()
+            .map(|e| e.name_with_alike())
+            .collect::<Vec<_>>(),
+        d.verdict
+    );
+    d
+}
+
+fn named(d: &Diagnosis) -> Vec<&str> {
+    d.effects
+        .iter()
+        .map(|e| e.name.as_str())
+        .filter(|n| *n != "unexplained")
+        .collect()
+}
+
+/// Runs with nothing concealed stay clean on a navigation log as on the pool's sensors.
+#[test]
+fn effect_free_navigation_logs_stay_clean() {
+    for seed in [2, 3] {
+        let d = nav_diagnosis(&[], seed);
+        assert!(
+            d.effects.is_empty() && d.verdict.starts_with("No missing physics"),
+            "seed {seed}: {:?}\n{}",
+            named(&d),
+            d.verdict
+        );
+        assert!(d.untested.is_empty(), "seed {seed}: {:?}", d.untested);
+    }
+}
+
+/// Net buoyancy and a tether's drag (read on the dead-reckoned position) are named from a
+/// navigation log, the buoyancy within 15 %.
+#[test]
+fn effects_are_named_from_a_navigation_log() {
+    let d = nav_diagnosis(&[Effect::NetBuoyancy { force_n: 8.0 }], 3);
+    assert_eq!(named(&d), ["net_buoyancy"], "{}", d.verdict);
+    let f = d.effects[0].parameters["force_n"];
+    assert!((f - 8.0).abs() < 0.15 * 8.0, "force_n {f}");
+    let e = Effect::from_arg("tether_drag=1.5").unwrap();
+    let d = nav_diagnosis(std::slice::from_ref(&e), 2);
+    assert_eq!(d.runs.dead_reckoned.len(), 6, "{:?}", d.runs);
+    assert!(named(&d).contains(&"tether_drag"), "{}", d.verdict);
+}
+
+/// Not yet: a periodic heave force (18 N at 0.42 Hz) is "within noise" from a navigation log
+/// (held-out cost 0.8-1.4 times the floor on seeds 3-5). The smoother assumes the navigation
+/// log's largest spread over lags up to 0.8 s, 1.5-3 times the DVL's noise, and flattens the
+/// 0.42 Hz heave motion by about 40 %. Smoothed under the sensor's own noise the wave is
+/// reported on all three seeds (1.6-3.2 times the floor, and discovery finds
+/// `Z += 16.9 sin(2 pi 0.420 t + 0.12)`), but the equation-error fits that differentiate the
+/// same velocities then predict worse (six-DOF surge NMAE 0.13): the diagnosis needs
+/// velocities of its own.
+#[test]
+#[ignore = "the navigation-log smoother flattens a 0.42 Hz heave motion"]
+fn a_periodic_force_is_reported_from_a_navigation_log() {
+    for seed in [3, 4, 5] {
+        assert_reported(&wave(18.0, 0.42), seed);
+    }
+}
+
+/// Not yet: a 14 N heave force at 0.545 Hz is read as the DVL's noise besides (the heave
+/// channel's sensor noise comes out 1.6-2.6 times the 1.2 cm/s the twin adds), so the
+/// held-out cost is half the floor even with the smoother above.
+#[test]
+#[ignore = "the heave channel's noise figure takes a 0.545 Hz motion for noise"]
+fn a_faster_periodic_force_is_reported_from_a_navigation_log() {
+    for seed in [3, 4, 5] {
+        assert_reported(&wave(14.0, 0.545), seed);
+    }
+}
+
+fn wave(force_n: f64, frequency_hz: f64) -> Effect {
+    Effect::Wave {
+        force_n,
+        frequency_hz,
+        phase_rad: 0.3,
+    }
+}
+
+fn assert_reported(e: &Effect, seed: u64) {
+    let d = nav_diagnosis(std::slice::from_ref(e), seed);
+    let ratio = d.baseline.validation_cost / d.baseline.noise_cost;
+    assert!(
+        !d.verdict.starts_with("No missing physics")
+            && d.effects.iter().any(|x| x.name == "unexplained"),
+        "{e:?} seed {seed} (cost {ratio:.1} times the noise floor): {}",
+        d.verdict
+    );
+}
+
+/// A late navigation log and slow thrusters look alike: each is named, or listed beside the
+/// other, never the wrong one alone.
+#[test]
+fn a_late_navigation_log_is_not_taken_for_slow_thrusters() {
+    for (arg, right, wrong, seed) in [
+        ("sensor_delay=0.5", "sensor_delay", "thruster_lag", 2),
+        ("thruster_lag=0.3", "thruster_lag", "sensor_delay", 3),
+    ] {
+        let e = Effect::from_arg(arg).unwrap();
+        let d = nav_diagnosis(std::slice::from_ref(&e), seed);
+        let listed = |name: &str| {
+            d.effects
+                .iter()
+                .any(|x| x.name == name || x.alike.iter().any(|a| a.name == name))
+        };
+        assert!(listed(right), "{arg}: {}", d.verdict);
+        let wrong_alone = d
+            .effects
+            .iter()
+            .any(|x| x.name == wrong && x.alike.iter().all(|a| a.name != right));
+        assert!(!wrong_alone, "{arg}: {wrong} named alone: {}", d.verdict);
+    }
+}
