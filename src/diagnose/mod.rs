@@ -133,26 +133,19 @@ impl Run {
         pool: Option<Pool>,
         anchor: Option<[f64; 3]>,
     ) -> Option<Run> {
-        let vel: [Vec<f64>; 4] = [
-            f.vel[0].clone()?,
-            f.vel[1].clone()?,
-            f.vel[2].clone()?,
-            f.vel[3].clone()?,
-        ];
-        let std: [Vec<f64>; 4] = [
-            f.std[0].clone()?,
-            f.std[1].clone()?,
-            f.std[2].clone()?,
-            f.std[3].clone()?,
-        ];
+        // The velocities that keep the motion (a navigation log's smoothed under its sensor's
+        // own noise): the diagnosis compares simulations with them, and a flattened motion
+        // hides what the model lacks.
+        let [u, v, w, r] = [0, 1, 2, 3].map(|j| f.tracking(j));
+        let (u, v, w, r) = (u?, v?, w?, r?);
         Some(Run {
             name: name.into(),
             validate,
             t: f.t.clone(),
             cmd: thrust.to_vec(),
-            vel,
-            std,
-            noise_share: f.noise_share(),
+            vel: [u.0.to_vec(), v.0.to_vec(), w.0.to_vec(), r.0.to_vec()],
+            std: [u.1.to_vec(), v.1.to_vec(), w.1.to_vec(), r.1.to_vec()],
+            noise_share: [u.2, v.2, w.2, r.2],
             pos: [f.x.clone(), f.y.clone(), f.z.clone()],
             psi: f.psi.clone(),
             pool,

@@ -68,6 +68,18 @@ fn words_agree_with_numbers(d: &Diagnosis) {
     }
 }
 
+/// Asserts that diagnosis `d` of a scenario with `e` concealed reports a structured residual,
+/// never "no missing physics".
+fn assert_reported(d: &Diagnosis, e: &Effect, seed: u64) {
+    let ratio = d.baseline.validation_cost / d.baseline.noise_cost;
+    assert!(
+        !d.verdict.starts_with("No missing physics")
+            && d.effects.iter().any(|x| x.name == "unexplained"),
+        "{e:?} seed {seed} (cost {ratio:.1} times the noise floor): {}",
+        d.verdict
+    );
+}
+
 fn scenario_diagnosis(effects: &[Effect], seed: u64) -> Diagnosis {
     full(
         &scenario::fused_runs(effects, seed).unwrap(),

@@ -70,13 +70,7 @@ fn a_periodic_force_above_the_noise_is_always_reported() {
         (wave(13.0, 0.545), 5),
     ] {
         let d = scenario_diagnosis(std::slice::from_ref(&e), seed);
-        let ratio = d.baseline.validation_cost / d.baseline.noise_cost;
-        assert!(
-            !d.verdict.starts_with("No missing physics")
-                && d.effects.iter().any(|x| x.name == "unexplained"),
-            "{e:?} seed {seed} (cost {ratio:.1} times the noise floor): {}",
-            d.verdict
-        );
+        assert_reported(&d, &e, seed);
     }
 }
 

@@ -87,6 +87,7 @@ pub(super) fn piloted_fast_runs(seed: u64) -> Vec<crate::pool::fusion::run::Fuse
             z: vec![],
             psi: vec![],
             roll_pitch: Default::default(),
+            tracked: Default::default(),
             stats: Default::default(),
         };
         let (mut vel, mut thrust) = ([vec![], vec![], vec![], vec![]], vec![]);

@@ -131,6 +131,12 @@ pub fn write_table(
             cols.push(Column::new(format!("{name}_std").into(), s));
         }
     }
+    for ((name, v), s) in VEL.iter().zip(&f.tracked.vel).zip(&f.tracked.std) {
+        if let (Some(v), Some(s)) = (v, s) {
+            cols.push(Column::new(format!("{name}_tracked").into(), v));
+            cols.push(Column::new(format!("{name}_tracked_std").into(), s));
+        }
+    }
     for (name, v) in [("x", &f.x), ("y", &f.y), ("z", &f.z), ("psi", &f.psi)] {
         cols.push(Column::new(name.into(), v));
     }
@@ -182,10 +188,16 @@ fn read_table(path: &Path, known: [bool; 4], stats: Stats) -> anyhow::Result<Tab
         roll: opt("roll")?.unwrap_or_default(),
         pitch: opt("pitch")?.unwrap_or_default(),
     };
+    let mut tracked = crate::pool::fusion::Tracked::default();
+    for (j, name) in VEL.iter().take(3).enumerate() {
+        tracked.vel[j] = opt(&format!("{name}_tracked"))?;
+        tracked.std[j] = opt(&format!("{name}_tracked_std"))?;
+    }
     let fused = Fused {
         t,
         vel,
         std,
+        tracked,
         x: get("x")?,
         y: get("y")?,
         z: get("z")?,
@@ -428,6 +440,7 @@ mod tests {
             z: vec![],
             psi: vec![],
             roll_pitch: Default::default(),
+            tracked: Default::default(),
             stats: Stats::default(),
         };
         let run = FusedRun {

@@ -59,6 +59,11 @@ impl Latency {
             })
             .unwrap_or_default()
     }
+
+    /// The truth through the sensors' low-pass, when they have one (`None`: as it is).
+    fn sensed(self, truth: &Truth) -> Option<Truth> {
+        (self.filter_s > 0.0).then(|| low_pass(truth, self.filter_s))
+    }
 }
 
 /// The truth as a sensor with a first-order low-pass of time constant `tau` sees it.
@@ -97,14 +102,8 @@ pub fn render(
 ) -> Vec<(&'static str, String)> {
     let mut rng = Rng::derive(seed, &format!("pool/{}/sensors", spec.name));
     let end = *truth.t.last().unwrap();
-    let filtered;
-    let sensed = if latency.filter_s > 0.0 {
-        filtered = low_pass(truth, latency.filter_s);
-        &filtered
-    } else {
-        truth
-    };
-    let seen = |t: f64| at(sensed, t - latency.delay_s);
+    let sensed = latency.sensed(truth);
+    let seen = |t: f64| at(sensed.as_ref().unwrap_or(truth), t - latency.delay_s);
     // The sensors draw their noise from one stream, in this order.
     let mut files = vec![
         ("run.yaml", run_yaml(spec)),
@@ -133,14 +132,8 @@ pub fn render_nav(
 ) -> Vec<(&'static str, String)> {
     let mut rng = Rng::derive(seed, &format!("pool/{}/navigation log", spec.name));
     let end = *truth.t.last().unwrap();
-    let filtered;
-    let sensed = if latency.filter_s > 0.0 {
-        filtered = low_pass(truth, latency.filter_s);
-        &filtered
-    } else {
-        truth
-    };
-    let seen = |t: f64| at(sensed, t - latency.delay_s);
+    let sensed = latency.sensed(truth);
+    let seen = |t: f64| at(sensed.as_ref().unwrap_or(truth), t - latency.delay_s);
     let start = truth.states[0].pos;
     let run = format!(
         "{}start_m: [{:.3}, {:.3}]\n",
