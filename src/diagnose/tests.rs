@@ -68,6 +68,15 @@ fn words_agree_with_numbers(d: &Diagnosis) {
     }
 }
 
+/// The effects diagnosis `d` names, `unexplained` left out.
+fn named(d: &Diagnosis) -> Vec<&str> {
+    d.effects
+        .iter()
+        .map(|e| e.name.as_str())
+        .filter(|n| *n != "unexplained")
+        .collect()
+}
+
 /// Asserts that diagnosis `d` of a scenario with `e` concealed reports a structured residual,
 /// never "no missing physics".
 fn assert_reported(d: &Diagnosis, e: &Effect, seed: u64) {

@@ -4,14 +4,6 @@
 use super::*;
 use crate::core::dof::Dof;
 
-fn named(d: &Diagnosis) -> Vec<&str> {
-    d.effects
-        .iter()
-        .map(|e| e.name.as_str())
-        .filter(|n| *n != "unexplained")
-        .collect()
-}
-
 /// A yaw moment that follows the surge thrust (a thruster mounted askew): `coupled_drag` may
 /// win the first round on part of it, but once discovery finds the thrust term, the named
 /// effect no longer earns its margin and is dropped, said in the verdict.

@@ -20,14 +20,6 @@ fn nav_diagnosis(effects: &[Effect], seed: u64) -> Diagnosis {
     d
 }
 
-fn named(d: &Diagnosis) -> Vec<&str> {
-    d.effects
-        .iter()
-        .map(|e| e.name.as_str())
-        .filter(|n| *n != "unexplained")
-        .collect()
-}
-
 /// Runs with nothing concealed stay clean on a navigation log as on the pool's sensors.
 #[test]
 fn effect_free_navigation_logs_stay_clean() {
