@@ -52,8 +52,9 @@ fn effects_are_named_from_a_navigation_log() {
 /// A periodic heave force (18 N at 0.42 Hz) is reported from a navigation log on every seed,
 /// never "within noise", and discovery gives its closed form. The diagnosis reads the log's
 /// velocities smoothed under the sensor's own noise (`pool::fusion::Tracked`): under the
-/// larger figure the fits use, the 0.42 Hz motion was flattened by 40 % and the held-out cost
-/// was 0.8-1.4 times the floor ("no missing physics" on all three seeds).
+/// larger figure the fits use, the 0.42 Hz motion was smoothed away (the heave error against
+/// the truth 0.012 m/s rms where the wave is 0.018) and the held-out cost was 0.8-1.4 times
+/// the floor ("no missing physics" on all three seeds).
 #[test]
 fn a_periodic_force_is_reported_from_a_navigation_log() {
     for seed in [3, 4, 5] {
