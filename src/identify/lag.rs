@@ -100,24 +100,24 @@ pub struct LagPoint {
 }
 
 impl LagEstimate {
-    /// The range of coefficient `j` over the fit and its profile: `None` without a profile.
+    /// The range of coefficient `j` over the fit (`value`) and its profile: `None` without a
+    /// profile.
     pub fn range_of(&self, j: usize, value: f64) -> Option<[f64; 2]> {
-        let xs = self.profile.iter().filter_map(|p| p.theta.get(j).copied());
-        let mut any = false;
-        let (lo, hi) = xs.fold((value, value), |(lo, hi), x| {
-            any = true;
-            (lo.min(x), hi.max(x))
-        });
-        any.then_some([lo, hi])
+        self.spanned(value, |p| p.theta.get(j).copied())
     }
 
     /// The lags of the profile, with the fit's: `None` without a profile.
     pub fn lag_range(&self) -> Option<[f64; 2]> {
-        let lags = self.profile.iter().map(|p| p.lag_s);
-        let (lo, hi) = lags.fold((self.value_s, self.value_s), |(lo, hi), x| {
-            (lo.min(x), hi.max(x))
-        });
-        (!self.profile.is_empty()).then_some([lo, hi])
+        self.spanned(self.value_s, |p| Some(p.lag_s))
+    }
+
+    /// The least and greatest of `at` the fit and of `of` over the profile's points.
+    fn spanned(&self, at: f64, of: impl Fn(&LagPoint) -> Option<f64>) -> Option<[f64; 2]> {
+        if self.profile.is_empty() {
+            return None;
+        }
+        let xs = self.profile.iter().filter_map(of);
+        Some(xs.fold([at, at], |[lo, hi], x| [lo.min(x), hi.max(x)]))
     }
 }
 
@@ -181,7 +181,7 @@ pub fn search(
 }
 
 /// The spacing of the lags of [`profile`], s.
-pub const PROFILE_STEP_S: f64 = 0.05;
+const PROFILE_STEP_S: f64 = 0.05;
 
 /// Levenberg-Marquardt steps of each point of [`profile`] (warm-started from its neighbour).
 const PROFILE_STEPS: usize = 16;

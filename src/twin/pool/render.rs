@@ -150,7 +150,7 @@ pub fn render_nav(
 }
 
 /// The DVL's velocity noise (white, each ping), m/s, of [`render_nav`]'s navigation log.
-pub const NAV_DVL_NOISE_M_S: f64 = 0.012;
+const NAV_DVL_NOISE_M_S: f64 = 0.012;
 
 /// The DVL's ping interval, s.
 const NAV_DVL_PERIOD_S: f64 = 0.125;
