@@ -1,10 +1,9 @@
 //! `index.html`: one self-contained page (inline CSS and SVG; a CSP forbids any fetch).
 
 use super::json::{Parameter, Parameters, Validation};
-use crate::core::html::esc;
 use crate::core::model::Vehicle;
 use crate::identify::result::FitResult;
-use std::fmt::Write as _;
+use maud::{DOCTYPE, Markup, PreEscaped, html};
 
 /// Significant-figure formatting for tables.
 fn num(v: f64) -> String {
@@ -25,6 +24,9 @@ th{background:#f3f3f3}td:first-child,th:first-child{text-align:left}.warn{color:
 figure{margin:1em 0}figure svg{max-width:100%;height:auto;border:1px solid #eee}
 code{background:#f6f6f6;padding:0 .2em}.small{font-size:.85em;color:#555}details{margin:.3em 0}summary code{overflow-wrap:anywhere}";
 
+/// The page's content security policy: nothing is fetched, styles and images are inline.
+const CSP: &str = "default-src 'none'; style-src 'unsafe-inline'; img-src data:";
+
 pub struct Page<'a> {
     pub vehicle: &'a Vehicle,
     pub fits: &'a [FitResult],
@@ -44,55 +46,61 @@ pub struct Page<'a> {
 
 impl Page<'_> {
     pub fn render(&self) -> String {
-        let mut h = String::new();
-        let _ = write!(
-            h,
-            "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\
-             <meta http-equiv=\"Content-Security-Policy\" content=\"default-src 'none'; style-src 'unsafe-inline'; img-src data:\">\
-             <title>hydrofit report: {name}</title><style>{STYLE}</style></head><body>\n\
-             <h1>Hydrodynamic model of {name}</h1>\n<p class=\"small\">hydrofit {ver}. Mass {m} kg, DOFs {dofs}, {st} structure. \
-             Every value below links to the files it was computed from (blake3 of their contents).</p>\n",
-            name = esc(&self.vehicle.name),
-            ver = env!("CARGO_PKG_VERSION"),
-            m = self.vehicle.mass_kg,
-            dofs = self
-                .vehicle
-                .dofs
-                .iter()
-                .map(|d| d.name())
-                .collect::<Vec<_>>()
-                .join(", "),
-            st = self.vehicle.structure.label(),
-        );
-        if !self.failed.is_empty() {
-            h.push_str("<div class=\"warn\" id=\"failed\"><p><b>Left out of this report because they failed</b> (fix them and build again; everything else below is complete without them):</p><ul>\n");
-            for f in &self.failed {
-                let _ = writeln!(h, "<li>{}</li>", esc(f));
+        let v = self.vehicle;
+        let dofs: Vec<&str> = v.dofs.iter().map(|d| d.name()).collect();
+        html! {
+            (DOCTYPE)
+            html lang="en" {
+                head {
+                    meta charset="utf-8";
+                    meta http-equiv="Content-Security-Policy" content=(CSP);
+                    title { "hydrofit report: " (v.name) }
+                    style { (PreEscaped(STYLE)) }
+                }
+                body {
+                    h1 { "Hydrodynamic model of " (v.name) }
+                    p class="small" {
+                        "hydrofit " (env!("CARGO_PKG_VERSION")) ". Mass " (v.mass_kg) " kg, DOFs "
+                        (dofs.join(", ")) ", " (v.structure.label()) " structure. Every value below \
+                         links to the files it was computed from (blake3 of their contents)."
+                    }
+                    @if !self.failed.is_empty() {
+                        div class="warn" id="failed" {
+                            p {
+                                b { "Left out of this report because they failed" }
+                                " (fix them and build again; everything else below is complete without them):"
+                            }
+                            ul { @for f in &self.failed { li { (f) } } }
+                        }
+                    }
+                    (self.shortfalls())
+                    @for f in self.fits { (self.parameter_table(f)) }
+                    @if !self.plots.is_empty() {
+                        h2 id="plots" { "CFD responses and the identified model" }
+                        @for (dof, svg) in &self.plots {
+                            figure id=(format!("plot-{dof}")) {
+                                (PreEscaped(svg))
+                                figcaption {
+                                    (dof) ": velocity of each CFD case (colour; the legend lists the cases in the \
+                                     order their curves end, top to bottom) and of the identified model simulated \
+                                     under the same applied force from the same initial state (dashed black)."
+                                }
+                            }
+                        }
+                        (self.validation_table())
+                    }
+                    (PreEscaped(&self.pool_html))
+                    (PreEscaped(&self.body_html))
+                    (self.provenance())
+                }
             }
-            h.push_str("</ul></div>\n");
         }
-        self.shortfalls(&mut h);
-        self.parameter_table(&mut h);
-        if !self.plots.is_empty() {
-            h.push_str("<h2 id=\"plots\">CFD responses and the identified model</h2>\n");
-            for (dof, svg) in &self.plots {
-                let _ = writeln!(
-                    h,
-                    "<figure id=\"plot-{dof}\">{svg}<figcaption>{dof}: velocity of each CFD case (colour; the legend lists the cases in the order their curves end, top to bottom) and of the identified model simulated under the same applied force from the same initial state (dashed black).</figcaption></figure>"
-                );
-            }
-            self.validation_table(&mut h);
-        }
-        h.push_str(&self.pool_html);
-        h.push_str(&self.body_html);
-        self.provenance(&mut h);
-        h.push_str("</body></html>\n");
-        h
+        .into_string()
     }
 
     /// Every model that does not beat both baselines on the held-out pool runs, DOF by DOF,
     /// before anything else: no one should ship such a model unaware.
-    fn shortfalls(&self, h: &mut String) {
+    fn shortfalls(&self) -> Markup {
         let lines: Vec<String> = self
             .validation
             .models
@@ -104,158 +112,129 @@ impl Page<'_> {
                     .chain(m.behind_identified.iter().map(|b| b.sentence(&m.model)))
             })
             .collect();
-        if lines.is_empty() {
-            return;
-        }
-        h.push_str("<div class=\"warn\" id=\"below-baselines\"><p><b>Models that do not beat the baselines on the held-out runs</b> (predicting rest, NMAE 1, and a first-order model per DOF fitted on the same training runs; see <a href=\"#pool-validation\">the pool validation</a>):</p><ul>\n");
-        for l in lines {
-            let _ = writeln!(h, "<li>{}</li>", esc(&l));
-        }
-        h.push_str("</ul></div>\n");
-    }
-
-    /// One table per fit: its heading and notes, then each parameter with its uncertainty.
-    fn parameter_table(&self, h: &mut String) {
-        for f in self.fits {
-            fit_heading(h, f);
-            for p in self
-                .parameters
-                .parameters
-                .iter()
-                .filter(|p| p.model == f.stage)
-            {
-                parameter_row(h, f, p);
-            }
-            h.push_str("</table>\n");
-            if f.fit.parameters.len() > FOLD_ABOVE {
-                h.push_str("</details>\n");
-            }
-        }
-    }
-
-    fn validation_table(&self, h: &mut String) {
-        h.push_str("<h2 id=\"validation\">How well each model reproduces each CFD case</h2>\n<p>Per run and DOF: mean absolute error, normalised MAE (mean |v<sub>model</sub> − v<sub>meas</sub>| / mean |v<sub>meas</sub>|) and RMSE as a percentage of the run's peak speed. <code>train</code> runs were used in the fit.</p>\n");
-        for m in &self.validation.models {
-            let _ = writeln!(
-                h,
-                "<table><tr><th>model <code>{}</code>: run</th><th>role</th><th>DOF</th><th>MAE</th><th>NMAE</th><th>RMSE % of peak</th></tr>",
-                esc(&m.model)
-            );
-            // Pool runs have their own section below (with whiteness and plots).
-            for r in &m.runs {
-                for (dof, x) in r
-                    .dofs
-                    .iter()
-                    .filter(|(_, x)| x.residual_acf_outside_band.is_none())
-                {
-                    let x = &x.metrics;
-                    let _ = writeln!(
-                        h,
-                        "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.3}</td></tr>",
-                        esc(&r.run),
-                        r.role,
-                        dof,
-                        num(x.mae),
-                        num(x.nmae),
-                        x.rmse_pct
-                    );
+        html! {
+            @if !lines.is_empty() {
+                div class="warn" id="below-baselines" {
+                    p {
+                        b { "Models that do not beat the baselines on the held-out runs" }
+                        " (predicting rest, NMAE 1, and a first-order model per DOF fitted on the same \
+                         training runs; see " a href="#pool-validation" { "the pool validation" } "):"
+                    }
+                    ul { @for l in &lines { li { (l) } } }
                 }
             }
-            h.push_str("</table>\n");
         }
     }
 
-    fn provenance(&self, h: &mut String) {
-        h.push_str("<h2 id=\"provenance\">Provenance</h2>\n");
-        for p in &self.parameters.parameters {
-            let _ = write!(
-                h,
-                "<details id=\"prov-{s}-{n}\"><summary><code>{n}</code> = {v} {u} ← stage <code>{s}</code>, method <code>{m}</code>, settings <code>{set}</code> ← {k} input files</summary><table><tr><th>file</th><th>blake3</th></tr>",
-                s = esc(&p.stage),
-                n = esc(&p.name),
-                v = num(p.value),
-                u = esc(&p.unit),
-                m = esc(&p.method),
-                set = esc(&p.settings.to_string()),
-                k = p.inputs.len(),
-            );
-            for i in &p.inputs {
-                let _ = write!(
-                    h,
-                    "<tr><td>{}</td><td><code>{}</code></td></tr>",
-                    esc(&i.path),
-                    &i.blake3
-                );
+    /// Fit `f`'s table: its heading and notes, then each parameter with its uncertainty.
+    fn parameter_table(&self, f: &FitResult) -> Markup {
+        let rows = html! {
+            table {
+                tr {
+                    th { "parameter" } th { "value" } th { "± std. error" } th { "unit" }
+                    th { "rel. error" } th { "provenance" }
+                }
+                @for p in self.parameters.parameters.iter().filter(|p| p.model == f.stage) {
+                    (parameter_row(f, p))
+                }
             }
-            h.push_str("</table></details>\n");
+        };
+        html! {
+            (fit_heading(f))
+            // A coupled set's hundreds of terms are folded away; parameters.json has them all.
+            @if f.fit.parameters.len() > FOLD_ABOVE {
+                details {
+                    summary { "All " (f.fit.parameters.len()) " parameters of " code { (f.stage) } }
+                    (rows)
+                }
+            } @else {
+                (rows)
+            }
         }
-        if self.notes.iter().any(|(_, n)| !n.is_empty()) {
-            h.push_str("<h3>Import notes</h3><ul>\n");
-            for (case, notes) in self.notes.iter().filter(|(_, n)| !n.is_empty()) {
-                let _ = writeln!(
-                    h,
-                    "<li><code>{}</code>: {}</li>",
-                    esc(case),
-                    esc(&notes.join("; "))
-                );
+    }
+
+    fn validation_table(&self) -> Markup {
+        html! {
+            h2 id="validation" { "How well each model reproduces each CFD case" }
+            p {
+                "Per run and DOF: mean absolute error, normalised MAE (mean |v" sub { "model" } " − v"
+                sub { "meas" } "| / mean |v" sub { "meas" } "|) and RMSE as a percentage of the run's peak \
+                 speed. " code { "train" } " runs were used in the fit."
             }
-            h.push_str("</ul>\n");
+            @for m in &self.validation.models {
+                table {
+                    tr {
+                        th { "model " code { (m.model) } ": run" } th { "role" } th { "DOF" }
+                        th { "MAE" } th { "NMAE" } th { "RMSE % of peak" }
+                    }
+                    // Pool runs have their own section below (with whiteness and plots).
+                    @for r in &m.runs {
+                        @for (dof, x) in r.dofs.iter().filter(|(_, x)| x.residual_acf_outside_band.is_none()) {
+                            tr {
+                                td { (r.run) } td { (r.role) } td { (dof) } td { (num(x.metrics.mae)) }
+                                td { (num(x.metrics.nmae)) } td { (format!("{:.3}", x.metrics.rmse_pct)) }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    fn provenance(&self) -> Markup {
+        let noted: Vec<&(String, Vec<String>)> =
+            self.notes.iter().filter(|(_, n)| !n.is_empty()).collect();
+        html! {
+            h2 id="provenance" { "Provenance" }
+            @for p in &self.parameters.parameters {
+                details id=(format!("prov-{}-{}", p.stage, p.name)) {
+                    summary {
+                        code { (p.name) } " = " (num(p.value)) " " (p.unit) " ← stage " code { (p.stage) }
+                        ", method " code { (p.method) } ", settings " code { (p.settings.to_string()) }
+                        " ← " (p.inputs.len()) " input files"
+                    }
+                    table {
+                        tr { th { "file" } th { "blake3" } }
+                        @for i in &p.inputs { tr { td { (i.path) } td { code { (i.blake3) } } } }
+                    }
+                }
+            }
+            @if !noted.is_empty() {
+                h3 { "Import notes" }
+                ul { @for (case, notes) in noted { li { code { (case) } ": " (notes.join("; ")) } } }
+            }
         }
     }
 }
 
 /// The heading of fit `f`'s parameter table: method, objective, data and conditioning, its
-/// notes, whether the search was cut short, and the table's header row.
-fn fit_heading(h: &mut String, f: &FitResult) {
-    let _ = write!(
-        h,
-        "<h2 id=\"model-{s}\">Parameters — model <code>{s}</code></h2>\n<p>Method <code>{m}</code>, objective {o}, {st} structure ({p} terms), {n} equation rows from {c} CFD cases and {r} pool runs; regressor condition number {k}.</p>\n",
-        st = f.structure.label(),
-        p = f.fit.parameters.len(),
-        s = esc(&f.stage),
-        m = esc(&f.method),
-        o = f.objective.label(),
-        n = f.fit.samples,
-        c = f.cases.len(),
-        r = f.runs.len(),
-        k = num(f.fit.condition_number),
-    );
-    if !f.notes.is_empty() {
-        let _ = writeln!(
-            h,
-            "<ul class=\"small\">{}</ul>",
-            f.notes
-                .iter()
-                .map(|n| format!("<li>{}</li>", esc(n)))
-                .collect::<String>()
-        );
+/// notes, whether the search was cut short, and the correlations of a prediction-error fit.
+fn fit_heading(f: &FitResult) -> Markup {
+    html! {
+        h2 id=(format!("model-{}", f.stage)) { "Parameters — model " code { (f.stage) } }
+        p {
+            "Method " code { (f.method) } ", objective " (f.objective.label()) ", " (f.structure.label())
+            " structure (" (f.fit.parameters.len()) " terms), " (f.fit.samples) " equation rows from "
+            (f.cases.len()) " CFD cases and " (f.runs.len()) " pool runs; regressor condition number "
+            (num(f.fit.condition_number)) "."
+        }
+        @if !f.notes.is_empty() {
+            ul class="small" { @for n in &f.notes { li { (n) } } }
+        }
+        @if let Some(why) = &f.fit.stopped_early {
+            p class="warn" {
+                "The search was cut short: " (why) ". These values depend on the machine's speed, not \
+                 only on the seed."
+            }
+        }
+        @if let Some(r) = &f.fit.refinement { (refinement(r)) }
+        @if let Some(e) = f.fit.evaluations {
+            p class="small" {
+                (e) " objective evaluations; ± is the standard deviation over seeded restarts, the \
+                 interval their range (see parameters.json)."
+            }
+        }
     }
-    if let Some(why) = &f.fit.stopped_early {
-        let _ = writeln!(
-            h,
-            "<p class=\"warn\">The search was cut short: {}. These values depend on the machine's speed, not only on the seed.</p>",
-            esc(why)
-        );
-    }
-    if let Some(r) = &f.fit.refinement {
-        refinement(h, r);
-    }
-    if let Some(e) = f.fit.evaluations {
-        let _ = writeln!(
-            h,
-            "<p class=\"small\">{e} objective evaluations; ± is the standard deviation over seeded restarts, the interval their range (see parameters.json).</p>"
-        );
-    }
-    // A coupled set's hundreds of terms are folded away; parameters.json has them all.
-    if f.fit.parameters.len() > FOLD_ABOVE {
-        let _ = writeln!(
-            h,
-            "<details><summary>All {} parameters of <code>{}</code></summary>",
-            f.fit.parameters.len(),
-            esc(&f.stage)
-        );
-    }
-    h.push_str("<table><tr><th>parameter</th><th>value</th><th>± std. error</th><th>unit</th><th>rel. error</th><th>provenance</th></tr>\n");
 }
 
 /// Correlations above this in magnitude are said in words: the runs cannot separate the pair.
@@ -263,48 +242,45 @@ const CORRELATED: f64 = 0.9;
 
 /// A prediction-error fit's correlations: the pairs the runs cannot separate, in words (and
 /// which manoeuvre would), then the whole matrix folded away.
-fn refinement(h: &mut String, r: &crate::identify::Refinement) {
+fn refinement(r: &crate::identify::Refinement) -> Markup {
     let n = r.names.len().min(r.correlation.len());
     let mut pairs = Vec::new();
     for i in 0..n {
         for j in i + 1..n {
             let c = r.correlation[i][j];
             if c.abs() > CORRELATED {
-                pairs.push(format!(
-                    "<code>{}</code> and <code>{}</code> ({c:+.2}{})",
-                    esc(&r.names[i]),
-                    esc(&r.names[j]),
-                    separating(&r.names[i], &r.names[j])
-                ));
+                pairs.push((i, j, c));
             }
         }
     }
-    if !pairs.is_empty() {
-        let _ = writeln!(
-            h,
-            "<p class=\"warn\">The training runs cannot separate these coefficients (correlation of their estimates beyond ±{CORRELATED}): {}. Their sum is known better than either.</p>",
-            pairs.join("; ")
-        );
-    }
-    if n == 0 {
-        return;
-    }
-    let _ = write!(
-        h,
-        "<details><summary>Correlation matrix of the {n} coefficients</summary><table><tr><th></th>"
-    );
-    for name in &r.names[..n] {
-        let _ = write!(h, "<th>{}</th>", esc(name));
-    }
-    h.push_str("</tr>\n");
-    for (i, row) in r.correlation.iter().take(n).enumerate() {
-        let _ = write!(h, "<tr><th>{}</th>", esc(&r.names[i]));
-        for c in row.iter().take(n) {
-            let _ = write!(h, "<td>{c:+.2}</td>");
+    html! {
+        @if !pairs.is_empty() {
+            p class="warn" {
+                "The training runs cannot separate these coefficients (correlation of their estimates \
+                 beyond ±" (CORRELATED) "): "
+                @for (k, (i, j, c)) in pairs.iter().enumerate() {
+                    @if k > 0 { "; " }
+                    code { (r.names[*i]) } " and " code { (r.names[*j]) }
+                    " (" (format!("{c:+.2}")) (separating(&r.names[*i], &r.names[*j])) ")"
+                }
+                ". Their sum is known better than either."
+            }
         }
-        h.push_str("</tr>\n");
+        @if n > 0 {
+            details {
+                summary { "Correlation matrix of the " (n) " coefficients" }
+                table {
+                    tr { th {} @for name in &r.names[..n] { th { (name) } } }
+                    @for (i, row) in r.correlation.iter().take(n).enumerate() {
+                        tr {
+                            th { (r.names[i]) }
+                            @for c in row.iter().take(n) { td { (format!("{c:+.2}")) } }
+                        }
+                    }
+                }
+            }
+        }
     }
-    h.push_str("</table></details>\n");
 }
 
 /// Which manoeuvre separates two coefficients, when the pair is a familiar one.
@@ -350,33 +326,29 @@ const FOLD_ABOVE: usize = 40;
 
 /// One parameter of fit `f`: value, standard error, unit, relative error, whether it is
 /// identifiable, and a link to its provenance.
-fn parameter_row(h: &mut String, f: &FitResult, p: &Parameter) {
+fn parameter_row(f: &FitResult, p: &Parameter) -> Markup {
     let rel = 100.0 * p.stderr / p.value.abs();
-    let flag = match (p.identifiable, &p.note) {
-        (true, Some(what)) => format!(" <span class=\"small\">{}</span>", esc(what)),
-        (true, None) => String::new(),
-        (false, Some(why)) => format!(
-            " <span class=\"warn\">not identifiable: {}</span>",
-            esc(why)
-        ),
-        (false, None) => " <span class=\"warn\">not identifiable from these cases</span>".into(),
-    };
-    let _ = writeln!(
-        h,
-        "<tr><td><code>{n}</code>{flag}</td><td>{v}</td><td>{e}</td><td>{u}</td><td>{r:.2} %</td><td><a href=\"#prov-{s}-{n}\">inputs</a></td></tr>",
-        n = esc(&p.name),
-        v = num(p.value),
-        e = match p.interval {
-            Some([lo, hi]) => format!(
-                "{}<br><span class=\"small\">range {} to {}</span>",
-                num(p.stderr),
-                num(lo),
-                num(hi)
-            ),
-            None => num(p.stderr),
-        },
-        u = esc(&p.unit),
-        r = rel,
-        s = esc(&f.stage),
-    );
+    html! {
+        tr {
+            td {
+                code { (p.name) }
+                @match (p.identifiable, &p.note) {
+                    (true, Some(what)) => { " " span class="small" { (what) } }
+                    (true, None) => {}
+                    (false, Some(why)) => { " " span class="warn" { "not identifiable: " (why) } }
+                    (false, None) => { " " span class="warn" { "not identifiable from these cases" } }
+                }
+            }
+            td { (num(p.value)) }
+            td {
+                (num(p.stderr))
+                @if let Some([lo, hi]) = p.interval {
+                    br; span class="small" { "range " (num(lo)) " to " (num(hi)) }
+                }
+            }
+            td { (p.unit) }
+            td { (format!("{rel:.2} %")) }
+            td { a href=(format!("#prov-{}-{}", f.stage, p.name)) { "inputs" } }
+        }
+    }
 }
