@@ -1,7 +1,7 @@
 //! The estimator comparison (seed 001 Table 2, reproduced on this project's data).
 
 use crate::compare::artifact::Comparison;
-use crate::core::html::esc;
+use maud::html;
 use std::fmt::Write as _;
 
 fn pct(x: Option<f64>) -> String {
@@ -59,7 +59,6 @@ pub fn verdict(c: &Comparison) -> String {
 }
 
 pub fn section(c: &Comparison) -> String {
-    let mut h = String::new();
     let names: Vec<String> = c
         .rows
         .iter()
@@ -67,48 +66,44 @@ pub fn section(c: &Comparison) -> String {
         .map_or(vec![], |r| {
             r.parameters.iter().map(|p| p.name.clone()).collect()
         });
-    let _ = writeln!(
-        h,
-        "<h2 id=\"comparison\">Estimators compared (seed 001, Table 2)</h2>\n<p>Every method on the same {} equation rows from {} CFD cases. Each cell: value and, where the truth is known, its error. Time is wall-clock on this machine; evaluations count objective calls.</p>\n<p><b>{}</b></p>",
-        c.samples,
-        c.cases,
-        esc(&verdict(c))
-    );
-    h.push_str("<table><tr><th>method</th>");
-    for n in &names {
-        let _ = write!(h, "<th>{}</th>", esc(n));
-    }
-    h.push_str(
-        "<th>worst error</th><th>pool NMAE</th><th>time (s)</th><th>evaluations</th></tr>\n",
-    );
-    for r in &c.rows {
-        let _ = write!(h, "<tr><td><code>{}</code></td>", esc(&r.label));
-        if let Some(e) = &r.error {
-            let _ = write!(
-                h,
-                "<td colspan=\"{}\" class=\"warn\">{}</td>",
-                names.len(),
-                esc(e)
-            );
-        } else {
-            for p in &r.parameters {
-                let err = r.error_pct.get(&p.name).map_or(String::new(), |e| {
-                    format!("<br><span class=\"small\">{e:+.2} %</span>")
-                });
-                let _ = write!(h, "<td>{:.3}{err}</td>", p.value);
+    html! {
+        h2 id="comparison" { "Estimators compared (seed 001, Table 2)" }
+        p {
+            "Every method on the same " (c.samples) " equation rows from " (c.cases)
+            " CFD cases. Each cell: value and, where the truth is known, its error. Time is wall-clock on this machine; evaluations count objective calls."
+        }
+        p { b { (verdict(c)) } }
+        table {
+            tr {
+                th { "method" }
+                @for n in &names { th { (n) } }
+                th { "worst error" } th { "pool NMAE" } th { "time (s)" } th { "evaluations" }
+            }
+            @for r in &c.rows {
+                tr {
+                    td { code { (r.label) } }
+                    @if let Some(e) = &r.error {
+                        td colspan=(names.len()) class="warn" { (e) }
+                    } @else {
+                        @for p in &r.parameters {
+                            td {
+                                (format!("{:.3}", p.value))
+                                @if let Some(e) = r.error_pct.get(&p.name) {
+                                    br;
+                                    span class="small" { (format!("{e:+.2} %")) }
+                                }
+                            }
+                        }
+                    }
+                    td { (pct(r.max_abs_error_pct)) }
+                    td { (r.pool_nmae.map_or("–".into(), |v| format!("{v:.3}"))) }
+                    td { (format!("{:.3}", r.seconds)) }
+                    td { (r.evaluations.map_or("–".into(), |e| e.to_string())) }
+                }
             }
         }
-        let _ = writeln!(
-            h,
-            "<td>{}</td><td>{}</td><td>{:.3}</td><td>{}</td></tr>",
-            pct(r.max_abs_error_pct),
-            r.pool_nmae.map_or("–".into(), |v| format!("{v:.3}")),
-            r.seconds,
-            r.evaluations.map_or("–".into(), |e| e.to_string())
-        );
     }
-    h.push_str("</table>\n");
-    h
+    .into_string()
 }
 
 #[cfg(test)]

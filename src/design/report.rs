@@ -6,11 +6,10 @@
 //! apart, whether the diagnosis now tells them apart.
 
 use super::written::Written;
-use crate::core::html::esc;
 use crate::diagnose::Diagnosis;
 use crate::identify::result::FitResult;
 use crate::pool::fusion::run::FusedRun;
-use std::fmt::Write as _;
+use maud::{Markup, PreEscaped, html};
 
 /// The factor within which a predicted standard error counts as achieved.
 pub const KEPT_WITHIN: f64 = 1.3;
@@ -22,92 +21,102 @@ pub fn check(run: &FusedRun, fits: &[FitResult], d: Option<&Diagnosis>) -> Optio
     let w: Written = match crate::core::lenient::from_str(&value.to_string()) {
         Ok(w) => w,
         Err(e) => {
-            return Some(format!(
-                "<p>Run <code>{}</code>: its design.json is not what <code>hydrofit design</code> writes ({}); no check.</p>\n",
-                esc(name),
-                esc(&e.to_string())
-            ));
+            let unreadable = html! {
+                p {
+                    "Run " code { (name) } ": its design.json is not what "
+                    code { "hydrofit design" } " writes (" (e.to_string()) "); no check."
+                }
+            };
+            return Some(unreadable.into_string());
         }
     };
-    let mut h = format!(
-        "<h3>Run <code>{}</code></h3>\n<p>Designed for model <code>{}</code>: {}.</p>\n",
-        esc(name),
-        esc(&w.model),
-        esc(&w.description)
-    );
-    match fits
+    let fit = fits
         .iter()
-        .find(|f| f.stage == w.model && f.runs.iter().any(|r| &r.run == name))
-    {
-        Some(f) => parameters(&mut h, &w, f),
-        // A run designed to tell two effects apart is held out: its promise is the diagnosis's.
-        None if w.separates.is_some() => {}
-        None => h.push_str(&format!(
-            "<p class=\"warn\">Model <code>{}</code> did not train on this run (is its role <code>train</code>?): its prediction cannot be checked.</p>\n",
-            esc(&w.model)
-        )),
-    }
-    if let (Some(s), Some(d)) = (&w.separates, d) {
-        // Named from the table (a closed form discovery found in an effect's form is not
-        // the effect named), and not listed with the other as its look-alike.
-        let told = |a: &str, b: &str| {
-            d.effects.iter().any(|f| {
-                f.name == a && super::separate::named(f) && !f.alike.iter().any(|x| x.name == b)
-            })
-        };
-        let verdict = if told(&s.kept, &s.alike) {
-            format!("the diagnosis now names {} alone", s.kept)
-        } else if told(&s.alike, &s.kept) {
-            format!("the diagnosis now names {} alone", s.alike)
-        } else {
-            "the diagnosis names neither of them alone: these runs still do not tell them apart"
-                .into()
-        };
-        let _ = writeln!(
-            h,
-            "<p>It was to tell {} from {} (predicted difference {:.1} times the noise floor, the recorded runs {:.1}): {}.</p>",
-            esc(&s.kept),
-            esc(&s.alike),
-            s.designed,
-            s.recorded,
-            esc(&verdict)
-        );
-    }
-    Some(h)
+        .find(|f| f.stage == w.model && f.runs.iter().any(|r| &r.run == name));
+    let page = html! {
+        h3 { "Run " code { (name) } }
+        p { "Designed for model " code { (w.model) } ": " (w.description) "." }
+        @match fit {
+            Some(f) => { (parameters(&w, f)) },
+            // A run designed to tell two effects apart is held out: its promise is the
+            // diagnosis's.
+            None if w.separates.is_some() => {},
+            None => {
+                p.warn {
+                    "Model " code { (w.model) } " did not train on this run (is its role "
+                    code { "train" } "?): its prediction cannot be checked."
+                }
+            },
+        }
+        @if let (Some(s), Some(d)) = (&w.separates, d) { (separated(s, d)) }
+    };
+    Some(page.into_string())
 }
 
-fn parameters(h: &mut String, w: &Written, f: &FitResult) {
-    let rows: Vec<_> = w.parameters.iter().filter(|r| r.target).collect();
-    let mut kept = 0;
-    let mut body = String::new();
-    for r in &rows {
-        let now = f
-            .fit
-            .parameters
-            .iter()
-            .find(|p| p.name == r.name)
-            .map_or(f64::NAN, |p| p.stderr);
-        let ok = now <= KEPT_WITHIN * r.predicted_after;
-        kept += usize::from(ok);
-        let _ = writeln!(
-            body,
-            "<tr><td>{}</td><td>{:.4}</td><td>{:.4}</td><td>{:.4}</td><td>{}</td></tr>",
-            esc(&r.name),
-            r.stderr_now,
-            r.predicted_after,
-            now,
-            if ok {
-                "kept"
-            } else {
-                "<span class=\"warn\">not kept</span>"
-            }
-        );
+/// Whether the diagnosis now tells apart the two effects a design was to separate.
+fn separated(s: &super::written::Separation, d: &Diagnosis) -> Markup {
+    // Named from the table (a closed form discovery found in an effect's form is not
+    // the effect named), and not listed with the other as its look-alike.
+    let told = |a: &str, b: &str| {
+        d.effects.iter().any(|f| {
+            f.name == a && super::separate::named(f) && !f.alike.iter().any(|x| x.name == b)
+        })
+    };
+    let verdict = if told(&s.kept, &s.alike) {
+        format!("the diagnosis now names {} alone", s.kept)
+    } else if told(&s.alike, &s.kept) {
+        format!("the diagnosis now names {} alone", s.alike)
+    } else {
+        "the diagnosis names neither of them alone: these runs still do not tell them apart".into()
+    };
+    html! {
+        p {
+            "It was to tell " (s.kept) " from " (s.alike) " (predicted difference "
+            (format!("{:.1}", s.designed)) " times the noise floor, the recorded runs "
+            (format!("{:.1}", s.recorded)) "): " (verdict) "."
+        }
     }
-    let _ = writeln!(
-        h,
-        "<p>The promise kept for {kept} of {} parameters (a standard error at most {KEPT_WITHIN} times the prediction):</p>\n<table><tr><th>parameter</th><th>standard error before</th><th>predicted after</th><th>now</th><th></th></tr>\n{body}</table>",
-        rows.len()
-    );
+}
+
+/// Each parameter the design was for: its standard error before, as predicted after, and now,
+/// and whether the promise was kept.
+fn parameters(w: &Written, f: &FitResult) -> Markup {
+    let rows: Vec<(&super::written::Row, f64, bool)> = w
+        .parameters
+        .iter()
+        .filter(|r| r.target)
+        .map(|r| {
+            let now = f
+                .fit
+                .parameters
+                .iter()
+                .find(|p| p.name == r.name)
+                .map_or(f64::NAN, |p| p.stderr);
+            (r, now, now <= KEPT_WITHIN * r.predicted_after)
+        })
+        .collect();
+    let kept = rows.iter().filter(|(_, _, ok)| *ok).count();
+    html! {
+        p {
+            "The promise kept for " (kept) " of " (rows.len())
+            " parameters (a standard error at most " (KEPT_WITHIN) " times the prediction):"
+        }
+        table {
+            tr {
+                th { "parameter" } th { "standard error before" } th { "predicted after" }
+                th { "now" } th {}
+            }
+            @for (r, now, ok) in &rows {
+                tr {
+                    td { (r.name) }
+                    td { (format!("{:.4}", r.stderr_now)) }
+                    td { (format!("{:.4}", r.predicted_after)) }
+                    td { (format!("{now:.4}")) }
+                    td { @if *ok { "kept" } @else { span.warn { "not kept" } } }
+                }
+            }
+        }
+    }
 }
 
 /// The section, empty when no run was designed.
@@ -116,8 +125,13 @@ pub fn section(runs: &[FusedRun], fits: &[FitResult], d: Option<&Diagnosis>) -> 
     if checks.is_empty() {
         return String::new();
     }
-    format!(
-        "<h2 id=\"designed\">Designed runs</h2>\n<p>Runs proposed by <code>hydrofit design</code>, held to what it predicted they would buy.</p>\n{}",
-        checks.concat()
-    )
+    html! {
+        h2 id="designed" { "Designed runs" }
+        p {
+            "Runs proposed by " code { "hydrofit design" }
+            ", held to what it predicted they would buy."
+        }
+        @for c in &checks { (PreEscaped(c)) }
+    }
+    .into_string()
 }

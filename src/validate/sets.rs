@@ -4,11 +4,10 @@
 //! set's coefficients against them.
 
 use crate::core::dof::Dof;
-use crate::core::html::esc;
 use crate::identify::result::FitResult;
 use crate::validate::pool::Scores;
+use maud::{Markup, html};
 use std::collections::BTreeMap;
-use std::fmt::Write as _;
 
 /// The file of true coefficients (`name,value` lines) a twin writes beside its runs' truth.
 pub const TRUTH_PARAMETERS: &str = "parameters.csv";
@@ -68,12 +67,6 @@ pub fn section(
         .into_iter()
         .filter(|d| fits.iter().any(|f| f.dofs.contains(d)))
         .collect();
-    let mut h =
-        String::from("<h2 id=\"sets\">Parameter sets compared (seed 003, Tables IV and V)</h2>\n");
-    let _ = writeln!(
-        h,
-        "<p>Every fit simulated under each trial's logged command, as the validation does. Mean absolute error on the trials it was identified from (<code>train</code>; cm/s for translations, deg/s for rotations, as seed 003 Table IV), and normalised mean absolute error, mean |v<sub>model</sub> − v<sub>meas</sub>| / mean |v<sub>meas</sub>|, on the trials held out (<code>validate</code>; Table V). The lowest of each column is in bold.</p>"
-    );
     let tables: [(&str, &str, Metric, bool); 2] = [
         ("train", "MAE on the identification trials", |m| m.mae, true),
         (
@@ -84,6 +77,7 @@ pub fn section(
         ),
     ];
     let mut best_held_out: BTreeMap<Dof, (f64, String)> = BTreeMap::new();
+    let mut rendered = Vec::new();
     for (role, caption, metric, paper) in tables {
         let rows: Vec<(&FitResult, BTreeMap<Dof, f64>)> = fits
             .iter()
@@ -92,35 +86,48 @@ pub fn section(
         if rows.iter().all(|(_, m)| m.is_empty()) {
             continue;
         }
-        set_table(&mut h, &rows, &dofs, caption, paper, &mut best_held_out);
+        rendered.push(set_table(&rows, &dofs, caption, paper, &mut best_held_out));
     }
-    if !best_held_out.is_empty() {
-        let list: Vec<String> = best_held_out
-            .iter()
-            .map(|(d, (_, s))| format!("{} {s}", d.velocity()))
-            .collect();
-        let _ = writeln!(
-            h,
-            "<p>Lowest held-out error per DOF: {}.</p>",
-            list.join(", ")
-        );
+    let list: Vec<String> = best_held_out
+        .iter()
+        .map(|(d, (_, s))| format!("{} {s}", d.velocity()))
+        .collect();
+    html! {
+        (intro())
+        @for t in &rendered { (t) }
+        @if !best_held_out.is_empty() {
+            p { "Lowest held-out error per DOF: " (list.join(", ")) "." }
+        }
+        @if let Some(truth) = truth { (against_truth(&fits, truth)) }
     }
-    if let Some(truth) = truth {
-        against_truth(&mut h, &fits, truth);
+    .into_string()
+}
+
+/// The heading and what the tables hold.
+fn intro() -> Markup {
+    html! {
+        h2 id="sets" { "Parameter sets compared (seed 003, Tables IV and V)" }
+        p {
+            "Every fit simulated under each trial's logged command, as the validation does. Mean absolute error on the trials it was identified from ("
+            code { "train" }
+            "; cm/s for translations, deg/s for rotations, as seed 003 Table IV), and normalised mean absolute error, mean |v"
+            sub { "model" } " − v" sub { "meas" } "| / mean |v" sub { "meas" }
+            "|, on the trials held out ("
+            code { "validate" }
+            "; Table V). The lowest of each column is in bold."
+        }
     }
-    h
 }
 
 /// One of seed 003's tables: each fit's metric per DOF (in the paper's units when `paper`),
 /// the lowest of each column in bold; the held-out table also records the best set per DOF.
 fn set_table(
-    h: &mut String,
     rows: &[(&FitResult, BTreeMap<Dof, f64>)],
     dofs: &[Dof],
     caption: &str,
     paper: bool,
     best_held_out: &mut BTreeMap<Dof, (f64, String)>,
-) {
+) -> Markup {
     let best: BTreeMap<Dof, f64> = dofs
         .iter()
         .map(|d| {
@@ -133,37 +140,21 @@ fn set_table(
             )
         })
         .collect();
-    let _ = write!(
-        h,
-        "<table><caption>{caption}</caption><tr><th>fit</th><th>set</th><th>method</th><th>terms</th>"
-    );
-    for d in dofs {
-        let _ = write!(h, "<th>{}</th>", d.velocity());
-    }
-    h.push_str("</tr>\n");
+    // Each row's cells: the value as printed, and whether it is the lowest of its column.
+    let mut cells: Vec<Vec<(String, bool)>> = Vec::new();
     for (f, m) in rows {
-        let _ = write!(
-            h,
-            "<tr><td><code>{}</code></td><td>{}</td><td>{}</td><td>{}</td>",
-            esc(&f.stage),
-            f.structure.label(),
-            f.method,
-            f.fit.parameters.len()
-        );
-        for d in dofs {
-            let cell = m.get(d).map_or("–".into(), |v| {
+        let row = dofs.iter().map(|d| {
+            m.get(d).map_or(("–".into(), false), |v| {
                 let s = if paper {
                     format!("{:.2}", paper_unit(*d, *v))
                 } else {
                     format!("{v:.4}")
                 };
-                if *v == best[d] {
-                    format!("<b>{s}</b>")
-                } else {
-                    s
-                }
-            });
-            let _ = write!(h, "<td>{cell}</td>");
+                (s, *v == best[d])
+            })
+        });
+        cells.push(row.collect());
+        for d in dofs {
             if !paper
                 && let Some(v) = m.get(d)
                 && best_held_out.get(d).is_none_or(|b| *v < b.0)
@@ -171,64 +162,93 @@ fn set_table(
                 best_held_out.insert(*d, (*v, f.structure.label().to_string()));
             }
         }
-        h.push_str("</tr>\n");
     }
-    h.push_str("</table>\n");
+    html! {
+        table {
+            caption { (caption) }
+            tr {
+                th { "fit" } th { "set" } th { "method" } th { "terms" }
+                @for d in dofs { th { (d.velocity()) } }
+            }
+            @for ((f, _), row) in rows.iter().zip(&cells) {
+                tr {
+                    td { code { (f.stage) } }
+                    td { (f.structure.label()) }
+                    td { (f.method) }
+                    td { (f.fit.parameters.len()) }
+                    @for (s, bold) in row {
+                        td { @if *bold { b { (s) } } @else { (s) } }
+                    }
+                }
+            }
+        }
+    }
 }
 
 /// Each set's coefficients against the twin's: the diagonal terms one by one (relative
 /// error), the cross terms as one RMS error relative to the RMS of the true ones.
-fn against_truth(h: &mut String, fits: &[&FitResult], truth: &BTreeMap<String, f64>) {
-    let _ = writeln!(
-        h,
-        "<p>Against the twin's coefficients (<code>truth/{TRUTH_PARAMETERS}</code>): the worst relative error of the diagonal terms and of the buoyancy terms, and the RMS error of each set's cross terms (mass and drag couplings) over the RMS of the true ones. A set without a term the truth has cannot recover it; its other terms absorb it.</p>"
-    );
-    h.push_str("<table><tr><th>fit</th><th>diagonal terms: worst</th><th>buoyancy: worst</th><th>cross terms: RMS error / RMS truth</th></tr>\n");
-    for f in fits {
-        let layout = f.layout();
-        let (mut diag, mut buoy): (Worst, Worst) = (None, None);
-        let (mut cross_err, mut cross_true) = (0.0, 0.0);
-        for (j, p) in f.fit.parameters.iter().enumerate() {
-            let t = truth.get(&p.name).copied().unwrap_or(0.0);
-            let term = layout.terms[j];
-            if term.is_diagonal() || term.group() == crate::core::model::params::Group::Buoyancy {
-                let rel = if t != 0.0 {
-                    ((p.value - t) / t).abs()
-                } else {
-                    f64::NAN
-                };
-                let slot = if term.is_diagonal() {
-                    &mut diag
-                } else {
-                    &mut buoy
-                };
-                if rel.is_finite() && slot.as_ref().is_none_or(|s| rel > s.0) {
-                    *slot = Some((rel, p.name.clone()));
+fn against_truth(fits: &[&FitResult], truth: &BTreeMap<String, f64>) -> Markup {
+    html! {
+        p {
+            "Against the twin's coefficients (" code { "truth/" (TRUTH_PARAMETERS) }
+            "): the worst relative error of the diagonal terms and of the buoyancy terms, and the RMS error of each set's cross terms (mass and drag couplings) over the RMS of the true ones. A set without a term the truth has cannot recover it; its other terms absorb it."
+        }
+        table {
+            tr {
+                th { "fit" } th { "diagonal terms: worst" } th { "buoyancy: worst" }
+                th { "cross terms: RMS error / RMS truth" }
+            }
+            @for f in fits {
+                @let (diag, buoy, cross) = truth_errors(f, truth);
+                tr {
+                    td { code { (f.stage) } }
+                    td { (diag) }
+                    td { (buoy) }
+                    td { (cross) }
                 }
-            } else {
-                cross_err += (p.value - t).powi(2);
-                cross_true += t * t;
             }
         }
-        let show = |x: &Option<(f64, String)>| {
-            x.as_ref().map_or("–".into(), |(r, n)| {
-                format!("{:.1} % ({})", 100.0 * r, esc(n))
-            })
-        };
-        let cross = if cross_true > 0.0 {
-            format!("{:.2}", (cross_err / cross_true).sqrt())
-        } else {
-            "–".into()
-        };
-        let _ = writeln!(
-            h,
-            "<tr><td><code>{}</code></td><td>{}</td><td>{}</td><td>{cross}</td></tr>",
-            esc(&f.stage),
-            show(&diag),
-            show(&buoy)
-        );
     }
-    h.push_str("</table>\n");
+}
+
+/// One set's errors against the twin's coefficients, as printed: the worst diagonal term, the
+/// worst buoyancy term, and the cross terms' RMS error over the RMS of the true ones.
+fn truth_errors(f: &FitResult, truth: &BTreeMap<String, f64>) -> (String, String, String) {
+    let layout = f.layout();
+    let (mut diag, mut buoy): (Worst, Worst) = (None, None);
+    let (mut cross_err, mut cross_true) = (0.0, 0.0);
+    for (j, p) in f.fit.parameters.iter().enumerate() {
+        let t = truth.get(&p.name).copied().unwrap_or(0.0);
+        let term = layout.terms[j];
+        if term.is_diagonal() || term.group() == crate::core::model::params::Group::Buoyancy {
+            let rel = if t != 0.0 {
+                ((p.value - t) / t).abs()
+            } else {
+                f64::NAN
+            };
+            let slot = if term.is_diagonal() {
+                &mut diag
+            } else {
+                &mut buoy
+            };
+            if rel.is_finite() && slot.as_ref().is_none_or(|s| rel > s.0) {
+                *slot = Some((rel, p.name.clone()));
+            }
+        } else {
+            cross_err += (p.value - t).powi(2);
+            cross_true += t * t;
+        }
+    }
+    let show = |x: &Worst| {
+        x.as_ref()
+            .map_or("–".into(), |(r, n)| format!("{:.1} % ({n})", 100.0 * r))
+    };
+    let cross = if cross_true > 0.0 {
+        format!("{:.2}", (cross_err / cross_true).sqrt())
+    } else {
+        "–".into()
+    };
+    (show(&diag), show(&buoy), cross)
 }
 
 /// Reads a `name,value` file of true coefficients.
