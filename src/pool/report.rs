@@ -2,16 +2,15 @@
 //! a twin's truth exists.
 
 use crate::core::dof::Dof;
-use crate::core::model::thrusters::{Command, Thrusters};
+use crate::core::model::thrusters::{Allocation, Command, Thrusters};
 
-use crate::core::html::esc;
 use crate::pool::fusion::run::FusedRun;
 use crate::pool::fusion::run::POOL_DOFS;
 use crate::pool::fusion::{Fused, interp};
 use crate::pool::import::csvlog;
+use maud::{Markup, PreEscaped, html};
 use serde::Serialize;
 use std::collections::BTreeMap;
-use std::fmt::Write as _;
 
 /// Fusion error against a twin's true velocities, per DOF (m/s, rad/s).
 #[derive(Debug, Clone, Serialize)]
@@ -93,109 +92,120 @@ fn unit(d: Dof) -> &'static str {
 /// The HTML of the pool runs' fusion: how each run was fused, its timing repairs, and the
 /// fusion's accuracy where a twin's truth exists.
 pub fn section(runs: &[FusedRun], accuracy: &[FusionAccuracy]) -> String {
-    let mut h = String::new();
     if runs.is_empty() {
-        return h;
+        return String::new();
     }
-    fusion_table(&mut h, runs);
-    repairs(&mut h, runs);
-    accuracy_table(&mut h, accuracy);
-    h
+    html! {
+        (fusion_table(runs))
+        (repairs(runs))
+        (accuracy_table(accuracy))
+    }
+    .into_string()
 }
 
 /// The fusion heading and its table: per run, the sensors used, the fixes kept and rejected,
 /// the gyro bias, the UWB noise and the DOFs the fusion knows.
-fn fusion_table(h: &mut String, runs: &[FusedRun]) {
-    h.push_str("<h2 id=\"fusion\">Pool runs: sensor fusion</h2>\n<p>UWB, sonar, depth and IMU fused by a Kalman filter with a Rauch-Tung-Striebel smoother (heading with gyro bias; position and velocity driven by the accelerometers, UWB fixes screened by a median filter and a chi-square gate). Noise levels estimated from each log unless set.</p>\n");
-    h.push_str("<table><tr><th>run</th><th>role</th><th>sensors</th><th>UWB fixes (multipath rejected)</th><th>sonar fixes</th><th>gyro bias (°/s)</th><th>UWB σ (m)</th><th>DOFs known</th></tr>\n");
-    for r in runs {
-        let s = &r.meta.stats;
-        let known: Vec<&str> = POOL_DOFS
-            .iter()
-            .enumerate()
-            .filter(|(j, _)| r.meta.known[*j])
-            .map(|(_, d)| d.name())
-            .collect();
-        let _ = writeln!(
-            h,
-            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{} ({} + {})</td><td>{}</td><td>{}</td><td>{:.3}</td><td>{}</td></tr>",
-            esc(&r.meta.run),
-            r.meta.role.as_str(),
-            r.meta.sensors.join(", "),
-            s.uwb_fixes,
-            s.uwb_rejected_median,
-            s.uwb_rejected_gate,
-            s.sonar_fixes,
-            s.gyro_bias_dps.map_or("–".into(), |b| format!("{b:.3}")),
-            s.noise.uwb_m[0],
-            known.join(", ")
-        );
+fn fusion_table(runs: &[FusedRun]) -> Markup {
+    html! {
+        h2 id="fusion" { "Pool runs: sensor fusion" }
+        p {
+            "UWB, sonar, depth and IMU fused by a Kalman filter with a Rauch-Tung-Striebel smoother (heading with gyro bias; position and velocity driven by the accelerometers, UWB fixes screened by a median filter and a chi-square gate). Noise levels estimated from each log unless set."
+        }
+        table {
+            tr {
+                th { "run" } th { "role" } th { "sensors" } th { "UWB fixes (multipath rejected)" }
+                th { "sonar fixes" } th { "gyro bias (°/s)" } th { "UWB σ (m)" } th { "DOFs known" }
+            }
+            @for r in runs {
+                @let s = &r.meta.stats;
+                @let known: Vec<&str> = POOL_DOFS
+                    .iter()
+                    .enumerate()
+                    .filter(|(j, _)| r.meta.known[*j])
+                    .map(|(_, d)| d.name())
+                    .collect();
+                tr {
+                    td { (r.meta.run) }
+                    td { (r.meta.role.as_str()) }
+                    td { (r.meta.sensors.join(", ")) }
+                    td { (s.uwb_fixes) " (" (s.uwb_rejected_median) " + " (s.uwb_rejected_gate) ")" }
+                    td { (s.sonar_fixes) }
+                    td { (s.gyro_bias_dps.map_or("–".into(), |b| format!("{b:.3}"))) }
+                    td { (format!("{:.3}", s.noise.uwb_m[0])) }
+                    td { (known.join(", ")) }
+                }
+            }
+        }
     }
-    h.push_str("</table>\n");
 }
 
 /// The list of timing repairs and navigation-log noise, for the runs that have any.
-fn repairs(h: &mut String, runs: &[FusedRun]) {
+fn repairs(runs: &[FusedRun]) -> Markup {
     let repaired: Vec<&FusedRun> = runs
         .iter()
         .filter(|r| !r.meta.repairs.is_empty() || !r.meta.stats.nav.is_empty())
         .collect();
-    if repaired.is_empty() {
-        return;
-    }
-    h.push_str("<h3 id=\"repairs\">Timing repairs and navigation-log noise</h3>\n<ul>\n");
-    for r in repaired {
-        for rep in &r.meta.repairs {
-            let _ = writeln!(
-                h,
-                "<li><code>{}</code>: {}</li>",
-                esc(&r.meta.run),
-                esc(rep)
-            );
-        }
-        for (ch, n) in &r.meta.stats.nav {
-            let _ = writeln!(
-                h,
-                "<li><code>{}</code> nav <code>{ch}</code>: noise σ {:.4} m/s (lag-1 estimate {:.4}); errors correlated over {:.1} samples{}</li>",
-                esc(&r.meta.run),
-                n.sigma,
-                n.sigma_lag1,
-                n.correlated_samples,
-                if n.correlated_samples > 2.0 {
-                    " — the log was filtered before it was written, so its samples count for less"
-                } else {
-                    ""
+    html! {
+        @if !repaired.is_empty() {
+            h3 id="repairs" { "Timing repairs and navigation-log noise" }
+            ul {
+                @for r in repaired {
+                    @for rep in &r.meta.repairs {
+                        li { code { (r.meta.run) } ": " (rep) }
+                    }
+                    @for (ch, n) in &r.meta.stats.nav {
+                        li {
+                            code { (r.meta.run) } " nav " code { (ch) }
+                            (format!(
+                                ": noise σ {:.4} m/s (lag-1 estimate {:.4}); errors correlated over {:.1} samples",
+                                n.sigma, n.sigma_lag1, n.correlated_samples
+                            ))
+                            @if n.correlated_samples > 2.0 {
+                                " — the log was filtered before it was written, so its samples count for less"
+                            }
+                        }
+                    }
                 }
-            );
+            }
         }
     }
-    h.push_str("</ul>\n");
 }
 
 /// The fusion's accuracy against the twin's truth, per run and DOF (nothing without truth).
-fn accuracy_table(h: &mut String, accuracy: &[FusionAccuracy]) {
-    if accuracy.is_empty() {
-        return;
-    }
-    h.push_str("<h3 id=\"fusion-accuracy\">Fusion accuracy against the twin's truth</h3>\n<p>These runs are synthetic: their true velocities are in the truth files named below (outside <code>cases/</code>, never read by the fusion). RMSE of the fused velocity, with and without the sonar; error/σ is the RMS of the error divided by the stated standard deviation (near 1 when the uncertainty is honest).</p>\n<table><tr><th>run</th><th>DOF</th><th>RMSE</th><th>RMSE without sonar</th><th>error/σ</th><th>truth</th></tr>\n");
-    for a in accuracy {
-        for (d, e) in &a.rmse {
-            let ns = a
-                .rmse_without_sonar
-                .as_ref()
-                .and_then(|m| m.get(d))
-                .map_or("no sonar in run".into(), |x| format!("{x:.4} {}", unit(*d)));
-            let _ = writeln!(
-                h,
-                "<tr><td>{}</td><td>{d}</td><td>{e:.4} {}</td><td>{ns}</td><td>{:.2}</td><td><code>{}</code></td></tr>",
-                esc(&a.run),
-                unit(*d),
-                a.error_over_std[d],
-                esc(&a.truth)
-            );
+fn accuracy_table(accuracy: &[FusionAccuracy]) -> Markup {
+    html! {
+        @if !accuracy.is_empty() {
+            h3 id="fusion-accuracy" { "Fusion accuracy against the twin's truth" }
+            p {
+                "These runs are synthetic: their true velocities are in the truth files named below (outside "
+                code { "cases/" }
+                ", never read by the fusion). RMSE of the fused velocity, with and without the sonar; error/σ is the RMS of the error divided by the stated standard deviation (near 1 when the uncertainty is honest)."
+            }
+            table {
+                tr {
+                    th { "run" } th { "DOF" } th { "RMSE" } th { "RMSE without sonar" }
+                    th { "error/σ" } th { "truth" }
+                }
+                @for a in accuracy {
+                    @for (d, e) in &a.rmse {
+                        @let ns = a
+                            .rmse_without_sonar
+                            .as_ref()
+                            .and_then(|m| m.get(d))
+                            .map_or("no sonar in run".into(), |x| format!("{x:.4} {}", unit(*d)));
+                        tr {
+                            td { (a.run) }
+                            td { (d) }
+                            td { (format!("{e:.4} {}", unit(*d))) }
+                            td { (ns) }
+                            td { (format!("{:.2}", a.error_over_std[d])) }
+                            td { code { (a.truth) } }
+                        }
+                    }
+                }
+            }
         }
     }
-    h.push_str("</table>\n");
 }
 
 /// The thrusters, when runs log per-thruster commands: each unit, the allocation matrix that
@@ -207,57 +217,76 @@ pub fn thrusters_section(t: Option<&Thrusters>) -> anyhow::Result<String> {
     };
     let a = t.allocation();
     let (rank, dofs) = a.actuated();
-    let mut h = String::from("<h2 id=\"thrusters\">Thrusters</h2>\n");
     let names: Vec<String> = dofs.iter().map(|d| d.to_string()).collect();
-    let _ = writeln!(
-        h,
-        "<p>Per-thruster commands become the body wrench τ = B f before any model sees them: column i of B is [d<sub>i</sub>; r<sub>i</sub> × d<sub>i</sub>] for thruster i at r<sub>i</sub> pushing along d<sub>i</sub> (body frame, x forward, y starboard, z down; Fossen 2011 eq. 11.8). B has rank {rank} and actuates {}.</p>",
-        if names.is_empty() {
-            "no DOF".into()
-        } else {
-            names.join(", ")
+    let actuates = if names.is_empty() {
+        "no DOF".into()
+    } else {
+        names.join(", ")
+    };
+    let curve = thrust_curve(t, &a)?;
+    Ok(html! {
+        h2 id="thrusters" { "Thrusters" }
+        p {
+            "Per-thruster commands become the body wrench τ = B f before any model sees them: column i of B is [d"
+            sub { "i" } "; r" sub { "i" } " × d" sub { "i" } "] for thruster i at r" sub { "i" }
+            " pushing along d" sub { "i" }
+            " (body frame, x forward, y starboard, z down; Fossen 2011 eq. 11.8). B has rank "
+            (rank) " and actuates " (actuates) "."
         }
-    );
-    h.push_str("<table><tr><th></th>");
-    for u in &a.units {
-        let _ = write!(h, "<th>{}</th>", esc(&u.name));
+        (allocation_table(&a))
+        (PreEscaped(curve))
     }
-    h.push_str("</tr>\n");
-    for (label, row) in ["position x (m)", "position y (m)", "position z (m)"]
-        .iter()
-        .zip(0..3)
-    {
-        let _ = write!(h, "<tr><td>{label}</td>");
-        for u in &a.units {
-            let _ = write!(h, "<td>{:.3}</td>", u.position_m[row]);
-        }
-        h.push_str("</tr>\n");
-    }
-    for (label, row) in [
+    .into_string())
+}
+
+/// Each thruster's position and its column of the allocation matrix B.
+fn allocation_table(a: &Allocation) -> Markup {
+    let positions = ["position x (m)", "position y (m)", "position z (m)"];
+    let rows = [
         "X (N/N)",
         "Y (N/N)",
         "Z (N/N)",
         "K (N m/N)",
         "M (N m/N)",
         "N (N m/N)",
-    ]
-    .iter()
-    .zip(0..6)
-    {
-        let _ = write!(h, "<tr><td>B: {label}</td>");
-        for c in &a.columns {
-            let _ = write!(h, "<td>{:.3}</td>", c[row] + 0.0);
+    ];
+    html! {
+        table {
+            tr {
+                th {}
+                @for u in &a.units {
+                    th { (u.name) }
+                }
+            }
+            @for (label, row) in positions.iter().zip(0..3) {
+                tr {
+                    td { (label) }
+                    @for u in &a.units {
+                        td { (format!("{:.3}", u.position_m[row])) }
+                    }
+                }
+            }
+            @for (label, row) in rows.iter().zip(0..6) {
+                tr {
+                    td { "B: " (label) }
+                    @for c in &a.columns {
+                        td { (format!("{:.3}", c[row] + 0.0)) }
+                    }
+                }
+            }
         }
-        h.push_str("</tr>\n");
     }
-    h.push_str("</table>\n");
+}
+
+/// The figure of the thrust curve every thruster's command goes through (already rendered HTML).
+fn thrust_curve(t: &Thrusters, a: &Allocation) -> anyhow::Result<String> {
     let (x, y) = a.curve_points(201);
     let x_desc = match t.command {
         Command::Pwm => "command (PWM, us)",
         Command::Normalised => "command (normalised)",
         Command::Rpm => "shaft speed (rpm)",
     };
-    h += &crate::core::plot::lines::figure(
+    crate::core::plot::lines::figure(
         "thrust-curve",
         &format!(
             "The thrust curve every thruster's command goes through (gain {}); a command beyond its ends is held at them.",
@@ -276,6 +305,5 @@ pub fn thrusters_section(t: Option<&Thrusters>) -> anyhow::Result<String> {
             hlines: vec![],
             stems: false,
         },
-    )?;
-    Ok(h)
+    )
 }

@@ -2,11 +2,10 @@
 //! plots), beside the baselines it must beat.
 
 use crate::core::dof::Dof;
-use crate::core::html::esc;
 use crate::core::plot::{self as plots, PoolTrace};
 use crate::pool::fusion::run::FusedRun;
 use crate::validate::pool::{ModelScore, RunScore, Scores, Simulated};
-use std::fmt::Write as _;
+use maud::{Markup, PreEscaped, html};
 
 /// The HTML of every model against the pool recordings: scores per run and DOF, the
 /// baselines, cross-validation and the figures.
@@ -15,149 +14,166 @@ pub fn section(
     scores: Option<&Scores>,
     sims: &[Simulated],
 ) -> anyhow::Result<String> {
-    let mut h = String::new();
     if runs.is_empty() {
-        return Ok(h);
+        return Ok(String::new());
     }
-    let Some(scores) = scores else { return Ok(h) };
-    h.push_str("<h2 id=\"pool-validation\">Pool runs: the model against the recordings</h2>\n<p>Each model simulated (RK4, 0.01 s) under the run's logged thrust from the fused initial state; where the model is locally unstable along a run (a perturbation grows, as an open-frame vehicle's sway and yaw do at speed), the simulation is re-anchored to the fused state each time an error would have doubled since the last anchor (a pilot or autopilot kept the real vehicle on course), and stable stretches are simulated in one piece. Residual whiteness (seed 000): share of autocorrelation lags up to 5 s outside the 95 % band ±1.96/√N — about 5 % for a model that explains everything but noise. σ̄ is the mean standard deviation of the fused velocity, the floor no model can beat.</p>\n");
-    for m in &scores.models {
-        model_table(&mut h, m);
-        stability(&mut h, m);
-        mean_nmae_summary(&mut h, m);
-        shortfalls(&mut h, m);
+    let Some(scores) = scores else {
+        return Ok(String::new());
+    };
+    let figures = run_figures(runs, scores, sims)?;
+    Ok(html! {
+        h2 id="pool-validation" { "Pool runs: the model against the recordings" }
+        p {
+            "Each model simulated (RK4, 0.01 s) under the run's logged thrust from the fused initial state; where the model is locally unstable along a run (a perturbation grows, as an open-frame vehicle's sway and yaw do at speed), the simulation is re-anchored to the fused state each time an error would have doubled since the last anchor (a pilot or autopilot kept the real vehicle on course), and stable stretches are simulated in one piece. Residual whiteness (seed 000): share of autocorrelation lags up to 5 s outside the 95 % band ±1.96/√N — about 5 % for a model that explains everything but noise. σ̄ is the mean standard deviation of the fused velocity, the floor no model can beat."
+        }
+        @for m in &scores.models {
+            (model_table(m))
+            (stability(m))
+            (mean_nmae_summary(m))
+            (shortfalls(m))
+        }
+        @for baseline in &scores.baselines {
+            p {
+                "Baseline: " b { "predicting rest" } " scores NMAE 1.000 in every DOF by definition. "
+                b { (baseline.model) }
+                " (added mass, linear drag and a constant force in each DOF, the restoring moment in roll and pitch; fitted by the prediction-error method on the same training runs). "
+            }
+            (mean_nmae_summary(baseline))
+        }
+        @if !scores.cross.is_empty() {
+            (cross_validation(runs, scores))
+        }
+        (figures)
     }
-    for b in &scores.baselines {
-        h.push_str(
-            "<p>Baseline: <b>predicting rest</b> scores NMAE 1.000 in every DOF by definition. ",
-        );
-        let _ = write!(
-            h,
-            "<b>{}</b> (added mass, linear drag and a constant force in each DOF, the restoring moment in roll and pitch; fitted by the prediction-error method on the same training runs). ",
-            esc(&b.model)
-        );
-        mean_nmae_summary(&mut h, b);
-    }
-    if !scores.cross.is_empty() {
-        cross_validation(&mut h, runs, scores);
-    }
-    run_figures(&mut h, runs, scores, sims)?;
-    Ok(h)
+    .into_string())
 }
 
 /// Model `m`'s scores on each pool run and DOF: errors, residual whiteness and the noise floor.
-fn model_table(h: &mut String, m: &ModelScore) {
-    let _ = writeln!(
-        h,
-        "<table><tr><th>model <code>{}</code>: run</th><th>role</th><th>DOF</th><th>MAE</th><th>NMAE</th><th>NMAE 1 / 10 / 100 samples ahead</th><th>RMSE % of peak</th><th>residual ACF outside band</th><th>σ̄</th></tr>",
-        esc(&m.model)
-    );
-    for r in &m.runs {
-        for (d, s) in &r.dofs {
-            let flag = if r.diverged {
-                " <span class=\"warn\">diverged</span>"
-            } else {
-                ""
-            };
-            let short = r.role == "validate" && m.shortfalls.iter().any(|x| x.dof == *d);
-            let dof_flag = if short {
-                " <span class=\"warn\">below baseline</span>"
-            } else {
-                ""
-            };
-            let ahead: Vec<String> = crate::validate::pool::AHEAD
-                .iter()
-                .map(|k| {
-                    s.nmae_ahead
-                        .get(k)
-                        .map_or("–".into(), |x| format!("{x:.3}"))
-                })
-                .collect();
-            let _ = writeln!(
-                h,
-                "<tr><td>{}{flag}</td><td>{}</td><td>{d}{dof_flag}</td><td>{:.4}</td><td>{:.3}</td><td>{}</td><td>{:.2}</td><td>{:.0} %</td><td>{:.4}</td></tr>",
-                esc(&r.run),
-                r.role,
-                s.metrics.mae,
-                s.metrics.nmae,
-                ahead.join(" / "),
-                s.metrics.rmse_pct,
-                100.0 * s.whiteness.outside,
-                s.measurement_std
-            );
+fn model_table(m: &ModelScore) -> Markup {
+    html! {
+        table {
+            tr {
+                th { "model " code { (m.model) } ": run" }
+                th { "role" } th { "DOF" } th { "MAE" } th { "NMAE" }
+                th { "NMAE 1 / 10 / 100 samples ahead" } th { "RMSE % of peak" }
+                th { "residual ACF outside band" } th { "σ̄" }
+            }
+            @for r in &m.runs {
+                @for (d, s) in &r.dofs {
+                    @let short = r.role == "validate" && m.shortfalls.iter().any(|x| x.dof == *d);
+                    @let ahead: Vec<String> = crate::validate::pool::AHEAD
+                        .iter()
+                        .map(|k| {
+                            s.nmae_ahead
+                                .get(k)
+                                .map_or("–".into(), |x| format!("{x:.3}"))
+                        })
+                        .collect();
+                    tr {
+                        td {
+                            (r.run)
+                            @if r.diverged {
+                                " " span class="warn" { "diverged" }
+                            }
+                        }
+                        td { (r.role) }
+                        td {
+                            (d)
+                            @if short {
+                                " " span class="warn" { "below baseline" }
+                            }
+                        }
+                        td { (format!("{:.4}", s.metrics.mae)) }
+                        td { (format!("{:.3}", s.metrics.nmae)) }
+                        td { (ahead.join(" / ")) }
+                        td { (format!("{:.2}", s.metrics.rmse_pct)) }
+                        td { (format!("{:.0} %", 100.0 * s.whiteness.outside)) }
+                        td { (format!("{:.4}", s.measurement_std)) }
+                    }
+                }
+            }
         }
     }
-    h.push_str("</table>\n");
 }
 
 /// Model `m`'s local stability along each run, for the runs where it was assessed.
-fn stability(h: &mut String, m: &ModelScore) {
-    let stab: String = m
+fn stability(m: &ModelScore) -> Markup {
+    let stab: Vec<(&str, String)> = m
         .runs
         .iter()
         .filter_map(|r| {
-            r.stability.as_ref().map(|s| {
-                format!(
-                    "<li><code>{}</code>: {}</li>",
-                    esc(&r.run),
-                    esc(&crate::core::model::stability::describe(s))
-                )
-            })
+            r.stability
+                .as_ref()
+                .map(|s| (r.run.as_str(), crate::core::model::stability::describe(s)))
         })
         .collect();
-    if !stab.is_empty() {
-        let _ = writeln!(
-            h,
-            "<p>Local stability of model <code>{}</code> along each run (eigenvalues of the model linearised at the recorded velocity):</p><ul class=\"small\" id=\"stability-{}\">{stab}</ul>",
-            esc(&m.model),
-            esc(&m.model)
-        );
+    html! {
+        @if !stab.is_empty() {
+            p {
+                "Local stability of model " code { (m.model) }
+                " along each run (eigenvalues of the model linearised at the recorded velocity):"
+            }
+            ul class="small" id=(format!("stability-{}", m.model)) {
+                @for (run, described) in &stab {
+                    li { code { (run) } ": " (described) }
+                }
+            }
+        }
     }
 }
 
 /// The DOFs in which model `m` does not beat both baselines on the held-out runs.
-fn shortfalls(h: &mut String, m: &ModelScore) {
-    for s in &m.shortfalls {
-        let _ = writeln!(h, "<p class=\"warn\">{}</p>", esc(&s.sentence(&m.model)));
-    }
-    for b in &m.behind_identified {
-        let _ = writeln!(h, "<p class=\"warn\">{}</p>", esc(&b.sentence(&m.model)));
+fn shortfalls(m: &ModelScore) -> Markup {
+    html! {
+        @for s in &m.shortfalls {
+            p class="warn" { (s.sentence(&m.model)) }
+        }
+        @for b in &m.behind_identified {
+            p class="warn" { (b.sentence(&m.model)) }
+        }
     }
 }
 
 /// Model `m`'s mean NMAE per DOF, one entry per run role.
-fn mean_nmae_summary(h: &mut String, m: &ModelScore) {
-    h.push_str("<p>Cross-validation summary, mean NMAE per DOF: ");
-    for (role, per) in &m.mean_nmae {
-        let v: Vec<String> = per.iter().map(|(d, x)| format!("{d} {x:.3}")).collect();
-        let _ = write!(h, "<b>{role}</b> runs: {}; ", v.join(", "));
+fn mean_nmae_summary(m: &ModelScore) -> Markup {
+    html! {
+        p {
+            "Cross-validation summary, mean NMAE per DOF: "
+            @for (role, per) in &m.mean_nmae {
+                @let v: Vec<String> = per.iter().map(|(d, x)| format!("{d} {x:.3}")).collect();
+                b { (role) } " runs: " (v.join(", ")) "; "
+            }
+        }
     }
-    h.push_str("</p>\n");
 }
 
 /// The cross-validation matrix (fitted on one run, scored on each other) and its notes.
-fn cross_validation(h: &mut String, runs: &[FusedRun], scores: &Scores) {
+fn cross_validation(runs: &[FusedRun], scores: &Scores) -> Markup {
     let names: Vec<&str> = runs.iter().map(|r| r.meta.run.as_str()).collect();
-    h.push_str("<h3 id=\"cross-validation\">Cross-validation across runs</h3>\n<p>The diagonal model re-estimated by least squares on one training run alone (equation error on the fused velocities and their derivative), then simulated on every other run: mean NMAE over the DOFs. Rows: the run it was fitted on; columns: the run it is scored on. A model that only fits its own run, or parameters that drift from run to run, show here.</p>\n<table><tr><th>fitted on \\ scored on</th>");
-    for n in &names {
-        let _ = write!(h, "<th>{}</th>", esc(n));
-    }
-    h.push_str("</tr>\n");
-    for c in &scores.cross {
-        let _ = write!(h, "<tr><td>{}</td>", esc(&c.trained_on));
-        for n in &names {
-            let cell = c
-                .runs
-                .iter()
-                .find(|r| r.run == *n)
-                .map_or("–".to_string(), cross_cell);
-            let _ = write!(h, "<td>{cell}</td>");
+    html! {
+        h3 id="cross-validation" { "Cross-validation across runs" }
+        p {
+            "The diagonal model re-estimated by least squares on one training run alone (equation error on the fused velocities and their derivative), then simulated on every other run: mean NMAE over the DOFs. Rows: the run it was fitted on; columns: the run it is scored on. A model that only fits its own run, or parameters that drift from run to run, show here."
         }
-        h.push_str("</tr>\n");
-    }
-    h.push_str("</table>\n");
-    for n in &scores.notes {
-        let _ = writeln!(h, "<p class=\"small\">{}</p>", esc(n));
+        table {
+            tr {
+                th { "fitted on \\ scored on" }
+                @for n in &names {
+                    th { (n) }
+                }
+            }
+            @for c in &scores.cross {
+                tr {
+                    td { (c.trained_on) }
+                    @for n in &names {
+                        td { (c.runs.iter().find(|r| r.run == *n).map_or("–".to_string(), cross_cell)) }
+                    }
+                }
+            }
+        }
+        @for n in &scores.notes {
+            p class="small" { (n) }
+        }
     }
 }
 
@@ -177,17 +193,13 @@ fn cross_cell(r: &RunScore) -> String {
 }
 
 /// One figure per run the first model was simulated on: its fused velocities against the model.
-fn run_figures(
-    h: &mut String,
-    runs: &[FusedRun],
-    scores: &Scores,
-    sims: &[Simulated],
-) -> anyhow::Result<()> {
+fn run_figures(runs: &[FusedRun], scores: &Scores, sims: &[Simulated]) -> anyhow::Result<Markup> {
     let first = scores
         .models
         .first()
         .map(|m| m.model.clone())
         .unwrap_or_default();
+    let mut figures = Vec::new();
     for r in runs {
         let Some(sim) = sims
             .iter()
@@ -197,17 +209,24 @@ fn run_figures(
         };
         let tr = traces(r, sim);
         let svg = plots::pool_run(&r.meta.run, &first, &tr)?;
-        let _ = writeln!(
-            h,
-            "<figure id=\"pool-{}\">{svg}<figcaption>Run <code>{}</code> ({}): per DOF, the fused velocity (blue) with its ±2σ band (shaded, σ the fusion's standard deviation) and model <code>{}</code> simulated under the logged thrust (dashed); beneath, the error model − fused (red) against the same band around zero: {}.</figcaption></figure>",
-            esc(&r.meta.run),
-            esc(&r.meta.run),
-            r.meta.role.as_str(),
-            esc(&first),
-            within_band(&tr)
-        );
+        figures.push(html! {
+            figure id=(format!("pool-{}", r.meta.run)) {
+                (PreEscaped(svg))
+                figcaption {
+                    "Run " code { (r.meta.run) } " (" (r.meta.role.as_str())
+                    "): per DOF, the fused velocity (blue) with its ±2σ band (shaded, σ the fusion's standard deviation) and model "
+                    code { (first) }
+                    " simulated under the logged thrust (dashed); beneath, the error model − fused (red) against the same band around zero: "
+                    (within_band(&tr)) "."
+                }
+            }
+        });
     }
-    Ok(())
+    Ok(html! {
+        @for fig in figures {
+            (fig)
+        }
+    })
 }
 
 /// Where the error lies against the ±2σ band, DOF by DOF, as the figure shows it: "inside it

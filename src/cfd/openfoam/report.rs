@@ -5,10 +5,10 @@
 use crate::cfd::openfoam::RunInfo;
 use crate::cfd::openfoam::Track;
 use crate::core::dof::Dof;
-use crate::core::html::esc;
 use crate::core::plot::{self as plots, Trace};
+use crate::identify::Estimate;
 use crate::identify::result::FitResult;
-use std::fmt::Write;
+use maud::{Markup, PreEscaped, html};
 
 /// One OpenFOAM case of the fit, with the model simulated under its applied force.
 pub struct Case<'a> {
@@ -110,86 +110,88 @@ pub fn drag_curve(c: &Case, f: &FitResult, length: f64) -> DragCurve {
 /// The OpenFOAM section of fit `f`: how each case ran, the identified parameters against their
 /// reference values, the velocities against the model, and the drag along each run.
 pub fn section(f: &FitResult, cases: &[Case]) -> anyhow::Result<String> {
-    let mut h = String::new();
     let body = f
         .vehicle
         .as_ref()
         .map_or("CFD test body".to_string(), |v| v.name.clone());
-    let _ = writeln!(
-        h,
-        "<h2 id=\"openfoam-{s}\">OpenFOAM: {b} — model <code>{s}</code></h2>",
-        s = esc(&f.stage),
-        b = esc(&body)
-    );
     let per_span = if cases.iter().all(|c| c.two_dimensional) {
         " Masses and forces are per metre of span (2D cases)."
     } else {
         ""
     };
-    let _ = writeln!(
-        h,
-        "<p>Each case was run by OpenFOAM (pimpleFoam, laminar, sixDoFRigidBodyMotion on a morphing mesh): a constant force pushes the body from rest in still water, along the direction of its DOF.{per_span}</p>"
-    );
-    runs_table(&mut h, cases);
-    if let Some(w) = f
+    let window = f
         .settings
         .get("added_mass_window_s")
-        .and_then(|v| v.as_f64())
-    {
-        let _ = writeln!(
-            h,
-            "<p>Two-step fit: the added mass from the first {w} s of each case (after the start-up transient), while the body accelerates from rest and its drag is still small; then the linear and quadratic drag from every sample with that added mass held.</p>"
-        );
-    }
-    reference_table(&mut h, f);
-    velocity_figure(&mut h, cases)?;
-    if let Some(length) = f
+        .and_then(|v| v.as_f64());
+    let velocity = velocity_figure(cases)?;
+    let drag = f
         .settings
         .get("reference_length_m")
         .and_then(|v| v.as_f64())
-    {
-        drag_figure(&mut h, f, cases, length)?;
+        .map(|length| drag_figure(f, cases, length))
+        .transpose()?;
+    Ok(html! {
+        h2 id=(format!("openfoam-{}", f.stage)) {
+            "OpenFOAM: " (body) " — model " code { (f.stage) }
+        }
+        p {
+            "Each case was run by OpenFOAM (pimpleFoam, laminar, sixDoFRigidBodyMotion on a morphing mesh): a constant force pushes the body from rest in still water, along the direction of its DOF."
+            (per_span)
+        }
+        (runs_table(cases))
+        @if let Some(w) = window {
+            p {
+                "Two-step fit: the added mass from the first " (w) " s of each case (after the start-up transient), while the body accelerates from rest and its drag is still small; then the linear and quadratic drag from every sample with that added mass held."
+            }
+        }
+        (reference_table(f))
+        (velocity)
+        @if let Some(drag) = drag {
+            (drag)
+        }
     }
-    Ok(h)
+    .into_string())
 }
 
 /// How each case ran (force, mass, steps, solver time, where its results came from, peak speed,
 /// the model's error), and the OpenFOAM build that ran them.
-fn runs_table(h: &mut String, cases: &[Case]) {
-    h.push_str("<table><tr><th>case</th><th>DOF</th><th>force (N)</th><th>mass (kg)</th><th>end time (s)</th><th>steps</th><th>solver CPU (s)</th><th>wall (s)</th><th>results</th><th>peak speed (m/s)</th><th>model NMAE</th></tr>\n");
-    for c in cases {
-        let i = c.info;
-        let _ = writeln!(
-            h,
-            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.4}</td><td>{:.3}</td></tr>",
-            esc(c.name),
-            c.dof.name(),
-            i.applied_force_n[c.dof.index()],
-            i.mass_kg,
-            i.end_time_s,
-            i.steps,
-            i.cpu_time_s.map_or("–".into(), |x| format!("{x:.0}")),
-            i.wall_time_s.map_or("–".into(), |x| format!("{x:.0}")),
-            results_cell(i),
-            c.velocity.iter().fold(0.0f64, |a, v| a.max(v.abs())),
-            c.nmae,
-        );
-    }
-    h.push_str("</table>\n");
-    if let Some(v) = cases
+fn runs_table(cases: &[Case]) -> Markup {
+    let build = cases
         .iter()
         .map(|c| &c.info.openfoam)
-        .find(|s| !s.is_empty())
-    {
-        let _ = writeln!(
-            h,
-            "<p class=\"small\">OpenFOAM build: <code>{}</code>.</p>",
-            esc(v)
-        );
+        .find(|s| !s.is_empty());
+    html! {
+        table {
+            tr {
+                th { "case" } th { "DOF" } th { "force (N)" } th { "mass (kg)" }
+                th { "end time (s)" } th { "steps" } th { "solver CPU (s)" } th { "wall (s)" }
+                th { "results" } th { "peak speed (m/s)" } th { "model NMAE" }
+            }
+            @for c in cases {
+                @let i = c.info;
+                tr {
+                    td { (c.name) }
+                    td { (c.dof.name()) }
+                    td { (i.applied_force_n[c.dof.index()]) }
+                    td { (i.mass_kg) }
+                    td { (i.end_time_s) }
+                    td { (i.steps) }
+                    td { (i.cpu_time_s.map_or("–".into(), |x| format!("{x:.0}"))) }
+                    td { (i.wall_time_s.map_or("–".into(), |x| format!("{x:.0}"))) }
+                    td { (results_cell(i)) }
+                    td { (format!("{:.4}", c.velocity.iter().fold(0.0f64, |a, v| a.max(v.abs())))) }
+                    td { (format!("{:.3}", c.nmae)) }
+                }
+            }
+        }
+        @if let Some(v) = build {
+            p class="small" { "OpenFOAM build: " code { (v) } "." }
+        }
     }
 }
 
-/// Where a case's results came from, with the Slurm job that made them when one did.
+/// Where a case's results came from, with the Slurm job that made them when one did (plain
+/// text; the template escapes it).
 fn results_cell(i: &RunInfo) -> String {
     let how = if i.ran_in_this_build {
         "run by this build"
@@ -197,8 +199,8 @@ fn results_cell(i: &RunInfo) -> String {
         "read from the case folder"
     };
     match (&i.slurm_job, &i.node) {
-        (Some(job), Some(node)) => format!("{how} (Slurm job {} on {})", esc(job), esc(node)),
-        (Some(job), None) => format!("{how} (Slurm job {})", esc(job)),
+        (Some(job), Some(node)) => format!("{how} (Slurm job {job} on {node})"),
+        (Some(job), None) => format!("{how} (Slurm job {job})"),
         _ => how.to_string(),
     }
 }
@@ -212,59 +214,68 @@ fn magnitude_difference(value: f64, reference: f64) -> f64 {
 
 /// The identified parameters against their reference values, with the one-step fit's values
 /// in a column of their own when there is one.
-fn reference_table(h: &mut String, f: &FitResult) {
+fn reference_table(f: &FitResult) -> Markup {
     let one_step = f.one_step.as_deref();
-    let _ = writeln!(
-        h,
-        "<h3>Identified against reference values</h3>\n<table><tr><th>parameter</th><th>identified</th><th>± std. error</th><th>reference</th><th>size against the reference</th><th>reference from</th>{}</tr>",
-        if one_step.is_some() {
-            "<th>one-step fit over whole runs</th>"
-        } else {
-            ""
+    html! {
+        h3 { "Identified against reference values" }
+        table {
+            tr {
+                th { "parameter" } th { "identified" } th { "± std. error" } th { "reference" }
+                th { "size against the reference" } th { "reference from" }
+                @if one_step.is_some() {
+                    th { "one-step fit over whole runs" }
+                }
+            }
+            @for p in &f.fit.parameters {
+                tr {
+                    td { code { (p.name) } }
+                    td { (format!("{:.4}", p.value)) }
+                    td { (format!("{:.2e}", p.stderr)) }
+                    @match f.expected.get(&p.name) {
+                        Some(e) => {
+                            td { (format!("{:.4}", e.value)) }
+                            td { (format!("{:+.2} %", magnitude_difference(p.value, e.value))) }
+                            td { (e.source) }
+                        }
+                        None => { td { "–" } td { "–" } td {} }
+                    }
+                    @if let Some(one) = one_step_cell(f, p) {
+                        td { (one) }
+                    }
+                }
+            }
         }
-    );
-    for p in &f.fit.parameters {
-        let one = one_step
-            .and_then(|o| o.iter().find(|q| q.name == p.name))
-            .map(|q| {
-                let rel = f.expected.get(&p.name).map_or(String::new(), |e| {
-                    format!(" ({:+.1} %)", magnitude_difference(q.value, e.value))
-                });
-                format!("<td>{:.4}{rel}</td>", q.value)
-            });
-        let (r, diff, src) = match f.expected.get(&p.name) {
-            Some(e) => (
-                format!("{:.4}", e.value),
-                format!("{:+.2} %", magnitude_difference(p.value, e.value)),
-                esc(&e.source),
-            ),
-            None => ("–".into(), "–".into(), String::new()),
-        };
-        let _ = writeln!(
-            h,
-            "<tr><td><code>{}</code></td><td>{:.4}</td><td>{:.2e}</td><td>{r}</td><td>{diff}</td><td>{src}</td>{}</tr>",
-            esc(&p.name),
-            p.value,
-            p.stderr,
-            one.unwrap_or_default()
-        );
     }
-    h.push_str("</table>\n");
+}
+
+/// Parameter `p`'s value in the one-step fit, with how much it differs from the reference
+/// when there is one; `None` without a one-step fit.
+fn one_step_cell(f: &FitResult, p: &Estimate) -> Option<String> {
+    let q = f.one_step.as_deref()?.iter().find(|q| q.name == p.name)?;
+    let rel = f.expected.get(&p.name).map_or(String::new(), |e| {
+        format!(" ({:+.1} %)", magnitude_difference(q.value, e.value))
+    });
+    Some(format!("{:.4}{rel}", q.value))
 }
 
 /// The figure of each case's velocity in its DOF against the identified model's (one figure
 /// per DOF the cases are pushed in).
-fn velocity_figure(h: &mut String, cases: &[Case]) -> anyhow::Result<()> {
+fn velocity_figure(cases: &[Case]) -> anyhow::Result<Markup> {
     let mut dofs: Vec<Dof> = cases.iter().map(|c| c.dof).collect();
     dofs.sort_by_key(|d| d.index());
     dofs.dedup();
-    for dof in dofs {
-        velocity_figure_of(h, cases, dof)?;
-    }
-    Ok(())
+    let figures = dofs
+        .into_iter()
+        .map(|dof| velocity_figure_of(cases, dof))
+        .collect::<anyhow::Result<Vec<Markup>>>()?;
+    Ok(html! {
+        @for fig in figures {
+            (fig)
+        }
+    })
 }
 
-fn velocity_figure_of(h: &mut String, cases: &[Case], dof: Dof) -> anyhow::Result<()> {
+fn velocity_figure_of(cases: &[Case], dof: Dof) -> anyhow::Result<Markup> {
     let mut traces: Vec<Trace> = cases
         .iter()
         .filter(|c| c.dof == dof)
@@ -288,17 +299,20 @@ fn velocity_figure_of(h: &mut String, cases: &[Case], dof: Dof) -> anyhow::Resul
     } else {
         format!("openfoam-velocity-{}", dof.name())
     };
-    let _ = writeln!(
-        h,
-        "<figure id=\"{id}\">{svg}<figcaption>{} velocity of each OpenFOAM case (colour; the legend in the order the curves end, top to bottom) and of the identified constant-coefficient model under the same force (dashed).</figcaption></figure>",
-        capitalised(dof.name())
-    );
-    Ok(())
+    Ok(html! {
+        figure id=(id) {
+            (PreEscaped(svg))
+            figcaption {
+                (capitalised(dof.name()))
+                " velocity of each OpenFOAM case (colour; the legend in the order the curves end, top to bottom) and of the identified constant-coefficient model under the same force (dashed)."
+            }
+        }
+    })
 }
 
 /// The figure of the drag coefficient along each run against the model's, and what it says;
 /// nothing when no run is fast enough to show one.
-fn drag_figure(h: &mut String, f: &FitResult, cases: &[Case], length: f64) -> anyhow::Result<()> {
+fn drag_figure(f: &FitResult, cases: &[Case], length: f64) -> anyhow::Result<Markup> {
     let curves: Vec<(&Case, DragCurve)> = cases
         .iter()
         .map(|c| (c, drag_curve(c, f, length)))
@@ -314,7 +328,7 @@ fn drag_figure(h: &mut String, f: &FitResult, cases: &[Case], length: f64) -> an
         })
         .collect();
     if traces.is_empty() {
-        return Ok(());
+        return Ok(html! {});
     }
     let svg = plots::curves(
         "drag coefficient against distance travelled",
@@ -328,12 +342,16 @@ fn drag_figure(h: &mut String, f: &FitResult, cases: &[Case], length: f64) -> an
     } else {
         format!("Cd = drag / (½ ρ u² A), A = π L² / 4, L = {length} m")
     };
-    let _ = writeln!(
-        h,
-        "<figure id=\"openfoam-drag\">{svg}<figcaption>Drag coefficient {reference}, from the fluid force on the body less the added-mass reaction, at speeds above a fifth of each run's peak (colour); the identified model's Cd at the same speed (dashed).</figcaption></figure>"
-    );
-    h.push_str(&finding(&curves, f));
-    Ok(())
+    Ok(html! {
+        figure id="openfoam-drag" {
+            (PreEscaped(svg))
+            figcaption {
+                "Drag coefficient " (reference)
+                ", from the fluid force on the body less the added-mass reaction, at speeds above a fifth of each run's peak (colour); the identified model's Cd at the same speed (dashed)."
+            }
+        }
+        (finding(&curves, f))
+    })
 }
 
 fn capitalised(s: &str) -> String {
@@ -343,31 +361,23 @@ fn capitalised(s: &str) -> String {
     })
 }
 
+/// Where a drag curve's measured Cd peaks: (sample index, Cd).
+fn peak(d: &DragCurve) -> (usize, f64) {
+    d.measured.iter().enumerate().fold(
+        (0, f64::MIN),
+        |a, (k, v)| if *v > a.1 { (k, *v) } else { a },
+    )
+}
+
 /// What the drag curves say about a constant-coefficient model, in numbers.
-fn finding(curves: &[(&Case, DragCurve)], f: &FitResult) -> String {
-    let mut h = String::from("<h3>What the runs say about the drag</h3>\n<ul>\n");
-    let mut spread = Vec::new();
-    for (c, d) in curves {
-        let (kmax, cmax) =
-            d.measured.iter().enumerate().fold(
-                (0, f64::MIN),
-                |a, (k, v)| if *v > a.1 { (k, *v) } else { a },
-            );
-        let end = *d.measured.last().expect("non-empty");
-        let model_end = *d.model.last().expect("non-empty");
-        spread.push((cmax, end));
-        let _ = writeln!(
-            h,
-            "<li><code>{}</code>: Cd peaks at {cmax:.2} after {:.1} lengths of travel and is {end:.2} at the end ({:.1} lengths); the model says {model_end:.2} there; model velocity NMAE {:.3}.</li>",
-            esc(c.name),
-            d.travel[kmax],
-            d.travel.last().expect("non-empty"),
-            c.nmae
-        );
-    }
-    h.push_str("</ul>\n");
+fn finding(curves: &[(&Case, DragCurve)], f: &FitResult) -> Markup {
+    let peaks: Vec<(usize, f64)> = curves.iter().map(|(_, d)| peak(d)).collect();
     let worst = curves.iter().map(|(c, _)| c.nmae).fold(0.0f64, f64::max);
-    let fall = spread.iter().map(|(p, e)| p / e).fold(0.0f64, f64::max);
+    let fall = curves
+        .iter()
+        .zip(&peaks)
+        .map(|((_, d), (_, cmax))| cmax / d.measured.last().expect("non-empty"))
+        .fold(0.0f64, f64::max);
     let rel = |name: &str| {
         f.fit
             .parameters
@@ -375,29 +385,31 @@ fn finding(curves: &[(&Case, DragCurve)], f: &FitResult) -> String {
             .find(|p| p.name == name)
             .map_or(f64::NAN, |p| (p.stderr / p.value).abs())
     };
-    let _ = writeln!(
-        h,
-        "<p>{}</p>",
-        drag_summary(&esc(&f.stage), fall, worst, rel("X_udot"), rel("X_uu"))
-    );
-    h
+    html! {
+        h3 { "What the runs say about the drag" }
+        ul {
+            @for ((c, d), (kmax, cmax)) in curves.iter().zip(&peaks) {
+                @let end = d.measured.last().expect("non-empty");
+                @let model_end = d.model.last().expect("non-empty");
+                li {
+                    code { (c.name) }
+                    (format!(
+                        ": Cd peaks at {cmax:.2} after {:.1} lengths of travel and is {end:.2} at the end ({:.1} lengths); the model says {model_end:.2} there; model velocity NMAE {:.3}.",
+                        d.travel[*kmax],
+                        d.travel.last().expect("non-empty"),
+                        c.nmae
+                    ))
+                }
+            }
+        }
+        p { (drag_summary(&f.stage, fall, worst, rel("X_udot"), rel("X_uu"))) }
+    }
 }
 
 /// The paragraph under the drag figure, each claim chosen by its number: whether Cd falls
 /// along a run (`fall`: the largest peak-to-end ratio), the model's worst velocity NMAE, and
 /// which of the added mass and the quadratic drag has the smaller relative standard error.
-fn drag_summary(stage: &str, fall: f64, worst: f64, rel_added: f64, rel_quad: f64) -> String {
-    let history = if fall >= 1.2 {
-        format!(
-            "The drag is not a function of speed alone: it depends on how far the body has travelled (the wake builds up behind it), with Cd falling by up to a factor {fall:.1} from its peak within one run. \
-             A model with constant linear and quadratic drag (<code>{stage}</code>) can only average this over the runs, so its velocity error reaches NMAE {worst:.3}. \
-             Use the drag from these runs for motions of similar length only."
-        )
-    } else {
-        format!(
-            "Cd stays within a factor {fall:.2} of its peak along every run: the drag is close to a function of speed alone, and the constant-coefficient model (<code>{stage}</code>) follows it to a velocity NMAE of {worst:.3} at worst."
-        )
-    };
+fn drag_summary(stage: &str, fall: f64, worst: f64, rel_added: f64, rel_quad: f64) -> Markup {
     let better = if !(rel_added.is_finite() && rel_quad.is_finite()) {
         String::new()
     } else if rel_added < rel_quad {
@@ -413,7 +425,26 @@ fn drag_summary(stage: &str, fall: f64, worst: f64, rel_added: f64, rel_quad: f6
             100.0 * rel_added
         )
     };
-    format!("{history}{better}")
+    html! {
+        @if fall >= 1.2 {
+            "The drag is not a function of speed alone: it depends on how far the body has travelled (the wake builds up behind it), with Cd falling by up to a factor "
+            (format!("{fall:.1}"))
+            " from its peak within one run. A model with constant linear and quadratic drag ("
+            code { (stage) }
+            ") can only average this over the runs, so its velocity error reaches NMAE "
+            (format!("{worst:.3}"))
+            ". Use the drag from these runs for motions of similar length only."
+        } @else {
+            "Cd stays within a factor "
+            (format!("{fall:.2}"))
+            " of its peak along every run: the drag is close to a function of speed alone, and the constant-coefficient model ("
+            code { (stage) }
+            ") follows it to a velocity NMAE of "
+            (format!("{worst:.3}"))
+            " at worst."
+        }
+        (better)
+    }
 }
 
 #[cfg(test)]
@@ -429,10 +460,10 @@ mod tests {
 
     #[test]
     fn the_drag_paragraph_says_what_its_numbers_say() {
-        let s = super::drag_summary("cyl", 2.1, 0.08, 0.001, 0.013);
+        let s = super::drag_summary("cyl", 2.1, 0.08, 0.001, 0.013).into_string();
         assert!(s.contains("Cd falling by up to a factor 2.1"), "{s}");
         assert!(s.contains("The added mass is the better-determined"), "{s}");
-        let s = super::drag_summary("cyl", 1.05, 0.01, 0.05, 0.013);
+        let s = super::drag_summary("cyl", 1.05, 0.01, 0.05, 0.013).into_string();
         assert!(s.contains("close to a function of speed alone"), "{s}");
         assert!(!s.contains("falling"), "{s}");
         assert!(
