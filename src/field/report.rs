@@ -3,29 +3,28 @@
 //! its poles and zeros), integrated-regressor LS and RLS (seed 000: parameters against truth,
 //! the RLS trace, the prediction error's autocorrelation).
 
-use crate::core::html::esc;
 use crate::core::plot::lines::{Chart, Correlogram, Series, figure};
 use crate::field::FieldResult;
 use crate::field::arx::{Detail as ArxDetail, Model, Simulation};
 use crate::field::truth::Truth;
-use std::fmt::Write;
+use maud::{Markup, PreEscaped, html};
 
 /// Every field-trial section, in the order of the stages.
 pub fn sections(results: &[FieldResult], truth: &Truth) -> anyhow::Result<String> {
-    let mut h = String::new();
-    for r in results {
-        h += &match r.kind.as_str() {
-            "arx" => arx_section(r, truth)?,
-            "integrated" => crate::field::integrated::report::section(r, truth)?,
-            "adaptive" => crate::field::adaptive::report::section(r, truth)?,
-            _ => format!(
-                "<h2>{}</h2><p>Unknown identifier kind `{}`.</p>",
-                esc(&r.stage),
-                esc(&r.kind)
-            ),
-        };
+    Ok(html! {
+        @for r in results {
+            @match r.kind.as_str() {
+                "arx" => (arx_section(r, truth)?),
+                "integrated" => (PreEscaped(crate::field::integrated::report::section(r, truth)?)),
+                "adaptive" => (PreEscaped(crate::field::adaptive::report::section(r, truth)?)),
+                _ => {
+                    h2 { (r.stage) }
+                    p { "Unknown identifier kind `" (r.kind) "`." }
+                }
+            }
+        }
     }
-    Ok(h)
+    .into_string())
 }
 
 fn criterion_name(c: crate::field::arx::Criterion) -> &'static str {
@@ -46,44 +45,46 @@ fn num(x: Option<f64>, digits: usize) -> String {
     }
 }
 
-fn arx_section(r: &FieldResult, truth: &Truth) -> anyhow::Result<String> {
+fn arx_section(r: &FieldResult, truth: &Truth) -> anyhow::Result<Markup> {
     let d: ArxDetail = serde_json::from_value(r.detail.clone())?;
-    let mut h = String::new();
-    let _ = writeln!(
-        h,
-        "<h2 id=\"field-{st}\">ARX: {out} from {inp} (stage <code>{st}</code>, seed 002)</h2>\n<p>A(q) y(t) = B(q) u(t−k) + v(t), least squares on the one-step prediction error (seed 002 eq. 2.2–2.6), sampled every {h} s, {detrend}. Estimated on {est}; simulated from the input alone on {val}. {n} structures of the grid were estimated on the same equations and ranked by <b>{crit}</b>; the named structures are compared beside the one it selected.</p>",
-        st = esc(&r.stage),
-        out = esc(&d.output),
-        inp = esc(&d.input),
-        h = d.sample_s,
-        detrend = if r.settings["detrend"] == "none" {
-            "not detrended"
-        } else {
-            "each run's mean removed"
-        },
-        est = esc(&r.estimation_runs.join(", ")),
-        val = if r.validation_runs.is_empty() {
-            "no held-out run (the estimation run is shown)".into()
-        } else {
-            esc(&r.validation_runs.join(", "))
-        },
-        n = d.grid_size,
-        crit = criterion_name(d.criterion),
-    );
-    h += &structure_table(&d, r);
-    if let Some(m) = d.models.iter().find(|m| m.selected) {
-        h += &transfer_function(m, &d, truth);
-    }
-    for s in &d.simulations {
-        h += &simulation_figure(r, &d, s)?;
-    }
-    h += &residual_test(r, &d)?;
-    h += &ranking_table(&d);
-    Ok(h)
+    let detrend = if r.settings["detrend"] == "none" {
+        "not detrended"
+    } else {
+        "each run's mean removed"
+    };
+    let selected = d.models.iter().find(|m| m.selected);
+    Ok(html! {
+        h2 id=(format!("field-{}", r.stage)) {
+            "ARX: " (d.output) " from " (d.input) " (stage " code { (r.stage) } ", seed 002)"
+        }
+        p {
+            "A(q) y(t) = B(q) u(t−k) + v(t), least squares on the one-step prediction error (seed 002 eq. 2.2–2.6), sampled every "
+            (d.sample_s) " s, " (detrend) ". Estimated on " (r.estimation_runs.join(", "))
+            "; simulated from the input alone on "
+            @if r.validation_runs.is_empty() {
+                "no held-out run (the estimation run is shown)"
+            } @else {
+                (r.validation_runs.join(", "))
+            }
+            ". " (d.grid_size)
+            " structures of the grid were estimated on the same equations and ranked by "
+            b { (criterion_name(d.criterion)) }
+            "; the named structures are compared beside the one it selected."
+        }
+        (structure_table(&d, r))
+        @if let Some(m) = selected {
+            (transfer_function(m, &d, truth))
+        }
+        @for s in &d.simulations {
+            (simulation_figure(r, &d, s)?)
+        }
+        (residual_test(r, &d)?)
+        (ranking_table(&d))
+    })
 }
 
 /// One held-out run: measured, and each structure simulated from the input alone.
-fn simulation_figure(r: &FieldResult, d: &ArxDetail, s: &Simulation) -> anyhow::Result<String> {
+fn simulation_figure(r: &FieldResult, d: &ArxDetail, s: &Simulation) -> anyhow::Result<Markup> {
     let mut series = vec![Series {
         label: "measured",
         x: &s.t,
@@ -103,16 +104,16 @@ fn simulation_figure(r: &FieldResult, d: &ArxDetail, s: &Simulation) -> anyhow::
         d.output, s.run, d.input
     );
     let y_desc = format!("{} ({}, detrended)", d.output, d.output_unit);
-    let fig_id = format!("field-{}-sim-{}", esc(&r.stage), esc(&s.run));
-    let caption = format!(
-        "{} on held-out run <code>{}</code> (detrended, blue) and each structure simulated from {} alone from the measured initial samples (MATLAB <code>compare</code>); a structure whose simulation diverged is left out.",
-        esc(&d.output),
-        esc(&s.run),
-        esc(&d.input)
-    );
-    figure(
-        &fig_id,
-        &caption,
+    let fig_id = html! { "field-" (r.stage) "-sim-" (s.run) };
+    let caption = html! {
+        (d.output) " on held-out run " code { (s.run) }
+        " (detrended, blue) and each structure simulated from " (d.input)
+        " alone from the measured initial samples (MATLAB " code { "compare" }
+        "); a structure whose simulation diverged is left out."
+    };
+    let fig = figure(
+        &fig_id.into_string(),
+        &caption.into_string(),
         &Chart {
             title: &title,
             x_desc: "time (s)",
@@ -121,13 +122,13 @@ fn simulation_figure(r: &FieldResult, d: &ArxDetail, s: &Simulation) -> anyhow::
             hlines: vec![],
             stems: false,
         },
-    )
+    )?;
+    Ok(PreEscaped(fig))
 }
 
 /// The selected model's one-step prediction error: its autocorrelation against the band of
 /// a white sequence (MATLAB `resid`).
-fn residual_test(r: &FieldResult, d: &ArxDetail) -> anyhow::Result<String> {
-    let mut h = String::new();
+fn residual_test(r: &FieldResult, d: &ArxDetail) -> anyhow::Result<Markup> {
     let lags: Vec<f64> = (0..d.residual_acf.len()).map(|l| l as f64).collect();
     let title = format!(
         "autocorrelation of the prediction error ({})",
@@ -141,69 +142,72 @@ fn residual_test(r: &FieldResult, d: &ArxDetail) -> anyhow::Result<String> {
         acf: &d.residual_acf,
         band: d.residual_band,
     };
-    let _ = writeln!(
-        h,
-        "<p>Residual test (MATLAB <code>resid</code>): the selected model's one-step prediction error on {} has {} of {} lags outside the 99 % band ±{:.3} of a white sequence.</p>",
-        esc(&d.residual_run),
-        acf.outside(),
-        d.residual_acf.len().saturating_sub(1),
-        d.residual_band
-    );
-    let fig_id = format!("field-{}-resid", esc(&r.stage));
-    let caption = format!(
-        "Autocorrelation of the selected model's one-step prediction error on <code>{}</code> by lag, with the 99 % band of a white sequence (dotted).",
-        esc(&d.residual_run)
-    );
-    h += &acf.figure(&fig_id, &caption)?;
-    Ok(h)
+    let fig_id = html! { "field-" (r.stage) "-resid" };
+    let caption = html! {
+        "Autocorrelation of the selected model's one-step prediction error on "
+        code { (d.residual_run) }
+        " by lag, with the 99 % band of a white sequence (dotted)."
+    };
+    let fig = acf.figure(&fig_id.into_string(), &caption.into_string())?;
+    Ok(html! {
+        p {
+            "Residual test (MATLAB " code { "resid" }
+            "): the selected model's one-step prediction error on " (d.residual_run) " has "
+            (acf.outside()) " of " (d.residual_acf.len().saturating_sub(1))
+            " lags outside the 99 % band ±" (format!("{:.3}", d.residual_band))
+            " of a white sequence."
+        }
+        (PreEscaped(fig))
+    })
 }
 
 /// The comparison of structures (the paper's tf1-tf4 and the selected one).
-fn structure_table(d: &ArxDetail, r: &FieldResult) -> String {
-    let mut h = String::from(
-        "<table><tr><th>structure</th><th>na</th><th>nb</th><th>k</th><th>loss V (estimation)</th><th>MDL</th><th>AIC</th><th>FPE</th>",
-    );
-    for v in &r.validation_runs {
-        let _ = write!(h, "<th>fit on {} (%)</th>", esc(v));
-    }
-    h.push_str("<th>stable</th><th>steady gain</th></tr>\n");
-    for m in &d.models {
-        let o = m.arx.orders;
-        let _ = write!(
-            h,
-            "<tr{}><td>{}{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.4e}</td><td>{:.1}</td><td>{:.1}</td><td>{:.4e}</td>",
-            if m.selected { " class=\"best\"" } else { "" },
-            esc(&m.name),
-            if m.selected && m.name != "selected" {
-                " (selected)"
-            } else {
-                ""
-            },
-            o.na,
-            o.nb,
-            o.k,
-            m.arx.loss,
-            m.arx.mdl,
-            m.arx.aic,
-            m.arx.fpe
-        );
-        for v in &m.validation {
-            let _ = write!(h, "<td>{}</td>", num(v.fit_pct, 1));
+fn structure_table(d: &ArxDetail, r: &FieldResult) -> Markup {
+    html! {
+        table {
+            tr {
+                th { "structure" } th { "na" } th { "nb" } th { "k" }
+                th { "loss V (estimation)" } th { "MDL" } th { "AIC" } th { "FPE" }
+                @for v in &r.validation_runs {
+                    th { "fit on " (v) " (%)" }
+                }
+                th { "stable" } th { "steady gain" }
+            }
+            @for m in &d.models {
+                (structure_row(m))
+            }
         }
-        let _ = writeln!(
-            h,
-            "<td>{}</td><td>{:.4}</td></tr>",
-            if m.stable { "yes" } else { "no" },
-            m.gain
-        );
     }
-    h.push_str("</table>\n");
-    h
+}
+
+/// One structure's row of [`structure_table`].
+fn structure_row(m: &Model) -> Markup {
+    let o = m.arx.orders;
+    html! {
+        tr class=[m.selected.then_some("best")] {
+            td {
+                (m.name)
+                @if m.selected && m.name != "selected" {
+                    " (selected)"
+                }
+            }
+            td { (o.na) } td { (o.nb) } td { (o.k) }
+            td { (format!("{:.4e}", m.arx.loss)) }
+            td { (format!("{:.1}", m.arx.mdl)) }
+            td { (format!("{:.1}", m.arx.aic)) }
+            td { (format!("{:.4e}", m.arx.fpe)) }
+            @for v in &m.validation {
+                td { (num(v.fit_pct, 1)) }
+            }
+            td { @if m.stable { "yes" } @else { "no" } }
+            td { (format!("{:.4}", m.gain)) }
+        }
+    }
 }
 
 /// The selected model's transfer function with standard errors, its poles and zeros, and the
 /// truth's poles mapped to the same sample time where a twin left them.
-fn transfer_function(m: &Model, d: &ArxDetail, truth: &Truth) -> String {
+fn transfer_function(m: &Model, d: &ArxDetail, truth: &Truth) -> Markup {
     let coef = |v: &[f64], s: &[f64], p: &str| -> String {
         v.iter()
             .zip(s)
@@ -213,35 +217,7 @@ fn transfer_function(m: &Model, d: &ArxDetail, truth: &Truth) -> String {
             .join(", ")
     };
     let o = m.arx.orders;
-    let mut h = format!(
-        "<p>Selected transfer function G(z) = z<sup>−{}</sup> B(z<sup>−1</sup>)/A(z<sup>−1</sup>) with {}; {}.</p>\n",
-        o.k,
-        coef(&m.arx.a, &m.arx.a_std, "a"),
-        coef(&m.arx.b, &m.arx.b_std, "b")
-    );
-    h.push_str("<table><tr><th></th><th>z</th><th>|z|</th><th>s = ln z / h (1/s)</th><th>ω<sub>n</sub> (rad/s)</th><th>ζ</th></tr>\n");
-    let row = |h: &mut String, what: &str, z: [f64; 2]| {
-        let r = z[0].hypot(z[1]);
-        let s = [r.ln() / d.sample_s, z[1].atan2(z[0]) / d.sample_s];
-        let wn = s[0].hypot(s[1]);
-        let _ = writeln!(
-            h,
-            "<tr><td>{what}</td><td>{:.4} {} {:.4}i</td><td>{r:.4}</td><td>{:.3} {} {:.3}i</td><td>{wn:.3}</td><td>{:.3}</td></tr>",
-            z[0],
-            if z[1] < 0.0 { "−" } else { "+" },
-            z[1].abs(),
-            s[0],
-            if s[1] < 0.0 { "−" } else { "+" },
-            s[1].abs(),
-            -s[0] / wn.max(f64::MIN_POSITIVE)
-        );
-    };
-    for p in &m.poles {
-        row(&mut h, "pole", *p);
-    }
-    for z in &m.zeros {
-        row(&mut h, "zero", *z);
-    }
+    let mut truth_poles = Vec::new();
     for i in 1.. {
         let (Some(re), Some(im)) = (
             truth.get(&format!("pole{i}_re")),
@@ -250,46 +226,86 @@ fn transfer_function(m: &Model, d: &ArxDetail, truth: &Truth) -> String {
             break;
         };
         let e = (re * d.sample_s).exp();
-        let z = [e * (im * d.sample_s).cos(), e * (im * d.sample_s).sin()];
-        row(&mut h, "truth pole (e<sup>sh</sup>)", z);
+        truth_poles.push([e * (im * d.sample_s).cos(), e * (im * d.sample_s).sin()]);
     }
-    h.push_str("</table>\n");
-    if let Some(g) = truth.get(&format!("{}_gain", d.output)) {
-        let _ = writeln!(
-            h,
-            "<p>Steady gain: {:.4} identified, {g:.4} true ({:+.1} %).</p>",
-            m.gain,
-            100.0 * (m.gain - g) / g
-        );
+    let gain = truth.get(&format!("{}_gain", d.output));
+    html! {
+        p {
+            "Selected transfer function G(z) = z" sup { "−" (o.k) } " B(z" sup { "−1" } ")/A(z"
+            sup { "−1" } ") with " (coef(&m.arx.a, &m.arx.a_std, "a")) "; "
+            (coef(&m.arx.b, &m.arx.b_std, "b")) "."
+        }
+        table {
+            tr {
+                th {} th { "z" } th { "|z|" } th { "s = ln z / h (1/s)" }
+                th { "ω" sub { "n" } " (rad/s)" } th { "ζ" }
+            }
+            @for p in &m.poles {
+                (root_row(html! { "pole" }, *p, d.sample_s))
+            }
+            @for z in &m.zeros {
+                (root_row(html! { "zero" }, *z, d.sample_s))
+            }
+            @for z in &truth_poles {
+                (root_row(html! { "truth pole (e" sup { "sh" } ")" }, *z, d.sample_s))
+            }
+        }
+        @if let Some(g) = gain {
+            p {
+                (format!(
+                    "Steady gain: {:.4} identified, {g:.4} true ({:+.1} %).",
+                    m.gain,
+                    100.0 * (m.gain - g) / g
+                ))
+            }
+        }
     }
-    h
+}
+
+/// A pole or zero `z` of [`transfer_function`]'s table, with its continuous-time equivalent
+/// at the sample time `h`.
+fn root_row(what: Markup, z: [f64; 2], h: f64) -> Markup {
+    let r = z[0].hypot(z[1]);
+    let s = [r.ln() / h, z[1].atan2(z[0]) / h];
+    let wn = s[0].hypot(s[1]);
+    let sign = |x: f64| if x < 0.0 { "−" } else { "+" };
+    html! {
+        tr {
+            td { (what) }
+            td { (format!("{:.4} {} {:.4}i", z[0], sign(z[1]), z[1].abs())) }
+            td { (format!("{r:.4}")) }
+            td { (format!("{:.3} {} {:.3}i", s[0], sign(s[1]), s[1].abs())) }
+            td { (format!("{wn:.3}")) }
+            td { (format!("{:.3}", -s[0] / wn.max(f64::MIN_POSITIVE))) }
+        }
+    }
 }
 
 /// The best structures of the grid by the criterion (MATLAB `selstruc`'s table).
-fn ranking_table(d: &ArxDetail) -> String {
-    let mut h = format!(
-        "<details><summary>The {} best of {} structures by {}</summary><table><tr><th>na</th><th>nb</th><th>k</th><th>loss V</th><th>MDL</th><th>AIC</th><th>FPE</th><th>held-out prediction loss</th><th>held-out simulation loss</th></tr>\n",
-        d.ranking.len(),
-        d.grid_size,
-        criterion_name(d.criterion)
-    );
-    for s in &d.ranking {
-        let o = s.orders;
-        let _ = writeln!(
-            h,
-            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.4e}</td><td>{:.1}</td><td>{:.1}</td><td>{:.4e}</td><td>{}</td><td>{}</td></tr>",
-            o.na,
-            o.nb,
-            o.k,
-            s.loss,
-            s.mdl,
-            s.aic,
-            s.fpe,
-            s.prediction_loss.map_or("–".into(), |v| format!("{v:.4e}")),
-            s.simulation_loss
-                .map_or("diverged".into(), |v| format!("{v:.4e}"))
-        );
+fn ranking_table(d: &ArxDetail) -> Markup {
+    html! {
+        details {
+            summary {
+                "The " (d.ranking.len()) " best of " (d.grid_size) " structures by "
+                (criterion_name(d.criterion))
+            }
+            table {
+                tr {
+                    th { "na" } th { "nb" } th { "k" } th { "loss V" } th { "MDL" } th { "AIC" }
+                    th { "FPE" } th { "held-out prediction loss" } th { "held-out simulation loss" }
+                }
+                @for s in &d.ranking {
+                    tr {
+                        td { (s.orders.na) } td { (s.orders.nb) } td { (s.orders.k) }
+                        td { (format!("{:.4e}", s.loss)) }
+                        td { (format!("{:.1}", s.mdl)) }
+                        td { (format!("{:.1}", s.aic)) }
+                        td { (format!("{:.4e}", s.fpe)) }
+                        td { (s.prediction_loss.map_or("–".into(), |v| format!("{v:.4e}"))) }
+                        td { (s.simulation_loss.map_or("diverged".into(), |v| format!("{v:.4e}"))) }
+                    }
+                }
+            }
+        }
     }
-    h.push_str("</table></details>\n");
-    h
 }
