@@ -5,7 +5,6 @@ pub mod diag;
 pub mod dof;
 pub mod finite;
 pub mod fsutil;
-pub mod html;
 pub mod input;
 pub mod interrupt;
 pub mod lenient;

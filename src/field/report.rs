@@ -104,7 +104,7 @@ fn simulation_figure(r: &FieldResult, d: &ArxDetail, s: &Simulation) -> anyhow::
         d.output, s.run, d.input
     );
     let y_desc = format!("{} ({}, detrended)", d.output, d.output_unit);
-    let fig_id = html! { "field-" (r.stage) "-sim-" (s.run) };
+    let fig_id = format!("field-{}-sim-{}", r.stage, s.run);
     let caption = html! {
         (d.output) " on held-out run " code { (s.run) }
         " (detrended, blue) and each structure simulated from " (d.input)
@@ -112,8 +112,8 @@ fn simulation_figure(r: &FieldResult, d: &ArxDetail, s: &Simulation) -> anyhow::
         "); a structure whose simulation diverged is left out."
     };
     let fig = figure(
-        &fig_id.into_string(),
-        &caption.into_string(),
+        &fig_id,
+        caption,
         &Chart {
             title: &title,
             x_desc: "time (s)",
@@ -123,7 +123,7 @@ fn simulation_figure(r: &FieldResult, d: &ArxDetail, s: &Simulation) -> anyhow::
             stems: false,
         },
     )?;
-    Ok(PreEscaped(fig))
+    Ok(fig)
 }
 
 /// The selected model's one-step prediction error: its autocorrelation against the band of
@@ -142,13 +142,13 @@ fn residual_test(r: &FieldResult, d: &ArxDetail) -> anyhow::Result<Markup> {
         acf: &d.residual_acf,
         band: d.residual_band,
     };
-    let fig_id = html! { "field-" (r.stage) "-resid" };
+    let fig_id = format!("field-{}-resid", r.stage);
     let caption = html! {
         "Autocorrelation of the selected model's one-step prediction error on "
         code { (d.residual_run) }
         " by lag, with the 99 % band of a white sequence (dotted)."
     };
-    let fig = acf.figure(&fig_id.into_string(), &caption.into_string())?;
+    let fig = acf.figure(&fig_id, caption)?;
     Ok(html! {
         p {
             "Residual test (MATLAB " code { "resid" }
@@ -157,7 +157,7 @@ fn residual_test(r: &FieldResult, d: &ArxDetail) -> anyhow::Result<Markup> {
             " lags outside the 99 % band ±" (format!("{:.3}", d.residual_band))
             " of a white sequence."
         }
-        (PreEscaped(fig))
+        (fig)
     })
 }
 

@@ -8,7 +8,7 @@ use crate::pool::fusion::run::FusedRun;
 use crate::pool::fusion::run::POOL_DOFS;
 use crate::pool::fusion::{Fused, interp};
 use crate::pool::import::csvlog;
-use maud::{Markup, PreEscaped, html};
+use maud::{Markup, html};
 use serde::Serialize;
 use std::collections::BTreeMap;
 
@@ -234,7 +234,7 @@ pub fn thrusters_section(t: Option<&Thrusters>) -> anyhow::Result<String> {
             (rank) " and actuates " (actuates) "."
         }
         (allocation_table(&a))
-        (PreEscaped(curve))
+        (curve)
     }
     .into_string())
 }
@@ -278,8 +278,8 @@ fn allocation_table(a: &Allocation) -> Markup {
     }
 }
 
-/// The figure of the thrust curve every thruster's command goes through (already rendered HTML).
-fn thrust_curve(t: &Thrusters, a: &Allocation) -> anyhow::Result<String> {
+/// The figure of the thrust curve every thruster's command goes through.
+fn thrust_curve(t: &Thrusters, a: &Allocation) -> anyhow::Result<Markup> {
     let (x, y) = a.curve_points(201);
     let x_desc = match t.command {
         Command::Pwm => "command (PWM, us)",
@@ -288,10 +288,10 @@ fn thrust_curve(t: &Thrusters, a: &Allocation) -> anyhow::Result<String> {
     };
     crate::core::plot::lines::figure(
         "thrust-curve",
-        &format!(
-            "The thrust curve every thruster's command goes through (gain {}); a command beyond its ends is held at them.",
-            t.gain
-        ),
+        html! {
+            "The thrust curve every thruster's command goes through (gain " (t.gain)
+            "); a command beyond its ends is held at them."
+        },
         &crate::core::plot::lines::Chart {
             title: "thrust against command",
             x_desc,

@@ -3,6 +3,7 @@
 //! Used by the field-trial sections (ARX simulations, RLS traces, autocorrelations).
 
 use super::{HEIGHT, LEGEND, PALETTE, WIDTH, ensure_font, thin};
+use maud::{Markup, PreEscaped, html};
 use plotters::prelude::*;
 
 /// One curve.
@@ -115,11 +116,9 @@ fn style(i: usize, s: &Series) -> ShapeStyle {
 }
 
 /// `c` as an HTML figure with id `id` and caption `caption` (HTML, already escaped).
-pub fn figure(id: &str, caption: &str, c: &Chart) -> anyhow::Result<String> {
-    Ok(format!(
-        "<figure id=\"{id}\">{}<figcaption>{caption}</figcaption></figure>\n",
-        chart(c)?
-    ))
+pub fn figure(id: &str, caption: Markup, c: &Chart) -> anyhow::Result<Markup> {
+    let svg = chart(c)?;
+    Ok(html! { figure id=(id) { (PreEscaped(svg)) figcaption { (caption) } } })
 }
 
 /// An autocorrelation by lag with the band of a white sequence (a residual test), drawn as
@@ -144,7 +143,7 @@ impl Correlogram<'_> {
     }
 
     /// As an HTML figure (see [`figure`]).
-    pub fn figure(&self, id: &str, caption: &str) -> anyhow::Result<String> {
+    pub fn figure(&self, id: &str, caption: Markup) -> anyhow::Result<Markup> {
         figure(
             id,
             caption,

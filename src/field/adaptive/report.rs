@@ -8,7 +8,7 @@ use crate::core::plot::lines::{Chart, Series, figure};
 use crate::field::FieldResult;
 use crate::field::adaptive::result::{Detail, RunExcitation, Simulation};
 use crate::field::truth::Truth;
-use maud::{Markup, PreEscaped, html};
+use maud::{Markup, html};
 
 const DOFS: [(&str, &str); 6] = [
     ("u", "m/s"),
@@ -148,7 +148,7 @@ fn convergence_group(
     let title = format!("convergence: {title} (scaled estimate / truth)");
     let fig = figure(
         &fig_id,
-        &caption.into_string(),
+        caption,
         &Chart {
             title: &title,
             x_desc: "identification time (s)",
@@ -158,7 +158,7 @@ fn convergence_group(
             stems: false,
         },
     )?;
-    Ok(PreEscaped(fig))
+    Ok(fig)
 }
 
 fn combo(d: &Detail, c: &[(usize, f64)]) -> String {
@@ -287,14 +287,14 @@ fn fig4_dof(s: &Simulation, i: usize, n: &str, u: &str) -> anyhow::Result<Markup
         });
     }
     let title = format!("{n} on {} (cross-validation)", s.run);
-    let fig_id = html! { "field-aid-" (n) "-" (s.run) };
+    let fig_id = format!("field-aid-{n}-{}", s.run);
     let caption = html! {
         (n) " on held-out " code { (s.run) }
         ": measured (blue), and the model simulated from the logged commands alone with the initial parameters and with the identified ones (seed 004 Fig. 4)."
     };
     let fig = figure(
-        &fig_id.into_string(),
-        &caption.into_string(),
+        &fig_id,
+        caption,
         &Chart {
             title: &title,
             x_desc: "time (s)",
@@ -304,5 +304,5 @@ fn fig4_dof(s: &Simulation, i: usize, n: &str, u: &str) -> anyhow::Result<Markup
             stems: false,
         },
     )?;
-    Ok(PreEscaped(fig))
+    Ok(fig)
 }

@@ -7,7 +7,7 @@ use crate::core::plot::lines::{Chart, Correlogram, Series, figure};
 use crate::field::FieldResult;
 use crate::field::integrated::{Detail, EquationFit, Prediction, RunTrace, Trace};
 use crate::field::truth::Truth;
-use maud::{Markup, PreEscaped, html};
+use maud::{Markup, html};
 
 pub fn section(r: &FieldResult, truth: &Truth) -> anyhow::Result<String> {
     let d: Detail = serde_json::from_value(r.detail.clone())?;
@@ -87,14 +87,14 @@ fn prediction(r: &FieldResult, p: &Prediction) -> anyhow::Result<Markup> {
         "d{}/dt on {}: measured and one-step predicted",
         p.state, p.run
     );
-    let fig_id = html! { "field-" (r.stage) "-pred-" (p.state) "-" (p.run) };
+    let fig_id = format!("field-{}-pred-{}-{}", r.stage, p.state, p.run);
     let caption = html! {
         (p.state) " on " code { (p.run) }
         ": the measured state (blue) and its one-step prediction from the previous window's value and the integrated regressor (seed 000 Fig. 4)."
     };
     let chart = figure(
-        &fig_id.into_string(),
-        &caption.into_string(),
+        &fig_id,
+        caption,
         &Chart {
             title: &title,
             x_desc: "time (s)",
@@ -129,20 +129,20 @@ fn prediction(r: &FieldResult, p: &Prediction) -> anyhow::Result<Markup> {
         acf: &p.acf,
         band: p.band,
     };
-    let fig_id = html! { "field-" (r.stage) "-acf-" (p.state) "-" (p.run) };
+    let fig_id = format!("field-{}-acf-{}-{}", r.stage, p.state, p.run);
     let caption = html! {
         "Autocorrelation of the prediction error of d" (p.state) "/dt on " code { (p.run) }
         " with the 95 % band of a white sequence (dotted; seed 000 Fig. 3)."
     };
-    let correlogram = acf.figure(&fig_id.into_string(), &caption.into_string())?;
+    let correlogram = acf.figure(&fig_id, caption)?;
     Ok(html! {
-        (PreEscaped(chart))
+        (chart)
         p {
             "Prediction error of d" (p.state) "/dt on " (p.run) ": " (acf.outside()) " of "
             (p.acf.len().saturating_sub(1)) " lags outside the 95 % band ±"
             (format!("{:.3}", p.band)) " of a white sequence."
         }
-        (PreEscaped(correlogram))
+        (correlogram)
     })
 }
 
@@ -302,14 +302,14 @@ fn trace_chart(e: &EquationFit, t: &Trace, run: &str, truth: &Truth) -> anyhow::
         });
     }
     let title = format!("RLS convergence, d{}/dt ({})", e.state, run);
-    let fig_id = html! { "field-rls-" (e.state) "-" (run) };
+    let fig_id = format!("field-rls-{}-{run}", e.state);
     let caption = html! {
         "RLS estimates of the d" (e.state) "/dt parameters through " code { (run) }
         " (colour) and the twin's truth where known (dashed; seed 000 Fig. 5)."
     };
     let fig = figure(
-        &fig_id.into_string(),
-        &caption.into_string(),
+        &fig_id,
+        caption,
         &Chart {
             title: &title,
             x_desc: "time (s)",
@@ -319,5 +319,5 @@ fn trace_chart(e: &EquationFit, t: &Trace, run: &str, truth: &Truth) -> anyhow::
             stems: false,
         },
     )?;
-    Ok(PreEscaped(fig))
+    Ok(fig)
 }
