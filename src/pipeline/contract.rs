@@ -27,7 +27,7 @@ pub enum Artifact {
     FieldModel,
     /// A pool run fused into body-frame velocities.
     PoolRuns,
-    /// Scores of models on pool runs.
+    /// Scores of models on pool runs and CFD cases.
     Validation,
     /// Estimators side by side.
     Comparison,
@@ -103,6 +103,10 @@ pub struct Kind {
     pub requires: &'static [Artifact],
     /// At least one of these must be under `from` (a fit reads CFD responses, pool runs or both).
     pub requires_one_of: &'static [Artifact],
+    /// The artifact of the stage that scores models on CFD responses, for a kind that shows
+    /// them (the report shows the validate stage's scores): when a stage of this kind reads
+    /// both models and CFD responses, such a stage must be under its `from` and read them all.
+    pub scored_by: Option<Artifact>,
     /// Which part of the vehicle section is part of its key.
     pub uses_vehicle: VehicleUse,
     /// Folder of the project its results are copied to (the report), if any.
@@ -131,6 +135,7 @@ impl Kind {
             consumes: &[],
             requires: &[],
             requires_one_of: &[],
+            scored_by: None,
             uses_vehicle: VehicleUse::All,
             publishes_to: None,
             parse,

@@ -215,6 +215,7 @@ fn check_stage(
         d.check_upstream(kind, f)?;
     }
     d.check_requires(kind)?;
+    d.check_scored(kind)?;
     Ok(StageSpec {
         name: name.to_string(),
         kind,
@@ -469,6 +470,61 @@ impl Declared<'_> {
             ));
         }
         Ok(())
+    }
+}
+
+impl Declared<'_> {
+    /// A kind that shows models on CFD responses ([`Kind::scored_by`]) reads the stage that
+    /// scored every one of those models on every one of those responses.
+    fn check_scored(&self, kind: &Kind) -> Result<(), InputError> {
+        let Some(scorer) = kind.scored_by else {
+            return Ok(());
+        };
+        let of = |a: Artifact| -> Vec<&str> {
+            let from = self.rs.from.iter();
+            from.filter(|f| self.produces(f) == Some(a))
+                .map(String::as_str)
+                .collect()
+        };
+        let (models, responses) = (of(Artifact::Model), of(Artifact::Responses));
+        if models.is_empty() || responses.is_empty() {
+            return Ok(());
+        }
+        let name = self.name;
+        let shown: Vec<&str> = models.iter().chain(&responses).copied().collect();
+        let Some(&v) = of(scorer).first() else {
+            return Err(self.error(
+                ".from",
+                format!(
+                    "stage `{name}` shows models ({}) on CFD cases ({}) but reads no stage that scores them ({})",
+                    models.join(", "),
+                    responses.join(", "),
+                    scorer.example()
+                ),
+                format!(
+                    "add `validate: {{kind: validate, from: [{}]}}` (with your pool stages, if any) and list `validate` under `{name}`'s `from`",
+                    shown.join(", ")
+                ),
+            ));
+        };
+        let reads = self.all.get(v).map_or(&[][..], |s| s.from.as_slice());
+        let missing: Vec<&str> = shown
+            .iter()
+            .filter(|s| !reads.iter().any(|r| r == *s))
+            .copied()
+            .collect();
+        if missing.is_empty() {
+            return Ok(());
+        }
+        Err(self.error(
+            ".from",
+            format!(
+                "stage `{name}` shows {} on CFD cases, but `{v}`, which scores the models on them, does not read {}",
+                shown.join(", "),
+                missing.join(", ")
+            ),
+            format!("add {} to `{v}`'s `from`", missing.join(", ")),
+        ))
     }
 }
 

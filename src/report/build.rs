@@ -1,19 +1,20 @@
-//! The whole report from the artifacts of the stages it reads: every model scored on every
-//! CFD case it may be scored on, the sections of the HTML page, and the published JSON files.
+//! The whole report from the artifacts of the stages it reads: the models' scores on the CFD
+//! cases and pool runs (the validate stage's), the sections of the HTML page, and the
+//! published JSON files.
 
 use super::html;
 use super::json::{self, DofMetrics, ModelScore, RunScore, Validation};
 use crate::compare::artifact::Comparison;
 use crate::core::dof::Dof;
 use crate::core::fsutil::json_bytes;
-use crate::core::model::{Hydro, Plant, Vec6, Vehicle};
+use crate::core::model::{Vec6, Vehicle};
 use crate::core::plot as plots;
 use crate::core::response::Response;
 use crate::diagnose::{Diagnosis, Figure};
 use crate::identify::result::FitResult;
 use crate::pool::fusion::run::FusedRun;
-use crate::validate;
 use crate::validate::Metrics;
+use crate::validate::cases::CaseScore;
 use crate::validate::pool::{Scores, Simulated};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -24,8 +25,6 @@ pub struct Case {
     pub name: String,
     pub response: Response,
     pub notes: Vec<String>,
-    /// The body mass the case states (OpenFOAM), which replaces the vehicle's.
-    pub mass: Option<f64>,
     pub openfoam: Option<crate::cfd::openfoam::RunInfo>,
     pub track: Option<crate::cfd::openfoam::Track>,
     /// A 2D case (forces and masses per metre of span).
@@ -43,6 +42,8 @@ pub struct Inputs<'a> {
     /// Field-trial identifications (ARX, integrated LS / RLS, adaptive).
     pub field: Vec<crate::field::FieldResult>,
     pub pool_scores: Option<(Scores, Vec<Simulated>)>,
+    /// The validate stage's scores and simulations of the models on the CFD cases.
+    pub case_scores: Vec<CaseScore>,
     pub comparison: Option<Comparison>,
     pub diagnosis: Option<(Diagnosis, Vec<Figure>)>,
     /// The twin's truth files among the stage's inputs, if any.
@@ -221,50 +222,33 @@ fn pool_model<'a>(inp: &'a Inputs, name: &str) -> Option<&'a crate::validate::po
     s.models.iter().find(|m| m.model == name)
 }
 
-/// Model `f` scored on each CFD case it may be scored on, and those of its own body's cases;
-/// the first simulation of each case by a model of the vehicle goes to `first_sims`.
+/// Model `f`'s scores on the CFD cases (the validate stage's), and those of its own body's
+/// cases; the first simulation of each case by a model of the vehicle goes to `first_sims`.
 fn case_scores(
     inp: &Inputs,
     f: &FitResult,
     first_sims: &mut [Option<Vec<Vec6>>],
 ) -> (Vec<RunScore>, Vec<OwnCase>) {
-    let hydro = f.hydro();
-    let vehicle = f.vehicle.as_ref().unwrap_or(inp.vehicle);
     let mut runs = Vec::new();
     let mut own_cases = Vec::new();
-    for (ci, c) in inp.cases.iter().enumerate() {
-        let trained = f.cases.iter().any(|x| x.id == c.id);
-        // A model of another body (the OpenFOAM cylinder) is scored on its own cases only,
-        // and the vehicle's models are not scored on cases of other bodies.
-        if (f.vehicle.is_some() && !trained) || (f.vehicle.is_none() && c.mass.is_some()) {
+    for s in inp.case_scores.iter().filter(|s| s.model == f.stage) {
+        let Some(ci) = inp.cases.iter().position(|c| c.id == s.case_id) else {
             continue;
-        }
-        let sim = simulate(vehicle, hydro, c);
-        let role = if trained { "train" } else { "validate" };
-        let scores = validate::score(&c.response, &sim);
+        };
+        let sim = s.simulated.clone();
         if f.vehicle.is_some() {
             own_cases.push(OwnCase {
                 index: ci,
-                nmae: scores.first().map_or(f64::NAN, |(_, m)| m.nmae),
+                nmae: s.scores.first().map_or(f64::NAN, |(_, m)| m.nmae),
                 sim: sim.clone(),
             });
         }
-        runs.push(case_score(c, role, scores));
+        runs.push(case_score(&inp.cases[ci], &s.role, s.scores.clone()));
         if first_sims[ci].is_none() && f.vehicle.is_none() {
             first_sims[ci] = Some(sim);
         }
     }
     (runs, own_cases)
-}
-
-/// Case `c` simulated with `hydro` on `vehicle`, with the mass the case states if it states one.
-fn simulate(vehicle: &Vehicle, hydro: Hydro, c: &Case) -> Vec<Vec6> {
-    let mut v = vehicle.clone();
-    if let Some(m) = c.mass {
-        v.mass_kg = m;
-    }
-    let plant = Plant::new(&v, hydro);
-    c.response.simulate(&plant)
 }
 
 /// The score of CFD case `c` in `validation.json`: its role and its metrics per DOF.

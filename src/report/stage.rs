@@ -1,4 +1,6 @@
-//! `kind: report` — validates every model on every CFD response it reads and writes the report.
+//! `kind: report` — assembles the report from the artifacts it reads: the models, the CFD
+//! responses and pool runs, the validate stage's scores and simulations, the comparison, the
+//! diagnosis and the field identifications. It computes no score and simulates nothing.
 
 use crate::core::response;
 use crate::pipeline::contract::{Artifact, Kind, RunCtx, StageImpl, parse_as};
@@ -17,6 +19,7 @@ pub static KIND: Kind = Kind {
         Artifact::FieldModel,
     ],
     requires_one_of: &[Artifact::Model, Artifact::FieldModel],
+    scored_by: Some(Artifact::Validation),
     publishes_to: Some("reports"),
     ..Kind::new("report", Artifact::Report, parse_as::<Settings>)
 };
@@ -62,11 +65,15 @@ impl StageImpl for Settings {
             .upstream_of(Artifact::FieldModel)
             .map(|u| crate::field::load(&u.dir))
             .collect::<Result<_, _>>()?;
-        let pool_scores = ctx
-            .upstream_of(Artifact::Validation)
-            .next()
+        let validation = ctx.upstream_of(Artifact::Validation).next();
+        let pool_scores = validation
             .map(|u| crate::validate::pool::load(&u.dir))
-            .transpose()?;
+            .transpose()?
+            .flatten();
+        let case_scores = validation
+            .map(|u| crate::validate::cases::load(&u.dir))
+            .transpose()?
+            .unwrap_or_default();
         let inputs = build::Inputs {
             root: ctx.root,
             vehicle: ctx.vehicle,
@@ -75,6 +82,7 @@ impl StageImpl for Settings {
             pool_runs,
             field,
             pool_scores,
+            case_scores,
             comparison: ctx
                 .upstream_of(Artifact::Comparison)
                 .next()
@@ -107,7 +115,6 @@ fn cfd_cases(ctx: &RunCtx) -> anyhow::Result<Vec<build::Case>> {
             name: meta.case,
             response,
             notes: meta.notes,
-            mass: meta.body_mass_kg,
             openfoam: meta.openfoam,
             track,
             two_dimensional: meta.per_metre_of_span,

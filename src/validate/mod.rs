@@ -2,6 +2,7 @@
 //! the run's peak speed (seed 001).
 
 pub mod baseline;
+pub mod cases;
 pub mod models;
 pub mod pool;
 pub mod report;

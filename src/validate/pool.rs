@@ -110,7 +110,12 @@ pub struct Simulated {
 
 pub const SCORES: &str = "scores.json";
 
-pub fn load(dir: &Path) -> anyhow::Result<(Scores, Vec<Simulated>)> {
+/// The pool scores and simulations a validate stage stored in `dir` (none when it read no
+/// pool run).
+pub fn load(dir: &Path) -> anyhow::Result<Option<(Scores, Vec<Simulated>)>> {
+    if !dir.join(SCORES).exists() {
+        return Ok(None);
+    }
     let scores: Scores = crate::core::fsutil::read_json(&dir.join(SCORES))?;
     let mut sims = Vec::new();
     for m in &scores.models {
@@ -120,7 +125,7 @@ pub fn load(dir: &Path) -> anyhow::Result<(Scores, Vec<Simulated>)> {
             )?);
         }
     }
-    Ok((scores, sims))
+    Ok(Some((scores, sims)))
 }
 
 pub fn sim_file(model: &str, run: &str) -> String {

@@ -1,16 +1,21 @@
 //! `kind: validate` — simulates every identified model under every pool run's logged thrust,
 //! from the run's fused initial state, and scores it per DOF: MAE, normalised MAE (seed 003),
-//! RMSE as % of the run's peak speed (seed 001) and the residual's whiteness (seed 000).
+//! RMSE as % of the run's peak speed (seed 001) and the residual's whiteness (seed 000); and
+//! under every CFD case's applied force, from the case's first state ([`super::cases`]). The
+//! report shows these scores and simulations; it simulates nothing itself.
 
 use crate::core::model::stability::Horizon;
 use crate::pipeline::contract::{Artifact, Kind, RunCtx, StageImpl, parse_as};
+use crate::validate::cases::{CASES, Case};
 use crate::validate::models::{Options, Validation, score_models};
 use crate::validate::pool::{SCORES, sim_file};
 use serde::{Deserialize, Serialize};
 
 pub static KIND: Kind = Kind {
-    consumes: &[Artifact::Model, Artifact::PoolRuns],
-    requires: &[Artifact::Model, Artifact::PoolRuns],
+    version: 2,
+    consumes: &[Artifact::Model, Artifact::PoolRuns, Artifact::Responses],
+    requires: &[Artifact::Model],
+    requires_one_of: &[Artifact::PoolRuns, Artifact::Responses],
     ..Kind::new("validate", Artifact::Validation, parse_as::<Settings>)
 };
 
@@ -53,6 +58,22 @@ impl StageImpl for Settings {
             .upstream_of(Artifact::PoolRuns)
             .map(|u| crate::pool::fusion::run::load_for(&u.dir, ctx.vehicle))
             .collect::<Result<_, _>>()?;
+        let cases = cfd_cases(ctx)?;
+        let scored = crate::validate::cases::score_cases(ctx.vehicle, &fits, &cases);
+        if !scored.is_empty() {
+            crate::core::fsutil::write_json(&ctx.out.join(CASES), &scored)?;
+        }
+        // A model fitted on another body's cases (cases that state their body's mass: the
+        // OpenFOAM cylinder) is scored on those cases only, never on the vehicle's runs.
+        let other_body = |f: &crate::identify::result::FitResult| {
+            f.cases
+                .iter()
+                .any(|c| cases.iter().any(|x| x.id == c.id && x.mass.is_some()))
+        };
+        let vehicle_fits: Vec<_> = fits.into_iter().filter(|f| !other_body(f)).collect();
+        if runs.is_empty() || vehicle_fits.is_empty() {
+            return Ok(());
+        }
         let opts = Options {
             max_lag_s: self.max_lag_s,
             cross_validate: self.cross_validate,
@@ -61,13 +82,29 @@ impl StageImpl for Settings {
         let Validation {
             mut scores,
             simulations,
-        } = score_models(ctx.vehicle, &fits, &runs, &opts);
+        } = score_models(ctx.vehicle, &vehicle_fits, &runs, &opts);
         for s in &simulations {
             crate::core::fsutil::write_json(&ctx.out.join(sim_file(&s.model, &s.run)), s)?;
         }
         scores.notes.extend(ctx.failed_notes());
         crate::core::fsutil::write_json(&ctx.out.join(SCORES), &scores)
     }
+}
+
+/// The CFD responses among the upstream, as validation reads them.
+fn cfd_cases(ctx: &RunCtx) -> anyhow::Result<Vec<Case>> {
+    let mut cases = Vec::new();
+    for u in ctx.upstream_of(Artifact::Responses) {
+        let (meta, response) = crate::core::response::load(&u.dir)?;
+        cases.push(Case {
+            id: u.id.clone(),
+            name: meta.case,
+            response,
+            mass: meta.body_mass_kg,
+        });
+    }
+    cases.sort_by(|a, b| crate::core::natural::cmp(&a.name, &b.name));
+    Ok(cases)
 }
 
 #[cfg(test)]

@@ -209,7 +209,7 @@ fn a_new_case_reruns_only_its_import_and_what_depends_on_it() {
     for want in [
         "fit: new upstream cfd[surge_40N_rerun]",
         "compare: new upstream cfd[surge_40N_rerun]",
-        "validate: upstream fit changed",
+        "validate: upstream fit changed; new upstream cfd[surge_40N_rerun]",
         "diagnose: upstream fit changed",
         "export: upstream fit changed",
     ] {

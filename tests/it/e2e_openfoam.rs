@@ -35,9 +35,12 @@ stages:
       vehicle: {name: cylinder, mass_kg: 62.832, dofs: [surge]}
       reference_length_m: 0.2
       expected: {X_udot: {value: -31.416, source: potential flow}}
+  validate:
+    kind: validate
+    from: [cylinder, openfoam]
   report:
     kind: report
-    from: [cylinder, openfoam]
+    from: [cylinder, openfoam, validate]
 "#;
 
 fn added_mass(dir: &Path) -> f64 {
@@ -66,7 +69,11 @@ fn a_short_cylinder_case_runs_from_scratch_and_gives_the_potential_flow_added_ma
     new_cylinder(dir, "cases/cfd/openfoam/short", "2", "2");
     new_cylinder(dir, "cases/cfd/openfoam/other", "3", "2");
     let out = ok(dir, &["build"]);
-    assert_eq!(ran(&out), 4, "{out}");
+    assert_eq!(
+        ran(&out),
+        5,
+        "two cases, cylinder, validate, report:\n{out}"
+    );
     let ma = added_mass(dir);
     assert!(
         (ma / ADDED_MASS - 1.0).abs() < 0.05,
@@ -101,7 +108,11 @@ fn a_short_cylinder_case_runs_from_scratch_and_gives_the_potential_flow_added_ma
     .unwrap();
     let stamp_other = read(dir, "cases/cfd/openfoam/other/hydrofit.run.json");
     let out = ok(dir, &["build", "--explain"]);
-    assert_eq!(ran(&out), 3, "openfoam[short], cylinder, report:\n{out}");
+    assert_eq!(
+        ran(&out),
+        4,
+        "openfoam[short], cylinder, validate, report:\n{out}"
+    );
     assert!(
         out.contains("openfoam[short]") && !out.contains("openfoam[other]:"),
         "{out}"

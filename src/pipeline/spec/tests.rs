@@ -1,6 +1,6 @@
 use super::*;
 
-const OK: &str = "vehicle:\n  mass_kg: 35.2\n  inertia_kg_m2: {zz: 1.38}\n  dofs: [surge, yaw]\nstages:\n  cfd:\n    kind: starccm\n    inputs: [\"cases/*.csv\"]\n  fit:\n    kind: fit\n    from: [cfd]\n    settings:\n      method: ols\n  report:\n    kind: report\n    from: [fit, cfd]\n";
+const OK: &str = "vehicle:\n  mass_kg: 35.2\n  inertia_kg_m2: {zz: 1.38}\n  dofs: [surge, yaw]\nstages:\n  cfd:\n    kind: starccm\n    inputs: [\"cases/*.csv\"]\n  fit:\n    kind: fit\n    from: [cfd]\n    settings:\n      method: ols\n  validate:\n    kind: validate\n    from: [fit, cfd]\n  report:\n    kind: report\n    from: [fit, cfd, validate]\n";
 
 fn err(text: &str) -> String {
     match parse("pipeline.yaml", text, crate::kinds::KINDS) {
@@ -13,8 +13,38 @@ fn err(text: &str) -> String {
 fn parses_and_orders_stages() {
     let s = parse("pipeline.yaml", OK, crate::kinds::KINDS).unwrap();
     let names: Vec<&str> = s.stages.iter().map(|s| s.name.as_str()).collect();
-    assert_eq!(names, ["cfd", "fit", "report"]);
+    assert_eq!(names, ["cfd", "fit", "validate", "report"]);
     assert_eq!(s.vehicle.mass_kg, 35.2);
+}
+
+/// The report shows the validate stage's scores of the models on the CFD cases: a report that
+/// reads models and CFD responses names the stage to add, or the stages its validate lacks.
+#[test]
+fn a_report_of_models_on_cfd_cases_reads_a_validate_stage_that_scored_them_all() {
+    let without = OK.replace("from: [fit, cfd, validate]", "from: [fit, cfd]");
+    let e = err(&without);
+    assert!(
+        e.contains("stage `report` shows models (fit) on CFD cases (cfd) but reads no stage that scores them"),
+        "{e}"
+    );
+    assert!(
+        e.contains("add `validate: {kind: validate, from: [fit, cfd]}`"),
+        "{e}"
+    );
+    let partial = OK.replace("from: [fit, cfd]\n  report", "from: [fit]\n  report");
+    let e = err(&partial);
+    assert!(
+        e.contains("but `validate`, which scores the models on them, does not read cfd")
+            && e.contains("add cfd to `validate`'s `from`"),
+        "{e}"
+    );
+    // Models alone, or CFD cases alone, need no scores.
+    parse(
+        "pipeline.yaml",
+        &OK.replace("from: [fit, cfd, validate]", "from: [fit]"),
+        crate::kinds::KINDS,
+    )
+    .unwrap();
 }
 
 #[test]
@@ -97,7 +127,7 @@ fn cycles_are_spelled_out() {
 
 #[test]
 fn a_stage_without_its_required_input_is_rejected() {
-    let e = err(&OK.replace("    from: [fit, cfd]\n", ""));
+    let e = err(&OK.replace("    from: [fit, cfd, validate]\n", ""));
     assert!(
         e.contains("stage `report` (report) needs a stage that produces an identified model"),
         "{e}"
