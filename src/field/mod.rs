@@ -51,6 +51,59 @@ pub fn load(dir: &Path) -> anyhow::Result<FieldResult> {
     crate::core::fsutil::read_json(&dir.join(RESULT))
 }
 
+/// An identifier's own results, typed by its kind: what a result's `detail` holds.
+#[derive(Debug, Clone)]
+pub enum Detail {
+    Arx(Box<arx::Detail>),
+    Integrated(Box<integrated::Detail>),
+    Adaptive(Box<adaptive::result::Detail>),
+}
+
+/// A field-trial result with its detail read as its kind's type, once, where it is loaded.
+#[derive(Debug, Clone)]
+pub struct Field {
+    pub result: FieldResult,
+    pub detail: Detail,
+}
+
+impl FieldResult {
+    /// `detail` as the type of the result's kind. Read as every artifact is
+    /// ([`crate::core::lenient`]): a non-finite float the stage wrote reads back as itself.
+    pub fn typed(self) -> anyhow::Result<Field> {
+        let text = self.detail.to_string();
+        let stage = &self.stage;
+        let detail = match self.kind.as_str() {
+            "arx" => Detail::Arx(parse(&text, "arx", stage)?),
+            "integrated" => Detail::Integrated(parse(&text, "integrated", stage)?),
+            "adaptive" => Detail::Adaptive(parse(&text, "adaptive", stage)?),
+            other => anyhow::bail!(
+                "stage `{}` stored a field result of unknown kind `{other}` (arx, integrated or adaptive)",
+                self.stage
+            ),
+        };
+        Ok(Field {
+            result: self,
+            detail,
+        })
+    }
+}
+
+/// A stored detail read as `T`.
+fn parse<T: serde::de::DeserializeOwned>(
+    text: &str,
+    kind: &str,
+    stage: &str,
+) -> anyhow::Result<Box<T>> {
+    crate::core::lenient::from_str(text)
+        .map(Box::new)
+        .map_err(|e| anyhow::anyhow!("the {kind} detail stored by stage `{stage}`: {e}"))
+}
+
+/// The result a field-trial stage stored in `dir`, its detail typed.
+pub fn load_typed(dir: &Path) -> anyhow::Result<Field> {
+    load(dir)?.typed()
+}
+
 /// The runs of `runs` for estimation (`role: train`) and validation (`role: validate`), and
 /// the union of their input files; an error when no run is for estimation.
 pub fn split_runs(
@@ -74,4 +127,58 @@ pub fn split_runs(
     inputs.sort_by(|a, b| a.path.cmp(&b.path));
     inputs.dedup();
     Ok((est, val, inputs))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn arx_result(band: f64) -> FieldResult {
+        let detail = arx::Detail {
+            input: "delta".into(),
+            output: "q".into(),
+            input_unit: "rad".into(),
+            output_unit: "rad/s".into(),
+            sample_s: 0.1,
+            criterion: arx::Criterion::Mdl,
+            models: vec![],
+            ranking: vec![],
+            grid_size: 0,
+            simulations: vec![],
+            residual_run: "dive".into(),
+            residual_acf: vec![1.0, f64::NAN],
+            residual_band: band,
+        };
+        FieldResult {
+            stage: "pitch".into(),
+            kind: "arx".into(),
+            method: "arx".into(),
+            settings: serde_json::json!({}),
+            inputs: vec![],
+            estimation_runs: vec!["dive".into()],
+            validation_runs: vec![],
+            parameters: vec![],
+            detail: crate::core::finite::to_value(&detail).unwrap(),
+            notes: vec![],
+        }
+    }
+
+    /// A stored result reads back typed by its kind, its non-finite floats as themselves (a
+    /// diverged autocorrelation used to stop the report with a type error).
+    #[test]
+    fn a_stored_result_reads_back_typed_with_its_non_finite_floats() {
+        let dir = tempfile::tempdir().unwrap();
+        crate::core::fsutil::write_json(&dir.path().join(RESULT), &arx_result(f64::INFINITY))
+            .unwrap();
+        let f = load_typed(dir.path()).unwrap();
+        let Detail::Arx(d) = &f.detail else {
+            panic!("not an ARX detail: {:?}", f.detail)
+        };
+        assert_eq!(d.residual_band, f64::INFINITY);
+        assert!(d.residual_acf[0] == 1.0 && d.residual_acf[1].is_nan());
+        let mut odd = arx_result(0.2);
+        odd.kind = "armax".into();
+        let e = odd.typed().unwrap_err().to_string();
+        assert!(e.contains("unknown kind `armax`"), "{e}");
+    }
 }

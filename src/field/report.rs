@@ -4,23 +4,19 @@
 //! the RLS trace, the prediction error's autocorrelation).
 
 use crate::core::plot::lines::{Chart, Correlogram, Series, figure};
-use crate::field::FieldResult;
 use crate::field::arx::{Detail as ArxDetail, Model, Simulation};
 use crate::field::truth::Truth;
-use maud::{Markup, PreEscaped, html};
+use crate::field::{Detail, Field, FieldResult};
+use maud::{Markup, html};
 
 /// Every field-trial section, in the order of the stages.
-pub fn sections(results: &[FieldResult], truth: &Truth) -> anyhow::Result<String> {
+pub fn sections(results: &[Field], truth: &Truth) -> anyhow::Result<String> {
     Ok(html! {
-        @for r in results {
-            @match r.kind.as_str() {
-                "arx" => (arx_section(r, truth)?),
-                "integrated" => (PreEscaped(crate::field::integrated::report::section(r, truth)?)),
-                "adaptive" => (PreEscaped(crate::field::adaptive::report::section(r, truth)?)),
-                _ => {
-                    h2 { (r.stage) }
-                    p { "Unknown identifier kind `" (r.kind) "`." }
-                }
+        @for Field { result: r, detail } in results {
+            @match detail {
+                Detail::Arx(d) => (arx_section(r, d, truth)?),
+                Detail::Integrated(d) => (crate::field::integrated::report::section(r, d, truth)?),
+                Detail::Adaptive(d) => (crate::field::adaptive::report::section(r, d, truth)?),
             }
         }
     }
@@ -45,8 +41,7 @@ fn num(x: Option<f64>, digits: usize) -> String {
     }
 }
 
-fn arx_section(r: &FieldResult, truth: &Truth) -> anyhow::Result<Markup> {
-    let d: ArxDetail = serde_json::from_value(r.detail.clone())?;
+fn arx_section(r: &FieldResult, d: &ArxDetail, truth: &Truth) -> anyhow::Result<Markup> {
     let detrend = if r.settings["detrend"] == "none" {
         "not detrended"
     } else {
@@ -71,15 +66,15 @@ fn arx_section(r: &FieldResult, truth: &Truth) -> anyhow::Result<Markup> {
             b { (criterion_name(d.criterion)) }
             "; the named structures are compared beside the one it selected."
         }
-        (structure_table(&d, r))
+        (structure_table(d, r))
         @if let Some(m) = selected {
-            (transfer_function(m, &d, truth))
+            (transfer_function(m, d, truth))
         }
         @for s in &d.simulations {
-            (simulation_figure(r, &d, s)?)
+            (simulation_figure(r, d, s)?)
         }
-        (residual_test(r, &d)?)
-        (ranking_table(&d))
+        (residual_test(r, d)?)
+        (ranking_table(d))
     })
 }
 

@@ -40,7 +40,7 @@ pub struct Inputs<'a> {
     pub cases: Vec<Case>,
     pub pool_runs: Vec<FusedRun>,
     /// Field-trial identifications (ARX, integrated LS / RLS, adaptive).
-    pub field: Vec<crate::field::FieldResult>,
+    pub field: Vec<crate::field::Field>,
     pub pool_scores: Option<(Scores, Vec<Simulated>)>,
     /// The validate stage's scores and simulations of the models on the CFD cases.
     pub case_scores: Vec<CaseScore>,
@@ -109,7 +109,9 @@ pub fn build(inp: &Inputs) -> anyhow::Result<Vec<(&'static str, Vec<u8>)>> {
         files.push(("diagnosis.json", json_bytes(d)?));
     }
     if !inp.field.is_empty() {
-        let field = serde_json::json!({ "identifiers": inp.field });
+        let results: Vec<&crate::field::FieldResult> =
+            inp.field.iter().map(|f| &f.result).collect();
+        let field = serde_json::json!({ "identifiers": results });
         files.push(("field.json", json_bytes(&field)?));
     }
     Ok(files)

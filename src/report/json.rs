@@ -120,9 +120,9 @@ fn lag_note(l: &crate::identify::lag::LagEstimate) -> (f64, String) {
 /// The parameters of the field-trial identifiers (ARX coefficients, integrated-regressor and
 /// adaptive estimates), each with its stage's provenance; `model` is `<stage>.<structure>`
 /// where a stage compares several models.
-pub fn field_parameters(results: &[crate::field::FieldResult]) -> Vec<Parameter> {
+pub fn field_parameters(results: &[crate::field::Field]) -> Vec<Parameter> {
     let mut out = Vec::new();
-    for r in results {
+    for r in results.iter().map(|f| &f.result) {
         for p in &r.parameters {
             out.push(Parameter {
                 name: p.name.clone(),

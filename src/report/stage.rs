@@ -61,9 +61,9 @@ impl StageImpl for Settings {
             })
             .collect::<Result<_, _>>()?;
         pool_runs.sort_by(|a, b| crate::core::natural::cmp(&a.meta.run, &b.meta.run));
-        let field: Vec<crate::field::FieldResult> = ctx
+        let field: Vec<crate::field::Field> = ctx
             .upstream_of(Artifact::FieldModel)
-            .map(|u| crate::field::load(&u.dir))
+            .map(|u| crate::field::load_typed(&u.dir))
             .collect::<Result<_, _>>()?;
         let validation = ctx.upstream_of(Artifact::Validation).next();
         let pool_scores = validation

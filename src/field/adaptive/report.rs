@@ -19,8 +19,7 @@ const DOFS: [(&str, &str); 6] = [
     ("r", "rad/s"),
 ];
 
-pub fn section(r: &FieldResult, truth: &Truth) -> anyhow::Result<String> {
-    let d: Detail = serde_json::from_value(r.detail.clone())?;
+pub fn section(r: &FieldResult, d: &Detail, truth: &Truth) -> anyhow::Result<Markup> {
     let rms = DOFS
         .iter()
         .zip(d.velocity_error_rms)
@@ -39,13 +38,12 @@ pub fn section(r: &FieldResult, truth: &Truth) -> anyhow::Result<String> {
             code { (d.scale_by) } " = " (d.known_value)
             ". RMS velocity error over the last quarter: " (rms) "."
         }
-        (table(&d, truth))
-        (convergence(&d, truth)?)
-        (excitation(&d))
-        (validation(&d))
-        (fig4(&d)?)
-    }
-    .into_string())
+        (table(d, truth))
+        (convergence(d, truth)?)
+        (excitation(d))
+        (validation(d))
+        (fig4(d)?)
+    })
 }
 
 fn table(d: &Detail, truth: &Truth) -> Markup {

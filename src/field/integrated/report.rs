@@ -9,17 +9,15 @@ use crate::field::integrated::{Detail, EquationFit, Prediction, RunTrace, Trace}
 use crate::field::truth::Truth;
 use maud::{Markup, html};
 
-pub fn section(r: &FieldResult, truth: &Truth) -> anyhow::Result<String> {
-    let d: Detail = serde_json::from_value(r.detail.clone())?;
+pub fn section(r: &FieldResult, d: &Detail, truth: &Truth) -> anyhow::Result<Markup> {
     Ok(html! {
-        (intro(r, &d))
-        (table(&d, truth))
-        (rls_part(&d, truth)?)
+        (intro(r, d))
+        (table(d, truth))
+        (rls_part(d, truth)?)
         @for p in &d.predictions {
             (prediction(r, p)?)
         }
-    }
-    .into_string())
+    })
 }
 
 /// The heading and the equations as fitted.
