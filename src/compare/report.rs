@@ -1,7 +1,7 @@
 //! The estimator comparison (seed 001 Table 2, reproduced on this project's data).
 
 use crate::compare::artifact::Comparison;
-use maud::html;
+use maud::{Markup, html};
 use std::fmt::Write as _;
 
 fn pct(x: Option<f64>) -> String {
@@ -58,7 +58,7 @@ pub fn verdict(c: &Comparison) -> String {
     out
 }
 
-pub fn section(c: &Comparison) -> String {
+pub fn section(c: &Comparison) -> Markup {
     let names: Vec<String> = c
         .rows
         .iter()
@@ -103,7 +103,6 @@ pub fn section(c: &Comparison) -> String {
             }
         }
     }
-    .into_string()
 }
 
 #[cfg(test)]

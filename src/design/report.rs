@@ -120,10 +120,10 @@ fn parameters(w: &Written, f: &FitResult) -> Markup {
 }
 
 /// The section, empty when no run was designed.
-pub fn section(runs: &[FusedRun], fits: &[FitResult], d: Option<&Diagnosis>) -> String {
+pub fn section(runs: &[FusedRun], fits: &[FitResult], d: Option<&Diagnosis>) -> Markup {
     let checks: Vec<String> = runs.iter().filter_map(|r| check(r, fits, d)).collect();
     if checks.is_empty() {
-        return String::new();
+        return Markup::default();
     }
     html! {
         h2 id="designed" { "Designed runs" }
@@ -133,5 +133,4 @@ pub fn section(runs: &[FusedRun], fits: &[FitResult], d: Option<&Diagnosis>) -> 
         }
         @for c in &checks { (PreEscaped(c)) }
     }
-    .into_string()
 }

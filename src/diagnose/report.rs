@@ -25,7 +25,7 @@ fn parameters(p: &BTreeMap<String, f64>) -> String {
 /// The diagnosis section: the verdict and criteria, then (unless the model diverged) what was
 /// not tested or refused, the errors before and after, the effects, where the model misses,
 /// the evidence figures and every hypothesis tested.
-pub fn section(d: &Diagnosis, figures: &[Figure]) -> String {
+pub fn section(d: &Diagnosis, figures: &[Figure]) -> Markup {
     html! {
         (intro(d))
         @if !d.diverged.is_empty() {
@@ -45,7 +45,6 @@ pub fn section(d: &Diagnosis, figures: &[Figure]) -> String {
             (hypotheses(d))
         }
     }
-    .into_string()
 }
 
 /// The heading, the verdict, and how effects were fitted and judged.

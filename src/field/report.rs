@@ -10,7 +10,7 @@ use crate::field::{Detail, Field, FieldResult};
 use maud::{Markup, html};
 
 /// Every field-trial section, in the order of the stages.
-pub fn sections(results: &[Field], truth: &Truth) -> anyhow::Result<String> {
+pub fn sections(results: &[Field], truth: &Truth) -> anyhow::Result<Markup> {
     Ok(html! {
         @for Field { result: r, detail } in results {
             @match detail {
@@ -19,8 +19,7 @@ pub fn sections(results: &[Field], truth: &Truth) -> anyhow::Result<String> {
                 Detail::Adaptive(d) => (crate::field::adaptive::report::section(r, d, truth)?),
             }
         }
-    }
-    .into_string())
+    })
 }
 
 fn criterion_name(c: crate::field::arx::Criterion) -> &'static str {

@@ -91,16 +91,15 @@ fn unit(d: Dof) -> &'static str {
 
 /// The HTML of the pool runs' fusion: how each run was fused, its timing repairs, and the
 /// fusion's accuracy where a twin's truth exists.
-pub fn section(runs: &[FusedRun], accuracy: &[FusionAccuracy]) -> String {
+pub fn section(runs: &[FusedRun], accuracy: &[FusionAccuracy]) -> Markup {
     if runs.is_empty() {
-        return String::new();
+        return Markup::default();
     }
     html! {
         (fusion_table(runs))
         (repairs(runs))
         (accuracy_table(accuracy))
     }
-    .into_string()
 }
 
 /// The fusion heading and its table: per run, the sensors used, the fixes kept and rejected,
@@ -211,9 +210,9 @@ fn accuracy_table(accuracy: &[FusionAccuracy]) -> Markup {
 /// The thrusters, when runs log per-thruster commands: each unit, the allocation matrix that
 /// turns thrusts into the body wrench, its rank and the DOFs it actuates, and the thrust
 /// curve the commands go through.
-pub fn thrusters_section(t: Option<&Thrusters>) -> anyhow::Result<String> {
+pub fn thrusters_section(t: Option<&Thrusters>) -> anyhow::Result<Markup> {
     let Some(t) = t else {
-        return Ok(String::new());
+        return Ok(Markup::default());
     };
     let a = t.allocation();
     let (rank, dofs) = a.actuated();
@@ -235,8 +234,7 @@ pub fn thrusters_section(t: Option<&Thrusters>) -> anyhow::Result<String> {
         }
         (allocation_table(&a))
         (curve)
-    }
-    .into_string())
+    })
 }
 
 /// Each thruster's position and its column of the allocation matrix B.

@@ -16,6 +16,7 @@ use crate::pool::fusion::run::FusedRun;
 use crate::validate::Metrics;
 use crate::validate::cases::CaseScore;
 use crate::validate::pool::{Scores, Simulated};
+use maud::Markup;
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -56,11 +57,11 @@ pub struct Inputs<'a> {
 pub fn build(inp: &Inputs) -> anyhow::Result<Vec<(&'static str, Vec<u8>)>> {
     let mut models = Vec::new();
     let mut first_sims: Vec<Option<Vec<Vec6>>> = vec![None; inp.cases.len()];
-    let mut body_html = String::new();
+    let mut bodies = Vec::new();
     for f in &inp.fits {
-        let (score, html) = score_model(inp, f, &mut first_sims)?;
+        let (score, section) = score_model(inp, f, &mut first_sims)?;
         models.push(score);
-        body_html += &html;
+        bodies.extend(section);
     }
     let accuracy =
         crate::pool::report::fusion_accuracy(inp.root, &inp.truth_files, &inp.pool_runs)?;
@@ -96,7 +97,7 @@ pub fn build(inp: &Inputs) -> anyhow::Result<Vec<(&'static str, Vec<u8>)>> {
         plots: svgs,
         notes: import_notes(inp),
         pool_html,
-        body_html,
+        bodies,
         failed: inp.failed.clone(),
     };
     let mut files = vec![
@@ -117,15 +118,12 @@ pub fn build(inp: &Inputs) -> anyhow::Result<Vec<(&'static str, Vec<u8>)>> {
     Ok(files)
 }
 
-/// The sections after the CFD ones: the comparison of methods, the diagnosis and the pool runs.
+/// The sections after the CFD ones: the parameter sets, the field identifiers, the comparison
+/// of methods, the designed runs, the diagnosis and the pool runs.
 fn pool_html(
     inp: &Inputs,
     accuracy: &[crate::pool::report::FusionAccuracy],
-) -> anyhow::Result<String> {
-    let compare_html = inp
-        .comparison
-        .as_ref()
-        .map_or(String::new(), crate::compare::report::section);
+) -> anyhow::Result<Markup> {
     let truth_file = inp
         .truth_files
         .iter()
@@ -133,30 +131,23 @@ fn pool_html(
     let truth = truth_file
         .map(|p| crate::validate::sets::read_truth(&inp.root.join(p)))
         .transpose()?;
-    let sets_html = inp.pool_scores.as_ref().map_or(String::new(), |(s, _)| {
-        crate::validate::sets::section(&inp.fits, s, truth.as_ref())
-    });
     let field_truth = crate::field::truth::read_truth(inp.root, &inp.truth_files);
-    let compare_html =
-        sets_html + &crate::field::report::sections(&inp.field, &field_truth)? + &compare_html;
-    let diagnosis_html = inp.diagnosis.as_ref().map_or(String::new(), |(d, figs)| {
-        crate::diagnose::report::section(d, figs)
-    });
-    let designed_html = crate::design::report::section(
-        &inp.pool_runs,
-        &inp.fits,
-        inp.diagnosis.as_ref().map(|(d, _)| d),
-    );
-    Ok(compare_html
-        + &designed_html
-        + &diagnosis_html
-        + &crate::pool::report::thrusters_section(inp.vehicle.thrusters.as_ref())?
-        + &crate::pool::report::section(&inp.pool_runs, accuracy)
-        + &crate::validate::report::section(
+    let scores = inp.pool_scores.as_ref();
+    let diagnosis = inp.diagnosis.as_ref();
+    Ok(maud::html! {
+        @if let Some((s, _)) = scores { (crate::validate::sets::section(&inp.fits, s, truth.as_ref())) }
+        (crate::field::report::sections(&inp.field, &field_truth)?)
+        @if let Some(c) = &inp.comparison { (crate::compare::report::section(c)) }
+        (crate::design::report::section(&inp.pool_runs, &inp.fits, diagnosis.map(|(d, _)| d)))
+        @if let Some((d, figs)) = diagnosis { (crate::diagnose::report::section(d, figs)) }
+        (crate::pool::report::thrusters_section(inp.vehicle.thrusters.as_ref())?)
+        (crate::pool::report::section(&inp.pool_runs, accuracy))
+        (crate::validate::report::section(
             &inp.pool_runs,
-            inp.pool_scores.as_ref().map(|(s, _)| s),
-            inp.pool_scores.as_ref().map_or(&[][..], |(_, v)| v),
+            scores.map(|(s, _)| s),
+            scores.map_or(&[][..], |(_, v)| v),
         )?)
+    })
 }
 
 /// The import notes of every CFD case, then of every pool run.
@@ -193,14 +184,14 @@ struct OwnCase {
     sim: Vec<Vec6>,
 }
 
-/// Model `f` scored on every CFD case it may be scored on (its own body's) and on the pool
-/// runs the validate stage scored it on, with the OpenFOAM section of its own cases; the first
-/// simulation of each case by a model of the vehicle goes to `first_sims`, for the plots.
+/// Model `f`'s scores on the CFD cases and the pool runs (the validate stage's), with the
+/// OpenFOAM section of its own body's cases; the first simulation of each case by a model of
+/// the vehicle goes to `first_sims`, for the plots.
 fn score_model(
     inp: &Inputs,
     f: &FitResult,
     first_sims: &mut [Option<Vec<Vec6>>],
-) -> anyhow::Result<(ModelScore, String)> {
+) -> anyhow::Result<(ModelScore, Option<Markup>)> {
     let (mut runs, own_cases) = case_scores(inp, f, first_sims);
     let html = openfoam_section(inp, f, own_cases)?;
     runs.extend(pool_scores(inp, f));
@@ -280,7 +271,7 @@ fn openfoam_section(
     inp: &Inputs,
     f: &FitResult,
     own_cases: Vec<OwnCase>,
-) -> anyhow::Result<String> {
+) -> anyhow::Result<Option<Markup>> {
     let of_cases: Vec<crate::cfd::openfoam::report::Case> = own_cases
         .into_iter()
         .filter_map(|o| {
@@ -311,9 +302,9 @@ fn openfoam_section(
         })
         .collect();
     if of_cases.is_empty() {
-        Ok(String::new())
+        Ok(None)
     } else {
-        crate::cfd::openfoam::report::section(f, &of_cases)
+        crate::cfd::openfoam::report::section(f, &of_cases).map(Some)
     }
 }
 

@@ -38,10 +38,11 @@ pub struct Page<'a> {
     pub notes: Vec<(String, Vec<String>)>,
     /// Upstream instances that failed and that the report was built without.
     pub failed: Vec<String>,
-    /// The pool sections (fusion, validation against recordings), already rendered.
-    pub pool_html: String,
+    /// The sections after the CFD ones (parameter sets, field identifiers, comparison,
+    /// designed runs, diagnosis, fusion, validation against recordings).
+    pub pool_html: Markup,
     /// Sections on CFD test bodies other than the vehicle (the OpenFOAM cylinder).
-    pub body_html: String,
+    pub bodies: Vec<Markup>,
 }
 
 impl Page<'_> {
@@ -89,8 +90,8 @@ impl Page<'_> {
                         }
                         (self.validation_table())
                     }
-                    (PreEscaped(&self.pool_html))
-                    (PreEscaped(&self.body_html))
+                    (self.pool_html)
+                    @for b in &self.bodies { (b) }
                     (self.provenance())
                 }
             }

@@ -13,12 +13,12 @@ pub fn section(
     runs: &[FusedRun],
     scores: Option<&Scores>,
     sims: &[Simulated],
-) -> anyhow::Result<String> {
+) -> anyhow::Result<Markup> {
     if runs.is_empty() {
-        return Ok(String::new());
+        return Ok(Markup::default());
     }
     let Some(scores) = scores else {
-        return Ok(String::new());
+        return Ok(Markup::default());
     };
     let figures = run_figures(runs, scores, sims)?;
     Ok(html! {
@@ -44,8 +44,7 @@ pub fn section(
             (cross_validation(runs, scores))
         }
         (figures)
-    }
-    .into_string())
+    })
 }
 
 /// Model `m`'s scores on each pool run and DOF: errors, residual whiteness and the noise floor.

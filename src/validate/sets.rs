@@ -52,11 +52,11 @@ pub fn section(
     fits: &[FitResult],
     scores: &Scores,
     truth: Option<&BTreeMap<String, f64>>,
-) -> String {
+) -> Markup {
     let structures: std::collections::BTreeSet<&str> =
         fits.iter().map(|f| f.structure.label()).collect();
     if structures.len() < 2 {
-        return String::new();
+        return Markup::default();
     }
     let mut fits: Vec<&FitResult> = fits
         .iter()
@@ -100,7 +100,6 @@ pub fn section(
         }
         @if let Some(truth) = truth { (against_truth(&fits, truth)) }
     }
-    .into_string()
 }
 
 /// The heading and what the tables hold.

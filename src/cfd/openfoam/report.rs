@@ -109,7 +109,7 @@ pub fn drag_curve(c: &Case, f: &FitResult, length: f64) -> DragCurve {
 
 /// The OpenFOAM section of fit `f`: how each case ran, the identified parameters against their
 /// reference values, the velocities against the model, and the drag along each run.
-pub fn section(f: &FitResult, cases: &[Case]) -> anyhow::Result<String> {
+pub fn section(f: &FitResult, cases: &[Case]) -> anyhow::Result<Markup> {
     let body = f
         .vehicle
         .as_ref()
@@ -149,8 +149,7 @@ pub fn section(f: &FitResult, cases: &[Case]) -> anyhow::Result<String> {
         @if let Some(drag) = drag {
             (drag)
         }
-    }
-    .into_string())
+    })
 }
 
 /// How each case ran (force, mass, steps, solver time, where its results came from, peak speed,
