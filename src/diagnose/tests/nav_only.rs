@@ -120,3 +120,59 @@ fn a_late_navigation_log_is_not_taken_for_slow_thrusters() {
         assert!(!wrong_alone, "{arg}: {wrong} named alone: {}", d.verdict);
     }
 }
+
+/// Prints, per run and channel of the navigation-log rendering, the noise the diagnosis counts
+/// (the tracked velocities' stated deviation times the channel's share) against those
+/// velocities' true error, for working on the noise floor:
+/// `cargo test --release nav_noise_against_truth -- --ignored --nocapture`. Measured on seeds
+/// 2 and 3: u, v, w at 0.46-1.70 times the true error (25 of 36 within 1.5; the low ones are
+/// the steps and PRBS runs, where the log's lateness adds to its noise), the yaw rate from the
+/// heading alone at 1.9-2.4 times.
+#[test]
+#[ignore = "a measurement to print, not a check"]
+fn nav_noise_against_truth() {
+    use crate::pool::import::csvlog;
+    for seed in [2u64, 3] {
+        let tmp = tempfile::tempdir().unwrap();
+        let root = tmp.path();
+        let specs = crate::twin::pool::default_runs();
+        crate::twin::pool::write_runs_seen(
+            &root.join("cases/pool"),
+            &root.join("truth/pool"),
+            &specs,
+            &[],
+            seed,
+            Logs::Navigation,
+        )
+        .unwrap();
+        for spec in &specs {
+            let r = scenario::fuse_folder(root, &spec.name).unwrap();
+            let text = std::fs::read_to_string(root.join(format!("truth/pool/{}.csv", spec.name)))
+                .unwrap();
+            let truth =
+                csvlog::parse_subset("t", &text, &["t", "u", "v", "w", "r"], "truth", 2).unwrap();
+            let f = &r.fused;
+            let mut line = format!("seed {seed} {:12}", spec.name);
+            for j in 0..4 {
+                let Some((v, s, share)) = f.tracking(j) else {
+                    continue;
+                };
+                let (mut se, mut ss) = (0.0, 0.0);
+                for (k, &t) in f.t.iter().enumerate() {
+                    let e = v[k] - crate::pool::fusion::interp(&truth.t, &truth.cols[j], t);
+                    se += e * e;
+                    ss += (s[k] * share).powi(2);
+                }
+                let n = f.t.len() as f64;
+                line += &format!(
+                    "  {}: counted {:.4} true {:.4} ({:.2})",
+                    ["u", "v", "w", "r"][j],
+                    (ss / n).sqrt(),
+                    (se / n).sqrt(),
+                    (ss / se).sqrt()
+                );
+            }
+            eprintln!("{line}");
+        }
+    }
+}
