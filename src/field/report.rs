@@ -108,14 +108,7 @@ fn simulation_figure(r: &FieldResult, d: &ArxDetail, s: &Simulation) -> anyhow::
     let fig = figure(
         &fig_id,
         caption,
-        &Chart {
-            title: &title,
-            x_desc: "time (s)",
-            y_desc: &y_desc,
-            series,
-            hlines: vec![],
-            stems: false,
-        },
+        &Chart::lines(&title, "time (s)", &y_desc, series),
     )?;
     Ok(fig)
 }

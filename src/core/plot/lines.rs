@@ -26,6 +26,25 @@ pub struct Chart<'a> {
     pub stems: bool,
 }
 
+impl<'a> Chart<'a> {
+    /// Lines only: no reference lines, no stems.
+    pub fn lines(
+        title: &'a str,
+        x_desc: &'a str,
+        y_desc: &'a str,
+        series: Vec<Series<'a>>,
+    ) -> Self {
+        Chart {
+            title,
+            x_desc,
+            y_desc,
+            series,
+            hlines: vec![],
+            stems: false,
+        }
+    }
+}
+
 pub fn chart(c: &Chart) -> anyhow::Result<String> {
     ensure_font();
     let finite = |v: &&f64| v.is_finite();

@@ -293,14 +293,7 @@ fn fig4_dof(s: &Simulation, i: usize, n: &str, u: &str) -> anyhow::Result<Markup
     let fig = figure(
         &fig_id,
         caption,
-        &Chart {
-            title: &title,
-            x_desc: "time (s)",
-            y_desc: &format!("{n} ({u})"),
-            series,
-            hlines: vec![],
-            stems: false,
-        },
+        &Chart::lines(&title, "time (s)", &format!("{n} ({u})"), series),
     )?;
     Ok(fig)
 }

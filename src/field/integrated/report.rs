@@ -308,14 +308,7 @@ fn trace_chart(e: &EquationFit, t: &Trace, run: &str, truth: &Truth) -> anyhow::
     let fig = figure(
         &fig_id,
         caption,
-        &Chart {
-            title: &title,
-            x_desc: "time (s)",
-            y_desc: "parameter",
-            series,
-            hlines: vec![],
-            stems: false,
-        },
+        &Chart::lines(&title, "time (s)", "parameter", series),
     )?;
     Ok(fig)
 }
