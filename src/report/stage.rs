@@ -2,7 +2,6 @@
 //! responses and pool runs, the validate stage's scores and simulations, the comparison, the
 //! diagnosis and the field identifications. It computes no score and simulates nothing.
 
-use crate::core::response;
 use crate::pipeline::contract::{Artifact, Kind, RunCtx, StageImpl, parse_as};
 use crate::report::build;
 use serde::{Deserialize, Serialize};
@@ -106,20 +105,17 @@ impl StageImpl for Settings {
 /// The CFD responses among the upstream, each with what the report shows of its case (and
 /// an OpenFOAM case's track).
 fn cfd_cases(ctx: &RunCtx) -> anyhow::Result<Vec<build::Case>> {
-    let mut cases = Vec::new();
-    for u in ctx.upstream_of(Artifact::Responses) {
-        let (meta, response) = response::load(&u.dir)?;
-        let track = crate::cfd::openfoam::load_track(&u.dir);
-        cases.push(build::Case {
+    let responses = crate::validate::cases::upstream_responses(ctx)?;
+    Ok(responses
+        .into_iter()
+        .map(|(u, meta, response)| build::Case {
             id: u.id.clone(),
             name: meta.case,
             response,
             notes: meta.notes,
             openfoam: meta.openfoam,
-            track,
+            track: crate::cfd::openfoam::load_track(&u.dir),
             two_dimensional: meta.per_metre_of_span,
-        });
-    }
-    cases.sort_by(|a, b| crate::core::natural::cmp(&a.name, &b.name));
-    Ok(cases)
+        })
+        .collect())
 }

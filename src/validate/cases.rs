@@ -10,8 +10,9 @@
 use super::Metrics;
 use crate::core::dof::Dof;
 use crate::core::model::{Plant, Vec6, Vehicle};
-use crate::core::response::Response;
+use crate::core::response::{Response, ResponseMeta};
 use crate::identify::result::FitResult;
+use crate::pipeline::contract::{Artifact, RunCtx, Upstream};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -73,6 +74,21 @@ pub fn score_cases(vehicle: &Vehicle, fits: &[FitResult], cases: &[Case]) -> Vec
         }
     }
     out
+}
+
+/// The CFD responses among a stage's upstream, each with the import it came from and its
+/// metadata, in the natural order of the case names (`surge_2N` before `surge_10N`): what the
+/// validate stage scores and the report shows, in the same order.
+pub fn upstream_responses<'c>(
+    ctx: &'c RunCtx,
+) -> anyhow::Result<Vec<(&'c Upstream, ResponseMeta, Response)>> {
+    let mut out = Vec::new();
+    for u in ctx.upstream_of(Artifact::Responses) {
+        let (meta, response) = crate::core::response::load(&u.dir)?;
+        out.push((u, meta, response));
+    }
+    out.sort_by(|a, b| crate::core::natural::cmp(&a.1.case, &b.1.case));
+    Ok(out)
 }
 
 /// The case scores a validate stage stored in `dir` (none when it read no CFD case).

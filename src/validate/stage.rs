@@ -93,18 +93,16 @@ impl StageImpl for Settings {
 
 /// The CFD responses among the upstream, as validation reads them.
 fn cfd_cases(ctx: &RunCtx) -> anyhow::Result<Vec<Case>> {
-    let mut cases = Vec::new();
-    for u in ctx.upstream_of(Artifact::Responses) {
-        let (meta, response) = crate::core::response::load(&u.dir)?;
-        cases.push(Case {
+    let responses = crate::validate::cases::upstream_responses(ctx)?;
+    Ok(responses
+        .into_iter()
+        .map(|(u, meta, response)| Case {
             id: u.id.clone(),
             name: meta.case,
             response,
             mass: meta.body_mass_kg,
-        });
-    }
-    cases.sort_by(|a, b| crate::core::natural::cmp(&a.name, &b.name));
-    Ok(cases)
+        })
+        .collect())
 }
 
 #[cfg(test)]
