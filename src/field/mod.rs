@@ -51,15 +51,20 @@ pub fn load(dir: &Path) -> anyhow::Result<FieldResult> {
     crate::core::fsutil::read_json(&dir.join(RESULT))
 }
 
-/// An identifier's own results, typed by its kind: what a result's `detail` holds.
+/// An identifier's own results and the settings it ran with, typed by its kind: what a
+/// result's `detail` and `settings` hold.
 #[derive(Debug, Clone)]
 pub enum Detail {
-    Arx(Box<arx::Detail>),
-    Integrated(Box<integrated::Detail>),
-    Adaptive(Box<adaptive::result::Detail>),
+    Arx(Box<arx::Detail>, Box<arx::stage::Settings>),
+    Integrated(Box<integrated::Detail>, Box<integrated::stage::Settings>),
+    Adaptive(
+        Box<adaptive::result::Detail>,
+        Box<adaptive::stage::Settings>,
+    ),
 }
 
-/// A field-trial result with its detail read as its kind's type, once, where it is loaded.
+/// A field-trial result with its detail and settings read as its kind's types, once, where
+/// it is loaded.
 #[derive(Debug, Clone)]
 pub struct Field {
     pub result: FieldResult,
@@ -67,15 +72,25 @@ pub struct Field {
 }
 
 impl FieldResult {
-    /// `detail` as the type of the result's kind. Read as every artifact is
+    /// `detail` and `settings` as the types of the result's kind. Read as every artifact is
     /// ([`crate::core::lenient`]): a non-finite float the stage wrote reads back as itself.
     pub fn typed(self) -> anyhow::Result<Field> {
-        let text = self.detail.to_string();
+        let (detail, settings) = (self.detail.to_string(), self.settings.to_string());
         let stage = &self.stage;
+        let both = |kind: &str| (format!("the {kind} detail"), format!("the {kind} settings"));
         let detail = match self.kind.as_str() {
-            "arx" => Detail::Arx(parse(&text, "arx", stage)?),
-            "integrated" => Detail::Integrated(parse(&text, "integrated", stage)?),
-            "adaptive" => Detail::Adaptive(parse(&text, "adaptive", stage)?),
+            "arx" => {
+                let (d, s) = both("arx");
+                Detail::Arx(parse(&detail, &d, stage)?, parse(&settings, &s, stage)?)
+            }
+            "integrated" => {
+                let (d, s) = both("integrated");
+                Detail::Integrated(parse(&detail, &d, stage)?, parse(&settings, &s, stage)?)
+            }
+            "adaptive" => {
+                let (d, s) = both("adaptive");
+                Detail::Adaptive(parse(&detail, &d, stage)?, parse(&settings, &s, stage)?)
+            }
             other => anyhow::bail!(
                 "stage `{}` stored a field result of unknown kind `{other}` (arx, integrated or adaptive)",
                 self.stage
@@ -88,15 +103,15 @@ impl FieldResult {
     }
 }
 
-/// A stored detail read as `T`.
+/// A stored part (`what`: "the arx detail", ...) read as `T`.
 fn parse<T: serde::de::DeserializeOwned>(
     text: &str,
-    kind: &str,
+    what: &str,
     stage: &str,
 ) -> anyhow::Result<Box<T>> {
     crate::core::lenient::from_str(text)
         .map(Box::new)
-        .map_err(|e| anyhow::anyhow!("the {kind} detail stored by stage `{stage}`: {e}"))
+        .map_err(|e| anyhow::anyhow!("{what} stored by stage `{stage}`: {e}"))
 }
 
 /// The result a field-trial stage stored in `dir`, its detail typed.
@@ -153,7 +168,7 @@ mod tests {
             stage: "pitch".into(),
             kind: "arx".into(),
             method: "arx".into(),
-            settings: serde_json::json!({}),
+            settings: serde_json::json!({"input": "delta", "output": "q", "detrend": "none"}),
             inputs: vec![],
             estimation_runs: vec!["dive".into()],
             validation_runs: vec![],
@@ -171,14 +186,23 @@ mod tests {
         crate::core::fsutil::write_json(&dir.path().join(RESULT), &arx_result(f64::INFINITY))
             .unwrap();
         let f = load_typed(dir.path()).unwrap();
-        let Detail::Arx(d) = &f.detail else {
+        let Detail::Arx(d, s) = &f.detail else {
             panic!("not an ARX detail: {:?}", f.detail)
         };
         assert_eq!(d.residual_band, f64::INFINITY);
+        assert_eq!(s.detrend, arx::stage::Detrend::None);
+        assert_eq!(s.max_lag, 20, "a setting left out reads as its default");
         assert!(d.residual_acf[0] == 1.0 && d.residual_acf[1].is_nan());
         let mut odd = arx_result(0.2);
         odd.kind = "armax".into();
         let e = odd.typed().unwrap_err().to_string();
         assert!(e.contains("unknown kind `armax`"), "{e}");
+        let mut broken = arx_result(0.2);
+        broken.settings = serde_json::json!({"input": "delta"});
+        let e = broken.typed().unwrap_err().to_string();
+        assert!(
+            e.contains("the arx settings stored by stage `pitch`"),
+            "{e}"
+        );
     }
 }

@@ -4,6 +4,7 @@
 //! the RLS trace, the prediction error's autocorrelation).
 
 use crate::core::plot::lines::{Chart, Correlogram, Series, figure};
+use crate::field::arx::stage::{Detrend, Settings as ArxSettings};
 use crate::field::arx::{Detail as ArxDetail, Model, Simulation};
 use crate::field::truth::Truth;
 use crate::field::{Detail, Field, FieldResult};
@@ -14,9 +15,9 @@ pub fn sections(results: &[Field], truth: &Truth) -> anyhow::Result<Markup> {
     Ok(html! {
         @for Field { result: r, detail } in results {
             @match detail {
-                Detail::Arx(d) => (arx_section(r, d, truth)?),
-                Detail::Integrated(d) => (crate::field::integrated::report::section(r, d, truth)?),
-                Detail::Adaptive(d) => (crate::field::adaptive::report::section(r, d, truth)?),
+                Detail::Arx(d, s) => (arx_section(r, d, s, truth)?),
+                Detail::Integrated(d, _) => (crate::field::integrated::report::section(r, d, truth)?),
+                Detail::Adaptive(d, _) => (crate::field::adaptive::report::section(r, d, truth)?),
             }
         }
     })
@@ -40,8 +41,13 @@ fn num(x: Option<f64>, digits: usize) -> String {
     }
 }
 
-fn arx_section(r: &FieldResult, d: &ArxDetail, truth: &Truth) -> anyhow::Result<Markup> {
-    let detrend = if r.settings["detrend"] == "none" {
+fn arx_section(
+    r: &FieldResult,
+    d: &ArxDetail,
+    s: &ArxSettings,
+    truth: &Truth,
+) -> anyhow::Result<Markup> {
+    let detrend = if s.detrend == Detrend::None {
         "not detrended"
     } else {
         "each run's mean removed"
