@@ -431,9 +431,12 @@ fn swap(
 }
 
 /// The candidates of the round in which `name` was kept that fit the held-out runs as well as
-/// it did, to within `min_noise_multiple` times the noise floor (the margin by which any
-/// effect must beat the model to be named), while being significant themselves and off their
-/// bounds: effects these runs cannot tell apart from the named one.
+/// it did, by the rule that names an effect: neither beats the other significantly (by
+/// `min_gain` of the larger cost and by `min_noise_multiple` times the noise floor), while
+/// being significant themselves and off their bounds: effects these runs cannot tell apart
+/// from the named one. The relative part matters where a structured residual remains: two
+/// forms of a lag 7 % apart in cost at 7.7 times the floor differ by more than half the
+/// floor, but by less than what either must gain to be named.
 pub fn alike(
     search: &Search,
     criteria: &Criteria,
@@ -446,12 +449,12 @@ pub fn alike(
     let Some(&before) = search.costs.get(kept.round - 1) else {
         return Vec::new();
     };
-    let margin = criteria.min_noise_multiple * data.noise_cost;
+    let apart = |a: f64, b: f64| significant(criteria, data, a.max(b), a.min(b), 0.0);
     search
         .tested
         .iter()
         .filter(|t| t.round == kept.round && !t.accepted && t.at_bound.is_empty())
-        .filter(|t| (t.validation_cost - kept.validation_cost).abs() < margin)
+        .filter(|t| !apart(t.validation_cost, kept.validation_cost))
         .filter(|t| {
             let params = t.parameters.len() as f64;
             significant(criteria, data, before, t.validation_cost, params)
