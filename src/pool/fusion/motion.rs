@@ -155,57 +155,64 @@ fn noise_and_motion(lags: &[usize], v: &[f64], dt: f64) -> (f64, f64) {
     let ws: Vec<f64> = std::iter::once(0.0)
         .chain((0..40).map(|k| 0.3 * (top / 0.3).powf(k as f64 / 39.0)))
         .collect();
-    let mut fits = Vec::with_capacity(rhos.len() * ws.len());
+    let rel = |f: &dyn Fn(usize) -> f64| -> Vec<f64> {
+        lags.iter()
+            .zip(v)
+            .map(|(&l, &y)| f(l) / y.max(1e-300))
+            .collect()
+    };
+    let slow = rel(&|l| motion(0.0, l));
+    let mut best = (f64::INFINITY, v[0] / 3.0, 0.0);
     for &rho in &rhos {
         // Weighted by 1 / v: relative errors, so the small lags count as the large.
-        let x1: Vec<f64> = lags
-            .iter()
-            .zip(v)
-            .map(|(&l, &y)| g(rho, l) / y.max(1e-300))
-            .collect();
+        let x1 = rel(&|l| g(rho, l));
         for &w in &ws {
-            let x2: Vec<f64> = lags
-                .iter()
-                .zip(v)
-                .map(|(&l, &y)| motion(w, l) / y.max(1e-300))
-                .collect();
-            let (a, c) = nnls2(&x1, &x2);
-            let sse: f64 = x1
-                .iter()
-                .zip(&x2)
-                .map(|(p, q)| (a * p + c * q - 1.0).powi(2))
-                .sum();
-            fits.push((sse, a, rho));
+            let fast = rel(&|l| motion(w, l));
+            let cols: Vec<&[f64]> = if w == 0.0 {
+                vec![&x1, &slow]
+            } else {
+                vec![&x1, &slow, &fast]
+            };
+            let (coef, sse) = nnls(&cols);
+            if sse < best.0 {
+                best = (sse, coef[0], rho);
+            }
         }
     }
-    fits.iter()
-        .min_by(|x, y| x.0.total_cmp(&y.0))
-        .map_or((v[0] / 3.0, 0.0), |f| (f.1, f.2))
+    (best.1, best.2)
 }
 
-/// Non-negative least squares of `1 = a x1 + c x2` in two unknowns.
-fn nnls2(x1: &[f64], x2: &[f64]) -> (f64, f64) {
-    let dot = |p: &[f64], q: &[f64]| p.iter().zip(q).map(|(a, b)| a * b).sum::<f64>();
-    let (s11, s22, s12) = (dot(x1, x1), dot(x2, x2), dot(x1, x2));
-    let (b1, b2) = (x1.iter().sum::<f64>(), x2.iter().sum::<f64>());
-    let det = s11 * s22 - s12 * s12;
-    if det > 1e-12 * s11 * s22 {
-        let a = (b1 * s22 - b2 * s12) / det;
-        let c = (b2 * s11 - b1 * s12) / det;
-        if a >= 0.0 && c >= 0.0 {
-            return (a, c);
+/// Non-negative least squares of `1 = sum_j c_j cols[j]` (two or three columns): the best
+/// unconstrained fit over every subset of the columns whose coefficients are all
+/// non-negative. Returns the coefficients and the sum of squared errors.
+fn nnls(cols: &[&[f64]]) -> (Vec<f64>, f64) {
+    let k = cols.len();
+    let n = cols[0].len();
+    let mut best = (vec![0.0; k], n as f64);
+    for mask in 1u32..(1 << k) {
+        let idx: Vec<usize> = (0..k).filter(|j| mask & (1 << j) != 0).collect();
+        let m = idx.len();
+        let a = nalgebra::DMatrix::from_fn(n, m, |i, j| cols[idx[j]][i]);
+        let b = nalgebra::DVector::from_element(n, 1.0);
+        let Some(c) = (a.transpose() * &a)
+            .cholesky()
+            .map(|ch| ch.solve(&(a.transpose() * &b)))
+        else {
+            continue;
+        };
+        if c.iter().any(|x| *x < 0.0 || !x.is_finite()) {
+            continue;
+        }
+        let sse = (&a * &c - &b).norm_squared();
+        if sse < best.1 {
+            let mut full = vec![0.0; k];
+            for (j, &i) in idx.iter().enumerate() {
+                full[i] = c[j];
+            }
+            best = (full, sse);
         }
     }
-    // One column alone: the better of the two that is non-negative.
-    let only_a = (b1 / s11.max(1e-300)).max(0.0);
-    let only_c = (b2 / s22.max(1e-300)).max(0.0);
-    let sse_a = x1.len() as f64 - 2.0 * only_a * b1 + only_a * only_a * s11;
-    let sse_c = x2.len() as f64 - 2.0 * only_c * b2 + only_c * only_c * s22;
-    if sse_a <= sse_c {
-        (only_a, 0.0)
-    } else {
-        (0.0, only_c)
-    }
+    best
 }
 
 #[cfg(test)]
