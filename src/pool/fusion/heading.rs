@@ -1,7 +1,7 @@
 //! The heading filter: yaw, yaw rate and gyro bias smoothed from an IMU's or a navigation
 //! log's yaw and rate (either may be missing).
 
-use super::kalman::{Filter, Mat, Vector, white_accel};
+use super::kalman::{Filter, Mat, Vector, white_accel_and};
 use super::{Noise, wrap_pi};
 use crate::pool::import::csvlog::Log;
 use nalgebra::{SMatrix, SVector};
@@ -77,23 +77,10 @@ enum Motion {
 /// A step of `dt` under `motion`; the bias a slow random walk.
 fn predict(f: &mut Filter<3>, dt: f64, motion: Motion) {
     let (fm, q) = match motion {
-        Motion::Rate(q_r) => {
-            let a = white_accel(q_r, dt);
-            (
-                Mat::<3>::new(1.0, dt, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0),
-                Mat::<3>::new(
-                    a[0][0],
-                    a[0][1],
-                    0.0,
-                    a[1][0],
-                    a[1][1],
-                    0.0,
-                    0.0,
-                    0.0,
-                    GYRO_BIAS_Q * dt,
-                ),
-            )
-        }
+        Motion::Rate(q_r) => (
+            Mat::<3>::new(1.0, dt, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0),
+            white_accel_and(q_r, dt, GYRO_BIAS_Q * dt),
+        ),
         Motion::Accel(j) => (
             Mat::<3>::new(1.0, dt, dt * dt / 2.0, 0.0, 1.0, dt, 0.0, 0.0, 1.0),
             Mat::<3>::from(white_jerk(j, dt)),

@@ -135,6 +135,15 @@ pub fn white_accel(q: f64, dt: f64) -> [[f64; 2]; 2] {
     ]
 }
 
+/// Process noise of a position-velocity pair driven by white acceleration of density `q`, with
+/// a third state, independent of them, of variance `third` over the step.
+pub fn white_accel_and(q: f64, dt: f64, third: f64) -> Mat<3> {
+    let a = white_accel(q, dt);
+    Mat::<3>::new(
+        a[0][0], a[0][1], 0.0, a[1][0], a[1][1], 0.0, 0.0, 0.0, third,
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -13,7 +13,7 @@
 //!   first-order Gauss-Markov state of the filter (coloured measurement noise), which keeps
 //!   the smoother from averaging correlated errors as if they were independent.
 
-use super::kalman::{Filter, Mat, Vector, white_accel};
+use super::kalman::{Filter, Mat, Vector, white_accel_and};
 use nalgebra::{SMatrix, SVector};
 use serde::{Deserialize, Serialize};
 
@@ -205,24 +205,13 @@ impl Model {
 
     /// Transition and process noise over `dt`.
     fn step(&self, dt: f64) -> (Mat<3>, Mat<3>) {
-        let q = white_accel(self.jerk, dt);
         let a = if self.tau_c > 0.0 {
             (-dt / self.tau_c).exp()
         } else {
             0.0
         };
         let fm = Mat::<3>::new(1.0, dt, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, a);
-        let qm = Mat::<3>::new(
-            q[0][0],
-            q[0][1],
-            0.0,
-            q[1][0],
-            q[1][1],
-            0.0,
-            0.0,
-            0.0,
-            self.var * (1.0 - a * a),
-        );
+        let qm = white_accel_and(self.jerk, dt, self.var * (1.0 - a * a));
         (fm, qm)
     }
 }
