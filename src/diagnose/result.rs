@@ -75,9 +75,9 @@ impl Found {
         )
     }
 
-    /// " sensor_delay (delay_s = 0.270; ...) fits the held-out runs about as well: neither beats
-    /// the other by what an effect must gain to be named, so these runs cannot tell them
-    /// apart. `hydrofit design` proposes a run that does ..."
+    /// " sensor_delay (delay_s = 0.270; ...) fits the held-out runs within noise of it, or the
+    /// training runs prefer it: these runs cannot tell them apart. `hydrofit design` proposes
+    /// a run that does ..."
     pub fn alike_sentence(&self, noise: f64) -> String {
         let others: Vec<String> = self
             .alike
@@ -97,7 +97,7 @@ impl Found {
             })
             .collect();
         format!(
-            " {} fits the held-out runs about as well ({:.4} with it; noise floor {noise:.4}): neither beats the other by what an effect must gain to be named, so these runs cannot tell them apart. `hydrofit design` proposes a run that does (fly it twice, once to train and once held out).",
+            " {} fits the held-out runs within noise of it ({:.4}; noise floor {noise:.4}), or the training runs prefer it: these runs cannot tell them apart. `hydrofit design` proposes a run that does (fly it twice, once to train and once held out).",
             others.join(" and "),
             self.validation_cost_after
         )
