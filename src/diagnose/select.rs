@@ -433,11 +433,13 @@ fn swap(
 /// The candidates of the round in which `name` was kept that the runs cannot tell from it,
 /// while being significant themselves and off their bounds. Two effects are told apart when
 /// one fits the held-out runs better by more than `min_noise_multiple` times the noise floor
-/// (the margin by which any effect must beat the model to be named) and the training runs
-/// agree on which; otherwise they are look-alikes. The training runs' say follows the
-/// selection's own rule that a real effect explains them too: on the field example the two
-/// lag forms were 0.54 floors apart on the held-out runs, the thruster lag ahead, while the
-/// training runs put the sensor delay ahead (and the twin lags the sensor).
+/// (the margin by which any effect must beat the model to be named) and either the training
+/// runs agree on which or the held-out gap is itself as large as an effect must gain to be
+/// named (`min_gain` of the larger cost); otherwise they are look-alikes. The training runs'
+/// say follows the selection's own rule that a real effect explains them too: on the field
+/// example the two lag forms were 0.54 floors (7 %) apart on the held-out runs, the thruster
+/// lag ahead, while the training runs put the sensor delay ahead (and the twin lags the
+/// sensor).
 pub fn alike(
     search: &Search,
     criteria: &Criteria,
@@ -454,7 +456,9 @@ pub fn alike(
     let apart = |t: &Tested| {
         let held_out = t.validation_cost - kept.validation_cost;
         let train = t.train_cost - kept.train_cost;
-        held_out.abs() >= margin && held_out * train > 0.0
+        let decisive =
+            held_out.abs() >= criteria.min_gain * t.validation_cost.max(kept.validation_cost);
+        held_out.abs() >= margin && (held_out * train > 0.0 || decisive)
     };
     search
         .tested

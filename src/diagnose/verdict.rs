@@ -236,10 +236,13 @@ fn conclude(
     ))
 }
 
-/// Each effect's look-alikes: the candidates its round could not tell from it.
+/// Each effect's look-alikes: the candidates its round could not tell from it, except those
+/// named themselves (an effect kept in a later round is beside it, not instead of it).
 fn list_alike(effects: &mut [Found], search: &dx::Search, crit: &Criteria, data: &Data) {
+    let named: Vec<String> = effects.iter().map(|e| e.name.clone()).collect();
     for e in effects {
         e.alike = dx::select::alike(search, crit, data, &e.name);
+        e.alike.retain(|a| !named.contains(&a.name));
         if !e.alike.is_empty() {
             let sentence = e.alike_sentence(data.noise_cost);
             e.evidence.push_str(&sentence);
