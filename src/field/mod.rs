@@ -12,6 +12,7 @@ pub mod signals;
 pub mod truth;
 
 use crate::core::provenance::InputFile;
+use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -75,21 +76,18 @@ impl FieldResult {
     /// `detail` and `settings` as the types of the result's kind. Read as every artifact is
     /// ([`crate::core::lenient`]): a non-finite float the stage wrote reads back as itself.
     pub fn typed(self) -> anyhow::Result<Field> {
-        let (detail, settings) = (self.detail.to_string(), self.settings.to_string());
-        let stage = &self.stage;
-        let both = |kind: &str| (format!("the {kind} detail"), format!("the {kind} settings"));
         let detail = match self.kind.as_str() {
             "arx" => {
-                let (d, s) = both("arx");
-                Detail::Arx(parse(&detail, &d, stage)?, parse(&settings, &s, stage)?)
+                let (d, s) = self.parts("arx")?;
+                Detail::Arx(d, s)
             }
             "integrated" => {
-                let (d, s) = both("integrated");
-                Detail::Integrated(parse(&detail, &d, stage)?, parse(&settings, &s, stage)?)
+                let (d, s) = self.parts("integrated")?;
+                Detail::Integrated(d, s)
             }
             "adaptive" => {
-                let (d, s) = both("adaptive");
-                Detail::Adaptive(parse(&detail, &d, stage)?, parse(&settings, &s, stage)?)
+                let (d, s) = self.parts("adaptive")?;
+                Detail::Adaptive(d, s)
             }
             other => anyhow::bail!(
                 "stage `{}` stored a field result of unknown kind `{other}` (arx, integrated or adaptive)",
@@ -101,17 +99,29 @@ impl FieldResult {
             detail,
         })
     }
-}
 
-/// A stored part (`what`: "the arx detail", ...) read as `T`.
-fn parse<T: serde::de::DeserializeOwned>(
-    text: &str,
-    what: &str,
-    stage: &str,
-) -> anyhow::Result<Box<T>> {
-    crate::core::lenient::from_str(text)
-        .map(Box::new)
-        .map_err(|e| anyhow::anyhow!("{what} stored by stage `{stage}`: {e}"))
+    /// The stored detail and settings read as `D` and `S`, the types of kind `kind`.
+    fn parts<D: DeserializeOwned, S: DeserializeOwned>(
+        &self,
+        kind: &str,
+    ) -> anyhow::Result<(Box<D>, Box<S>)> {
+        Ok((
+            self.read(&self.detail, kind, "detail")?,
+            self.read(&self.settings, kind, "settings")?,
+        ))
+    }
+
+    /// One stored part (`what`: detail or settings) read as `T`.
+    fn read<T: DeserializeOwned>(
+        &self,
+        value: &serde_json::Value,
+        kind: &str,
+        what: &str,
+    ) -> anyhow::Result<Box<T>> {
+        crate::core::lenient::from_str(&value.to_string())
+            .map(Box::new)
+            .map_err(|e| anyhow::anyhow!("the {kind} {what} stored by stage `{}`: {e}", self.stage))
+    }
 }
 
 /// The result a field-trial stage stored in `dir`, its detail typed.

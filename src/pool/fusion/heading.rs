@@ -216,12 +216,12 @@ pub(super) fn heading(
             .map(|d| d.to_radians())
             .collect()
     };
-    let mut best = (f64::NEG_INFINITY, n.yaw_rad, Motion::Accel(1.0));
-    for m in YAW_JERKS.map(Motion::Accel) {
+    let mut best = (f64::NEG_INFINITY, n.yaw_rad, 1.0);
+    for q in YAW_JERKS {
         for &sy in &sigmas {
-            let (_, ll) = heading_with(src, sy, n.gyro_rad_s, m);
+            let (_, ll) = heading_with(src, sy, n.gyro_rad_s, Motion::Accel(q));
             if ll > best.0 {
-                best = (ll, sy, m);
+                best = (ll, sy, q);
             }
         }
     }
@@ -229,9 +229,7 @@ pub(super) fn heading(
     notes.push(format!(
         "heading without a gyro: yaw noise {:.2} deg and yaw-jerk density {} rad^2/s^5 chosen by the likelihood of the yaw innovations",
         best.1.to_degrees(),
-        match best.2 {
-            Motion::Accel(q) | Motion::Rate(q) => q,
-        }
+        best.2
     ));
-    heading_with(src, best.1, n.gyro_rad_s, best.2).0
+    heading_with(src, best.1, n.gyro_rad_s, Motion::Accel(best.2)).0
 }

@@ -164,17 +164,18 @@ fn noise_and_motion(lags: &[usize], v: &[f64], dt: f64) -> (f64, f64) {
             .map(|(&l, &y)| f(l) / y.max(1e-300))
             .collect()
     };
+    // The motion columns do not depend on rho: built once.
     let slow = rel(&|l| motion(0.0, l));
+    let fast: Vec<Vec<f64>> = ws.iter().map(|&w| rel(&|l| motion(w, l))).collect();
     let mut best = (f64::INFINITY, v[0] / 3.0, 0.0);
     for &rho in &rhos {
         // Weighted by 1 / v: relative errors, so the small lags count as the large.
         let x1 = rel(&|l| g(rho, l));
-        for &w in &ws {
-            let fast = rel(&|l| motion(w, l));
+        for (&w, fast) in ws.iter().zip(&fast) {
             let cols: Vec<&[f64]> = if w == 0.0 {
                 vec![&x1, &slow]
             } else {
-                vec![&x1, &slow, &fast]
+                vec![&x1, &slow, fast]
             };
             let (coef, sse) = nnls(&cols);
             if sse < best.0 {
