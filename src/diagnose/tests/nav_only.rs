@@ -151,49 +151,96 @@ fn a_late_navigation_log_is_not_taken_for_slow_thrusters() {
 /// times the error (`pool::fusion::heading`'s `Motion`).
 #[test]
 fn the_yaw_rate_from_a_heading_states_its_error() {
-    for (seed, run, counted, truth) in counted_against_truth() {
-        let ratio = counted[3] / truth[3];
+    for m in measured() {
+        let ratio = m.counted[3] / m.truth[3];
         assert!(
             (1.0 / 1.5..1.5).contains(&ratio),
-            "seed {seed} {run}: yaw rate stated {:.4}, true error {:.4}",
-            counted[3],
-            truth[3]
+            "seed {} {}: yaw rate stated {:.4}, true error {:.4}",
+            m.seed,
+            m.run,
+            m.counted[3],
+            m.truth[3]
         );
+    }
+}
+
+/// The sensor noise the fusion measures on a navigation log (what the diagnosis's noise floor
+/// counts) is the log's, not the manoeuvres': on every run and channel u, v, w of seeds 2
+/// and 3 (36 channels) it is within a factor 1.5 of the log's true noise, the spread of its
+/// rows about the truth once the log's own lateness is taken out
+/// (`twin::noise_about_lateness`). That noise is more than the DVL's 1.2 cm/s where the
+/// vehicle accelerates: each row carries the last 8 Hz ping, 0-125 ms old, and the varying age
+/// times the acceleration is an error no model explains (2.0-2.3 cm/s in surge on the PRBS
+/// runs). Measured: 0.79-1.44 times it. Before the fit took a slow and a fast motion apart,
+/// the PRBS runs read up to 3.6 times the DVL's noise.
+#[test]
+fn a_navigation_logs_noise_is_measured_within_a_factor_1_5() {
+    for m in measured() {
+        for j in 0..3 {
+            let ratio = m.sensor[j] / m.own[j];
+            assert!(
+                (1.0 / 1.5..1.5).contains(&ratio),
+                "seed {} {} {}: measured {:.4}, the log's noise {:.4}",
+                m.seed,
+                m.run,
+                ["u", "v", "w"][j],
+                m.sensor[j],
+                m.own[j]
+            );
+        }
     }
 }
 
 /// Prints, per run and channel of the navigation-log rendering, the noise the diagnosis counts
 /// (the tracked velocities' stated deviation times the channel's share) against those
-/// velocities' true error, and the sensor noise measured per channel (the twin's DVL has 1.2
-/// cm/s), for working on the noise floor:
+/// velocities' true error, and the sensor noise measured per channel against the log's own
+/// (the twin's DVL has 1.2 cm/s), for working on the noise floor:
 /// `cargo test --release nav_noise_against_truth -- --ignored --nocapture`. Measured on seeds
 /// 2 and 3: u, v, w at 0.41-1.26 times the true error (21 of 36 within 1.5; that error holds
 /// the log's own lateness, each row carrying the DVL's last ping, which the diagnosis names as
-/// a lag of about 0.05 s), the yaw rate from the heading alone at 0.71-1.21 times; the DVL's
-/// noise measured at 0.9-2.9 cm/s against the 1.2 added, the high ones in surge and sway on
-/// the PRBS runs.
+/// a lag of about 0.05 s), the yaw rate from the heading alone at 0.71-1.21 times.
 #[test]
 #[ignore = "a measurement to print, not a check"]
 fn nav_noise_against_truth() {
-    for (seed, run, counted, truth) in counted_against_truth() {
-        let mut line = format!("seed {seed} {run:12}");
+    for m in measured() {
+        let mut line = format!("seed {} {:12}", m.seed, m.run);
         for j in 0..4 {
             line += &format!(
                 "  {}: counted {:.4} true {:.4} ({:.2})",
                 ["u", "v", "w", "r"][j],
-                counted[j],
-                truth[j],
-                counted[j] / truth[j]
+                m.counted[j],
+                m.truth[j],
+                m.counted[j] / m.truth[j]
+            );
+        }
+        for j in 0..3 {
+            line += &format!(
+                "  {} sensor {:.4} log {:.4} ({:.2})",
+                ["u", "v", "w"][j],
+                m.sensor[j],
+                m.own[j],
+                m.sensor[j] / m.own[j]
             );
         }
         eprintln!("{line}");
     }
 }
 
-/// Per run of seeds 2 and 3 (seed, run, RMS stated deviation, RMS true error), per channel
-/// u, v, w, r (NaN where the run has none), with the sensor noise printed.
-fn counted_against_truth() -> Vec<(u64, String, [f64; 4], [f64; 4])> {
-    use crate::pool::import::csvlog;
+/// One run of [`measured`]: per channel u, v, w, r the RMS stated deviation of the tracked
+/// velocity (`counted`, times the channel's noise share) and its RMS true error (NaN where
+/// the run has none); per channel u, v, w the sensor noise the fusion measured and the log's
+/// own noise about its lateness.
+struct Measured {
+    seed: u64,
+    run: String,
+    counted: [f64; 4],
+    truth: [f64; 4],
+    sensor: [f64; 3],
+    own: [f64; 3],
+}
+
+/// Every run of the navigation-log rendering of seeds 2 and 3, fused and set against its truth.
+fn measured() -> Vec<Measured> {
     let mut rows = Vec::new();
     for seed in [2u64, 3] {
         let tmp = tempfile::tempdir().unwrap();
@@ -209,37 +256,60 @@ fn counted_against_truth() -> Vec<(u64, String, [f64; 4], [f64; 4])> {
         )
         .unwrap();
         for spec in &specs {
-            let r = scenario::fuse_folder(root, &spec.name).unwrap();
-            let text = std::fs::read_to_string(root.join(format!("truth/pool/{}.csv", spec.name)))
-                .unwrap();
-            let truth =
-                csvlog::parse_subset("t", &text, &["t", "u", "v", "w", "r"], "truth", 2).unwrap();
-            let f = &r.fused;
-            let (mut counted, mut true_error) = ([f64::NAN; 4], [f64::NAN; 4]);
-            for j in 0..4 {
-                let Some((v, s, share)) = f.tracking(j) else {
-                    continue;
-                };
-                let (mut se, mut ss) = (0.0, 0.0);
-                for (k, &t) in f.t.iter().enumerate() {
-                    let e = v[k] - crate::pool::fusion::interp(&truth.t, &truth.cols[j], t);
-                    se += e * e;
-                    ss += (s[k] * share).powi(2);
-                }
-                let n = f.t.len() as f64;
-                (counted[j], true_error[j]) = ((ss / n).sqrt(), (se / n).sqrt());
-            }
-            eprintln!(
-                "seed {seed} {}: sensor noise {:?}",
-                spec.name,
-                f.stats
-                    .nav_sensor
-                    .iter()
-                    .map(|(n, x)| format!("{n} {:.4}", x.sigma))
-                    .collect::<Vec<_>>()
-            );
-            rows.push((seed, spec.name.clone(), counted, true_error));
+            rows.push(measure(root, seed, &spec.name));
         }
     }
     rows
+}
+
+/// [`Measured`] of run `name` written under `root`.
+fn measure(root: &std::path::Path, seed: u64, name: &str) -> Measured {
+    use crate::pool::import::csvlog;
+    let read = |f: String| std::fs::read_to_string(root.join(f)).unwrap();
+    let r = scenario::fuse_folder(root, name).unwrap();
+    let truth = csvlog::parse_subset(
+        "t",
+        &read(format!("truth/pool/{name}.csv")),
+        &["t", "u", "v", "w", "r"],
+        "truth",
+        2,
+    )
+    .unwrap();
+    let nav = csvlog::parse_subset(
+        "nav",
+        &read(format!("cases/pool/{name}/nav.csv")),
+        &["t", "u_m_s", "v_m_s", "w_m_s"],
+        "nav",
+        2,
+    )
+    .unwrap();
+    let f = &r.fused;
+    let (mut counted, mut true_error) = ([f64::NAN; 4], [f64::NAN; 4]);
+    for j in 0..4 {
+        let Some((v, s, share)) = f.tracking(j) else {
+            continue;
+        };
+        let (mut se, mut ss) = (0.0, 0.0);
+        for (k, &t) in f.t.iter().enumerate() {
+            let e = v[k] - crate::pool::fusion::interp(&truth.t, &truth.cols[j], t);
+            se += e * e;
+            ss += (s[k] * share).powi(2);
+        }
+        let n = f.t.len() as f64;
+        (counted[j], true_error[j]) = ((ss / n).sqrt(), (se / n).sqrt());
+    }
+    let sensor = |c: &str| {
+        let (_, noise) = f.stats.nav_sensor.iter().find(|(n, _)| n == c).unwrap();
+        noise.sigma
+    };
+    Measured {
+        seed,
+        run: name.to_string(),
+        counted,
+        truth: true_error,
+        sensor: [sensor("u"), sensor("v"), sensor("w")],
+        own: std::array::from_fn(|j| {
+            crate::twin::noise_about_lateness(&nav.t, &nav.cols[j], &truth.t, &truth.cols[j], 0.25)
+        }),
+    }
 }
