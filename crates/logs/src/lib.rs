@@ -188,9 +188,16 @@ impl Log {
         })
     }
 
-    /// The topic named `name`, if the log has it.
+    /// The topic named `name`, if the log has it. A ROS name is the same with or without its
+    /// leading slash (a recorder in the root namespace writes `/rovio/thrusters`, ROS 2 bags
+    /// always `/...`, and a user may name it `rovio/thrusters` as `rostopic` accepts); the exact
+    /// name is preferred where a log has both.
     pub fn topic(&self, name: &str) -> Option<usize> {
-        self.topics.iter().position(|t| t.name == name)
+        let bare = |n: &str| n.strip_prefix('/').unwrap_or(n).to_string();
+        self.topics
+            .iter()
+            .position(|t| t.name == name)
+            .or_else(|| self.topics.iter().position(|t| bare(&t.name) == bare(name)))
     }
 
     /// Calls `each` with every message of the topics `wanted` (indices into `topics`), in log

@@ -20,6 +20,9 @@ fn bags_round_trip_with_every_compression() {
         assert_eq!(log.topics.len(), TOPICS.len());
         assert_same(&log, &read_all(&log), &sent);
         let imu = log.topic("/imu").unwrap();
+        // The same ROS name without its leading slash, as `rostopic` takes it.
+        assert_eq!(log.topic("imu"), Some(imu));
+        assert_eq!(log.topic("mu"), None);
         assert_eq!(log.topics[imu].type_name, "sensor_msgs/Imu");
         assert!((log.topics[imu].rate_hz() - 200.0).abs() < 0.01);
         let mut n = 0;
