@@ -1,8 +1,12 @@
 #!/usr/bin/env python3
 """Write a hydrofit project that builds the ExjobbROV pool-test bags (BlueROV, 2016) directly.
 
-    python3 scripts/exjobb/project.py BAG_DIR OUT_PROJECT
+    python3 scripts/exjobb/project.py BAG_DIR OUT_PROJECT [--open-loop-yaw]
     cargo run --release -- build --project OUT_PROJECT
+
+With --open-loop-yaw the project is the thesis's April open-loop yaw runs instead (`yaw_1` ..
+`yaw_5`: a random telegraph on the two horizontal thrusters), identified in yaw alone, with
+the split of open_loop_yaw.py.
 
 No converter: each run folder's run.yaml points at its bag (by absolute path; the bags are not
 copied, their source has no licence) with the span of the bag that is the run, and names the
@@ -115,23 +119,41 @@ log:
 """
 
 
-def main(bag_dir, out):
+def open_loop_yaw():
+    """The April open-loop yaw runs (open_loop_yaw.py's RUNS) as RUNS rows, and the pipeline
+    in yaw alone (roll and pitch barely move; the thesis's geometry gives thrusters 3 and 4 no
+    pitch arm)."""
+    import open_loop_yaw as o
+
+    runs = [(bag, role, span, "random telegraph on thrusters 3 and 4") for bag, role, span in o.RUNS]
+    pipeline = PIPELINE.replace("dofs: [roll, pitch, yaw]", "dofs: [yaw]")
+    pipeline = pipeline.replace("constant_force: [roll, pitch, yaw]", "constant_force: [yaw]")
+    pipeline = pipeline.replace("# in roll, pitch and yaw from closed-loop", "# in yaw from open-loop")
+    return runs, pipeline
+
+
+def main(bag_dir, out, yaw):
     bag_dir, out = Path(bag_dir).resolve(), Path(out)
-    missing = [b for b, _, _, _ in RUNS if not (bag_dir / b).exists()]
+    runs, pipeline = open_loop_yaw() if yaw else (RUNS, PIPELINE)
+    missing = [b for b, _, _, _ in runs if not (bag_dir / b).exists()]
     if missing:
         sys.exit(f"missing bags in {bag_dir}: {', '.join(missing)}")
     out.mkdir(parents=True, exist_ok=True)
-    (out / "pipeline.yaml").write_text(PIPELINE.format(mass=MASS_KG, u=THRUST_U, n=THRUST_N, **INERTIA))
-    for bag, role, (a, b), desc in RUNS:
+    (out / "pipeline.yaml").write_text(pipeline.format(mass=MASS_KG, u=THRUST_U, n=THRUST_N, **INERTIA))
+    for bag, role, (a, b), desc in runs:
         stem, date_time = bag[:-4].split("_2016-")
         name = f"{stem}_{date_time[6:].replace('-', '')}"  # e.g. sinPhiA1F05_084712
         run = out / "cases" / "pool" / name
         run.mkdir(parents=True, exist_ok=True)
-        (run / "run.yaml").write_text(RUN.format(role=role, description=desc, bag=bag_dir / bag, a=a, b=b))
+        text = RUN.format(role=role, description=desc, bag=bag_dir / bag, a=a, b=b)
+        if yaw:
+            text = text.replace("closed-loop attitude and rate controller", "open loop")
+        (run / "run.yaml").write_text(text)
         print(f"{name:24s} {role:8s} {a:6.3f}-{b:6.3f} s of {bag}")
 
 
 if __name__ == "__main__":
-    if len(sys.argv) != 3:
+    args = [a for a in sys.argv[1:] if a != "--open-loop-yaw"]
+    if len(args) != 2:
         sys.exit(__doc__)
-    main(sys.argv[1], sys.argv[2])
+    main(args[0], args[1], "--open-loop-yaw" in sys.argv[1:])
