@@ -18,7 +18,6 @@ use crate::validate::cases::CaseScore;
 use crate::validate::pool::{Scores, Simulated};
 use maud::Markup;
 use std::collections::BTreeMap;
-use std::path::Path;
 
 /// A CFD case as the report reads it.
 pub struct Case {
@@ -32,10 +31,20 @@ pub struct Case {
     pub two_dimensional: bool,
 }
 
+/// What a twin's truth files among the report stage's inputs say, read and compared with the
+/// runs by the stage ([`super::stage`]) so that the report only renders it.
+#[derive(Default)]
+pub struct Truth {
+    /// The fusion's accuracy per pool run that has a truth file of its name.
+    pub fusion: Vec<crate::pool::report::FusionAccuracy>,
+    /// The twin's coefficients (`truth/parameters.csv`), for the parameter sets.
+    pub parameters: Option<BTreeMap<String, f64>>,
+    /// The field twin's hidden values, for the field identifiers.
+    pub field: crate::field::truth::Truth,
+}
+
 /// Everything the report is made from.
 pub struct Inputs<'a> {
-    /// The project folder (the twin's truth files are read from it).
-    pub root: &'a Path,
     pub vehicle: &'a Vehicle,
     pub fits: Vec<FitResult>,
     pub cases: Vec<Case>,
@@ -47,8 +56,8 @@ pub struct Inputs<'a> {
     pub case_scores: Vec<CaseScore>,
     pub comparison: Option<Comparison>,
     pub diagnosis: Option<(Diagnosis, Vec<Figure>)>,
-    /// The twin's truth files among the stage's inputs, if any.
-    pub truth_files: Vec<String>,
+    /// What the twin's truth files among the stage's inputs say (empty without them).
+    pub truth: Truth,
     /// Upstream instances that failed, one line each.
     pub failed: Vec<String>,
 }
@@ -63,9 +72,8 @@ pub fn build(inp: &Inputs) -> anyhow::Result<Vec<(&'static str, Vec<u8>)>> {
         models.push(score);
         bodies.extend(section);
     }
-    let accuracy =
-        crate::pool::report::fusion_accuracy(inp.root, &inp.truth_files, &inp.pool_runs)?;
-    let pool_html = pool_html(inp, &accuracy)?;
+    let accuracy = &inp.truth.fusion;
+    let pool_html = pool_html(inp, accuracy)?;
     let plotted: Vec<(&Case, &Vec<Vec6>)> = inp
         .cases
         .iter()
@@ -104,7 +112,7 @@ pub fn build(inp: &Inputs) -> anyhow::Result<Vec<(&'static str, Vec<u8>)>> {
         ("index.html", page.render().into_bytes()),
         ("parameters.json", json_bytes(&parameters)?),
         ("validation.json", json_bytes(&validation)?),
-        ("fusion.json", json_bytes(&fusion_json(inp, &accuracy))?),
+        ("fusion.json", json_bytes(&fusion_json(inp, accuracy))?),
     ];
     if let Some((d, _)) = &inp.diagnosis {
         files.push(("diagnosis.json", json_bytes(d)?));
@@ -124,19 +132,13 @@ fn pool_html(
     inp: &Inputs,
     accuracy: &[crate::pool::report::FusionAccuracy],
 ) -> anyhow::Result<Markup> {
-    let truth_file = inp
-        .truth_files
-        .iter()
-        .find(|p| p.rsplit('/').next() == Some(crate::validate::sets::TRUTH_PARAMETERS));
-    let truth = truth_file
-        .map(|p| crate::validate::sets::read_truth(&inp.root.join(p)))
-        .transpose()?;
-    let field_truth = crate::field::truth::read_truth(inp.root, &inp.truth_files);
+    let truth = inp.truth.parameters.as_ref();
+    let field_truth = &inp.truth.field;
     let scores = inp.pool_scores.as_ref();
     let diagnosis = inp.diagnosis.as_ref();
     Ok(maud::html! {
-        @if let Some((s, _)) = scores { (crate::validate::sets::section(&inp.fits, s, truth.as_ref())) }
-        (crate::field::report::sections(&inp.field, &field_truth)?)
+        @if let Some((s, _)) = scores { (crate::validate::sets::section(&inp.fits, s, truth)) }
+        (crate::field::report::sections(&inp.field, field_truth)?)
         @if let Some(c) = &inp.comparison { (crate::compare::report::section(c)) }
         (crate::design::report::section(&inp.pool_runs, &inp.fits, diagnosis.map(|(d, _)| d)))
         @if let Some((d, figs)) = diagnosis { (crate::diagnose::report::section(d, figs)) }

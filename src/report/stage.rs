@@ -73,8 +73,8 @@ impl StageImpl for Settings {
             .map(|u| crate::validate::cases::load(&u.dir))
             .transpose()?
             .unwrap_or_default();
+        let truth = read_truth(ctx, &pool_runs)?;
         let inputs = build::Inputs {
-            root: ctx.root,
             vehicle: ctx.vehicle,
             fits,
             cases,
@@ -92,7 +92,7 @@ impl StageImpl for Settings {
                 .next()
                 .map(|u| crate::diagnose::result::load(&u.dir))
                 .transpose()?,
-            truth_files: ctx.inputs.iter().map(|i| i.path.clone()).collect(),
+            truth,
             failed: ctx.failed_notes(),
         };
         for (name, bytes) in build::build(&inputs)? {
@@ -100,6 +100,25 @@ impl StageImpl for Settings {
         }
         Ok(())
     }
+}
+
+/// The twin's truth files among the stage's inputs, read: the fusion's accuracy against each
+/// pool run's truth, the twin's coefficients and the field twin's hidden values.
+fn read_truth(
+    ctx: &RunCtx,
+    pool_runs: &[crate::pool::fusion::run::FusedRun],
+) -> anyhow::Result<build::Truth> {
+    let files: Vec<String> = ctx.inputs.iter().map(|i| i.path.clone()).collect();
+    let parameters = files
+        .iter()
+        .find(|p| p.rsplit('/').next() == Some(crate::validate::sets::TRUTH_PARAMETERS))
+        .map(|p| crate::validate::sets::read_truth(&ctx.root.join(p)))
+        .transpose()?;
+    Ok(build::Truth {
+        fusion: crate::pool::report::fusion_accuracy(ctx.root, &files, pool_runs)?,
+        parameters,
+        field: crate::field::truth::read_truth(ctx.root, &files),
+    })
 }
 
 /// The CFD responses among the upstream, each with what the report shows of its case (and
