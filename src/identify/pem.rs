@@ -377,9 +377,9 @@ fn over_the_lag(
     if spread <= 4.0 * e.stderr {
         return e;
     }
-    let dof = problem.layout.terms[j].dof();
+    let dof = acts_in(problem.layout.terms[j]);
     let said = format!(
-        "{} is {lo:.4} to {hi:.4} over the command lags {a:.2}-{b:.2} s, whose output errors are within {:.0} % of the fit's: the runs cannot tell this coefficient's share from the lag's, whatever its standard error says; steps of the command in {dof}, which a lag delays and an inertia or damping shapes, would",
+        "{} is {lo:.4} to {hi:.4} over the command lags {a:.2}-{b:.2} s, whose output errors are within {:.0} % of the fit's: the runs cannot tell this coefficient's share from the lag's, whatever its standard error says; steps of the command in {dof}, which a lag delays and an inertia or damping shapes, would tell them apart",
         e.name,
         100.0 * super::lag::DEMAND,
     );
@@ -391,6 +391,24 @@ fn over_the_lag(
         e.identifiable = false;
     }
     e
+}
+
+/// The DOFs whose motion shows term `t`: its own, but for a component of the moment of weight
+/// and buoyancy (eta), which turns the body about the other two axes as it tilts (eta_z rolls
+/// and pitches the vehicle).
+fn acts_in(t: crate::core::model::terms::Term) -> String {
+    use crate::core::dof::Dof;
+    match t {
+        crate::core::model::terms::Term::Moment(a) => {
+            let [p, q]: [Dof; 2] = match a {
+                0 => [Dof::Pitch, Dof::Yaw],
+                1 => [Dof::Roll, Dof::Yaw],
+                _ => [Dof::Roll, Dof::Pitch],
+            };
+            format!("{p} and {q}")
+        }
+        t => t.dof().to_string(),
+    }
 }
 
 /// Gauss-Newton steps of the lag at most, and the step, in standard errors of the lag, below

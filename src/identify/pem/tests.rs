@@ -128,11 +128,9 @@ fn a_coefficient_that_trades_with_the_lag_says_its_range() {
     let e = over_the_lag(est(-2.0, 0.05), Some(&lag), 0, &reg);
     assert_eq!(e.interval, Some([-3.0, -0.5]));
     assert!(!e.identifiable);
-    assert!(
-        e.note.as_deref().unwrap().contains("0.10-0.30 s"),
-        "{:?}",
-        e.note
-    );
+    let note = e.note.as_deref().unwrap();
+    assert!(note.contains("0.10-0.30 s"), "{note}");
+    assert!(note.ends_with("would tell them apart"), "{note}");
     // Wider than four standard errors but narrower than the value: said, still trusted.
     let e = over_the_lag(est(-20.0, 0.05), Some(&lag), 0, &reg);
     assert!(e.identifiable && e.note.is_some());
@@ -150,6 +148,16 @@ fn a_coefficient_that_trades_with_the_lag_says_its_range() {
             .interval
             .is_none()
     );
+}
+
+/// The manoeuvre a note names for a moment of weight and buoyancy is the one that shows it:
+/// eta_z turns the vehicle in roll and pitch as it tilts, not in yaw.
+#[test]
+fn the_moment_of_weight_is_shown_by_the_axes_it_turns() {
+    use crate::core::model::terms::Term;
+    assert_eq!(acts_in(Term::Moment(2)), "roll and pitch");
+    assert_eq!(acts_in(Term::Moment(0)), "pitch and yaw");
+    assert_eq!(acts_in(Term::Linear(5, 5)), "yaw");
 }
 
 /// A two-sample run of the reference vehicle's DOFs at rest: enough for a layout.
