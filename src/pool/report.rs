@@ -102,6 +102,25 @@ pub fn section(runs: &[FusedRun], accuracy: &[FusionAccuracy]) -> Markup {
     }
 }
 
+/// The DOFs whose velocity the sensors of run `r` gave, in the order surge .. yaw: u, v, w, r
+/// from the fusion, p and q where a gyro or a navigation log had them.
+fn dofs_known(r: &FusedRun) -> Vec<&'static str> {
+    use crate::core::dof::Dof;
+    let rates = &r.fused.roll_pitch.rate;
+    Dof::ALL
+        .iter()
+        .filter(|d| match d {
+            Dof::Roll => rates[0].is_some(),
+            Dof::Pitch => rates[1].is_some(),
+            d => POOL_DOFS
+                .iter()
+                .position(|p| p == *d)
+                .is_some_and(|j| r.meta.known[j]),
+        })
+        .map(|d| d.name())
+        .collect()
+}
+
 /// The fusion heading and its table: per run, the sensors used, the fixes kept and rejected,
 /// the gyro bias, the UWB noise and the DOFs the fusion knows.
 fn fusion_table(runs: &[FusedRun]) -> Markup {
@@ -117,12 +136,7 @@ fn fusion_table(runs: &[FusedRun]) -> Markup {
             }
             @for r in runs {
                 @let s = &r.meta.stats;
-                @let known: Vec<&str> = POOL_DOFS
-                    .iter()
-                    .enumerate()
-                    .filter(|(j, _)| r.meta.known[*j])
-                    .map(|(_, d)| d.name())
-                    .collect();
+                @let known = dofs_known(r);
                 tr {
                     td { (r.meta.run) }
                     td { (r.meta.role.as_str()) }
@@ -130,7 +144,7 @@ fn fusion_table(runs: &[FusedRun]) -> Markup {
                     td { (s.uwb_fixes) " (" (s.uwb_rejected_median) " + " (s.uwb_rejected_gate) ")" }
                     td { (s.sonar_fixes) }
                     td { (s.gyro_bias_dps.map_or("–".into(), |b| format!("{b:.3}"))) }
-                    td { (format!("{:.3}", s.noise.uwb_m[0])) }
+                    td { @if s.uwb_fixes > 0 { (format!("{:.3}", s.noise.uwb_m[0])) } @else { "–" } }
                     td { (known.join(", ")) }
                 }
             }
