@@ -126,7 +126,8 @@ fn quantiles() {
 /// closed-loop flights (a DVL's white noise through the navigation filter's low-pass, written
 /// at 5-7 Hz, no UWB), three filter time constants and seeds, the sensor noise the fusion
 /// states (what the diagnosis's noise floor counts) is within a factor 1.5 of the noise the
-/// twin added in 85 % of the channels and within 2.5 in every one. The smoother's own figure
+/// twin added in 90 % of the channels and within 2 in every one (measured: 50 of 54 within
+/// 1.5, the other four at the 0.5 s filter, 0.57-1.69). The smoother's own figure
 /// (the largest spread over lags) is up to 6 times that noise on the figure-eight. Measured
 /// over the whole of each run rather than in windows between the manoeuvres, the depth steps
 /// and transects read up to 2.2 times the noise and only 80 % of the channels were within 1.5.
@@ -168,7 +169,7 @@ fn navigation_log_noise_is_told_from_the_manoeuvres() {
                     spec.name, noise.sigma
                 );
                 assert!(
-                    (1.0 / 2.5..2.5).contains(&ratio),
+                    (1.0 / 2.0..2.0).contains(&ratio),
                     "filter {tau} s, {} {name}: sigma {} against {added}",
                     spec.name,
                     noise.sigma
@@ -184,7 +185,7 @@ fn navigation_log_noise_is_told_from_the_manoeuvres() {
         .filter(|r| (1.0 / 1.5..1.5).contains(*r))
         .count();
     assert!(
-        within * 20 >= ratios.len() * 17,
+        within * 10 >= ratios.len() * 9,
         "{within} of {} channels within a factor 1.5: {ratios:?}",
         ratios.len()
     );
