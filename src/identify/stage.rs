@@ -268,6 +268,7 @@ fn training_runs(
     Vec<String>,
 )> {
     let (mut refs, mut responses, mut notes) = (Vec::new(), Vec::new(), Vec::new());
+    let mut unknown: Vec<crate::core::dof::Dof> = Vec::new();
     for up in ctx.upstream_of(Artifact::PoolRuns) {
         let run = crate::pool::fusion::run::load_for(&up.dir, vehicle)?;
         if run.meta.role != crate::pool::import::Role::Train {
@@ -283,11 +284,13 @@ fn training_runs(
                 responses.push(r);
             }
             None => {
-                let missing: Vec<String> = run
-                    .missing_dofs(vehicle)
-                    .iter()
-                    .map(|d| d.to_string())
-                    .collect();
+                let dofs = run.missing_dofs(vehicle);
+                for d in &dofs {
+                    if !unknown.contains(d) {
+                        unknown.push(*d);
+                    }
+                }
+                let missing: Vec<String> = dofs.iter().map(|d| d.to_string()).collect();
                 notes.push(format!(
                     "pool run {} left out: its sensors gave no {} velocity",
                     run.meta.run,
@@ -297,13 +300,21 @@ fn training_runs(
         }
     }
     if ctx.upstream_of(Artifact::PoolRuns).next().is_some() && refs.is_empty() {
+        if notes.is_empty() {
+            anyhow::bail!(
+                "no pool run with `role: train` to fit on\n  help: mark the runs to identify from `role: train` in their run.yaml; the others are held out for validation"
+            );
+        }
+        let has: Vec<String> = vehicle
+            .dofs
+            .iter()
+            .filter(|d| !unknown.contains(d))
+            .map(|d| d.to_string())
+            .collect();
         anyhow::bail!(
-            "no pool run with `role: train` and every DOF fused to fit on\n  help: mark the runs to identify from `role: train` in their run.yaml; {}",
-            if notes.is_empty() {
-                "the others are held out for validation".into()
-            } else {
-                notes.join("; ")
-            }
+            "no pool run with `role: train` and every DOF fused to fit on: {}\n  help: fit in the DOFs the logs give, `dofs: [{}]` under `vehicle` in pipeline.yaml, or log what gives the others (a DVL's navigation log, UWB, a sonar track)",
+            notes.join("; "),
+            has.join(", ")
         );
     }
     Ok((refs, responses, notes))

@@ -6,7 +6,7 @@
 //! and beats both baselines on the held-out runs in every DOF; a model worse than predicting
 //! rest is flagged.
 
-use crate::common::{json, ok};
+use crate::common::{json, ok, run, stderr};
 use hydrofit::twin::field::{Hidden, default_runs, write_runs};
 use std::path::Path;
 
@@ -141,4 +141,38 @@ fn a_model_worse_than_rest_is_flagged() {
     );
     let html = std::fs::read_to_string(root.join("reports/index.html")).unwrap();
     assert!(html.contains("heave"), "the report names heave");
+}
+
+/// Runs whose logs give no horizontal velocity (the field twin's runs without their DVL
+/// navigation log and UWB: commands and depth only) cannot fit a vehicle declared in surge,
+/// sway, heave and yaw: the build fails, names each run and what it lacks, and says which
+/// `dofs` the logs support.
+#[test]
+fn a_fit_the_logs_cannot_support_names_the_dofs_they_can() {
+    let d = tempfile::tempdir().unwrap();
+    let root = d.path();
+    let runs = default_runs();
+    write_runs(
+        &root.join("cases/pool"),
+        &root.join("truth"),
+        &runs[..2],
+        &Hidden::default(),
+        1,
+    )
+    .unwrap();
+    for r in &runs[..2] {
+        for f in ["nav.csv", "uwb.csv"] {
+            std::fs::remove_file(root.join("cases/pool").join(&r.name).join(f)).unwrap();
+        }
+    }
+    let yaml = PIPELINE.replace("validate: {kind: validate, from: [fit, pool]}\n  report: {kind: report, from: [fit, pool, validate]}\n", "");
+    std::fs::write(root.join("pipeline.yaml"), yaml).unwrap();
+    let o = run(root, &["build"]);
+    let err = stderr(&o);
+    assert!(!o.status.success(), "{err}");
+    assert!(
+        err.contains("its sensors gave no surge, sway, yaw velocity")
+            && err.contains("`dofs: [heave]`"),
+        "{err}"
+    );
 }
