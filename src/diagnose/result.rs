@@ -247,6 +247,23 @@ impl Diagnosis {
 
 pub const FIGURES: &str = "figures.json";
 
+/// What a diagnose stage writes in place of [`RESULT`] when the model is in DOFs the diagnosis
+/// does not simulate: the reason, which the report shows.
+pub const NOT_RUN: &str = "not_diagnosed.json";
+
+/// Why the diagnose stage whose output is `dir` diagnosed nothing, when it did not.
+pub fn not_run(dir: &Path) -> Option<String> {
+    #[derive(Deserialize)]
+    struct NotRun {
+        reason: String,
+    }
+    let path = dir.join(NOT_RUN);
+    path.exists()
+        .then(|| crate::core::fsutil::read_json::<NotRun>(&path).ok())
+        .flatten()
+        .map(|n| n.reason)
+}
+
 pub fn load(dir: &Path) -> anyhow::Result<(Diagnosis, Vec<Figure>)> {
     Ok((
         crate::core::fsutil::read_json(&dir.join(RESULT))?,

@@ -40,10 +40,16 @@ impl StageImpl for Settings {
             .collect::<Result<_, _>>()?;
         let (f, started_from) = self.pick(&fits, &fused, ctx)?;
         if !DOFS.iter().all(|d| f.dofs.contains(d)) {
-            anyhow::bail!(
-                "the diagnosis simulates surge, sway, heave and yaw; model `{}` has {:?}",
+            let dofs: Vec<String> = f.dofs.iter().map(|d| d.to_string()).collect();
+            let reason = format!(
+                "Not diagnosed: the diagnosis simulates the vehicle in surge, sway, heave and yaw, where its effects (tether drag, currents, net buoyancy, thruster lag, ...) are written, and model `{}` is in {}. The fit and its validation above stand without it.",
                 f.stage,
-                f.dofs
+                dofs.join(", ")
+            );
+            ctx.progress.println(format!("{}: {reason}", ctx.id));
+            return crate::core::fsutil::write_json(
+                &ctx.out.join(crate::diagnose::result::NOT_RUN),
+                &serde_json::json!({ "reason": reason }),
             );
         }
         let plant = f.plant(ctx.vehicle);

@@ -56,6 +56,8 @@ pub struct Inputs<'a> {
     pub case_scores: Vec<CaseScore>,
     pub comparison: Option<Comparison>,
     pub diagnosis: Option<(Diagnosis, Vec<Figure>)>,
+    /// Why the diagnose stage diagnosed nothing, when it did not (the model's DOFs).
+    pub not_diagnosed: Option<String>,
     /// What the twin's truth files among the stage's inputs say (empty without them).
     pub truth: Truth,
     /// Upstream instances that failed, one line each.
@@ -142,6 +144,10 @@ fn pool_html(
         @if let Some(c) = &inp.comparison { (crate::compare::report::section(c)) }
         (crate::design::report::section(&inp.pool_runs, &inp.fits, diagnosis.map(|(d, _)| d)))
         @if let Some((d, figs)) = diagnosis { (crate::diagnose::report::section(d, figs)) }
+        @if let Some(why) = &inp.not_diagnosed {
+            h2 id="diagnosis" { "Why the pool runs and the model differ" }
+            p.warn { (why) }
+        }
         (crate::pool::report::thrusters_section(inp.vehicle.thrusters.as_ref())?)
         (crate::pool::report::section(&inp.pool_runs, accuracy))
         (crate::validate::report::section(

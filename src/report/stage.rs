@@ -74,6 +74,9 @@ impl StageImpl for Settings {
             .transpose()?
             .unwrap_or_default();
         let truth = read_truth(ctx, &pool_runs)?;
+        let diagnose = ctx.upstream_of(Artifact::Diagnosis).next();
+        let not_diagnosed = diagnose.and_then(|u| crate::diagnose::result::not_run(&u.dir));
+        let diagnosed = diagnose.filter(|_| not_diagnosed.is_none());
         let inputs = build::Inputs {
             vehicle: ctx.vehicle,
             fits,
@@ -87,11 +90,10 @@ impl StageImpl for Settings {
                 .next()
                 .map(|u| crate::compare::artifact::load(&u.dir))
                 .transpose()?,
-            diagnosis: ctx
-                .upstream_of(Artifact::Diagnosis)
-                .next()
+            diagnosis: diagnosed
                 .map(|u| crate::diagnose::result::load(&u.dir))
                 .transpose()?,
+            not_diagnosed,
             truth,
             failed: ctx.failed_notes(),
         };

@@ -176,3 +176,38 @@ fn a_fit_the_logs_cannot_support_names_the_dofs_they_can() {
         "{err}"
     );
 }
+
+/// A vehicle fitted in DOFs the diagnosis does not simulate (heave and yaw here; roll, pitch
+/// and yaw on a real vehicle without a DVL) is fitted, validated and reported; its diagnose
+/// stage says why it diagnosed nothing instead of failing the build and the report with it.
+#[test]
+fn a_model_the_diagnosis_cannot_simulate_is_reported_undiagnosed() {
+    let d = tempfile::tempdir().unwrap();
+    let root = d.path();
+    let runs = default_runs();
+    write_runs(
+        &root.join("cases/pool"),
+        &root.join("truth"),
+        &runs[..2],
+        &Hidden::default(),
+        1,
+    )
+    .unwrap();
+    let yaml = PIPELINE
+        .replace("dofs: [surge, sway, heave, yaw]", "dofs: [heave, yaw]")
+        .replace("command_limits: {surge: 60, sway: 50, heave: 45, yaw: 9}", "command_limits: {heave: 45, yaw: 9}")
+        .replace(
+            "report: {kind: report, from: [fit, pool, validate]}",
+            "diagnose: {kind: diagnose, from: [fit, pool]}\n  report: {kind: report, from: [fit, pool, validate, diagnose]}",
+        );
+    std::fs::write(root.join("pipeline.yaml"), yaml).unwrap();
+    ok(root, &["build"]);
+    let html = std::fs::read_to_string(root.join("reports/index.html")).unwrap();
+    assert!(
+        html.contains(
+            "Not diagnosed: the diagnosis simulates the vehicle in surge, sway, heave and yaw"
+        ) && html.contains("model `fit` is in heave, yaw"),
+        "no reason in the report"
+    );
+    assert!(!root.join("reports/diagnosis.json").exists());
+}
