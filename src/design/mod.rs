@@ -80,6 +80,8 @@ pub struct Setup {
     pub sigma: BTreeMap<Dof, f64>,
     /// The parameters the design is for (indices into `layout`).
     pub targets: Vec<usize>,
+    /// Parameters it would be for that are in roll or pitch, which a design does not command.
+    pub not_designed: Vec<String>,
     /// Largest command per DOF of [`DOFS`] (0: the DOF is not commanded).
     pub limits: [f64; 4],
     pub pool: Pool,

@@ -108,6 +108,12 @@ pub fn propose(
             .collect::<Vec<_>>()
             .join(", "),
     };
+    if !setup.not_designed.is_empty() {
+        say(format!(
+            "not designed for {}: in roll or pitch, which a design does not command (it designs X, Y, Z and N); fly steps or a PRBS of the roll and pitch moments for them",
+            setup.not_designed.join(", ")
+        ));
+    }
     let draws = ask.candidates.max(1);
     say(format!(
         "designing a {:.0} s run for {goal} from {} recorded run(s) ({} candidates)",
@@ -132,6 +138,7 @@ pub fn propose(
         limits: setup.limits,
         limits_from: limits_source(&setup, runs),
         parameters: rows(f, &setup, &best, &prbs),
+        not_designed: setup.not_designed.clone(),
         runs: run_names(runs),
         criterion: match setup.separate {
             Some(_) => "separation".into(),
@@ -203,7 +210,8 @@ fn setup(
             constant: layout.slot(j).0 == crate::core::model::terms::Group::Constant,
         })
         .collect();
-    let targets = super::targets(&described, &ask.targets).map_err(anyhow::Error::msg)?;
+    let all = super::targets(&described, &ask.targets).map_err(anyhow::Error::msg)?;
+    let (targets, not_designed) = designable(&layout, all)?;
     let (pool, start) = pool_and_start(ask, runs)?;
     Ok(Setup {
         limits: limits(&vehicle, runs),
@@ -218,6 +226,7 @@ fn setup(
         theta,
         sigma,
         targets,
+        not_designed,
         pool,
         margin_m: ask.margin_m,
         duration_s: ask.duration_s,
@@ -227,6 +236,25 @@ fn setup(
         separate: None,
         criterion: ask.criterion,
     })
+}
+
+/// The parameters of `targets` a design can reach (in surge, sway, heave or yaw, the DOFs it
+/// commands) and the names of the others (in roll or pitch); none reachable is an error that
+/// says so.
+fn designable(
+    layout: &crate::core::model::ParamLayout,
+    targets: Vec<usize>,
+) -> anyhow::Result<(Vec<usize>, Vec<String>)> {
+    let (keep, other): (Vec<usize>, Vec<usize>) = targets
+        .into_iter()
+        .partition(|&j| super::DOFS.contains(&layout.slot(j).1));
+    let names: Vec<String> = other.iter().map(|&j| layout.name(j)).collect();
+    anyhow::ensure!(
+        !keep.is_empty(),
+        "the parameters to design for ({}) are in roll or pitch: a design commands X, Y, Z and N only (surge, sway, heave and yaw); fly steps or a PRBS of the roll and pitch moments by hand, or name parameters of the other DOFs with --for",
+        names.join(", ")
+    );
+    Ok((keep, names))
 }
 
 /// The pool (asked, else the training runs') and the start (asked, else its middle at half
@@ -412,4 +440,26 @@ fn rows(f: &FitResult, setup: &Setup, best: &Candidate, prbs: &Candidate) -> Vec
             predicted_after_prbs: prbs.se_after[j],
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::core::model::ParamLayout;
+
+    /// A design commands X, Y, Z and N: of a roll, pitch and yaw model's flagged parameters it
+    /// designs for the yaw ones and names the others; with only roll and pitch ones it says
+    /// it cannot.
+    #[test]
+    fn roll_and_pitch_parameters_are_named_not_designed() {
+        let layout = ParamLayout::new(&[Dof::Roll, Dof::Pitch, Dof::Yaw]);
+        let of = |name: &str| (0..layout.len()).find(|&j| layout.name(j) == name).unwrap();
+        let (keep, named) = designable(&layout, vec![of("K_p"), of("N_r"), of("M_qdot")]).unwrap();
+        assert_eq!(keep, vec![of("N_r")]);
+        assert_eq!(named, vec!["K_p", "M_qdot"]);
+        let err = designable(&layout, vec![of("K_p")])
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("(K_p) are in roll or pitch"), "{err}");
+    }
 }

@@ -23,6 +23,10 @@ pub struct Written {
     pub limits: [f64; 4],
     pub limits_from: String,
     pub parameters: Vec<Row>,
+    /// Parameters the design would be for but cannot reach: in roll or pitch, which it does
+    /// not command (it designs X, Y, Z and N).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub not_designed: Vec<String>,
     /// The training runs the prediction starts from.
     pub runs: Vec<String>,
     /// What the design optimised: `D-optimal`, `A-optimal` or `separation`.
