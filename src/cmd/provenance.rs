@@ -152,18 +152,57 @@ fn print_trace(plan: &Plan, i: usize, r: &FitResult, p: &Estimate) {
         }
     );
     crate::outln!(
-        "  <- stage {} (kind {}, key {}), method {}, settings {}",
+        "  <- stage {} (kind {}, key {}), method {}, objective {}, settings {}",
         plan.graph.instances[i].id,
         plan.graph.stage_of(i).kind.name,
         short(&plan.keys[i]),
         r.method,
+        r.objective.label(),
         r.settings
     );
     print_cases(plan, r);
+    print_runs(plan, r);
+}
+
+/// The pool runs a fit read (its training runs), each with its instance's key and its files'
+/// hashes (for a vehicle's log, the span read and the topic of each signal).
+fn print_runs(plan: &Plan, r: &FitResult) {
+    if r.runs.is_empty() {
+        return;
+    }
+    crate::outln!("  <- {} pool runs:", r.runs.len());
+    for run in &r.runs {
+        let key = plan
+            .graph
+            .instances
+            .iter()
+            .position(|x| x.id == run.id)
+            .map_or("?", |j| short(&plan.keys[j]));
+        crate::outln!(
+            "       {} (key {key}) <- {} files:",
+            run.id,
+            run.inputs.len()
+        );
+        for f in &run.inputs {
+            let span = f
+                .span_s
+                .map_or(String::new(), |[a, b]| format!(", span {a}-{b} s"));
+            let topics = if f.topics.is_empty() {
+                String::new()
+            } else {
+                let t: Vec<String> = f.topics.iter().map(|(k, v)| format!("{k} {v}")).collect();
+                format!(", topics: {}", t.join(", "))
+            };
+            crate::outln!("           {} blake3 {}{span}{topics}", f.path, f.blake3);
+        }
+    }
 }
 
 /// The cases a fit read, each with its instance's key and its files' hashes.
 fn print_cases(plan: &Plan, r: &FitResult) {
+    if r.cases.is_empty() && !r.runs.is_empty() {
+        return;
+    }
     crate::outln!("  <- {} imported cases:", r.cases.len());
     for c in &r.cases {
         let key = plan

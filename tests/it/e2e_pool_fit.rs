@@ -53,6 +53,15 @@ fn the_default_fit_of_navigation_log_runs_recovers_the_vehicle_and_beats_the_bas
     .unwrap();
     std::fs::write(root.join("pipeline.yaml"), PIPELINE).unwrap();
     ok(root, &["build"]);
+    // Every parameter traces to the pool runs it was fitted on, down to each file's blake3.
+    let trace = ok(root, &["provenance", "Z_w"]);
+    let nav = hydrofit::core::fsutil::hash_file(&root.join("cases/pool/box_1/nav.csv")).unwrap();
+    assert!(
+        trace.contains("objective output error")
+            && trace.contains("<- 4 pool runs:")
+            && trace.contains(&format!("cases/pool/box_1/nav.csv blake3 {nav}")),
+        "{trace}"
+    );
     // The twin's heave (twin::field::hydro), which its depth steps excite apart from the
     // controller's other loops: inertia and drag within 15 %. In the horizontal DOFs, flown
     // in closed loop behind a navigation filter whose lag the model takes as a command lag,
