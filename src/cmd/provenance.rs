@@ -146,9 +146,9 @@ fn print_trace(plan: &Plan, i: usize, r: &FitResult, p: &Estimate) {
         p.stderr,
         p.unit,
         if p.identifiable {
-            ""
+            String::new()
         } else {
-            "  (not identifiable from these cases)"
+            format!("  (not identifiable from these {})", r.sources())
         }
     );
     crate::outln!(

@@ -101,6 +101,15 @@ pub struct FitResult {
 pub const RESULT: &str = "fit.json";
 
 impl FitResult {
+    /// What the fit was fitted on, in words: `CFD cases`, `pool runs` or both.
+    pub fn sources(&self) -> &'static str {
+        match (self.cases.is_empty(), self.runs.is_empty()) {
+            (false, false) => "CFD cases and pool runs",
+            (true, false) => "pool runs",
+            _ => "CFD cases",
+        }
+    }
+
     /// The parameter layout the values are in.
     pub fn layout(&self) -> ParamLayout {
         ParamLayout::build(

@@ -337,7 +337,7 @@ fn parameter_row(f: &FitResult, p: &Parameter) -> Markup {
                     (true, Some(what)) => { " " span class="small" { (what) } }
                     (true, None) => {}
                     (false, Some(why)) => { " " span class="warn" { "not identifiable: " (why) } }
-                    (false, None) => { " " span class="warn" { "not identifiable from these cases" } }
+                    (false, None) => { " " span class="warn" { "not identifiable from these " (f.sources()) } }
                 }
             }
             td { (num(p.value)) }
