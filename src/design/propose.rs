@@ -99,28 +99,8 @@ pub fn propose(
     let mut setup = setup(f, runs, pipeline_vehicle, ask)?;
     let recorded = recorded_runs(&setup, runs);
     let margin = diagnosis.and_then(|d| look_alikes(d, &mut setup, &recorded, ask));
-    let goal = match &setup.separate {
-        Some((p, _)) => format!("telling {} from {}", p.kept, p.alike),
-        None => setup
-            .targets
-            .iter()
-            .map(|&j| setup.layout.name(j))
-            .collect::<Vec<_>>()
-            .join(", "),
-    };
-    if !setup.not_designed.is_empty() {
-        say(format!(
-            "not designed for {}: in roll or pitch, which a design does not command (it designs X, Y, Z and N); fly steps or a PRBS of the roll and pitch moments for them",
-            setup.not_designed.join(", ")
-        ));
-    }
     let draws = ask.candidates.max(1);
-    say(format!(
-        "designing a {:.0} s run for {goal} from {} recorded run(s) ({} candidates)",
-        ask.duration_s,
-        runs.len(),
-        (super::FAMILIES.len() + 1) * draws
-    ));
+    announce(&setup, ask, runs.len(), say);
     let best =
         super::search(&setup, draws, ask.seed, progress).ok_or_else(|| no_fit_message(&setup))?;
     let prbs = super::baseline(&setup, ask.seed).unwrap_or_else(|| best.clone());
@@ -166,6 +146,31 @@ fn per_thruster(vehicle: &Vehicle, best: &Candidate) -> Option<super::thrusters:
         .as_ref()
         .filter(|t| t.problems().is_empty())?;
     Some(super::thrusters::mix(&t.allocation(), &best.cmd))
+}
+
+/// Says what is designed for (and what cannot be), from how many runs, over how many
+/// candidates.
+fn announce(setup: &Setup, ask: &Ask, runs: usize, say: &dyn Fn(String)) {
+    let goal = match &setup.separate {
+        Some((p, _)) => format!("telling {} from {}", p.kept, p.alike),
+        None => setup
+            .targets
+            .iter()
+            .map(|&j| setup.layout.name(j))
+            .collect::<Vec<_>>()
+            .join(", "),
+    };
+    if !setup.not_designed.is_empty() {
+        say(format!(
+            "not designed for {}: in roll or pitch, which a design does not command (it designs X, Y, Z and N); fly steps or a PRBS of the roll and pitch moments for them",
+            setup.not_designed.join(", ")
+        ));
+    }
+    say(format!(
+        "designing a {:.0} s run for {goal} from {runs} recorded run(s) ({} candidates)",
+        ask.duration_s,
+        (super::FAMILIES.len() + 1) * ask.candidates.max(1)
+    ));
 }
 
 fn setup(
