@@ -164,6 +164,15 @@ fn print_trace(plan: &Plan, i: usize, r: &FitResult, p: &Estimate) {
     print_runs(plan, r);
 }
 
+/// The short cache key of stage instance `id`, `?` when the plan has no such instance.
+fn key_of<'a>(plan: &'a Plan, id: &str) -> &'a str {
+    plan.graph
+        .instances
+        .iter()
+        .position(|x| x.id == id)
+        .map_or("?", |j| short(&plan.keys[j]))
+}
+
 /// The pool runs a fit read (its training runs), each with its instance's key and its files'
 /// hashes (for a vehicle's log, the span read and the topic of each signal).
 fn print_runs(plan: &Plan, r: &FitResult) {
@@ -172,12 +181,7 @@ fn print_runs(plan: &Plan, r: &FitResult) {
     }
     crate::outln!("  <- {} pool runs:", r.runs.len());
     for run in &r.runs {
-        let key = plan
-            .graph
-            .instances
-            .iter()
-            .position(|x| x.id == run.id)
-            .map_or("?", |j| short(&plan.keys[j]));
+        let key = key_of(plan, &run.id);
         crate::outln!(
             "       {} (key {key}) <- {} files:",
             run.id,
@@ -205,12 +209,7 @@ fn print_cases(plan: &Plan, r: &FitResult) {
     }
     crate::outln!("  <- {} imported cases:", r.cases.len());
     for c in &r.cases {
-        let key = plan
-            .graph
-            .instances
-            .iter()
-            .position(|x| x.id == c.id)
-            .map_or("?", |j| short(&plan.keys[j]));
+        let key = key_of(plan, &c.id);
         if c.inputs.is_empty() {
             crate::outln!(
                 "       {} (key {key}) <- {} blake3 {}",

@@ -158,18 +158,9 @@ fn a_model_worse_than_rest_is_flagged() {
 /// `dofs` the logs support.
 #[test]
 fn a_fit_the_logs_cannot_support_names_the_dofs_they_can() {
-    let d = tempfile::tempdir().unwrap();
+    let (d, runs) = two_training_runs();
     let root = d.path();
-    let runs = default_runs();
-    write_runs(
-        &root.join("cases/pool"),
-        &root.join("truth"),
-        &runs[..2],
-        &Hidden::default(),
-        1,
-    )
-    .unwrap();
-    for r in &runs[..2] {
+    for r in &runs {
         for f in ["nav.csv", "uwb.csv"] {
             std::fs::remove_file(root.join("cases/pool").join(&r.name).join(f)).unwrap();
         }
@@ -191,17 +182,8 @@ fn a_fit_the_logs_cannot_support_names_the_dofs_they_can() {
 /// stage says why it diagnosed nothing instead of failing the build and the report with it.
 #[test]
 fn a_model_the_diagnosis_cannot_simulate_is_reported_undiagnosed() {
-    let d = tempfile::tempdir().unwrap();
+    let (d, _) = two_training_runs();
     let root = d.path();
-    let runs = default_runs();
-    write_runs(
-        &root.join("cases/pool"),
-        &root.join("truth"),
-        &runs[..2],
-        &Hidden::default(),
-        1,
-    )
-    .unwrap();
     let yaml = PIPELINE
         .replace("dofs: [surge, sway, heave, yaw]", "dofs: [heave, yaw]")
         .replace("command_limits: {surge: 60, sway: 50, heave: 45, yaw: 9}", "command_limits: {heave: 45, yaw: 9}")
@@ -219,4 +201,19 @@ fn a_model_the_diagnosis_cannot_simulate_is_reported_undiagnosed() {
         "no reason in the report"
     );
     assert!(!root.join("reports/diagnosis.json").exists());
+}
+
+/// A project folder with the field twin's first two runs (both training runs), and their specs.
+fn two_training_runs() -> (tempfile::TempDir, Vec<hydrofit::twin::field::RunSpec>) {
+    let d = tempfile::tempdir().unwrap();
+    let runs: Vec<_> = default_runs().into_iter().take(2).collect();
+    write_runs(
+        &d.path().join("cases/pool"),
+        &d.path().join("truth"),
+        &runs,
+        &Hidden::default(),
+        1,
+    )
+    .unwrap();
+    (d, runs)
 }
