@@ -257,10 +257,8 @@ pub fn not_run(dir: &Path) -> Option<String> {
     struct NotRun {
         reason: String,
     }
-    let path = dir.join(NOT_RUN);
-    path.exists()
-        .then(|| crate::core::fsutil::read_json::<NotRun>(&path).ok())
-        .flatten()
+    crate::core::fsutil::read_json::<NotRun>(&dir.join(NOT_RUN))
+        .ok()
         .map(|n| n.reason)
 }
 

@@ -61,14 +61,15 @@ impl<'a> HeadingInput<'a> {
     /// From the IMU when it has yaw or a z gyro, else from the navigation log's.
     pub(super) fn of(imu: Option<&'a Log>, nav: Option<&'a Log>) -> Option<HeadingInput<'a>> {
         let from = |l: &'a Log, c: &Columns| {
+            let attitude = match (l.col(c.roll), l.col(c.pitch), l.col(c.q)) {
+                (Some(phi), Some(theta), Some(q)) => Some([phi, theta, q]),
+                _ => None,
+            };
             (l.has(c.yaw) || l.has(c.r)).then(|| HeadingInput {
                 t: &l.t,
                 yaw: l.col(c.yaw),
-                gyro: l.col(c.r).map(|r| heading_rate(l, c, r)),
-                attitude: match (l.col(c.roll), l.col(c.pitch), l.col(c.q)) {
-                    (Some(phi), Some(theta), Some(q)) => Some([phi, theta, q]),
-                    _ => None,
-                },
+                gyro: l.col(c.r).map(|r| heading_rate(r, attitude)),
+                attitude,
             })
         };
         imu.and_then(|l| from(l, &IMU))
@@ -80,9 +81,8 @@ impl<'a> HeadingInput<'a> {
 /// where a row has roll, pitch and q (Fossen 2011 eq. 2.29), else r. A vehicle that rolls
 /// and pitches turns its heading at another rate than r, and the filter, fed r, took the
 /// difference for gyro bias; beyond [`MAX_PITCH_RAD`] the row is left out.
-fn heading_rate(l: &Log, c: &Columns, r: &[f64]) -> Vec<f64> {
-    let col = |j: usize| l.col(j);
-    let (Some(phi), Some(theta), Some(q)) = (col(c.roll), col(c.pitch), col(c.q)) else {
+fn heading_rate(r: &[f64], attitude: Option<[&[f64]; 3]>) -> Vec<f64> {
+    let Some([phi, theta, q]) = attitude else {
         return r.to_vec();
     };
     (0..r.len())
@@ -243,17 +243,16 @@ fn heading_with(src: &HeadingInput, sy: f64, sg: f64, motion: Motion) -> (Headin
             update_gyro(&mut f, gyro[k], sg);
         }
     }
-    let mut h = smoothed(&f, src.t, motion);
-    if let Some(att) = src.attitude {
-        body_rate(&mut h, src.t, att);
-    }
-    (h, loglik)
+    (smoothed(&f, src.t, motion), loglik)
 }
 
 /// The heading's rate psi_dot turned into the body's yaw rate, r = (psi_dot cos(theta) -
 /// q sin(phi)) / cos(phi), at the rows whose roll, pitch and q are known (a vehicle rolled
-/// past 78 deg keeps psi_dot); the rate's variance scaled with it.
-fn body_rate(h: &mut Heading, t: &[f64], [phi, theta, q]: [&[f64]; 3]) {
+/// past 78 deg keeps psi_dot); the rate's variance scaled with it. Without them, `h` as it is.
+fn body_rate(mut h: Heading, src: &HeadingInput) -> Heading {
+    let (t, Some([phi, theta, q])) = (src.t, src.attitude) else {
+        return h;
+    };
     for (k, &tk) in h.t.iter().enumerate() {
         let i = t.partition_point(|&x| x < tk).min(t.len() - 1);
         let (ph, th, qi) = (phi[i], theta[i], q[i]);
@@ -264,6 +263,7 @@ fn body_rate(h: &mut Heading, t: &[f64], [phi, theta, q]: [&[f64]; 3]) {
         h.r[k] = h.r[k] * scale - qi * ph.tan();
         h.r_var[k] *= scale * scale;
     }
+    h
 }
 
 /// A gyro bias the heading filter finds beyond this, deg/s, is said in the notes: a MEMS
@@ -292,6 +292,7 @@ pub(super) fn heading(
 ) -> Heading {
     if src.gyro.is_some() || src.yaw.is_none() {
         let h = heading_with(src, n.yaw_rad, n.gyro_rad_s, Motion::Rate(YAW_ACCEL_Q)).0;
+        let h = body_rate(h, src);
         if src.yaw.is_some() && h.bias.abs() > BIAS_SAID_DPS.to_radians() {
             notes.push(format!(
                 "the logged heading and the yaw-rate gyro disagree by {:+.1} deg/s on average, more than a gyro's bias: the yaw angle does not follow the rates (a magnetometer's disturbance, or an AHRS that weighs its compass over its gyro); the fit reads the rates, the position the heading",
@@ -323,7 +324,10 @@ pub(super) fn heading(
         best.1.to_degrees(),
         best.2
     ));
-    heading_with(src, best.1, n.gyro_rad_s, Motion::Accel(best.2)).0
+    body_rate(
+        heading_with(src, best.1, n.gyro_rad_s, Motion::Accel(best.2)).0,
+        src,
+    )
 }
 
 #[cfg(test)]
