@@ -11,7 +11,9 @@ pub mod cfd;
 pub mod cli;
 pub mod cmd;
 pub mod compare;
-pub mod core;
+/// The shared layer below every feature, a crate of its own (crates/core) so that the twin
+/// builds on it without the product.
+pub use hydrofit_core as core;
 pub mod design;
 pub mod diagnose;
 pub mod export;
@@ -21,7 +23,9 @@ pub mod kinds;
 pub mod pipeline;
 pub mod pool;
 pub mod report;
-pub mod twin;
+/// The digital twins (crates/twin): synthetic inputs with a known truth, for the `twin`
+/// commands, the benchmarks and the tests.
+pub use hydrofit_twin as twin;
 pub mod validate;
 
 /// `println!` for command output that may go to a closed pipe (`hydrofit status | head`):

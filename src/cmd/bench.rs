@@ -384,7 +384,7 @@ fn field_runs() -> anyhow::Result<FieldRuns> {
     let fused: Vec<crate::pool::fusion::run::FusedRun> = specs
         .par_iter()
         .map(|spec| {
-            crate::twin::scenario::fuse_folder(tmp.path(), &spec.name).map(|r| r.clip_to(&vehicle))
+            crate::cmd::scenario::fuse_folder(tmp.path(), &spec.name).map(|r| r.clip_to(&vehicle))
         })
         .collect::<anyhow::Result<_>>()?;
     Ok((tmp, fused, vehicle))

@@ -10,6 +10,7 @@ pub mod graph;
 pub mod inspect;
 pub mod openfoam;
 pub mod provenance;
+pub mod scenario;
 pub mod status;
 pub mod twin;
 pub mod verify;

@@ -246,7 +246,7 @@ pub fn tank(root: &Path, out: &Path, truth: &Path, seed: u64) -> anyhow::Result<
 /// alone at two magnitudes, pairs of effects, and nothing, for each seed; prints every verdict
 /// and the confusion table (concealed vs named).
 pub fn check_diagnosis(seeds: &[u64]) -> anyhow::Result<ExitCode> {
-    use crate::twin::scenario;
+    use crate::cmd::scenario;
     let scenarios = diagnosis_scenarios()?;
     let vehicle = crate::core::model::Vehicle::reference();
     let plant = scenario::cfd_fit_plant(1)?;

@@ -1,6 +1,6 @@
 use super::*;
+use crate::cmd::scenario;
 use crate::diagnose::{Diagnosis, diagnose};
-use crate::twin::scenario;
 use crate::twin::world::Effect;
 
 mod discovery;

@@ -9,6 +9,8 @@
 
 pub mod report;
 pub mod stage;
+#[cfg(test)]
+mod twin_tests;
 
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};

@@ -19,23 +19,9 @@ use csvlog::Log;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-pub const G: f64 = 9.80665;
+pub use crate::core::model::G;
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Role {
-    Train,
-    Validate,
-}
-
-impl Role {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Role::Train => "train",
-            Role::Validate => "validate",
-        }
-    }
-}
+pub use crate::core::run::Role;
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]

@@ -17,25 +17,51 @@ fn src() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("src")
 }
 
-/// Every `.rs` file under `src/` by its module path (`pool::import::timing`).
+/// The source trees read, each with the module the product knows it as: `src/`, and the
+/// workspace crates it re-exports as modules of its own (`pub use hydrofit_core as core`).
+/// Inside a crate, `crate::` is that module; anywhere, its crate name is.
+const ROOTS: [(&str, &str, &str); 3] = [
+    ("", "src", "hydrofit"),
+    ("core", "crates/core/src", "hydrofit_core"),
+    ("twin", "crates/twin/src", "hydrofit_twin"),
+];
+
+fn root_dir(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
+}
+
+/// Every `.rs` file of the [`ROOTS`] by its module path (`pool::import::timing`,
+/// `core::model::dynamics`).
 fn modules() -> BTreeMap<String, PathBuf> {
     let mut out = BTreeMap::new();
-    let mut stack = vec![src()];
-    while let Some(dir) = stack.pop() {
-        for entry in std::fs::read_dir(&dir).unwrap() {
-            let path = entry.unwrap().path();
-            if path.is_dir() {
-                stack.push(path);
-            } else if path.extension().is_some_and(|e| e == "rs") {
-                out.insert(module_of(&path), path);
+    for (prefix, rel, _) in ROOTS {
+        let root = root_dir(rel);
+        let mut stack = vec![root.clone()];
+        while let Some(dir) = stack.pop() {
+            for entry in std::fs::read_dir(&dir).unwrap() {
+                let path = entry.unwrap().path();
+                if path.is_dir() {
+                    stack.push(path);
+                } else if path.extension().is_some_and(|e| e == "rs") {
+                    out.insert(join(prefix, &module_of(&root, &path)), path);
+                }
             }
         }
     }
     out
 }
 
-fn module_of(path: &Path) -> String {
-    let rel = path.strip_prefix(src()).unwrap().with_extension("");
+/// The module `crate::` names inside the file at `path`.
+fn crate_module(path: &Path) -> &'static str {
+    ROOTS
+        .iter()
+        .filter(|(_, rel, _)| path.starts_with(root_dir(rel)))
+        .max_by_key(|(_, rel, _)| rel.len())
+        .map_or("", |(prefix, _, _)| prefix)
+}
+
+fn module_of(root: &Path, path: &Path) -> String {
+    let rel = path.strip_prefix(root).unwrap().with_extension("");
     let mut parts: Vec<String> = rel
         .components()
         .map(|c| c.as_os_str().to_string_lossy().to_string())
@@ -93,10 +119,10 @@ fn reexports(mods: &BTreeMap<String, PathBuf>) -> BTreeMap<(String, String), Str
 }
 
 fn join(a: &str, b: &str) -> String {
-    if a.is_empty() {
-        b.to_string()
-    } else {
-        format!("{a}::{b}")
+    match (a.is_empty(), b.is_empty()) {
+        (true, _) => b.to_string(),
+        (_, true) => a.to_string(),
+        _ => format!("{a}::{b}"),
     }
 }
 
@@ -147,8 +173,17 @@ impl Graph {
                 m.split("::").collect()
             };
             let mut targets = BTreeSet::new();
-            for p in crate_paths(&code) {
-                targets.extend(self.resolve(&p.iter().map(String::as_str).collect::<Vec<_>>()));
+            let own = ("crate", crate_module(path));
+            let named = ROOTS.iter().map(|(prefix, _, name)| (*name, *prefix));
+            for (marker, prefix) in std::iter::once(own).chain(named) {
+                for p in crate_paths(&code, marker) {
+                    let full: Vec<&str> = prefix
+                        .split("::")
+                        .filter(|s| !s.is_empty())
+                        .chain(p.iter().map(String::as_str))
+                        .collect();
+                    targets.extend(self.resolve(&full));
+                }
             }
             for (ups, p) in super_paths(&code) {
                 let base = &here[..here.len().saturating_sub(ups)];
@@ -177,14 +212,16 @@ impl Graph {
     }
 }
 
-/// Every path after `crate::`, groups expanded (`crate::{a::b, c::{d, e}}`).
-fn crate_paths(code: &str) -> Vec<Vec<String>> {
+/// Every path after `crate::` (or after another crate's name, `hydrofit_core::`), groups
+/// expanded (`crate::{a::b, c::{d, e}}`).
+fn crate_paths(code: &str, krate: &str) -> Vec<Vec<String>> {
+    let marker = format!("{krate}::");
     let mut out = Vec::new();
-    for (i, _) in code.match_indices("crate::") {
+    for (i, _) in code.match_indices(&marker) {
         if code[..i].ends_with(|c: char| c.is_alphanumeric() || c == '_' || c == '$') {
             continue;
         }
-        expand(&code[i + "crate::".len()..], &mut Vec::new(), &mut out);
+        expand(&code[i + marker.len()..], &mut Vec::new(), &mut out);
     }
     out
 }
@@ -438,15 +475,17 @@ fn the_architecture_document_names_what_the_code_has() {
         .filter(|n| n.ends_with('/'))
         .map(|n| n.trim_end_matches('/').to_string())
         .collect();
+    let crates = ROOTS.iter().map(|(prefix, _, _)| prefix.to_string());
     let folders: BTreeSet<String> = std::fs::read_dir(src())
         .unwrap()
         .map(|e| e.unwrap().path())
         .filter(|p| p.is_dir())
         .map(|p| p.file_name().unwrap().to_string_lossy().to_string())
+        .chain(crates.filter(|c| !c.is_empty()))
         .collect();
     assert_eq!(
         named, folders,
-        "docs/architecture.md's module map against src/'s folders"
+        "docs/architecture.md's module map against src/'s folders and the crates `core`, `twin`"
     );
     // Stage kinds: the list after "Stage kinds:" in backticks, against the registry.
     let line = doc
@@ -503,7 +542,10 @@ fn the_documents_name_source_paths_that_exist() {
 
 #[test]
 fn the_graph_reader_sees_grouped_imports_and_super_chains() {
-    let found = crate_paths("use crate::{a::b, c, d::{e, f}};\nlet x = crate::g::h::<T>();");
+    let found = crate_paths(
+        "use crate::{a::b, c, d::{e, f}};\nlet x = crate::g::h::<T>();",
+        "crate",
+    );
     let want: Vec<Vec<String>> = [
         vec!["a", "b"],
         vec!["c"],

@@ -1,6 +1,6 @@
 //! End-to-end on field logs without CFD (examples/field_rov): a closed-loop vehicle's bursty
 //! command log, a pre-filtered and late navigation log, depth and horizontal UWB. The twin
-//! that wrote them hides its effects with forms of its own (src/twin/field.rs), not the
+//! that wrote them hides its effects with forms of its own (crates/twin/src/field.rs), not the
 //! diagnosis's, so what the diagnosis names here is not fitted back from its own code.
 
 use crate::common::*;

@@ -1,6 +1,6 @@
 //! End-to-end for the field-trial identifiers of the other papers, each on its example
 //! project: ARX with order selection on the tank twin (seed 002, examples/tank_submarine).
-//! The twins fly with simulators of their own (src/twin/tank.rs); the identifiers never see
+//! The twins fly with simulators of their own (crates/twin/src/tank.rs); the identifiers never see
 //! that code, and the truth they are checked against comes from the twin's own model.
 
 use crate::common::*;

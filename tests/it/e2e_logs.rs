@@ -5,11 +5,11 @@
 //! located error listing what the log holds; a real ArduSub log is read with no mapping.
 
 use crate::common::{json, ok, run, stderr};
+use crate::log_writer::{LogFormat, write};
 use hydrofit::core::model::thrusters::{Command, Curve, Layout, NamedCurve, Thrusters};
 use hydrofit::pool::fusion;
 use hydrofit::pool::import::csvlog::Log;
 use hydrofit::pool::import::{self, PoolRun};
-use hydrofit::twin::logs::{LogFormat, write};
 use std::path::Path;
 
 const FORMATS: [LogFormat; 4] = [

@@ -2,7 +2,7 @@
 //! OLS and TLS from free-running trials alone (a command log with K and M, a DVL + inertial
 //! navigation log, depth), validated in six DOF on held-out trials, with the Table IV and V
 //! analogues and each set against the twin's coefficients. The twin flies with a simulator
-//! of its own (src/twin/six.rs) and hides a linear roll drag that only CUSTOM has.
+//! of its own (crates/twin/src/six.rs) and hides a linear roll drag that only CUSTOM has.
 
 use crate::common::*;
 use std::collections::BTreeMap;

@@ -22,6 +22,7 @@ mod e2e_slurm;
 mod e2e_thrust_gain;
 mod estimators;
 mod fuzz_inputs;
+mod log_writer;
 mod openfoam_results;
 mod readme;
 mod report_browser;

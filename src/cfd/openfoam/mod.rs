@@ -15,6 +15,7 @@ mod steps;
 pub mod table;
 
 use crate::core::diag::InputError;
+pub use crate::core::response::RunInfo;
 pub use on_slurm::{ArrayCase, ArrayJob, submit_array};
 use results::{LogEnd, VectorTable};
 use serde::{Deserialize, Serialize};
@@ -458,6 +459,13 @@ pub fn result_files(solver: &str) -> Vec<String> {
     ]
 }
 
+/// The body's path and the fluid force on it, for the report's drag analysis.
+pub const TRACK: &str = "track.json";
+
+pub fn load_track(dir: &Path) -> Option<Track> {
+    crate::core::fsutil::read_json(&dir.join(TRACK)).ok()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -503,33 +511,4 @@ mod tests {
         assert!((s.applied_force()[0] - 4.0).abs() < 1e-12 && s.applied_force()[1] == 0.0);
         assert_eq!(s.rho, 1000.0);
     }
-}
-
-/// How the case's results came about; shown in the report.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct RunInfo {
-    pub solver: String,
-    pub openfoam: String,
-    /// True when this build ran the solver; false when it read results left in the case.
-    pub ran_in_this_build: bool,
-    pub steps: usize,
-    pub end_time_s: f64,
-    pub cpu_time_s: Option<f64>,
-    pub wall_time_s: Option<f64>,
-    pub applied_force_n: [f64; 3],
-    pub mass_kg: f64,
-    pub rho: f64,
-    /// The Slurm job (or array task) that ran the case, in this build or when its results
-    /// were made, and its node.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub slurm_job: Option<String>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub node: Option<String>,
-}
-
-/// The body's path and the fluid force on it, for the report's drag analysis.
-pub const TRACK: &str = "track.json";
-
-pub fn load_track(dir: &Path) -> Option<Track> {
-    crate::core::fsutil::read_json(&dir.join(TRACK)).ok()
 }

@@ -1,0 +1,523 @@
+//! The seed-001 twin's world: the reference plant plus the left-out effects it conceals in its
+//! pool runs (docs/formats.md, "Left-out effects"), simulated in the pool frame with what they
+//! need: position, heading and thruster state.
+//!
+//! This is the twin's own code, written apart from the diagnosis's effect models
+//! (hydrofit's `diagnose::effects`), and with other functional forms: the thrusters' lag is in the
+//! motor's speed with thrust quadratic in it, reverse thrust fades in smoothly, the dead zone
+//! is an offset, the tether's length is the cable paid out, the current varies along the pool,
+//! the wall's drag falls off algebraically, coupled drag is quadratic drag on the resultant
+//! speed, and late sensors are also low-passed. The diagnosis fits its own simpler forms, so it
+//! can only find these effects by what they do to the recordings; tests compare its parameters
+//! with the equivalents these forms imply (`src/diagnose/tests.rs`).
+
+pub use hydrofit_core::model::motion::State;
+use hydrofit_core::model::motion::rk4;
+use hydrofit_core::model::pool::Pool;
+use hydrofit_core::model::{Plant, Vec6};
+use serde::{Deserialize, Serialize};
+
+/// One left-out effect with its magnitude. Signs follow the frames of docs/formats.md (z down).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "name", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Effect {
+    /// Weight minus buoyancy, N, along pool z (positive: the vehicle sinks).
+    NetBuoyancy { force_n: f64 },
+    /// Time constant of the thrusters' motor speed, s: the speed n follows the command's
+    /// sqrt(|T|) sign(T) through a first-order lag and the delivered force is n |n| (Fossen
+    /// 2011, sec. 6.7: thrust quadratic in propeller speed). A step from rest takes about
+    /// 1.6 time constants to deliver 63 %.
+    ThrusterLag { time_constant_s: f64 },
+    /// Fraction of a reverse (negative) surge, sway or heave command that is lost, faded in
+    /// over a few newtons around zero as the propeller's flow reverses:
+    /// efficiency 1 - loss / (1 + exp(T / 2 N)).
+    ReverseThrustLoss { loss: f64 },
+    /// A dead zone (N for forces, N m for the yaw moment): nothing below it, and above it the
+    /// command less the dead zone (static friction of the seals), with a knee rounded over a
+    /// tenth of the zone (a softplus).
+    ThrusterDeadband { force_n: f64, moment_nm: f64 },
+    /// Drag of the umbilical: -c L |v| v on the horizontal velocity in the pool frame, with L
+    /// the cable paid out (horizontal run from the anchor, plus depth below it, plus slack), c
+    /// in N s^2/m^3.
+    TetherDrag { coefficient: f64, slack_m: f64 },
+    /// A current in the pool frame, m/s, at the pool's middle; it varies by +-30 % along the
+    /// pool's length (one sine over the length). Drag acts on the velocity relative to it.
+    WaterCurrent { velocity_m_s: [f64; 2] },
+    /// Extra drag near the side walls: -c |v| v / (1 + (d / decay)^2), d the distance to the
+    /// nearest wall (an image flow's algebraic fall-off).
+    WallEffect { coefficient: f64, decay_m: f64 },
+    /// Quadratic drag on the resultant horizontal speed beyond what the per-axis drag holds:
+    /// X += -c (|V| - |u|) u, Y += -c (|V| - |v|) v, |V| = sqrt(u^2 + v^2), c in N s^2/m^2.
+    CoupledDrag { coefficient: f64 },
+    /// Position, attitude and depth sensors report late by `delay_s` and through a first-order
+    /// low-pass of time constant `filter_s` (their total latency is about the sum).
+    SensorDelay { delay_s: f64, filter_s: f64 },
+    // Outside the diagnosis's vocabulary: physics no named effect describes, for proving that
+    // discovery finds a closed form (each written here, apart from the discovery's library).
+    /// A vertical force oscillating at a wave maker's or a pump's frequency, in phase with
+    /// the run's clock (the logger and the wave maker start together): F sin(2 pi f t + phase).
+    Wave {
+        force_n: f64,
+        frequency_hz: f64,
+        phase_rad: f64,
+    },
+    /// A surge thruster mounted askew: its thrust line passes `arm_m` beside the centre of
+    /// gravity, so the surge thrust it delivers also turns the vehicle (N += arm X).
+    SkewedThruster { arm_m: f64 },
+    /// Extra drag near the free surface (waves made, ventilation): surge and sway drag grow by
+    /// c |v| v exp(-(z / depth_m)^2), z the depth below the surface.
+    SurfaceDrag { coefficient: f64, depth_m: f64 },
+}
+
+/// The effects outside the diagnosis's vocabulary, as `from_arg` takes them.
+pub const OUTSIDE: [&str; 3] = ["wave", "skewed_thruster", "surface_drag"];
+
+pub const NAMES: [&str; 9] = [
+    "net_buoyancy",
+    "thruster_lag",
+    "reverse_thrust_loss",
+    "thruster_deadband",
+    "tether_drag",
+    "water_current",
+    "wall_effect",
+    "coupled_drag",
+    "sensor_delay",
+];
+
+impl Effect {
+    pub fn name(&self) -> &'static str {
+        match self {
+            Effect::NetBuoyancy { .. } => NAMES[0],
+            Effect::ThrusterLag { .. } => NAMES[1],
+            Effect::ReverseThrustLoss { .. } => NAMES[2],
+            Effect::ThrusterDeadband { .. } => NAMES[3],
+            Effect::TetherDrag { .. } => NAMES[4],
+            Effect::WaterCurrent { .. } => NAMES[5],
+            Effect::WallEffect { .. } => NAMES[6],
+            Effect::CoupledDrag { .. } => NAMES[7],
+            Effect::SensorDelay { .. } => NAMES[8],
+            Effect::Wave { .. } => OUTSIDE[0],
+            Effect::SkewedThruster { .. } => OUTSIDE[1],
+            Effect::SurfaceDrag { .. } => OUTSIDE[2],
+        }
+    }
+
+    /// Parses `name=value` as the twin's command line takes it, with a typical second parameter.
+    pub fn from_arg(arg: &str) -> Result<Effect, String> {
+        let (name, value) = arg.split_once('=').ok_or_else(|| {
+            format!("`{arg}`: write an effect as name=magnitude, e.g. thruster_lag=0.3")
+        })?;
+        let x: f64 = value
+            .parse()
+            .map_err(|_| format!("`{arg}`: magnitude `{value}` is not a number"))?;
+        Ok(match name {
+            "net_buoyancy" => Effect::NetBuoyancy { force_n: x },
+            "thruster_lag" => Effect::ThrusterLag { time_constant_s: x },
+            "reverse_thrust_loss" => Effect::ReverseThrustLoss { loss: x },
+            "thruster_deadband" => Effect::ThrusterDeadband {
+                force_n: x,
+                moment_nm: x * 0.1,
+            },
+            "tether_drag" => Effect::TetherDrag {
+                coefficient: x,
+                slack_m: 2.0,
+            },
+            "water_current" => Effect::WaterCurrent {
+                velocity_m_s: [x, 0.3 * x],
+            },
+            "wall_effect" => Effect::WallEffect {
+                coefficient: x,
+                decay_m: 0.8,
+            },
+            "coupled_drag" => Effect::CoupledDrag { coefficient: x },
+            "sensor_delay" => Effect::SensorDelay {
+                delay_s: x,
+                filter_s: 0.5 * x,
+            },
+            "wave" => Effect::Wave {
+                force_n: x,
+                frequency_hz: 0.42,
+                phase_rad: 0.3,
+            },
+            "skewed_thruster" => Effect::SkewedThruster { arm_m: x },
+            "surface_drag" => Effect::SurfaceDrag {
+                coefficient: x,
+                depth_m: 1.0,
+            },
+            _ => {
+                let hint = hydrofit_core::diag::nearest(name, NAMES.into_iter().chain(OUTSIDE))
+                    .map_or(String::new(), |s| format!(" (did you mean `{s}`?)"));
+                return Err(format!(
+                    "unknown effect `{name}`{hint}; known: {}, and outside the diagnosis's vocabulary {}",
+                    NAMES.join(", "),
+                    OUTSIDE.join(", ")
+                ));
+            }
+        })
+    }
+}
+
+/// Base plant plus effects, in a pool.
+#[derive(Debug, Clone)]
+pub struct WorldPlant {
+    pub plant: Plant,
+    pub effects: Vec<Effect>,
+    pub pool: Option<Pool>,
+    pub tether_anchor: Option<[f64; 3]>,
+    /// Whether position and heading are integrated. A caller that sets them from a recording
+    /// at every sample, with no effect that depends on them, turns this off and saves the
+    /// trigonometry; the velocities are the same to the bit.
+    pub track_pose: bool,
+}
+
+fn drag(p: &Plant, i: usize, x: f64) -> f64 {
+    (p.hydro.lin[i][i] + p.hydro.quad[i][i][i] * x.abs()) * x
+}
+
+/// Cable paid out from an anchor at the surface to the vehicle: the horizontal run plus the
+/// depth below the anchor (the cable hangs down and trails behind), m, without slack.
+fn paid_out(anchor: [f64; 3], pos: [f64; 3]) -> f64 {
+    (pos[0] - anchor[0]).hypot(pos[1] - anchor[1]) + (pos[2] - anchor[2]).abs()
+}
+
+/// Width of the fade between forward and reverse propeller efficiency, N.
+const REVERSE_FADE_N: f64 = 2.0;
+/// Amplitude of the current's variation along the pool (fraction of its value at the middle).
+const CURRENT_VARIATION: f64 = 0.3;
+
+/// ln(1 + e^z) without overflow.
+fn softplus(z: f64) -> f64 {
+    z.max(0.0) + (-z.abs()).exp().ln_1p()
+}
+
+/// Force delivered at signed propeller speed `n`, in sqrt(N): n |n|.
+fn thrust_at_speed(n: f64) -> f64 {
+    n * n.abs()
+}
+
+/// Signed propeller speed, in sqrt(N), that delivers `force` in steady state.
+fn speed_for(force: f64) -> f64 {
+    force.signum() * force.abs().sqrt()
+}
+
+impl WorldPlant {
+    pub fn new(plant: Plant) -> WorldPlant {
+        WorldPlant {
+            plant,
+            effects: Vec::new(),
+            pool: None,
+            tether_anchor: None,
+            track_pose: true,
+        }
+    }
+
+    /// Whether any effect depends on the vehicle's position or heading.
+    pub fn effects_need_pose(&self) -> bool {
+        self.effects.iter().any(|e| {
+            matches!(
+                e,
+                Effect::TetherDrag { .. }
+                    | Effect::WaterCurrent { .. }
+                    | Effect::WallEffect { .. }
+                    | Effect::SurfaceDrag { .. }
+            )
+        })
+    }
+
+    pub fn lag(&self) -> Option<f64> {
+        self.effects.iter().find_map(|e| match e {
+            Effect::ThrusterLag { time_constant_s } if *time_constant_s > 0.0 => {
+                Some(*time_constant_s)
+            }
+            _ => None,
+        })
+    }
+
+    /// The force the thrusters would deliver in steady state for a command.
+    pub fn shape_command(&self, cmd: &Vec6) -> Vec6 {
+        let mut out = *cmd;
+        for e in &self.effects {
+            match e {
+                Effect::ThrusterDeadband { force_n, moment_nm } => {
+                    for (i, f) in out.iter_mut().enumerate() {
+                        let d = if i < 3 { *force_n } else { *moment_nm };
+                        if d > 0.0 {
+                            let knee = |x: f64| 0.1 * d * softplus((x - d) / (0.1 * d));
+                            *f = f.signum() * (knee(f.abs()) - knee(0.0));
+                        }
+                    }
+                }
+                Effect::ReverseThrustLoss { loss } => {
+                    for f in out.iter_mut().take(3) {
+                        *f *= 1.0 - loss / (1.0 + (*f / REVERSE_FADE_N).exp());
+                    }
+                }
+                _ => {}
+            }
+        }
+        out
+    }
+
+    /// Forces of the environmental effects on the vehicle at time `t`, body frame.
+    pub fn extra_force(&self, s: &State, t: f64) -> Vec6 {
+        self.extra_force_at(s, s.psi.cos(), s.psi.sin(), t)
+    }
+
+    /// [`Self::extra_force`] with the heading's cosine and sine already computed.
+    fn extra_force_at(&self, s: &State, c: f64, sn: f64, t: f64) -> Vec6 {
+        let mut f = [0.0; 6];
+        if self.effects.is_empty() {
+            return f;
+        }
+        let to_body = |fx: f64, fy: f64| (c * fx + sn * fy, -sn * fx + c * fy);
+        // Pool-frame velocity and speed, for the effects that act on motion over ground.
+        let ground = || {
+            let vw = [c * s.nu[0] - sn * s.nu[1], sn * s.nu[0] + c * s.nu[1]];
+            (vw, (vw[0] * vw[0] + vw[1] * vw[1]).sqrt())
+        };
+        for e in &self.effects {
+            match e {
+                Effect::NetBuoyancy { force_n } => f[2] += force_n,
+                Effect::TetherDrag {
+                    coefficient,
+                    slack_m,
+                } => {
+                    let a = self.tether_anchor.unwrap_or([0.0, 0.0, 0.0]);
+                    let l = paid_out(a, s.pos) + slack_m;
+                    let (vw, speed) = ground();
+                    let (bx, by) = to_body(
+                        -coefficient * l * speed * vw[0],
+                        -coefficient * l * speed * vw[1],
+                    );
+                    f[0] += bx;
+                    f[1] += by;
+                }
+                Effect::WaterCurrent { velocity_m_s: cw } => {
+                    let scale = self.pool.map_or(1.0, |pool| {
+                        let along = (s.pos[0] - pool.length_m / 2.0) / pool.length_m;
+                        1.0 + CURRENT_VARIATION * (std::f64::consts::TAU * along).sin()
+                    });
+                    let (cu, cv) = to_body(scale * cw[0], scale * cw[1]);
+                    let p = &self.plant;
+                    f[0] += drag(p, 0, s.nu[0] - cu) - drag(p, 0, s.nu[0]);
+                    f[1] += drag(p, 1, s.nu[1] - cv) - drag(p, 1, s.nu[1]);
+                }
+                Effect::WallEffect {
+                    coefficient,
+                    decay_m,
+                } => {
+                    if let Some(pool) = self.pool {
+                        let d = pool.wall_distance(s.pos[0], s.pos[1]).max(0.0);
+                        let (vw, speed) = ground();
+                        let k = coefficient / (1.0 + (d / decay_m).powi(2)) * speed;
+                        let (bx, by) = to_body(-k * vw[0], -k * vw[1]);
+                        f[0] += bx;
+                        f[1] += by;
+                    }
+                }
+                Effect::CoupledDrag { coefficient } => {
+                    let speed = s.nu[0].hypot(s.nu[1]);
+                    f[0] -= coefficient * (speed - s.nu[0].abs()) * s.nu[0];
+                    f[1] -= coefficient * (speed - s.nu[1].abs()) * s.nu[1];
+                }
+                Effect::Wave {
+                    force_n,
+                    frequency_hz,
+                    phase_rad,
+                } => {
+                    f[2] += force_n * (std::f64::consts::TAU * frequency_hz * t + phase_rad).sin();
+                }
+                Effect::SurfaceDrag {
+                    coefficient,
+                    depth_m,
+                } => {
+                    let near = (-(s.pos[2].max(0.0) / depth_m).powi(2)).exp();
+                    f[0] -= coefficient * near * s.nu[0].abs() * s.nu[0];
+                    f[1] -= coefficient * near * s.nu[1].abs() * s.nu[1];
+                }
+                _ => {}
+            }
+        }
+        f
+    }
+
+    /// The askew surge thruster's yaw moment for the surge thrust delivered.
+    fn skew_moment(&self, thrust: &Vec6) -> f64 {
+        self.effects
+            .iter()
+            .map(|e| match e {
+                Effect::SkewedThruster { arm_m } => arm_m * thrust[0],
+                _ => 0.0,
+            })
+            .sum()
+    }
+
+    fn deriv(&self, s: &State, cmd: &Vec6, t: f64) -> State {
+        let target = self.shape_command(cmd);
+        // With a lag, the state's `thrust` holds the motors' signed speeds, in sqrt(N).
+        let (thrust, thrust_dot) = match self.lag() {
+            Some(tc) => (
+                s.thrust.map(thrust_at_speed),
+                std::array::from_fn(|i| (speed_for(target[i]) - s.thrust[i]) / tc),
+            ),
+            None => (target, [0.0; 6]),
+        };
+        if !self.track_pose {
+            // No effect reads the pose (the caller checked): heading unused, pose held.
+            let extra = self.extra_force_at(s, 0.0, 0.0, t);
+            let mut tau: Vec6 = std::array::from_fn(|i| thrust[i] + extra[i]);
+            tau[5] += self.skew_moment(&thrust);
+            return State {
+                nu: self.plant.accel(&s.nu, &tau),
+                pos: [0.0; 3],
+                psi: 0.0,
+                thrust: thrust_dot,
+            };
+        }
+        let (c, sn) = (s.psi.cos(), s.psi.sin());
+        let extra = self.extra_force_at(s, c, sn, t);
+        let mut tau: Vec6 = std::array::from_fn(|i| thrust[i] + extra[i]);
+        tau[5] += self.skew_moment(&thrust);
+        let nu_dot = self.plant.accel(&s.nu, &tau);
+        State {
+            nu: nu_dot,
+            pos: [
+                c * s.nu[0] - sn * s.nu[1],
+                sn * s.nu[0] + c * s.nu[1],
+                s.nu[2],
+            ],
+            psi: s.nu[5],
+            thrust: thrust_dot,
+        }
+    }
+
+    /// The body-frame acceleration at a state under a command at time `t` (what an IMU would
+    /// sense, less gravity).
+    pub fn accel(&self, s: &State, cmd: &Vec6, t: f64) -> Vec6 {
+        self.deriv(s, cmd, t).nu
+    }
+
+    /// The force and moment the thrusters deliver in a state (body frame).
+    pub fn delivered(&self, s: &State, cmd: &Vec6) -> Vec6 {
+        match self.lag() {
+            Some(_) => s.thrust.map(thrust_at_speed),
+            None => self.shape_command(cmd),
+        }
+    }
+
+    /// One RK4 step of length `h` from time `t` with the command held (a time-dependent
+    /// force is taken at the step's middle).
+    pub fn step(&self, s: &State, cmd: &Vec6, h: f64, t: f64) -> State {
+        let mid = t + 0.5 * h;
+        let mut out = rk4(s, h, |x| self.deriv(x, cmd, mid));
+        if self.lag().is_none() {
+            out.thrust = self.shape_command(cmd);
+        }
+        out
+    }
+
+    /// States at the times `t`, from `s0` at `t[0]`, with `cmd[k]` held over [t[k], t[k+1]).
+    pub fn simulate(&self, t: &[f64], cmd: &[Vec6], s0: State, max_step: f64) -> Vec<State> {
+        let mut out = Vec::with_capacity(t.len());
+        let mut s = s0;
+        for k in 0..t.len() {
+            out.push(s);
+            if k + 1 == t.len() {
+                break;
+            }
+            let span = t[k + 1] - t[k];
+            let n = hydrofit_core::model::dynamics::substeps(span, max_step);
+            for q in 0..n {
+                let h = span / n as f64;
+                s = self.step(&s, &cmd[k], h, t[k] + q as f64 * h);
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use hydrofit_core::model::{Hydro, Vehicle};
+
+    fn world(effects: Vec<Effect>) -> WorldPlant {
+        let mut w = WorldPlant::new(Plant::new(&Vehicle::reference(), Hydro::reference()));
+        w.effects = effects;
+        w
+    }
+
+    #[test]
+    fn without_effects_it_is_the_base_plant() {
+        let w = world(vec![]);
+        let t: Vec<f64> = (0..500).map(|k| k as f64 * 0.02).collect();
+        let cmd: Vec<Vec6> = t
+            .iter()
+            .map(|&x| [40.0 * (x * 0.7).sin(), 10.0, -20.0, 0.0, 0.0, 2.0])
+            .collect();
+        let a = w.simulate(&t, &cmd, State::default(), 0.01);
+        let b = w.plant.simulate(&t, &cmd, [0.0; 6], 0.01);
+        for (x, y) in a.iter().zip(&b) {
+            assert!(x.nu.iter().zip(y).all(|(p, q)| (p - q).abs() < 1e-12));
+        }
+    }
+
+    #[test]
+    fn lag_and_buoyancy_have_their_closed_forms() {
+        // The motor's speed reaches 1 - e^-1 of its step after one time constant, so the
+        // force, quadratic in it, reaches (1 - e^-1)^2 of a step from rest.
+        let w = world(vec![Effect::ThrusterLag {
+            time_constant_s: 0.5,
+        }]);
+        let t: Vec<f64> = (0..=50).map(|k| k as f64 * 0.01).collect();
+        let cmd = [10.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+        let s = w.simulate(&t, &vec![cmd; t.len()], State::default(), 0.01);
+        let delivered = w.delivered(&s[50], &cmd)[0];
+        assert!((delivered - 10.0 * (1.0 - (-1.0f64).exp()).powi(2)).abs() < 1e-6);
+        // Net buoyancy alone: heave settles where drag balances it.
+        let w = world(vec![Effect::NetBuoyancy { force_n: 5.0 }]);
+        let t: Vec<f64> = (0..3000).map(|k| k as f64 * 0.02).collect();
+        let s = w.simulate(&t, &vec![[0.0; 6]; t.len()], State::default(), 0.01);
+        let (a, b) = (121.30, 21.75);
+        let w_ss = (-b + (b * b + 4.0 * a * 5.0f64).sqrt()) / (2.0 * a);
+        assert!((s.last().unwrap().nu[2] - w_ss).abs() < 1e-6);
+        assert!(s.last().unwrap().pos[2] > 0.0, "sinks, z down");
+    }
+
+    #[test]
+    fn current_drifts_a_passive_vehicle_with_the_water() {
+        let w = world(vec![Effect::WaterCurrent {
+            velocity_m_s: [0.2, -0.1],
+        }]);
+        // Linear drag alone lets the relative velocity decay with (m - X_udot) / -X_u ~ 21 s.
+        let t: Vec<f64> = (0..12000).map(|k| k as f64 * 0.02).collect();
+        let s0 = State {
+            psi: 0.6,
+            ..State::default()
+        };
+        let s = w.simulate(&t, &vec![[0.0; 6]; t.len()], s0, 0.01);
+        let end = s.last().unwrap();
+        let (c, sn) = (end.psi.cos(), end.psi.sin());
+        let vx = c * end.nu[0] - sn * end.nu[1];
+        let vy = sn * end.nu[0] + c * end.nu[1];
+        assert!(
+            (vx - 0.2).abs() < 1e-3 && (vy + 0.1).abs() < 1e-3,
+            "{vx} {vy}"
+        );
+    }
+
+    #[test]
+    fn effect_arguments_parse_and_misspellings_are_helped() {
+        assert_eq!(
+            Effect::from_arg("thruster_lag=0.3").unwrap(),
+            Effect::ThrusterLag {
+                time_constant_s: 0.3
+            }
+        );
+        let e = Effect::from_arg("tether_darg=1").unwrap_err();
+        assert!(e.contains("did you mean `tether_drag`"), "{e}");
+        for n in NAMES {
+            assert_eq!(Effect::from_arg(&format!("{n}=0.5")).unwrap().name(), n);
+        }
+    }
+}
