@@ -21,7 +21,7 @@ use crate::core::model::motion::State;
 use crate::core::model::{ParamLayout, Plant, Pool, Vehicle};
 use crate::core::response::{Response, Series, Source};
 use crate::core::rng::Rng;
-use crate::twin::world::{Effect, WorldPlant};
+use crate::diagnose::world::World;
 use nalgebra::DMatrix;
 use signal::Profile;
 use std::collections::BTreeMap;
@@ -117,15 +117,16 @@ pub struct Candidate {
 }
 
 impl Setup {
-    /// The model in the pool, with the fit's command lag as a thruster lag.
-    pub fn world(&self) -> WorldPlant {
-        let mut w = WorldPlant::new(self.plant.clone());
+    /// The model in the pool, with the fit's command lag as the thrusters' first-order lag
+    /// (the form the fit estimates it in).
+    pub fn world(&self) -> World {
+        let lag = crate::diagnose::hypothesis("thruster_lag").expect("a registered effect");
+        let terms = match self.plant.command_lag_s > 0.0 {
+            true => vec![(lag.build)(&[self.plant.command_lag_s])],
+            false => Vec::new(),
+        };
+        let mut w = World::new(self.plant.clone(), terms);
         w.pool = Some(self.pool);
-        if self.plant.command_lag_s > 0.0 {
-            w.effects = vec![Effect::ThrusterLag {
-                time_constant_s: self.plant.command_lag_s,
-            }];
-        }
         w
     }
 
@@ -224,7 +225,7 @@ impl Setup {
     /// corrections), the states at the command's times, and the run as the fit would read it.
     pub fn fly(
         &self,
-        world: &WorldPlant,
+        world: &World,
         excitation: &[[f64; 4]],
     ) -> (Vec<[f64; 4]>, Vec<State>, Response) {
         let substeps = (DT / MAX_STEP).round() as usize;
@@ -232,20 +233,20 @@ impl Setup {
         let mut s = self.start;
         let mut cmd = Vec::with_capacity(excitation.len());
         let mut states = Vec::with_capacity(excitation.len());
-        for (k, e) in excitation.iter().enumerate() {
+        for e in excitation {
             let c = self.command(e, &s);
             cmd.push(c);
             states.push(s);
             let six = [c[0], c[1], c[2], 0.0, 0.0, c[3]];
-            for q in 0..substeps {
-                s = world.step(&s, &six, h, k as f64 * DT + q as f64 * h);
+            for _ in 0..substeps {
+                s = world.step(&s, &six, h);
             }
         }
         let response = self.response(world, &cmd, &states);
         (cmd, states, response)
     }
 
-    fn response(&self, world: &WorldPlant, cmd: &[[f64; 4]], states: &[State]) -> Response {
+    fn response(&self, world: &World, cmd: &[[f64; 4]], states: &[State]) -> Response {
         let t: Vec<f64> = (0..cmd.len()).map(|k| k as f64 * DT).collect();
         let six: Vec<[f64; 6]> = cmd
             .iter()
@@ -268,7 +269,7 @@ impl Setup {
                     false => world.delivered(st, &six[k])[i],
                 });
                 s.velocity.push(st.nu[i]);
-                s.accel.push(world.accel(st, &six[k], t[k])[i]);
+                s.accel.push(world.accel(st, &six[k])[i]);
             }
             dofs.insert(*d, s);
         }

@@ -98,6 +98,15 @@ impl World {
         }
     }
 
+    /// The force and moment the thrusters deliver in state `s` under `cmd`: the lagged thrust
+    /// the state holds, or without a lag the shaped command.
+    pub fn delivered(&self, s: &State, cmd: &Vec6) -> Vec6 {
+        match self.lag_s {
+            Some(_) => s.thrust,
+            None => self.shape_command(cmd),
+        }
+    }
+
     /// The acceleration at state `s` under `cmd` (the thrusters' state as `s` holds it).
     pub fn accel(&self, s: &State, cmd: &Vec6) -> Vec6 {
         let target = self.shape_command(cmd);
