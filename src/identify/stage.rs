@@ -122,12 +122,12 @@ impl StageImpl for Settings {
         let report = move |f: f64| bar.set_message(format!("{:.0} %", 100.0 * f));
         let id = fit::identify(&data, &self.request(&report))?;
         notes.extend(id.notes);
-        let mut fit = id.fit;
+        let fit = id.fit;
         let objective = match fit.refinement {
             Some(_) => Objective::OutputError,
             None => self.common.objective,
         };
-        check_mass(vehicle, &fit)?;
+        let mut fit = self.physical_mass(&data, fit, &mut notes)?;
         if per_metre_of_span(&cases, runs.len())? {
             for p in &mut fit.parameters {
                 p.unit = crate::core::model::params::per_metre_of_span(&p.unit);
@@ -173,6 +173,39 @@ fn check_finite<'a>(
     Ok(())
 }
 
+impl Settings {
+    /// The fit with a physical mass matrix: as identified; for total least squares with the
+    /// DOFs it left without a positive mass taken from ordinary least squares, where they stand
+    /// alone ([`crate::identify::fallback`]); otherwise refused with the reason.
+    fn physical_mass(
+        &self,
+        data: &fit::Data,
+        fit: crate::identify::Fit,
+        notes: &mut Vec<String>,
+    ) -> anyhow::Result<crate::identify::Fit> {
+        use crate::identify::fallback;
+        let layout = crate::core::model::ParamLayout::of(data.vehicle);
+        let bad = fallback::unphysical_dofs(data.vehicle, &layout, &fit).unwrap_or_default();
+        let fit = if self.method.estimator.name() == "tls" && !bad.is_empty() {
+            let ols = crate::identify::Method::parse("ols", Default::default())
+                .map_err(anyhow::Error::msg)?;
+            let request = fit::Request {
+                method: &ols,
+                progress: None,
+                ..self.request(&|_| {})
+            };
+            let from = fit::identify(data, &request)?.fit;
+            notes.push(fallback::note(&bad));
+            let dofs: Vec<_> = bad.iter().map(|(d, _)| *d).collect();
+            fallback::with_dofs_from(&layout, fit, &from, &dofs)
+        } else {
+            fit
+        };
+        check_mass(data.vehicle, &fit)?;
+        Ok(fit)
+    }
+}
+
 /// The identified model's mass matrix is physical (positive definite), or the fit is refused.
 fn check_mass(
     vehicle: &crate::core::model::Vehicle,
@@ -182,8 +215,16 @@ fn check_mass(
     let layout = crate::core::model::ParamLayout::of(vehicle);
     let plant = crate::core::model::Plant::new(vehicle, layout.to_hydro(&theta));
     if let Some(why) = plant.mass_problem() {
+        let help = match vehicle.structure {
+            crate::core::model::Structure::Diagonal => {
+                "runs that accelerate the vehicle in that DOF (its acceleration is what tells its mass), or the default fit (no `method`), which holds added mass within its prior"
+            }
+            _ => {
+                "a structure with fewer mass terms (diag_mass, diag_all), or runs that excite the coupled DOFs more, give a physical mass matrix"
+            }
+        };
         anyhow::bail!(
-            "the identified {} model is refused: {why}\n  help: a structure with fewer mass terms (diag_mass, diag_all), or runs that excite the coupled DOFs more, give a physical mass matrix",
+            "the identified {} model is refused: {why}\n  help: {help}",
             vehicle.structure.label()
         );
     }

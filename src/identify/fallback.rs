@@ -1,0 +1,153 @@
+//! Total least squares on a DOF the runs hardly excite. TLS corrects the regressor as well as
+//! the force, dividing by the gap between the smallest singular values; where a DOF's
+//! acceleration is mostly noise that correction can carry its mass through zero (the ExjobbROV
+//! heave, held at depth by its controller: M_RB - M_A = -0.0033 kg). Without added mass between
+//! DOFs each DOF's equation stands alone, so such a DOF takes the ordinary least-squares
+//! coefficients and the fit says so; with coupled added mass no DOF can be replaced alone and
+//! the fit is refused with the reason.
+
+use crate::core::dof::Dof;
+use crate::core::model::terms::Term;
+use crate::core::model::{ParamLayout, Plant, Vehicle};
+use crate::identify::Fit;
+
+/// The DOFs whose diagonal of M_RB - M_A is not positive under `fit`, with that diagonal, when
+/// `layout` has no added mass between DOFs; `None` when it has (no DOF stands alone).
+pub fn unphysical_dofs(
+    vehicle: &Vehicle,
+    layout: &ParamLayout,
+    fit: &Fit,
+) -> Option<Vec<(Dof, f64)>> {
+    let coupled = |t: &Term| matches!(t, Term::Added(i, j) if i != j);
+    if layout.terms.iter().any(coupled) || fit.parameters.len() < layout.len() {
+        return None;
+    }
+    let theta: Vec<f64> = fit.parameters.iter().map(|p| p.value).collect();
+    let plant = Plant::new(vehicle, layout.to_hydro(&theta[..layout.len()]));
+    Some(
+        vehicle
+            .dofs
+            .iter()
+            .map(|d| (*d, plant.mass()[d.index()]))
+            .filter(|(_, m)| *m <= 0.0)
+            .collect(),
+    )
+}
+
+/// `fit` with the coefficients of the equations of `dofs`, and their residual levels, taken
+/// from `ols` (the same problem's ordinary least-squares fit).
+pub fn with_dofs_from(layout: &ParamLayout, mut fit: Fit, ols: &Fit, dofs: &[Dof]) -> Fit {
+    for (j, t) in layout.terms.iter().enumerate() {
+        if dofs.contains(&t.dof())
+            && let Some(p) = ols.parameters.get(j)
+        {
+            fit.parameters[j] = p.clone();
+        }
+    }
+    for d in dofs {
+        if let Some(s) = ols.residual_sigma.get(d.name()) {
+            fit.residual_sigma.insert(d.name().to_string(), *s);
+        }
+    }
+    fit
+}
+
+/// What the fit's notes say of a fall-back.
+pub fn note(bad: &[(Dof, f64)]) -> String {
+    let list: Vec<String> = bad
+        .iter()
+        .map(|(d, m)| {
+            let unit = if d.is_angular() { "kg m^2" } else { "kg" };
+            format!("{d} ({m:.4} {unit})")
+        })
+        .collect();
+    let names: Vec<String> = bad.iter().map(|(d, _)| d.to_string()).collect();
+    format!(
+        "total least squares gave a mass M_RB - M_A that is not positive in {}: the runs hardly excite {}, and TLS's correction of the regressor there is mostly noise. Those equations stand alone in this structure, so their coefficients are ordinary least squares'; runs that accelerate the vehicle in {} would let TLS fit them",
+        list.join(", "),
+        names.join(" and "),
+        names.join(" and ")
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::identify::Estimate;
+
+    fn estimate(name: &str, value: f64) -> Estimate {
+        Estimate {
+            name: name.into(),
+            value,
+            unit: String::new(),
+            stderr: 0.1,
+            interval: None,
+            identifiable: true,
+            note: None,
+        }
+    }
+
+    fn fit(values: &[f64], sigma: f64, layout: &ParamLayout) -> Fit {
+        Fit {
+            parameters: layout
+                .terms
+                .iter()
+                .zip(values)
+                .map(|(t, v)| estimate(&t.name(), *v))
+                .collect(),
+            residual_sigma: layout
+                .dofs
+                .iter()
+                .map(|d| (d.name().to_string(), sigma))
+                .collect(),
+            samples: 100,
+            condition_number: 1.0,
+            evaluations: None,
+            objective_value: None,
+            stopped_early: None,
+            trace: None,
+            refinement: None,
+            command_lag: None,
+            thrust_gain: None,
+        }
+    }
+
+    /// Heave's added mass beyond the rigid body's (a negative total) is found, and only heave's
+    /// three coefficients are replaced; yaw keeps TLS's.
+    #[test]
+    fn a_dof_with_a_negative_mass_takes_the_least_squares_coefficients_alone() {
+        let mut vehicle = Vehicle::reference();
+        vehicle.dofs = vec![Dof::Heave, Dof::Yaw];
+        let layout = ParamLayout::of(&vehicle);
+        let names: Vec<String> = layout.terms.iter().map(|t| t.name()).collect();
+        let heave_mass = vehicle.rigid_mass()[Dof::Heave.index()];
+        // TLS: Z_wdot beyond the rigid mass (total -0.5 kg), every other coefficient -1.
+        let tls_values: Vec<f64> = layout
+            .terms
+            .iter()
+            .map(|t| match t {
+                Term::Added(2, 2) => heave_mass + 0.5,
+                _ => -1.0,
+            })
+            .collect();
+        let tls = fit(&tls_values, 1.0, &layout);
+        let bad = unphysical_dofs(&vehicle, &layout, &tls).unwrap();
+        assert_eq!(bad.len(), 1, "{bad:?} of {names:?}");
+        assert_eq!(bad[0].0, Dof::Heave);
+        assert!((bad[0].1 + 0.5).abs() < 1e-9, "{bad:?}");
+        let ols = fit(&vec![-2.0; layout.len()], 2.0, &layout);
+        let merged = with_dofs_from(&layout, tls, &ols, &[Dof::Heave]);
+        for (t, p) in layout.terms.iter().zip(&merged.parameters) {
+            let want = if t.dof() == Dof::Heave { -2.0 } else { -1.0 };
+            assert_eq!(p.value, want, "{}", p.name);
+        }
+        assert_eq!(merged.residual_sigma["heave"], 2.0);
+        assert_eq!(merged.residual_sigma["yaw"], 1.0);
+        assert!(
+            unphysical_dofs(&vehicle, &layout, &merged)
+                .unwrap()
+                .is_empty()
+        );
+        assert!(note(&bad).contains("heave (-0.5000 kg)"), "{}", note(&bad));
+    }
+}
