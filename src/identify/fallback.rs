@@ -102,13 +102,7 @@ mod tests {
                 .collect(),
             samples: 100,
             condition_number: 1.0,
-            evaluations: None,
-            objective_value: None,
-            stopped_early: None,
-            trace: None,
-            refinement: None,
-            command_lag: None,
-            thrust_gain: None,
+            ..Fit::default()
         }
     }
 

@@ -69,7 +69,7 @@ pub fn check_signs(layout: &crate::core::model::ParamLayout, params: &mut [Estim
 }
 
 /// What an estimator returns: the parameters and how well the model explains the data.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct Fit {
     pub parameters: Vec<Estimate>,
     /// Residual standard deviation of the equation error per DOF (N or N m).

@@ -255,13 +255,7 @@ pub(crate) fn summarise_with(
             .collect(),
         samples: n,
         condition_number,
-        evaluations: None,
-        objective_value: None,
-        stopped_early: None,
-        trace: None,
-        refinement: None,
-        command_lag: None,
-        thrust_gain: None,
+        ..Fit::default()
     }
 }
 

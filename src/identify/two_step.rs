@@ -102,13 +102,7 @@ pub fn two_step(early: &Regression, all: &Regression) -> anyhow::Result<Fit> {
         residual_sigma: residual_sigma(all, &theta),
         samples: all.rows(),
         condition_number,
-        evaluations: None,
-        objective_value: None,
-        stopped_early: None,
-        trace: None,
-        refinement: None,
-        command_lag: None,
-        thrust_gain: None,
+        ..Fit::default()
     })
 }
 

@@ -168,10 +168,7 @@ impl Outcome {
                     .map_or(self.answers[0].1, |r| r.cost_after),
             ),
             stopped_early,
-            trace: None,
-            refinement: None,
-            command_lag: None,
-            thrust_gain: None,
+            ..Fit::default()
         }
     }
 
