@@ -397,15 +397,10 @@ fn over_the_lag(
 /// and buoyancy (eta), which turns the body about the other two axes as it tilts (eta_z rolls
 /// and pitches the vehicle).
 fn acts_in(t: crate::core::model::terms::Term) -> String {
-    use crate::core::dof::Dof;
     match t {
-        crate::core::model::terms::Term::Moment(a) => {
-            let [p, q]: [Dof; 2] = match a {
-                0 => [Dof::Pitch, Dof::Yaw],
-                1 => [Dof::Roll, Dof::Yaw],
-                _ => [Dof::Roll, Dof::Pitch],
-            };
-            format!("{p} and {q}")
+        crate::core::model::terms::Term::Moment(_) => {
+            let axes: Vec<String> = t.equations().iter().map(|d| d.to_string()).collect();
+            axes.join(" and ")
         }
         t => t.dof().to_string(),
     }

@@ -66,6 +66,21 @@ impl Term {
         Dof::ALL[i]
     }
 
+    /// The equations the term enters: its own, except for the weight and buoyancy. W - B pushes
+    /// along the vertical, which tilts into surge and sway; a component of eta is a moment
+    /// about its axis crossed with the vertical, so it turns the other two axes (eta_z rights
+    /// roll and pitch, eta_x acts in pitch and yaw, eta_y in roll and yaw).
+    pub fn equations(self) -> Vec<Dof> {
+        match self {
+            Term::NetWeight => vec![Dof::Surge, Dof::Sway, Dof::Heave],
+            Term::Moment(a) => (0..3)
+                .filter(|&b| b != a)
+                .map(|b| Dof::ALL[b + 3])
+                .collect(),
+            t => vec![t.dof()],
+        }
+    }
+
     /// A diagonal term (X_udot, X_u, X_uu): one that physics signs.
     pub fn is_diagonal(self) -> bool {
         match self {
@@ -266,13 +281,15 @@ impl Structure {
             // (eta_z) is that restoring moment. A horizontal offset gives, near level trim, a
             // constant pitch (eta_x) or roll (eta_y) moment: where the model already has that
             // constant (`constant_force`), the two cannot be told apart, and the offset's
-            // small cross terms (a yaw moment when rolled) would be fitted to noise.
-            let constant_in = |i: usize| constant.contains(&Dof::ALL[i]);
+            // small cross terms (a yaw moment when rolled) would be fitted to noise, as they
+            // would where the model has no pitch (eta_x) or roll (eta_y): there they are those
+            // cross terms alone, and a model of roll by itself has no column for them at all.
+            let free = |i: usize| ix.contains(&i) && !constant.contains(&Dof::ALL[i]);
             out.push(Term::Moment(2));
-            if !constant_in(4) {
+            if free(4) {
                 out.push(Term::Moment(0));
             }
-            if !constant_in(3) {
+            if free(3) {
                 out.push(Term::Moment(1));
             }
         }
@@ -422,6 +439,32 @@ mod tests {
         let four = [Dof::Surge, Dof::Sway, Dof::Heave, Dof::Yaw];
         let diag = Structure::Diagonal.terms(&four, &[Dof::Heave], &CustomTerms::default());
         assert_eq!(diag.unwrap().len(), 13);
+    }
+
+    /// Every weight and buoyancy term of a diagonal model acts in one of the model's DOFs:
+    /// for every set of rotational DOFs, with and without their constant moments (a term
+    /// that acts in none is a zero column, and the regression singular: roll alone was).
+    #[test]
+    fn a_diagonal_models_restoring_terms_act_in_its_dofs() {
+        let rotational = [Dof::Roll, Dof::Pitch, Dof::Yaw];
+        for mask in 1..8u32 {
+            let dofs: Vec<Dof> = (0..3)
+                .filter(|b| mask & (1 << b) != 0)
+                .map(|b| rotational[b])
+                .collect();
+            for constant in [&[][..], &dofs[..]] {
+                let terms = Structure::Diagonal
+                    .terms(&dofs, constant, &CustomTerms::default())
+                    .unwrap();
+                for t in terms {
+                    assert!(
+                        t.equations().iter().any(|d| dofs.contains(d)),
+                        "{} in a model of {dofs:?} (constants {constant:?})",
+                        t.name()
+                    );
+                }
+            }
+        }
     }
 
     #[test]
