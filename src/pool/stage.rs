@@ -28,14 +28,19 @@ impl StageImpl for Settings {
         ctx.progress.set_message(format!("fusing {}", run.name));
         let mut fused = fusion::fuse(&run, &self.fusion);
         let rolls = [crate::core::dof::Dof::Roll, crate::core::dof::Dof::Pitch];
-        if ctx.vehicle.dofs.iter().any(|d| rolls.contains(d)) {
-            let mut notes = Vec::new();
+        let modelled = ctx.vehicle.dofs.iter().any(|d| rolls.contains(d));
+        let mut notes = Vec::new();
+        if modelled {
             fused.roll_pitch = fusion::rotation::fuse(&run, &fused.t, &mut notes);
-            if let Some((r, sd)) = fusion::rotation::yaw_rate(&run, &fused.t, &mut notes) {
-                (fused.vel[3], fused.std[3]) = (Some(r), Some(sd));
-            }
-            fused.stats.notes.extend(notes);
         }
+        // A run that rolls or pitches has its r from the gyro whatever the model's DOFs, so
+        // that yaw is fitted to the same rate alone as beside roll and pitch.
+        if (modelled || fusion::rotation::tilted(&run))
+            && let Some((r, sd)) = fusion::rotation::yaw_rate(&run, &fused.t, &mut notes)
+        {
+            (fused.vel[3], fused.std[3]) = (Some(r), Some(sd));
+        }
+        fused.stats.notes.extend(notes);
         let without_sonar = self.fuse_without_sonar(&run);
         let (thrust, moments) = thrust_rows(&run);
         run::write_table(&ctx.out.join(run::TABLE), &thrust, &moments, &fused)?;

@@ -138,3 +138,54 @@ fn six_parameter_sets_from_pool_trials_alone_rank_as_the_data_say() {
     );
     assert!(html.contains("Against the twin's coefficients"));
 }
+
+/// A run that rolls and pitches has its yaw rate from the gyro (here the navigation log's body
+/// rate) whatever the model's DOFs: a yaw-only fit reads the same r as one beside roll and
+/// pitch. It took the heading filter's rate alone, which on the ExjobbROV bags (an EKF whose
+/// yaw does not integrate from its rates) was three times the gyro's on a pitch sine.
+#[test]
+fn a_yaw_only_model_of_a_rolling_vehicle_reads_the_gyros_yaw_rate() {
+    let mut rates = Vec::new();
+    for dofs in ["[yaw]", "[roll, pitch, yaw]"] {
+        let p = example("six_dof_rov");
+        let dir = p.path();
+        let text = read(dir, "pipeline.yaml");
+        let vehicle = text.split("\nstages:").next().unwrap();
+        let pipeline = format!(
+            "{}\nstages:\n  pool: {{kind: pool, inputs: [\"cases/pool/*/\"]}}\n  fit: {{kind: fit, from: [pool], settings: {{method: ols}}}}\n  validate: {{kind: validate, from: [fit, pool]}}\n  report: {{kind: report, from: [fit, pool, validate]}}\n",
+            vehicle
+                .replace(
+                    "dofs: [surge, sway, heave, roll, pitch, yaw]",
+                    &format!("dofs: {dofs}")
+                )
+                .replace("structure: custom", "structure: diagonal")
+        );
+        std::fs::write(dir.join("pipeline.yaml"), pipeline).unwrap();
+        ok(dir, &["build"]);
+        let fusion = read(dir, "reports/fusion.json");
+        assert!(
+            fusion.contains("r from the navigation log's body rate"),
+            "{dofs}: {fusion}"
+        );
+        // The mean |r| the validation normalises yaw by, per held-out run.
+        let v = json(dir, "reports/validation.json");
+        let runs: Vec<(String, f64)> = v["models"][0]["runs"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|r| {
+                let y = &r["dofs"]["yaw"];
+                let scale = y["mae"].as_f64().unwrap() / y["nmae"].as_f64().unwrap();
+                (r["run"].as_str().unwrap().to_string(), scale)
+            })
+            .collect();
+        rates.push(runs);
+    }
+    assert_eq!(rates[0].len(), rates[1].len());
+    for ((run, a), (_, b)) in rates[0].iter().zip(&rates[1]) {
+        assert!(
+            (a / b - 1.0).abs() < 1e-6,
+            "{run}: mean |r| {a} alone, {b} beside roll and pitch"
+        );
+    }
+}

@@ -64,6 +64,31 @@ pub fn fuse(run: &PoolRun, t: &[f64], notes: &mut Vec<String>) -> RollPitch {
     out
 }
 
+/// Roll or pitch, RMS about its mean, beyond which a run's heading no longer turns at r: 5 deg
+/// (a heading from an AHRS that does not integrate from its own rates then differs from r by
+/// more than the geometry, as the ExjobbROV EKF's did by up to 45 deg/s on its attitude steps).
+const TILTED_RMS_DEG: f64 = 5.0;
+
+/// Whether `run` rolls or pitches (its IMU's or navigation log's attitude, RMS about its mean,
+/// beyond [`TILTED_RMS_DEG`]): then its yaw rate is the gyro's body rate ([`yaw_rate`]),
+/// whether or not the model has roll and pitch.
+pub fn tilted(run: &PoolRun) -> bool {
+    let sources = [(run.imu.as_ref(), [0, 1]), (run.nav.as_ref(), [3, 4])];
+    let rms = |z: &[f64]| {
+        let v: Vec<f64> = z.iter().copied().filter(|x| x.is_finite()).collect();
+        let n = v.len().max(1) as f64;
+        let mean = v.iter().sum::<f64>() / n;
+        (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n).sqrt()
+    };
+    sources.iter().any(|(log, cols)| {
+        log.is_some_and(|l| {
+            cols.iter()
+                .filter_map(|&c| l.col(c))
+                .any(|z| rms(z) > TILTED_RMS_DEG.to_radians())
+        })
+    })
+}
+
 /// The body yaw rate r of `run` at the times `t`, with its standard deviation, from the IMU's
 /// gyro or the navigation log's r column, smoothed as p and q are; `None` when neither logs
 /// it. For a vehicle that rolls and pitches this, not the heading's rate, is r: the heading
