@@ -2,9 +2,9 @@
 //! the force, dividing by the gap between the smallest singular values; where a DOF's
 //! acceleration is mostly noise that correction can carry its mass through zero (the ExjobbROV
 //! heave, held at depth by its controller: M_RB - M_A = -0.0033 kg). Without added mass between
-//! DOFs each DOF's equation stands alone, so such a DOF takes the ordinary least-squares
-//! coefficients and the fit says so; with coupled added mass no DOF can be replaced alone and
-//! the fit is refused with the reason.
+//! DOFs such a DOF's equation stands alone (with those it shares a restoring term with), so it
+//! takes the ordinary least-squares coefficients and the fit says so; with coupled added mass
+//! no DOF can be replaced alone and the fit is refused with the reason.
 
 use crate::core::dof::Dof;
 use crate::core::model::terms::Term;
@@ -34,11 +34,35 @@ pub fn unphysical_dofs(
     )
 }
 
-/// `fit` with the coefficients of the equations of `dofs`, and their residual levels, taken
-/// from `ols` (the same problem's ordinary least-squares fit).
+/// `dofs` and every modelled DOF that shares a term with one of them (the moment of weight
+/// and buoyancy enters two equations): their coefficients are fitted together, so they are
+/// replaced together.
+pub fn together(layout: &ParamLayout, dofs: &[Dof]) -> Vec<Dof> {
+    let mut set = dofs.to_vec();
+    loop {
+        let before = set.len();
+        for t in &layout.terms {
+            let eqs = t.equations();
+            if eqs.iter().any(|d| set.contains(d)) {
+                for d in eqs {
+                    if layout.dofs.contains(&d) && !set.contains(&d) {
+                        set.push(d);
+                    }
+                }
+            }
+        }
+        if set.len() == before {
+            return set;
+        }
+    }
+}
+
+/// `fit` with the coefficients of every term entering an equation of `dofs`, and those
+/// equations' residual levels, taken from `ols` (the same problem's ordinary least-squares
+/// fit); `dofs` as [`together`] gives them.
 pub fn with_dofs_from(layout: &ParamLayout, mut fit: Fit, ols: &Fit, dofs: &[Dof]) -> Fit {
     for (j, t) in layout.terms.iter().enumerate() {
-        if dofs.contains(&t.dof())
+        if t.equations().iter().any(|d| dofs.contains(d))
             && let Some(p) = ols.parameters.get(j)
         {
             fit.parameters[j] = p.clone();
@@ -52,8 +76,9 @@ pub fn with_dofs_from(layout: &ParamLayout, mut fit: Fit, ols: &Fit, dofs: &[Dof
     fit
 }
 
-/// What the fit's notes say of a fall-back.
-pub fn note(bad: &[(Dof, f64)]) -> String {
+/// What the fit's notes say of a fall-back of the DOFs `bad` (with their masses), `replaced`
+/// with the DOFs they share terms with.
+pub fn note(bad: &[(Dof, f64)], replaced: &[Dof]) -> String {
     let list: Vec<String> = bad
         .iter()
         .map(|(d, m)| {
@@ -62,10 +87,13 @@ pub fn note(bad: &[(Dof, f64)]) -> String {
         })
         .collect();
     let names: Vec<String> = bad.iter().map(|(d, _)| d.to_string()).collect();
+    let all: Vec<String> = replaced.iter().map(|d| d.to_string()).collect();
     format!(
-        "total least squares gave a mass M_RB - M_A that is not positive in {}: the runs hardly excite {}, and TLS's correction of the regressor there is mostly noise. Those equations stand alone in this structure, so their coefficients are ordinary least squares'; runs that accelerate the vehicle in {} would let TLS fit them",
+        "total least squares gave a mass M_RB - M_A that is not positive in {}: the runs hardly excite {}, and TLS's correction of the regressor there is mostly noise. No added mass couples {} to another DOF, so the coefficients of {} are ordinary least squares'; runs that accelerate the vehicle in {} would let TLS fit them",
         list.join(", "),
         names.join(" and "),
+        names.join(" and "),
+        all.join(", "),
         names.join(" and ")
     )
 }
@@ -142,6 +170,20 @@ mod tests {
                 .unwrap()
                 .is_empty()
         );
-        assert!(note(&bad).contains("heave (-0.5000 kg)"), "{}", note(&bad));
+        let text = note(&bad, &[Dof::Heave]);
+        assert!(text.contains("heave (-0.5000 kg)"), "{text}");
+    }
+
+    /// Roll and pitch share the moment of weight and buoyancy (eta_z): a roll that falls back
+    /// takes pitch with it, and yaw, which shares nothing with them here, stays.
+    #[test]
+    fn dofs_that_share_a_term_fall_back_together() {
+        let mut vehicle = Vehicle::reference();
+        vehicle.dofs = vec![Dof::Roll, Dof::Pitch, Dof::Yaw];
+        vehicle.constant_force = vehicle.dofs.clone();
+        let layout = ParamLayout::of(&vehicle);
+        assert!(layout.terms.contains(&Term::Moment(2)));
+        assert_eq!(together(&layout, &[Dof::Roll]), vec![Dof::Roll, Dof::Pitch]);
+        assert_eq!(together(&layout, &[Dof::Yaw]), vec![Dof::Yaw]);
     }
 }

@@ -195,8 +195,9 @@ impl Settings {
                 ..self.request(&|_| {})
             };
             let from = fit::identify(data, &request)?.fit;
-            notes.push(fallback::note(&bad));
-            let dofs: Vec<_> = bad.iter().map(|(d, _)| *d).collect();
+            let bad_dofs: Vec<_> = bad.iter().map(|(d, _)| *d).collect();
+            let dofs = fallback::together(&layout, &bad_dofs);
+            notes.push(fallback::note(&bad, &dofs));
             fallback::with_dofs_from(&layout, fit, &from, &dofs)
         } else {
             fit
