@@ -65,6 +65,7 @@ pub fn fuse_folder(root: &std::path::Path, name: &str) -> anyhow::Result<FusedRu
         force_logged: true,
         actuators: Vec::new(),
         design: None,
+        tilted: false,
     };
     Ok(FusedRun {
         meta,

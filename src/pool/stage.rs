@@ -77,6 +77,7 @@ impl StageImpl for Settings {
             force_logged: run.force_logged,
             actuators,
             design: run.design.clone(),
+            tilted: fusion::rotation::tilted(&run),
         };
         crate::core::fsutil::write_json(&ctx.out.join(run::META), &meta)
     }

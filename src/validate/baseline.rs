@@ -28,10 +28,31 @@ impl Shortfall {
             Some(b) if nmae < 1.0 => format!("the first-order model per DOF (NMAE {b:.3})"),
             _ => "predicting that the vehicle stays at rest (NMAE 1.000)".to_string(),
         };
+        let left_out = match self.unmodelled_motion.as_slice() {
+            [] => String::new(),
+            dofs => {
+                let names: Vec<String> = dofs.iter().map(|d| d.to_string()).collect();
+                let names = names.join(" and ");
+                format!(
+                    ". The held-out runs move in {names} (attitude over 5 deg RMS), which the model holds at rest in its simulation: what that motion drives in {d} is not modelled; try a model with {names} among its `dofs` where the logs have them"
+                )
+            }
+        };
         format!(
-            "{model} in {d}: held-out NMAE {nmae:.3} does not beat {what}; do not use this model in {d} without a better one"
+            "{model} in {d}: held-out NMAE {nmae:.3} does not beat {what}; do not use this model in {d} without a better one{left_out}"
         )
     }
+}
+
+/// Roll and pitch, where `vehicle` leaves them out and a held-out run rolls or pitches.
+pub fn unmodelled_motion(vehicle: &Vehicle, runs: &[FusedRun]) -> Vec<Dof> {
+    let tilted = runs
+        .iter()
+        .any(|r| r.meta.role == Role::Validate && r.meta.tilted);
+    [Dof::Roll, Dof::Pitch]
+        .into_iter()
+        .filter(|d| tilted && !vehicle.dofs.contains(d))
+        .collect()
 }
 
 /// The first-order baseline's vehicle: `vehicle`'s DOFs with a diagonal added mass, linear drag
@@ -126,6 +147,7 @@ pub fn shortfalls(model: &ModelScore, first_order: Option<&ModelScore>) -> Vec<S
                 dof,
                 nmae,
                 first_order_nmae: fo,
+                unmodelled_motion: Vec::new(),
             })
         })
         .collect()
@@ -240,5 +262,13 @@ mod tests {
         let s = shortfalls(&d, None);
         assert!(s.len() == 1 && s[0].nmae.is_none(), "{s:?}");
         assert!(s[0].sentence("fit").contains("diverged"));
+        // Where the held-out runs pitch and the model leaves pitch out, the sentence says so.
+        let mut s = shortfalls(&m, None);
+        s[0].unmodelled_motion = vec![Pitch];
+        let text = s[0].sentence("fit");
+        assert!(
+            text.contains("move in pitch") && text.contains("with pitch among its `dofs`"),
+            "{text}"
+        );
     }
 }

@@ -60,8 +60,12 @@ pub fn score_models(
             vec![]
         }
     };
+    let left_out = super::baseline::unmodelled_motion(vehicle, runs);
     for m in &mut models {
         m.shortfalls = super::baseline::shortfalls(m, baselines.first());
+        for s in &mut m.shortfalls {
+            s.unmodelled_motion = left_out.clone();
+        }
     }
     let behind: Vec<Vec<super::pool::Behind>> = models
         .iter()

@@ -277,4 +277,8 @@ pub struct Shortfall {
     /// The first-order baseline's, when it could be fitted.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub first_order_nmae: Option<f64>,
+    /// Roll and pitch where the held-out runs roll or pitch and the model leaves them out: a
+    /// DOF left out is at rest in the simulation, so what its motion drives here is missing.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub unmodelled_motion: Vec<Dof>,
 }

@@ -60,6 +60,7 @@ fn straight_meta(i: usize) -> crate::pool::fusion::run::RunMeta {
         force_logged: true,
         actuators: vec![],
         design: None,
+        tilted: false,
     }
 }
 

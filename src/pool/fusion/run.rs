@@ -40,6 +40,10 @@ pub struct RunMeta {
     /// The run's `design.json`, when `hydrofit design` proposed it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub design: Option<serde_json::Value>,
+    /// Whether the run rolls or pitches (attitude over 5 deg RMS,
+    /// [`crate::pool::fusion::rotation::tilted`]), modelled or not.
+    #[serde(default)]
+    pub tilted: bool,
 }
 
 fn yes() -> bool {
@@ -430,6 +434,7 @@ mod tests {
             force_logged: true,
             actuators: vec![],
             design: None,
+            tilted: false,
         };
         let fused = Fused {
             t: vec![0.0, 1.0],
