@@ -29,13 +29,14 @@ impl StageImpl for Settings {
         let mut fused = fusion::fuse(&run, &self.fusion);
         let rolls = [crate::core::dof::Dof::Roll, crate::core::dof::Dof::Pitch];
         let modelled = ctx.vehicle.dofs.iter().any(|d| rolls.contains(d));
+        let tilted = fusion::rotation::tilted(&run);
         let mut notes = Vec::new();
         if modelled {
             fused.roll_pitch = fusion::rotation::fuse(&run, &fused.t, &mut notes);
         }
         // A run that rolls or pitches has its r from the gyro whatever the model's DOFs, so
         // that yaw is fitted to the same rate alone as beside roll and pitch.
-        if (modelled || fusion::rotation::tilted(&run))
+        if (modelled || tilted)
             && let Some((r, sd)) = fusion::rotation::yaw_rate(&run, &fused.t, &mut notes)
         {
             (fused.vel[3], fused.std[3]) = (Some(r), Some(sd));
@@ -77,7 +78,7 @@ impl StageImpl for Settings {
             force_logged: run.force_logged,
             actuators,
             design: run.design.clone(),
-            tilted: fusion::rotation::tilted(&run),
+            tilted,
         };
         crate::core::fsutil::write_json(&ctx.out.join(run::META), &meta)
     }
