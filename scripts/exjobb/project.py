@@ -97,9 +97,12 @@ stages:
   validate:
     kind: validate
     from: [fit, fit_ols, pool]
+  diagnose:
+    kind: diagnose
+    from: [fit, pool]
   report:
     kind: report
-    from: [fit, fit_ols, pool, validate]
+    from: [fit, fit_ols, pool, validate, diagnose]
 """
 
 RUN = """\

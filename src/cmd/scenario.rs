@@ -82,7 +82,8 @@ pub fn runs(effects: &[Effect], seed: u64) -> anyhow::Result<Vec<Run>> {
     fused_runs(effects, seed)?
         .iter()
         .map(|r| {
-            Run::from_fused(r).ok_or_else(|| anyhow::anyhow!("{}: not every DOF fused", r.meta.run))
+            Run::from_fused(r, crate::diagnose::Slots::POOL)
+                .ok_or_else(|| anyhow::anyhow!("{}: not every DOF fused", r.meta.run))
         })
         .collect()
 }

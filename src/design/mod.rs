@@ -340,6 +340,7 @@ impl Setup {
         crate::diagnose::Run {
             name: "designed".into(),
             validate: true,
+            slots: crate::diagnose::Slots::POOL,
             cmd: lagged.iter().map(|c| [c[0], c[1], c[2], c[5]]).collect(),
             vel: [
                 col(&|s| s.nu[0]),
@@ -355,6 +356,7 @@ impl Setup {
             pool: Some(self.pool),
             anchor: self.anchor,
             dead_reckoned: false,
+            att: Default::default(),
             anchors_s: Vec::new(),
         }
     }

@@ -321,7 +321,12 @@ fn look_alikes(
 /// The training runs as the diagnosis reads them (the command through the model's lag).
 fn recorded_runs(setup: &Setup, runs: &[FusedRun]) -> Vec<crate::diagnose::Run> {
     runs.iter()
-        .filter_map(|r| crate::diagnose::Run::from_fused(&r.clone().with_command_of(&setup.plant)))
+        .filter_map(|r| {
+            crate::diagnose::Run::from_fused(
+                &r.clone().with_command_of(&setup.plant),
+                crate::diagnose::Slots::POOL,
+            )
+        })
         .collect()
 }
 

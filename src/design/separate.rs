@@ -145,6 +145,7 @@ mod tests {
         Run {
             name: "r".into(),
             validate: true,
+            slots: diagnose::Slots::POOL,
             cmd: c,
             vel: [col(0), col(1), col(2), col(5)],
             std: std::array::from_fn(|_| vec![0.01; t.len()]),
@@ -155,6 +156,7 @@ mod tests {
             pool: None,
             anchor: None,
             dead_reckoned: false,
+            att: Default::default(),
             anchors_s: Vec::new(),
         }
     }

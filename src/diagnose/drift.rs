@@ -11,6 +11,7 @@ pub(super) struct Drifted {
     pub(super) parameters: Vec<crate::identify::Estimate>,
     pub(super) sums: dx::Sums,
     pub(super) cost: f64,
+    slots: dx::Slots,
 }
 
 impl Drifted {
@@ -28,6 +29,7 @@ impl Drifted {
             parameters,
             sums,
             cost,
+            slots: data.slots,
         })
     }
 
@@ -35,7 +37,7 @@ impl Drifted {
     pub(super) fn into_record(self, within_noise: bool) -> Reestimated {
         Reestimated {
             parameters: self.parameters,
-            validation_nmae: dx::nmae_map(&self.sums),
+            validation_nmae: dx::nmae_map(&self.sums, &self.slots),
             validation_cost: self.cost,
             within_noise,
         }

@@ -3,7 +3,7 @@
 //! the effect's own variable), with captions whose direction words the numbers choose.
 
 use super::result::{Figure, pct};
-use super::{self as dx, Augmentation, DOFS, Data, Mismatch};
+use super::{self as dx, Augmentation, Data, Mismatch};
 use crate::core::dof::Dof;
 use crate::core::model::Plant;
 
@@ -21,9 +21,9 @@ pub(super) fn residual_overview(
     };
     let run = &data.validate[i];
     let zero = vec![0.0; run.t.len()];
-    let traces: Vec<crate::core::plot::Trace> = (0..4)
+    let traces: Vec<crate::core::plot::Trace> = (data.slots.on())
         .map(|j| crate::core::plot::Trace {
-            label: DOFS[j].name(),
+            label: data.slots.dofs[j].name(),
             t: &run.t,
             measured: &res[i][j],
             simulated: &zero,
@@ -60,7 +60,7 @@ pub(super) fn overlay_figure(
     };
     let (Some(run), Some(j)) = (
         data.validate.iter().find(|r| r.name == m.run),
-        DOFS.iter().position(|d| *d == m.dof),
+        data.slots.slot(m.dof),
     ) else {
         return Ok(None);
     };
@@ -85,7 +85,7 @@ pub(super) fn overlay_figure(
         (s / n.max(1) as f64).sqrt()
     };
     let names: Vec<&str> = selected.iter().map(|(h, _)| h.name).collect();
-    let d = DOFS[j];
+    let d = data.slots.dofs[j];
     let model_label = format!("model {model} (dashed)");
     let svg = crate::core::plot::overlay(&crate::core::plot::Overlay {
         title: &format!("{}: {} velocity, recorded and simulated", run.name, d),
@@ -132,7 +132,7 @@ fn worst_run_figure(
         return Ok(None);
     };
     let run = &data.validate[i];
-    let d = DOFS[j];
+    let d = data.slots.dofs[j];
     let tr = [Trace {
         label: "before",
         t: &run.t,
@@ -166,10 +166,14 @@ pub(super) fn evidence_figures(
     dofs: &[Dof],
 ) -> anyhow::Result<Vec<Figure>> {
     use crate::core::plot::{Trace, curves};
-    let j = dofs
+    let Some(j) = dofs
         .first()
-        .and_then(|d| DOFS.iter().position(|x| x == d))
-        .unwrap_or(h.main_dof);
+        .and_then(|d| data.slots.slot(*d))
+        .or_else(|| data.slots.slot(h.main_dof))
+        .or_else(|| data.slots.on().next())
+    else {
+        return Ok(Vec::new());
+    };
     let rb = dx::residuals(plant, before, &data.validate);
     let ra = dx::residuals(plant, after, &data.validate);
     let mut out = Vec::new();
@@ -188,7 +192,10 @@ pub(super) fn evidence_figures(
             simulated: &ya,
         }];
         let svg = curves(
-            &format!("{}: RMS {} residual against {}", h.name, DOFS[j], label),
+            &format!(
+                "{}: RMS {} residual against {}",
+                h.name, data.slots.dofs[j], label
+            ),
             &label,
             "RMS residual",
             &tr,
@@ -209,7 +216,7 @@ fn evidence_axis(h: &dx::Hypothesis, data: &Data, j: usize) -> (String, Vec<Vec<
         .iter()
         .map(|r| (0..r.t.len()).map(|k| (h.axis.value)(r, k, j)).collect())
         .collect();
-    ((h.axis.label)(j), values)
+    ((h.axis.label)(data.slots.dofs[j]), values)
 }
 
 /// How a binned RMS residual runs along its axis, in words the numbers choose: the

@@ -1,7 +1,7 @@
 //! Where the mismatch is: the residual's share in each regime of the runs (after a command
 //! step, near a wall, ...) and its worst windows per run and DOF.
 
-use super::{DOFS, Run};
+use super::Run;
 use crate::core::dof::Dof;
 use serde::{Deserialize, Serialize};
 
@@ -73,8 +73,8 @@ fn in_regime(name: &str, run: &Run, k: usize, j: usize, med: &RunMedians) -> Opt
         "near_wall" => run.wall_distance(k)? < 2.0,
         "deep" => run.pos[2][k] > med.depth,
         "heading_pool_x" => run.psi[k].cos() > 0.0,
-        "cross_flow" => (run.vel[0][k] * run.vel[1][k]).abs() > med.cross,
-        "heave" => j == 2,
+        "cross_flow" => cross(run, k)? > med.cross,
+        "heave" => run.slots.dofs[j] == Dof::Heave,
         _ => return None,
     })
 }
@@ -103,12 +103,14 @@ fn medians(run: &Run) -> RunMedians {
             .anchor
             .map(|_| median((0..n).filter_map(|k| run.tether_length(k)).collect())),
         depth: median(run.pos[2].clone()),
-        cross: median(
-            (0..n)
-                .map(|k| (run.vel[0][k] * run.vel[1][k]).abs())
-                .collect(),
-        ),
+        cross: median((0..n).filter_map(|k| cross(run, k)).collect()),
     }
+}
+
+/// |u| |v| at sample k, when the run is compared in surge and sway.
+fn cross(run: &Run, k: usize) -> Option<f64> {
+    let (a, b) = (run.slots.slot(Dof::Surge)?, run.slots.slot(Dof::Sway)?);
+    Some((run.vel[a][k] * run.vel[b][k]).abs())
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -172,7 +174,7 @@ pub fn locate(runs: &[Run], residuals: &[[Vec<f64>; 4]], scale: &[f64; 4]) -> Ve
     let mut total = 0.0;
     let mut parts = Vec::new();
     for (run, e) in runs.iter().zip(residuals) {
-        for j in 0..4 {
+        for j in run.slots.on() {
             let sq: Vec<f64> = e[j]
                 .iter()
                 .map(|x| if x.is_finite() { x * x } else { 0.0 })
@@ -180,7 +182,7 @@ pub fn locate(runs: &[Run], residuals: &[[Vec<f64>; 4]], scale: &[f64; 4]) -> Ve
             let energy: f64 = sq.iter().sum::<f64>() / scale[j];
             total += energy;
             let windows = error_windows(run, j, &sq, scale[j]);
-            parts.push((run.name.clone(), DOFS[j], windows, energy));
+            parts.push((run.name.clone(), run.slots.dofs[j], windows, energy));
         }
     }
     let mut out: Vec<Mismatch> = parts

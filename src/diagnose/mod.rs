@@ -27,9 +27,11 @@ pub mod report;
 pub mod result;
 pub mod search;
 mod select;
+pub mod slots;
 mod spectrum;
 pub mod stage;
 pub mod start;
+mod sums;
 #[cfg(test)]
 mod tests;
 mod unexplained;
@@ -49,11 +51,12 @@ pub use effects::{Hypothesis, REGISTRY, hypothesis};
 pub use locate::{Mismatch, REGIMES, Regime, RegimeShare, locate, regime_shares};
 pub use result::{Diagnosis, Figure};
 pub use select::{Criteria, Search, Tested, Untested, params_map, select, untested};
+pub use slots::Slots;
+pub use sums::{Sums, noise_per_dof, residual, sums};
 pub use verdict::diagnose;
 
 /// The pool DOFs, in the order of the fused tables: surge, sway, heave, yaw.
 pub const DOFS: [Dof; 4] = [Dof::Surge, Dof::Sway, Dof::Heave, Dof::Yaw];
-const NU: [usize; 4] = [0, 1, 2, 5];
 
 /// Integration step of the simulator, s (the twin and the thruster lag both need < 0.05).
 const STEP: f64 = 0.025;
@@ -64,7 +67,9 @@ pub struct Run {
     pub name: String,
     pub validate: bool,
     pub t: Vec<f64>,
-    /// Logged command [X, Y, Z, N].
+    /// The DOFs of the per-DOF arrays below ([`Slots`]).
+    pub slots: Slots,
+    /// Logged command in the slots' DOFs ([X, Y, Z, N] in the pool's).
     pub cmd: Vec<[f64; 4]>,
     pub vel: [Vec<f64>; 4],
     pub std: [Vec<f64>; 4],
@@ -78,6 +83,9 @@ pub struct Run {
     /// Whether `pos` is dead-reckoned from the navigation log's velocity and heading (no
     /// position sensor; run.yaml's `start_m` gave the start), see [`reckon`].
     pub dead_reckoned: bool,
+    /// Recorded roll and pitch (rad) the simulation turns gravity with, for a model compared in
+    /// roll and pitch; empty (level) otherwise.
+    pub att: [Vec<f64>; 2],
     /// Times at which simulations of this run are re-anchored to the fused velocity (multiple
     /// shooting, where the model is locally unstable along it); empty: the whole run.
     pub anchors_s: Vec<f64>,
@@ -90,18 +98,20 @@ impl Run {
         self.std[j].iter().map(|s| s * s).sum::<f64>() * self.noise_share[j].powi(2)
     }
 
-    /// None when a DOF was not fused (the run lacks a sensor it needs).
-    pub fn from_fused(r: &FusedRun) -> Option<Run> {
+    /// The run compared in `slots`; None when a DOF the model moves in was not fused (the run
+    /// lacks a sensor it needs).
+    pub fn from_fused(r: &FusedRun, slots: Slots) -> Option<Run> {
         let validate = r.meta.role == crate::pool::import::Role::Validate;
-        Run::from_parts(
-            &r.meta.run,
-            validate,
-            &r.thrust,
-            &r.fused,
-            r.meta.pool,
-            r.meta.tether_anchor_m,
-        )
-        .map(|run| run.reckoned_from(r.meta.start_m))
+        let cmd = (0..r.thrust.len())
+            .map(|k| slots.of_nu(&r.tau(k)))
+            .collect();
+        Run::from_parts(&r.meta.run, validate, cmd, &r.fused, slots)
+            .map(|run| Run {
+                pool: r.meta.pool,
+                anchor: r.meta.tether_anchor_m,
+                ..run
+            })
+            .map(|run| run.reckoned_from(r.meta.start_m))
     }
 
     /// Without a horizontal position, the track dead-reckoned from `start` (when given) and
@@ -128,31 +138,73 @@ impl Run {
     pub fn from_parts(
         name: &str,
         validate: bool,
-        thrust: &[[f64; 4]],
+        cmd: Vec<[f64; 4]>,
         f: &crate::pool::fusion::Fused,
-        pool: Option<Pool>,
-        anchor: Option<[f64; 3]>,
+        slots: Slots,
     ) -> Option<Run> {
-        // The velocities that keep the motion (a navigation log's smoothed under its sensor's
-        // own noise): the diagnosis compares simulations with them, and a flattened motion
-        // hides what the model lacks.
-        let [u, v, w, r] = [0, 1, 2, 3].map(|j| f.tracking(j));
-        let (u, v, w, r) = (u?, v?, w?, r?);
+        let n = f.t.len();
+        let mut vel: [Vec<f64>; 4] = Default::default();
+        let mut std: [Vec<f64>; 4] = Default::default();
+        let mut noise_share = [1.0; 4];
+        for j in 0..4 {
+            if !slots.active[j] {
+                // Held at rest and never scored.
+                (vel[j], std[j]) = (vec![0.0; n], vec![0.0; n]);
+                continue;
+            }
+            let (v, s, share) = slots::slot_channel(f, slots.dofs[j])?;
+            (vel[j], std[j], noise_share[j]) = (v.to_vec(), s.to_vec(), share);
+        }
+        let rp = &f.roll_pitch;
+        let rotation = slots.slot(Dof::Roll).is_some() || slots.slot(Dof::Pitch).is_some();
+        let att = match rotation && rp.roll.len() == n && rp.pitch.len() == n {
+            true => [rp.roll.clone(), rp.pitch.clone()],
+            false => Default::default(),
+        };
         Some(Run {
             name: name.into(),
             validate,
             t: f.t.clone(),
-            cmd: thrust.to_vec(),
-            vel: [u.0.to_vec(), v.0.to_vec(), w.0.to_vec(), r.0.to_vec()],
-            std: [u.1.to_vec(), v.1.to_vec(), w.1.to_vec(), r.1.to_vec()],
-            noise_share: [u.2, v.2, w.2, r.2],
+            slots,
+            cmd,
+            vel,
+            std,
+            noise_share,
             pos: [f.x.clone(), f.y.clone(), f.z.clone()],
             psi: f.psi.clone(),
-            pool,
-            anchor,
+            pool: None,
+            anchor: None,
             dead_reckoned: false,
+            att,
             anchors_s: Vec::new(),
         })
+    }
+
+    /// The command at sample k as a generalised force (zero outside the slots).
+    pub fn cmd6(&self, k: usize) -> Vec6 {
+        let mut c = [0.0; 6];
+        for j in 0..4 {
+            c[self.slots.nu(j)] = self.cmd[k][j];
+        }
+        c
+    }
+
+    /// Gravity's direction in the body frame at sample k: from the recorded roll and pitch,
+    /// level without them.
+    pub fn gravity(&self, k: usize) -> [f64; 3] {
+        match (self.att[0].get(k), self.att[1].get(k)) {
+            (Some(&phi), Some(&theta)) if phi.is_finite() && theta.is_finite() => {
+                crate::core::model::dynamics::gravity_body(phi, theta)
+            }
+            _ => crate::core::model::dynamics::LEVEL,
+        }
+    }
+
+    /// Sets the slots' velocities of `s` to the recording's at sample k.
+    pub fn set_velocity(&self, k: usize, s: &mut State) {
+        for j in 0..4 {
+            s.nu[self.slots.nu(j)] = self.vel[j][k];
+        }
     }
 
     /// Straight-line length from the tether's anchor at sample k, m.
@@ -254,9 +306,22 @@ fn world_for(plant: &Plant, aug: &Augmentation, run: &Run) -> World {
 fn anchor_velocity(run: &Run, rec: &Shifted, k: usize, s: &mut State) {
     let n = run.t.len();
     let (a, b) = (k.saturating_sub(2), (k + 2).min(n - 1));
-    for (j, &i) in NU.iter().enumerate() {
-        s.nu[i] = (a..=b).map(|q| rec.at(&run.vel[j], q)).sum::<f64>() / (b - a + 1) as f64;
+    for j in 0..4 {
+        s.nu[run.slots.nu(j)] =
+            (a..=b).map(|q| rec.at(&run.vel[j], q)).sum::<f64>() / (b - a + 1) as f64;
     }
+}
+
+/// The recorded roll and pitch at sample k (read as the sensor delay says), where the run has
+/// them: a simulation starts from them and carries them with its own body rates (Fossen 2011
+/// eq. 2.29), as the validation does, so the restoring moments turn with the motion the model
+/// makes. `None`: level throughout.
+fn recorded_attitude(run: &Run, rec: &Shifted, k: usize) -> Option<[f64; 2]> {
+    if run.att[0].is_empty() {
+        return None;
+    }
+    let a = [rec.at(&run.att[0], k), rec.at(&run.att[1], k)];
+    Some(a.map(|x| if x.is_finite() { x } else { 0.0 }))
 }
 
 /// [`simulate`], and the sample after which it diverged.
@@ -265,18 +330,15 @@ fn simulate_checked(
     aug: &Augmentation,
     run: &Run,
 ) -> (Vec<[f64; 4]>, Option<usize>) {
-    let w = world_for(plant, aug, run);
+    let mut w = world_for(plant, aug, run);
     let n = run.t.len();
-    let cmd6 = |k: usize| -> Vec6 {
-        let c = run.cmd[k];
-        [c[0], c[1], c[2], 0.0, 0.0, c[3]]
-    };
     let rec = Shifted::new(&run.t, aug.delay_s);
     let mut s = State::default();
-    for (j, &i) in NU.iter().enumerate() {
-        s.nu[i] = rec.at(&run.vel[j], 0);
+    for j in 0..4 {
+        s.nu[run.slots.nu(j)] = rec.at(&run.vel[j], 0);
     }
-    s.thrust = w.shape_command(&cmd6(0));
+    s.thrust = w.shape_command(&run.cmd6(0));
+    let mut att = recorded_attitude(run, &rec, 0);
     let mut out = Vec::with_capacity(n);
     let anchors = crate::core::model::stability::anchors(&run.t, &run.anchors_s);
     let mut next_anchor = 1;
@@ -286,9 +348,10 @@ fn simulate_checked(
             // Multiple shooting: the window starts again from the fused state (thruster
             // states carry over).
             anchor_velocity(run, &rec, k, &mut s);
+            att = recorded_attitude(run, &rec, k);
             next_anchor += 1;
         }
-        out.push([s.nu[0], s.nu[1], s.nu[2], s.nu[5]]);
+        out.push(run.slots.of_nu(&s.nu));
         if k + 1 == n {
             break;
         }
@@ -296,12 +359,22 @@ fn simulate_checked(
         s.psi = rec.at(&run.psi, k);
         let span = run.t[k + 1] - run.t[k];
         let m = crate::core::model::dynamics::substeps(span, STEP);
-        let c = cmd6(k);
+        let c = run.cmd6(k);
         let external = discovered
             .as_ref()
             .map_or([0.0; 6], |(d, pre)| d.force(run, pre, k, &s));
         for _ in 0..m {
-            s = w.step_with(&s, &c, span / m as f64, &external);
+            let h = span / m as f64;
+            let Some(a) = att.as_mut() else {
+                s = w.step_with(&s, &c, h, &external);
+                continue;
+            };
+            w.gravity = crate::core::model::dynamics::gravity_body(a[0], a[1]);
+            let next = w.step_with(&s, &c, h, &external);
+            let mean: Vec6 = std::array::from_fn(|i| 0.5 * (s.nu[i] + next.nu[i]));
+            let rate = crate::core::model::attitude::euler_rates(*a, &mean);
+            *a = [a[0] + h * rate[0], a[1] + h * rate[1]];
+            s = next;
         }
         if s.nu.iter().any(|x| !x.is_finite() || x.abs() > 50.0) {
             // Diverged: hold the last finite state so the cost is large but finite.
@@ -313,133 +386,10 @@ fn simulate_checked(
     (out, None)
 }
 
-/// Per-DOF sums of a simulation against a run's recording.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct Sums {
-    pub sse: [f64; 4],
-    /// Huber loss: squared error up to the DOF's threshold, linear beyond it.
-    pub huber: [f64; 4],
-    pub sae: [f64; 4],
-    pub sam: [f64; 4],
-    pub n: [f64; 4],
-}
-
-impl Sums {
-    fn add(&mut self, o: &Sums) {
-        for j in 0..4 {
-            self.sse[j] += o.sse[j];
-            self.huber[j] += o.huber[j];
-            self.sae[j] += o.sae[j];
-            self.sam[j] += o.sam[j];
-            self.n[j] += o.n[j];
-        }
-    }
-
-    /// Normalised robust cost: sum over DOFs of the mean Huber loss / mean square velocity.
-    /// Below the threshold it is the mean squared error; a short burst far beyond it (a sensor
-    /// glitch, a bump against the wall) counts linearly and cannot decide the ranking.
-    pub fn cost(&self, scale: &[f64; 4]) -> f64 {
-        (0..4)
-            .map(|j| {
-                if self.n[j] > 0.0 {
-                    self.huber[j] / self.n[j] / scale[j]
-                } else {
-                    0.0
-                }
-            })
-            .sum()
-    }
-
-    /// The plain mean-square cost (what the noise floor is compared with).
-    pub fn mse_cost(&self, scale: &[f64; 4]) -> f64 {
-        (0..4)
-            .map(|j| {
-                if self.n[j] > 0.0 {
-                    self.sse[j] / self.n[j] / scale[j]
-                } else {
-                    0.0
-                }
-            })
-            .sum()
-    }
-
-    /// Normalised MAE per DOF (seed 003): mean |error| / mean |measured|.
-    pub fn nmae(&self) -> [f64; 4] {
-        std::array::from_fn(|j| {
-            if self.sam[j] > 0.0 {
-                self.sae[j] / self.sam[j]
-            } else {
-                f64::NAN
-            }
-        })
-    }
-}
-
-/// Residual (simulated - recorded) at each recorded sample, per DOF. With a sensor delay d the
-/// recording at t shows what the vehicle did at t - d: the simulation (smooth) is read there,
-/// never the recording between its samples (interpolating a noisy recording would lower its
-/// noise and pass for an improvement). Samples before the simulation starts are NaN.
-pub fn residual(sim: &[[f64; 4]], run: &Run, delay: f64) -> [Vec<f64>; 4] {
-    let start = *run.t.first().unwrap_or(&0.0);
-    let loc: Vec<(usize, Option<f64>)> = if delay == 0.0 {
-        Vec::new()
-    } else {
-        run.t
-            .iter()
-            .map(|&tk| crate::pool::fusion::locate(&run.t, tk - delay))
-            .collect()
-    };
-    std::array::from_fn(|j| {
-        let series: Vec<f64> = sim.iter().map(|x| x[j]).collect();
-        (0..run.t.len())
-            .map(|k| {
-                let ts = run.t[k] - delay;
-                if ts < start - 1e-9 {
-                    f64::NAN
-                } else if delay == 0.0 {
-                    series[k] - run.vel[j][k]
-                } else {
-                    crate::pool::fusion::interp_at(&series, loc[k]) - run.vel[j][k]
-                }
-            })
-            .collect()
-    })
-}
-
-/// Per-DOF sums of a simulation against a run, with the Huber thresholds `delta` (per DOF).
-pub fn sums(sim: &[[f64; 4]], run: &Run, delay: f64, delta: &[f64; 4]) -> Sums {
-    let e = residual(sim, run, delay);
-    let mut s = Sums::default();
-    for j in 0..4 {
-        for (k, x) in e[j].iter().enumerate() {
-            if x.is_finite() {
-                s.sse[j] += x * x;
-                let a = x.abs();
-                s.huber[j] += if a <= delta[j] {
-                    x * x
-                } else {
-                    delta[j] * (2.0 * a - delta[j])
-                };
-                s.sae[j] += x.abs();
-                s.sam[j] += run.vel[j][k].abs();
-                s.n[j] += 1.0;
-            }
-        }
-    }
-    s
-}
-
-/// Per DOF, the noise floor of the normalised cost on `runs`: their mean noise variance
-/// ([`Run::noise_sum`]) over the DOF's scale. The diagnosis's floor is the sum over DOFs.
-pub fn noise_per_dof(runs: &[Run], scale: &[f64; 4]) -> [f64; 4] {
-    std::array::from_fn(|j| {
-        let n: usize = runs.iter().map(|r| r.std[j].len()).sum();
-        runs.iter().map(|r| r.noise_sum(j)).sum::<f64>() / n.max(1) as f64 / scale[j]
-    })
-}
-
 /// The data of one diagnosis: runs split by role, with the scale of each DOF.
 pub struct Data {
+    /// The DOFs of the per-DOF arrays, every run's.
+    pub slots: Slots,
     pub train: Vec<Run>,
     pub validate: Vec<Run>,
     pub scale: [f64; 4],
@@ -463,6 +413,7 @@ impl Data {
                 validate.len()
             );
         }
+        let slots = train[0].slots;
         let all = || train.iter().chain(&validate);
         let scale: [f64; 4] = std::array::from_fn(|j| {
             let (s, n) = all().fold((0.0, 0.0), |(s, n), r| {
@@ -481,6 +432,7 @@ impl Data {
             (0.25 * scale[j].sqrt()).max(3.0 * s / n.max(1.0))
         });
         Ok(Data {
+            slots,
             effects: REGISTRY,
             train,
             validate,
@@ -549,9 +501,11 @@ impl Data {
 }
 
 /// Per-DOF held-out normalised MAE as docs/formats.md writes it.
-pub fn nmae_map(s: &Sums) -> BTreeMap<Dof, f64> {
+pub fn nmae_map(s: &Sums, slots: &Slots) -> BTreeMap<Dof, f64> {
     let v = s.nmae();
-    DOFS.iter()
+    slots
+        .dofs
+        .iter()
         .enumerate()
         .filter(|(j, _)| v[*j].is_finite())
         .map(|(j, d)| (*d, v[j]))

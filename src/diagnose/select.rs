@@ -116,6 +116,17 @@ pub fn untested(data: &Data) -> Vec<Untested> {
         .iter()
         .filter(|h| !applicable(h, data))
         .map(|h| {
+            if !acts_in_slots(h, data) {
+                let dofs: Vec<String> = h.acts_in.iter().map(|d| d.to_string()).collect();
+                return Untested {
+                    name: h.name.to_string(),
+                    missing: format!(
+                        "a model that moves in {} (where the effect acts; this one is compared in {} only)",
+                        dofs.join(" or "),
+                        compared(data)
+                    ),
+                };
+            }
             // Grouped by what is missing, runs named under each.
             let mut lacking: Vec<(&str, Vec<&str>)> = Vec::new();
             for r in all.iter().filter(|r| !h.needs.met_by(r)) {
@@ -139,7 +150,22 @@ pub fn untested(data: &Data) -> Vec<Untested> {
 
 fn applicable(h: &Hypothesis, data: &Data) -> bool {
     let all = || data.train.iter().chain(&data.validate);
-    all().all(|r| h.needs.met_by(r))
+    acts_in_slots(h, data) && all().all(|r| h.needs.met_by(r))
+}
+
+/// Whether the effect acts in a DOF the model is compared in.
+fn acts_in_slots(h: &Hypothesis, data: &Data) -> bool {
+    h.acts_in.is_empty() || h.acts_in.iter().any(|d| data.slots.slot(*d).is_some())
+}
+
+/// The DOFs the model is compared in, in words.
+fn compared(data: &Data) -> String {
+    let on: Vec<String> = data
+        .slots
+        .on()
+        .map(|j| data.slots.dofs[j].to_string())
+        .collect();
+    on.join(", ")
 }
 
 /// Result of the greedy search.

@@ -3,7 +3,7 @@
 //! error on the training runs, chosen and proven on the held-out runs). See [`crate::diagnose`].
 
 use crate::diagnose::result::{FIGURES, RESULT};
-use crate::diagnose::{Criteria, DOFS, diagnose};
+use crate::diagnose::{Criteria, Slots, diagnose};
 use crate::identify::result::FitResult;
 use crate::pipeline::contract::{Artifact, Kind, RunCtx, StageImpl, parse_as};
 use serde::{Deserialize, Serialize};
@@ -39,10 +39,11 @@ impl StageImpl for Settings {
             .map(|u| crate::pool::fusion::run::load_for(&u.dir, ctx.vehicle))
             .collect::<Result<_, _>>()?;
         let (f, started_from) = self.pick(&fits, &fused, ctx)?;
-        if !DOFS.iter().all(|d| f.dofs.contains(d)) {
+        let plant = f.plant(ctx.vehicle);
+        if Slots::of(&plant).is_none() {
             let dofs: Vec<String> = f.dofs.iter().map(|d| d.to_string()).collect();
             let reason = format!(
-                "Not diagnosed: the diagnosis simulates the vehicle in surge, sway, heave and yaw, where its effects (tether drag, currents, net buoyancy, thruster lag, ...) are written, and model `{}` is in {}. The fit and its validation above stand without it.",
+                "Not diagnosed: the diagnosis compares a model in surge, sway, heave and yaw, or in heave, roll, pitch and yaw, and model `{}` moves in none of them ({}). The fit and its validation above stand without it.",
                 f.stage,
                 dofs.join(", ")
             );
@@ -52,7 +53,6 @@ impl StageImpl for Settings {
                 &serde_json::json!({ "reason": reason }),
             );
         }
-        let plant = f.plant(ctx.vehicle);
         // The model's command lag is part of it: the runs are diagnosed under the command as
         // the model passes it on.
         let fused: Vec<_> = fused
@@ -93,7 +93,7 @@ impl Settings {
                 // predicts the held-out runs best), and say how each did.
                 started_from = own
                     .iter()
-                    .filter(|f| DOFS.iter().all(|d| f.dofs.contains(d)))
+                    .filter(|f| Slots::of(&f.plant(ctx.vehicle)).is_some())
                     .map(|f| {
                         crate::diagnose::start::held_out(f, &f.plant(ctx.vehicle), fused, &self.criteria)
                     })

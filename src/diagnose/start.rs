@@ -34,7 +34,7 @@ pub fn held_out(
             ));
         }
         let sums = data.eval(plant, &super::Augmentation::default(), true);
-        Ok((sums.cost(&data.scale), super::nmae_map(&sums)))
+        Ok((sums.cost(&data.scale), super::nmae_map(&sums, &data.slots)))
     });
     let (validation_cost, validation_nmae, note) = match scored {
         Ok((c, n)) => (c, n, None),

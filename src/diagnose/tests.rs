@@ -418,3 +418,29 @@ fn experiment() {
         }
     }
 }
+
+/// The DOFs a diagnosis compares: the pool's four for a model in surge or sway (six-DOF too),
+/// heave, roll, pitch and yaw for one in roll or pitch without them, each slot on only where
+/// the model moves.
+#[test]
+fn a_model_is_compared_in_the_dofs_it_moves_in() {
+    use crate::core::dof::Dof::*;
+    let slots = |dofs: &[crate::core::dof::Dof]| {
+        let mut v = crate::core::model::Vehicle::reference();
+        v.dofs = dofs.to_vec();
+        Slots::of(&Plant::new(&v, crate::core::model::Hydro::reference()))
+    };
+    let all = slots(&[Surge, Sway, Heave, Roll, Pitch, Yaw]).unwrap();
+    assert_eq!(all, Slots::POOL);
+    let rot = slots(&[Roll, Pitch, Yaw]).unwrap();
+    assert_eq!(rot.dofs, [Heave, Roll, Pitch, Yaw]);
+    assert_eq!(rot.active, [false, true, true, true]);
+    assert_eq!(rot.slot(Heave), None);
+    assert_eq!(rot.slot(Pitch), Some(2));
+    assert_eq!(rot.nu_all(), [2, 3, 4, 5]);
+    let with_heave = slots(&[Heave, Roll, Pitch, Yaw]).unwrap();
+    assert_eq!(with_heave.active, [true; 4]);
+    let surge_yaw = slots(&[Surge, Yaw]).unwrap();
+    assert_eq!(surge_yaw.dofs, DOFS);
+    assert_eq!(surge_yaw.active, [true, false, false, true]);
+}

@@ -2,7 +2,7 @@
 //! noise, and the `unexplained` entry the verdict reports for it.
 
 use super::result::{Found, pct};
-use super::{self as dx, Augmentation, Criteria, DOFS, Data, Mismatch};
+use super::{self as dx, Augmentation, Criteria, Data, Mismatch};
 use crate::core::dof::Dof;
 use crate::core::model::Plant;
 use std::collections::BTreeMap;
@@ -31,7 +31,7 @@ pub(super) fn unexplained_residual(
             (a.share_of_error / a.share_of_time).total_cmp(&(b.share_of_error / b.share_of_time))
         });
     let ev = unexplained_evidence(explained_cost, data.noise_cost, loc.first(), top);
-    let nm = dx::nmae_map(&s);
+    let nm = dx::nmae_map(&s, &data.slots);
     Found {
         name: "unexplained".into(),
         dofs,
@@ -55,7 +55,7 @@ fn unexplained_dofs(data: &Data, s: &dx::Sums, left: &[Dof], crit: &Criteria) ->
     let noise_dof = dx::noise_per_dof(&data.validate, &data.scale);
     let mut dofs: Vec<Dof> = (0..4)
         .filter(|&j| per_dof[j] > crit.within_noise * noise_dof[j])
-        .map(|j| DOFS[j])
+        .map(|j| data.slots.dofs[j])
         .collect();
     for d in left {
         if !dofs.contains(d) {
@@ -137,7 +137,7 @@ pub(super) fn structured_left(
             let correlated = sse > crit.unexplained_noise_multiple * var && outside / runs > 0.2;
             correlated || (sse > LINE_NOISE_MULTIPLE * var && lines.uncommanded(&res, j))
         })
-        .map(|j| DOFS[j])
+        .map(|j| data.slots.dofs[j])
         .collect()
 }
 

@@ -6,7 +6,7 @@ use super::drift::Drifted;
 use super::figures;
 use super::result::*;
 use super::unexplained::{structured_left, unexplained_residual};
-use super::{self as dx, Augmentation, Criteria, DOFS, Data, Mismatch, Run};
+use super::{self as dx, Augmentation, Criteria, Data, Mismatch, Run, Slots};
 use crate::core::dof::Dof;
 use crate::core::model::Plant;
 use std::collections::BTreeMap;
@@ -65,7 +65,7 @@ pub fn diagnose(
     let diagnosis = Diagnosis {
         baseline: Baseline {
             model: model.to_string(),
-            validation_nmae: dx::nmae_map(&base),
+            validation_nmae: dx::nmae_map(&base, &data.slots),
             validation_cost: base_cost,
             noise_cost: data.noise_cost,
             reestimated: drifted.into_record(reestimated_within),
@@ -306,7 +306,7 @@ fn joint_selection(
     Ok((selected, c, figs, dropped))
 }
 
-/// The fused runs the diagnosis can use (every DOF fused), each with the simulation window
+/// The fused runs the diagnosis can use (every DOF the model moves in fused, [`Slots::of`]), each with the simulation window
 /// its local stability asks for; the runs left out, and the stability along each run.
 pub(super) fn prepare_runs(
     plant: &Plant,
@@ -318,12 +318,18 @@ pub(super) fn prepare_runs(
     BTreeMap<String, crate::core::model::stability::Stability>,
 ) {
     let mut skipped = Vec::new();
+    let Some(slots) = Slots::of(plant) else {
+        return (Vec::new(), skipped, BTreeMap::new());
+    };
     let runs: Vec<Run> = fused
         .iter()
         .filter_map(|r| {
-            let run = Run::from_fused(r);
+            let run = Run::from_fused(r, slots);
             if run.is_none() {
-                skipped.push(format!("{}: not every DOF was fused", r.meta.run));
+                skipped.push(format!(
+                    "{}: not every DOF the model moves in was fused",
+                    r.meta.run
+                ));
             }
             run
         })
@@ -334,7 +340,13 @@ pub(super) fn prepare_runs(
         let vel: Vec<[f64; 4]> = (0..r.t.len())
             .map(|k| std::array::from_fn(|j| r.vel[j][k]))
             .collect();
-        let s = crate::core::model::stability::along(plant, &r.t, &vel, crit.horizon_s);
+        let s = crate::core::model::stability::along_in(
+            plant,
+            &r.t,
+            &vel,
+            &slots.nu_all(),
+            crit.horizon_s,
+        );
         r.anchors_s = s.anchors_s.clone();
         stability.insert(r.name.clone(), s);
     }
@@ -359,7 +371,7 @@ fn named_effects(
             data.eval(plant, &aug_before, true),
             data.eval(plant, &aug_after, true),
         );
-        let dofs = improved_dofs(&sb.nmae(), &sa.nmae());
+        let dofs = improved_dofs(&data.slots, &sb.nmae(), &sa.nmae());
         let (cb, ca) = (sb.cost(&data.scale), sa.cost(&data.scale));
         let params = dx::params_map(h, p);
         // The regime is read off the residual this effect was chosen to explain (after the
@@ -382,8 +394,8 @@ fn named_effects(
             dofs,
             parameters: params,
             evidence,
-            validation_nmae_before: dx::nmae_map(&sb),
-            validation_nmae_after: dx::nmae_map(&sa),
+            validation_nmae_before: dx::nmae_map(&sb, &data.slots),
+            validation_nmae_after: dx::nmae_map(&sa, &data.slots),
             validation_cost_before: cb,
             validation_cost_after: ca,
             alike: Vec::new(),
@@ -394,10 +406,10 @@ fn named_effects(
 }
 
 /// The DOFs whose held-out NMAE an effect lowers by over a tenth (and by over 0.003).
-fn improved_dofs(before: &[f64], after: &[f64]) -> Vec<Dof> {
+fn improved_dofs(slots: &Slots, before: &[f64], after: &[f64]) -> Vec<Dof> {
     (0..4)
         .filter(|&j| before[j] - after[j] > 0.1 * before[j] && before[j] - after[j] > 0.003)
-        .map(|j| DOFS[j])
+        .map(|j| slots.dofs[j])
         .collect()
 }
 

@@ -21,6 +21,9 @@ pub struct World {
     /// at every sample, with no effect that depends on them, turns this off and saves the
     /// trigonometry; the velocities are the same to the bit.
     pub track_pose: bool,
+    /// Gravity's direction in the body frame (level: [0, 0, 1]), held over a step as the pose
+    /// is: a model that rolls and pitches has its restoring moments from the recorded attitude.
+    pub gravity: [f64; 3],
 }
 
 impl World {
@@ -33,6 +36,7 @@ impl World {
             pool: None,
             tether_anchor: None,
             track_pose: true,
+            gravity: crate::core::model::dynamics::LEVEL,
         }
     }
 
@@ -91,7 +95,7 @@ impl World {
             t.add_force(env, s, &mut tau);
         }
         State {
-            nu: self.plant.accel(&s.nu, &tau),
+            nu: self.plant.accel_at(&s.nu, &tau, &self.gravity),
             pos: [0.0; 3],
             psi: 0.0,
             thrust: thrust_dot,

@@ -436,7 +436,8 @@ fn a_navigation_log_only_run_dead_reckons_its_position_from_its_start() {
         let files: Vec<String> = files.into_iter().map(|f| format!("{rel}/{f}")).collect();
         let run = hydrofit::pool::import::load(dir, &rel, &files, None).unwrap();
         let fused = hydrofit::pool::fusion::fuse(&run, &Default::default());
-        let r = hydrofit::diagnose::Run::from_parts(n, false, &[], &fused, None, None)
+        use hydrofit::diagnose::Slots;
+        let r = hydrofit::diagnose::Run::from_parts(n, false, Vec::new(), &fused, Slots::POOL)
             .unwrap()
             .reckoned_from(run.meta.start_m);
         assert!(r.dead_reckoned, "{n}");

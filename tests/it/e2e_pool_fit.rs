@@ -177,13 +177,25 @@ fn a_fit_the_logs_cannot_support_names_the_dofs_they_can() {
     );
 }
 
-/// A vehicle fitted in DOFs the diagnosis does not simulate (heave and yaw here; roll, pitch
-/// and yaw on a real vehicle without a DVL) is fitted, validated and reported; its diagnose
-/// stage says why it diagnosed nothing instead of failing the build and the report with it.
+/// A vehicle fitted in some of the pool's DOFs (heave and yaw here) is diagnosed in those:
+/// surge and sway are held at rest and never scored, and the effects that act only there are
+/// listed untested with the reason. (Roll, pitch and yaw: tests/it/e2e_rotation.rs.)
 #[test]
-fn a_model_the_diagnosis_cannot_simulate_is_reported_undiagnosed() {
-    let (d, _) = two_training_runs();
+fn a_model_in_heave_and_yaw_is_diagnosed_in_those_dofs() {
+    let d = tempfile::tempdir().unwrap();
     let root = d.path();
+    let runs: Vec<_> = default_runs()
+        .into_iter()
+        .filter(|r| ["box_1", "depth_steps", "turns"].contains(&r.name.as_str()))
+        .collect();
+    write_runs(
+        &root.join("cases/pool"),
+        &root.join("truth"),
+        &runs,
+        &Hidden::default(),
+        1,
+    )
+    .unwrap();
     let yaml = PIPELINE
         .replace("dofs: [surge, sway, heave, yaw]", "dofs: [heave, yaw]")
         .replace("command_limits: {surge: 60, sway: 50, heave: 45, yaw: 9}", "command_limits: {heave: 45, yaw: 9}")
@@ -193,14 +205,24 @@ fn a_model_the_diagnosis_cannot_simulate_is_reported_undiagnosed() {
         );
     std::fs::write(root.join("pipeline.yaml"), yaml).unwrap();
     ok(root, &["build"]);
-    let html = std::fs::read_to_string(root.join("reports/index.html")).unwrap();
+    let dx = json(root, "reports/diagnosis.json");
+    let dofs: Vec<&String> = dx["baseline"]["validation_nmae"]
+        .as_object()
+        .unwrap()
+        .keys()
+        .collect();
+    assert_eq!(dofs, ["heave", "yaw"], "{}", dx["verdict"]);
+    for m in dx["mismatch"].as_array().unwrap() {
+        assert!(m["dof"] == "heave" || m["dof"] == "yaw", "{m}");
+    }
+    // What acts in surge and sway only is listed untested, with the reason.
+    let untested = dx["untested"].to_string();
     assert!(
-        html.contains(
-            "Not diagnosed: the diagnosis simulates the vehicle in surge, sway, heave and yaw"
-        ) && html.contains("model `fit` is in heave, yaw"),
-        "no reason in the report"
+        untested.contains("water_current") && untested.contains("compared in heave, yaw only"),
+        "{untested}"
     );
-    assert!(!root.join("reports/diagnosis.json").exists());
+    let html = std::fs::read_to_string(root.join("reports/index.html")).unwrap();
+    assert!(html.contains("Why the pool runs and the model differ"));
 }
 
 /// A project folder with the field twin's first two runs (both training runs), and their specs.

@@ -17,6 +17,7 @@ mod e2e_openfoam;
 mod e2e_pool;
 mod e2e_pool_fit;
 mod e2e_robust;
+mod e2e_rotation;
 mod e2e_six_dof;
 mod e2e_slurm;
 mod e2e_thrust_gain;

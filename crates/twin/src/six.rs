@@ -226,6 +226,14 @@ pub struct Trial {
     pub duration_s: f64,
     pub position: [Sines; 3],
     pub moment: [Sines; 3],
+    /// A concealed first-order lag, s, between the logged command and the force and moment
+    /// the body feels (thrusters that spin up); 0: none. The log records the command.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub lag_s: f64,
+}
+
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
 }
 
 /// Seed 003 Table II for identification (its second v4 row read as pitch), and two
@@ -252,6 +260,7 @@ pub fn default_trials() -> Vec<Trial> {
             },
             Sines::one(0.35, 70.0),
         ],
+        lag_s: 0.0,
     };
     let cross_a = Trial {
         name: "cross_slow".into(),
@@ -270,6 +279,7 @@ pub fn default_trials() -> Vec<Trial> {
                 mag: [50.0, 30.0],
             },
         ],
+        lag_s: 0.0,
     };
     let cross_b = Trial {
         name: "cross_fast".into(),
@@ -288,6 +298,7 @@ pub fn default_trials() -> Vec<Trial> {
             Sines::one(0.6, 60.0),
             Sines::one(0.45, 90.0),
         ],
+        lag_s: 0.0,
     };
     vec![table_ii, cross_a, cross_b]
 }
@@ -346,6 +357,12 @@ pub fn fly(body: &Body, v: &Vehicle, trial: &Trial) -> Record {
         eta: Vector6::new(0.0, 0.0, 3.0, 0.0, 0.0, 0.0),
     };
     let mut tau = Vector6::zeros();
+    // What the body feels: the command through the concealed lag, if any.
+    let mut felt = Vector6::zeros();
+    let follow = match trial.lag_s > 0.0 {
+        true => 1.0 - (-STEP / trial.lag_s).exp(),
+        false => 1.0,
+    };
     let mut rec = Record::default();
     let arr = |v: &Vector6<f64>| -> [f64; 6] { std::array::from_fn(|i| v[i]) };
     for n in 0..=steps {
@@ -357,9 +374,13 @@ pub fn fly(body: &Body, v: &Vehicle, trial: &Trial) -> Record {
         rec.t.push(t);
         rec.tau.push(arr(&tau));
         rec.nu.push(arr(&x.nu));
-        rec.nu_dot.push(arr(&body.accel(&x.nu, &tau, phi, theta)));
+        felt = match follow < 1.0 {
+            true => felt + (tau - felt) * follow,
+            false => tau,
+        };
+        rec.nu_dot.push(arr(&body.accel(&x.nu, &felt, phi, theta)));
         rec.eta.push(arr(&x.eta));
-        x = step(body, &x, &tau, STEP);
+        x = step(body, &x, &felt, STEP);
     }
     rec
 }

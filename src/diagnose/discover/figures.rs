@@ -1,8 +1,8 @@
 //! Discovery's figures: the residual force against the discovered term, and the spectrum.
 
+use super::super::Data;
 use super::super::effects::State;
 use super::super::result::Figure;
-use super::super::{DOFS, Data, NU};
 use super::library::Prepared;
 use super::rows::{PEAK_RATIO, Rows, window_mean};
 use super::select::{Proposal, Variant};
@@ -32,18 +32,9 @@ fn contributions(data: &Data, rows: &Rows, pre: &[Prepared], j: usize, var: &Var
         .map(|&(ri, a, b)| {
             let run = &data.train[ri];
             window_mean(&run.t, a, b, |k| {
-                let s = State {
-                    nu: [
-                        run.vel[0][k],
-                        run.vel[1][k],
-                        run.vel[2][k],
-                        0.0,
-                        0.0,
-                        run.vel[3][k],
-                    ],
-                    ..State::default()
-                };
-                var.term.force(run, &pre[ri], k, &s)[NU[j]]
+                let mut s = State::default();
+                run.set_velocity(k, &mut s);
+                var.term.force(run, &pre[ri], k, &s)[run.slots.nu(j)]
             })
         })
         .collect()
@@ -60,7 +51,7 @@ fn residual_figure(
     var: &Variant,
 ) -> anyhow::Result<Figure> {
     use crate::core::plot::lines::{Chart, Series, chart};
-    let d = DOFS[j];
+    let d = data.slots.dofs[j];
     let contrib = contributions(data, rows, pre, j, var);
     let mut by_run = vec![0.0; data.train.len()];
     for (q, &(ri, _, _)) in rows.at.iter().enumerate() {
@@ -115,7 +106,7 @@ fn residual_figure(
 /// The residual's periodogram relative to its median, with the significance level.
 fn spectrum_figure(c: &Candidate, p: &Proposal) -> anyhow::Result<Option<Figure>> {
     use crate::core::plot::lines::{Chart, Series, chart};
-    let d = DOFS[p.dof];
+    let d = c.dof;
     let (grid, power) = &p.spectrum;
     if grid.is_empty() {
         return Ok(None);

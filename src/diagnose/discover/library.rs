@@ -1,7 +1,8 @@
 //! The library of candidate terms: what each reads of the recording (time, commands, pose)
 //! and of the velocity, how it is written, and which named effect it is in disguise.
 
-use super::super::{Data, Run};
+use super::super::{Data, Run, Slots};
+use crate::core::dof::Dof;
 use std::f64::consts::TAU;
 
 /// First-order lags tried on the commands, s.
@@ -38,9 +39,6 @@ pub enum Feature {
     Sine(f64),
 }
 
-pub(super) const V: [&str; 4] = ["u", "v", "w", "r"];
-pub(super) const C: [&str; 4] = ["X", "Y", "Z", "N"];
-
 impl Feature {
     pub(super) fn columns(self) -> usize {
         if matches!(self, Feature::Sine(_)) {
@@ -50,22 +48,24 @@ impl Feature {
         }
     }
 
-    /// The term as it is written in an expression.
-    pub fn label(self) -> String {
+    /// The term as it is written in an expression, its indices slots of `slots`.
+    pub fn label(self, slots: &Slots) -> String {
+        let v = |j: usize| slots.dofs[j].velocity();
+        let c = |q: usize| slots.dofs[q].force();
         match self {
             Feature::Constant => "1".into(),
-            Feature::Velocity(j) => V[j].into(),
-            Feature::Quadratic(j) => format!("|{0}| {0}", V[j]),
-            Feature::Product(a, b) => format!("{} {}", V[a], V[b]),
-            Feature::AbsProduct(a, b) => format!("|{}| {}", V[a], V[b]),
-            Feature::Command(q) => C[q].into(),
-            Feature::LagDeficit(q, tau) => format!("(lag_{tau}s({0}) - {0})", C[q]),
-            Feature::CommandSign(q) => format!("sign({})", C[q]),
-            Feature::CommandProduct(a, b) => format!("{} {}", C[a], C[b]),
+            Feature::Velocity(j) => v(j).into(),
+            Feature::Quadratic(j) => format!("|{0}| {0}", v(j)),
+            Feature::Product(a, b) => format!("{} {}", v(a), v(b)),
+            Feature::AbsProduct(a, b) => format!("|{}| {}", v(a), v(b)),
+            Feature::Command(q) => c(q).into(),
+            Feature::LagDeficit(q, tau) => format!("(lag_{tau}s({0}) - {0})", c(q)),
+            Feature::CommandSign(q) => format!("sign({})", c(q)),
+            Feature::CommandProduct(a, b) => format!("{} {}", c(a), c(b)),
             Feature::PoolX => "x".into(),
             Feature::PoolY => "y".into(),
             Feature::Depth => "z".into(),
-            Feature::NearSurfaceDrag(j, l) => format!("|{0}| {0} exp(-z/{l} m)", V[j]),
+            Feature::NearSurfaceDrag(j, l) => format!("|{0}| {0} exp(-z/{l} m)", v(j)),
             Feature::WallDistance => "d_wall".into(),
             Feature::TetherLength => "L_tether".into(),
             Feature::CosHeading => "cos(psi)".into(),
@@ -74,13 +74,17 @@ impl Feature {
         }
     }
 
-    /// The named effect this term is, for the DOF `j` it acts in, if it is one in disguise.
-    pub(super) fn named(self, j: usize) -> Option<&'static str> {
+    /// The named effect this term is, for the slot `j` of `slots` it acts in, if it is one in
+    /// disguise.
+    pub(super) fn named(self, slots: &Slots, j: usize) -> Option<&'static str> {
+        let horizontal = |q: usize| matches!(slots.dofs[q], Dof::Surge | Dof::Sway);
         match self {
-            Feature::Constant if j == 2 => Some("net_buoyancy"),
+            Feature::Constant if slots.dofs[j] == Dof::Heave => Some("net_buoyancy"),
             Feature::LagDeficit(q, _) if q == j => Some("thruster_lag"),
             Feature::CommandSign(q) if q == j => Some("thruster_deadband"),
-            Feature::AbsProduct(a, b) | Feature::Product(a, b) if a < 2 && b < 2 && a != b => {
+            Feature::AbsProduct(a, b) | Feature::Product(a, b)
+                if horizontal(a) && horizontal(b) && a != b =>
+            {
                 Some("coupled_drag")
             }
             Feature::CosHeading | Feature::SinHeading => Some("water_current"),
@@ -171,12 +175,14 @@ pub(super) fn prepare(run: &Run) -> Prepared {
 /// The library for DOF `j`, with the sines at `peaks` (Hz).
 pub(super) fn library(j: usize, peaks: &[f64], data: &Data) -> Vec<Feature> {
     let mut f = vec![Feature::Constant];
-    for a in 0..4 {
+    // Velocities of the DOFs the model moves in (a slot it leaves out is at rest).
+    let on: Vec<usize> = data.slots.on().collect();
+    for &a in &on {
         f.push(Feature::Velocity(a));
         f.push(Feature::Quadratic(a));
     }
-    for a in 0..4 {
-        for b in 0..4 {
+    for &a in &on {
+        for &b in &on {
             if a < b {
                 f.push(Feature::Product(a, b));
             }

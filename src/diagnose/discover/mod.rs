@@ -37,10 +37,10 @@ mod select;
 mod term;
 
 use super::result::{Candidate, DiscoveredTerm, Figure, Found, pct};
-use super::{Augmentation, Criteria, DOFS, Data};
+use super::{Augmentation, Criteria, Data};
 use crate::core::dof::Dof;
 use crate::core::model::Plant;
-use library::{C, prepare};
+use library::prepare;
 pub use library::{Feature, Prepared};
 use rows::residual_rows;
 pub use select::{KEEP_SHARE, MAX_TERMS};
@@ -126,7 +126,7 @@ fn nmae_change(before: &BTreeMap<Dof, f64>, after: &BTreeMap<Dof, f64>, d: Dof) 
 
 /// `Z += 11.8 sin(2 pi 0.420 t + 0.30) N`.
 fn expression(dof: Dof, terms: &[DiscoveredTerm]) -> String {
-    let sym = C[DOFS.iter().position(|d| *d == dof).unwrap_or(0)];
+    let sym = dof.force();
     let parts: Vec<String> = terms
         .iter()
         .map(|t| match (t.frequency_hz, t.phase_rad) {
@@ -164,7 +164,7 @@ pub fn discover(
     let before = data.eval(plant, aug, true);
     let cb = before.cost(&data.scale);
     let mut best: Option<(Candidate, Proposal, Variant)> = None;
-    for j in (0..4).filter(|&j| dofs.contains(&DOFS[j])) {
+    for j in data.slots.among(dofs) {
         let Some(p) = propose(data, &pre, &rows, j) else {
             continue;
         };
@@ -197,23 +197,17 @@ pub fn discover(
         {
             continue;
         }
-        let named: Vec<Option<&str>> = var.term.features.iter().map(|f| f.named(j)).collect();
-        let named_as = match named.first() {
-            Some(Some(n)) if named.iter().all(|x| *x == Some(n)) => Some(n.to_string()),
-            _ => None,
-        };
-        let mut named_terms: Vec<String> = named.iter().flatten().map(|n| n.to_string()).collect();
-        named_terms.dedup();
+        let (named_as, named_terms) = named_in(&var.term.features, &data.slots, j);
         let candidate = Candidate {
-            dof: DOFS[j],
-            expression: expression(DOFS[j], &var.terms),
+            dof: data.slots.dofs[j],
+            expression: expression(data.slots.dofs[j], &var.terms),
             terms: var.terms.clone(),
             named_as,
             named_terms,
             library_terms: p.library_terms,
             spectrum_peaks_hz: p.peaks.clone(),
-            validation_nmae_before: super::nmae_map(&before),
-            validation_nmae_after: super::nmae_map(&after),
+            validation_nmae_before: super::nmae_map(&before, &data.slots),
+            validation_nmae_after: super::nmae_map(&after, &data.slots),
             validation_cost_before: cb,
             validation_cost_after: ca,
         };
@@ -226,42 +220,71 @@ pub fn discover(
     Ok(Some((candidate, figures)))
 }
 
+/// The named effect a discovered term in slot `j` is in disguise (every feature the same
+/// one), and the named effects whose form one of its features has.
+fn named_in(features: &[Feature], slots: &super::Slots, j: usize) -> (Option<String>, Vec<String>) {
+    let named: Vec<Option<&str>> = features.iter().map(|f| f.named(slots, j)).collect();
+    let named_as = match named.first() {
+        Some(Some(n)) if named.iter().all(|x| *x == Some(n)) => Some(n.to_string()),
+        _ => None,
+    };
+    let mut named_terms: Vec<String> = named.iter().flatten().map(|n| n.to_string()).collect();
+    named_terms.dedup();
+    (named_as, named_terms)
+}
+
 #[cfg(test)]
 mod tests {
     use super::rows::window_mean;
     use super::*;
+    use crate::diagnose::Slots;
 
     #[test]
     fn named_effects_in_disguise_are_named_and_the_rest_are_not() {
-        assert_eq!(Feature::Constant.named(2), Some("net_buoyancy"));
         assert_eq!(
-            Feature::Constant.named(0),
+            Feature::Constant.named(&Slots::POOL, 2),
+            Some("net_buoyancy")
+        );
+        assert_eq!(
+            Feature::Constant.named(&Slots::POOL, 0),
             None,
             "a body-frame constant surge force"
         );
-        assert_eq!(Feature::LagDeficit(1, 0.3).named(1), Some("thruster_lag"));
         assert_eq!(
-            Feature::LagDeficit(0, 0.3).named(3),
+            Feature::LagDeficit(1, 0.3).named(&Slots::POOL, 1),
+            Some("thruster_lag")
+        );
+        assert_eq!(
+            Feature::LagDeficit(0, 0.3).named(&Slots::POOL, 3),
             None,
             "another DOF's lag"
         );
-        assert_eq!(Feature::AbsProduct(0, 1).named(1), Some("coupled_drag"));
-        assert_eq!(Feature::SinHeading.named(0), Some("water_current"));
-        assert_eq!(Feature::CommandSign(3).named(3), Some("thruster_deadband"));
+        assert_eq!(
+            Feature::AbsProduct(0, 1).named(&Slots::POOL, 1),
+            Some("coupled_drag")
+        );
+        assert_eq!(
+            Feature::SinHeading.named(&Slots::POOL, 0),
+            Some("water_current")
+        );
+        assert_eq!(
+            Feature::CommandSign(3).named(&Slots::POOL, 3),
+            Some("thruster_deadband")
+        );
         for f in [
             Feature::Sine(0.42),
             Feature::Command(0),
             Feature::NearSurfaceDrag(0, 0.5),
             Feature::CommandProduct(0, 3),
         ] {
-            assert_eq!(f.named(3), None, "{}", f.label());
+            assert_eq!(f.named(&Slots::POOL, 3), None, "{}", f.label(&Slots::POOL));
         }
     }
 
     #[test]
     fn a_sine_reads_as_amplitude_and_phase() {
         let t = DiscoveredTerm {
-            term: Feature::Sine(0.42).label(),
+            term: Feature::Sine(0.42).label(&Slots::POOL),
             coefficient: 11.8,
             interval: [11.0, 12.5],
             frequency_hz: Some(0.42),

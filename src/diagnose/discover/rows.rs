@@ -2,7 +2,7 @@
 //! library's columns over the same rows.
 
 use super::super::effects::State;
-use super::super::{Augmentation, Data, NU, Run, spectrum};
+use super::super::{Augmentation, Data, Slots, spectrum};
 use super::library::{Feature, Prepared};
 use crate::core::model::{Plant, Vec6};
 
@@ -20,6 +20,8 @@ const F_MAX: f64 = 2.0;
 /// shift the measured acceleration against the model's: both sides see the same window, as
 /// the library's terms do, averaged over it).
 pub(super) struct Rows {
+    /// The DOFs of the per-DOF arrays.
+    pub slots: Slots,
     /// (run index, first sample, last sample) of each row's window.
     pub at: Vec<(usize, usize, usize)>,
     /// Residual force per DOF, averaged over the window.
@@ -51,6 +53,7 @@ pub(super) fn window_mean(t: &[f64], a: usize, b: usize, mut f: impl FnMut(usize
 pub(super) fn residual_rows(plant: &Plant, aug: &Augmentation, data: &Data) -> Rows {
     let (mass, _) = plant.mass_matrix();
     let mut rows = Rows {
+        slots: data.slots,
         at: Vec::new(),
         y: Default::default(),
         sigma: Default::default(),
@@ -65,19 +68,19 @@ pub(super) fn residual_rows(plant: &Plant, aug: &Augmentation, data: &Data) -> R
         let every = ((EVERY_S / dt).round() as usize).max(1);
         // The model's acceleration at every sample, at the measured state, the thrusters'
         // state (under a lag) following the command.
-        let w = super::super::world_for(plant, aug, run);
+        let mut w = super::super::world_for(plant, aug, run);
         let mut s = State {
-            thrust: w.shape_command(&cmd6(run, 0)),
+            thrust: w.shape_command(&run.cmd6(0)),
             ..State::default()
         };
         let mut model: Vec<Vec6> = Vec::with_capacity(n);
+        let nu = data.slots.nu_all();
         for k in 0..n {
-            let c = cmd6(run, k);
-            for (j, &i) in NU.iter().enumerate() {
-                s.nu[i] = run.vel[j][k];
-            }
+            let c = run.cmd6(k);
+            run.set_velocity(k, &mut s);
             s.pos = [run.pos[0][k], run.pos[1][k], run.pos[2][k]];
             s.psi = run.psi[k];
+            w.gravity = run.gravity(k);
             model.push(w.accel(&s, &c));
             if k + 1 < n {
                 s.thrust = w.step(&s, &c, run.t[k + 1] - run.t[k]).thrust;
@@ -88,12 +91,12 @@ pub(super) fn residual_rows(plant: &Plant, aug: &Augmentation, data: &Data) -> R
             let b = a + span;
             let dv: Vec6 = std::array::from_fn(|i| {
                 let model_mean = window_mean(&run.t, a, b, |k| model[k][i]);
-                match NU.iter().position(|&q| q == i) {
+                match nu.iter().position(|&q| q == i) {
                     Some(j) => (run.vel[j][b] - run.vel[j][a]) / (run.t[b] - run.t[a]) - model_mean,
                     None => 0.0,
                 }
             });
-            for (j, &i) in NU.iter().enumerate() {
+            for (j, &i) in nu.iter().enumerate() {
                 rows.y[j].push((0..6).map(|q| mass[i][q] * dv[q]).sum());
                 let sd = run.std[j][a].hypot(run.std[j][b]) / (run.t[b] - run.t[a]);
                 rows.sigma[j].push(mass[i][i].abs() * sd);
@@ -103,11 +106,6 @@ pub(super) fn residual_rows(plant: &Plant, aug: &Augmentation, data: &Data) -> R
         }
     }
     rows
-}
-
-fn cmd6(run: &Run, k: usize) -> Vec6 {
-    let c = run.cmd[k];
-    [c[0], c[1], c[2], 0.0, 0.0, c[3]]
 }
 
 fn run_t(data: &Data, ri: usize, k: usize) -> f64 {

@@ -333,6 +333,7 @@ fn variant(
         let k = f.columns();
         terms.push(term(
             f,
+            &rows.slots,
             d,
             &cols[at..at + k],
             &coef_s[at..at + k],
@@ -355,8 +356,10 @@ fn variant(
 /// One kept term as the report states it: its coefficient in its own units (a sine's
 /// amplitude and phase), its 95 % interval over the resamples `boot` (whose columns for it
 /// start at `at`), and how often it was selected.
+#[allow(clippy::too_many_arguments)]
 fn term(
     f: Feature,
+    slots: &crate::diagnose::Slots,
     d: &Design,
     cols: &[usize],
     coef_s: &[f64],
@@ -388,7 +391,7 @@ fn term(
         _ => (full[0], None, None),
     };
     DiscoveredTerm {
-        term: f.label(),
+        term: f.label(slots),
         coefficient,
         interval: [pick(0.025), pick(0.975)],
         frequency_hz,

@@ -3,8 +3,8 @@
 
 use super::library::{Feature, Prepared, prepare};
 use crate::core::model::Vec6;
+use crate::diagnose::Run;
 use crate::diagnose::effects::State;
-use crate::diagnose::{NU, Run};
 
 /// A discovered term: its DOF, the features kept and their coefficients (per column).
 #[derive(Debug, Clone)]
@@ -26,13 +26,13 @@ impl Discovered {
 
     /// The term's generalised force at sample `k` of `run`, with the model's state `s`.
     pub fn force(&self, run: &Run, pre: &Prepared, k: usize, s: &State) -> Vec6 {
-        let vel = [s.nu[0], s.nu[1], s.nu[2], s.nu[5]];
+        let vel = run.slots.of_nu(&s.nu);
         let mut cols = Vec::with_capacity(self.coef.len());
         for f in &self.features {
             f.eval(run, pre, k, &vel, &mut cols);
         }
         let mut out = [0.0; 6];
-        out[NU[self.dof]] = cols.iter().zip(&self.coef).map(|(x, c)| x * c).sum();
+        out[run.slots.nu(self.dof)] = cols.iter().zip(&self.coef).map(|(x, c)| x * c).sum();
         out
     }
 }

@@ -2,6 +2,7 @@
 //! c in N s^2/m^2.
 
 use super::{Axis, Env, Hypothesis, Limits, Needs, Param, State, Term};
+use crate::core::dof::Dof;
 use crate::core::model::Vec6;
 use std::sync::Arc;
 
@@ -16,7 +17,8 @@ pub static EFFECT: Hypothesis = Hypothesis {
     }],
     needs: Needs::Nothing,
     build: |p| Arc::new(CoupledDrag { coefficient: p[0] }),
-    main_dof: 1,
+    main_dof: Dof::Sway,
+    acts_in: &[Dof::Surge, Dof::Sway],
     regime: "cross_flow",
     axis: Axis {
         label: |_| "|u| |v| (m^2/s^2)".into(),

@@ -18,7 +18,8 @@ mod thruster_lag;
 mod wall_effect;
 mod water_current;
 
-use super::{DOFS, Run};
+use super::Run;
+use crate::core::dof::Dof;
 pub use crate::core::model::motion::State;
 use crate::core::model::{Plant, Vec6};
 use std::sync::Arc;
@@ -110,9 +111,9 @@ pub(crate) fn has_position(r: &Run) -> bool {
 }
 
 /// The quantity an effect's evidence is plotted against, per run, sample and DOF (index into
-/// `DOFS`), with its axis label for that DOF.
+/// the run's slots), with its axis label for that DOF.
 pub struct Axis {
-    pub label: fn(usize) -> String,
+    pub label: fn(Dof) -> String,
     pub value: fn(&Run, usize, usize) -> f64,
 }
 
@@ -124,7 +125,7 @@ pub const SINCE_STEP: Axis = Axis {
 
 /// The axis of effects that depend on the command's size or sign in the DOF.
 pub const COMMAND: Axis = Axis {
-    label: |j| format!("command in {} ({})", DOFS[j], DOFS[j].force_unit()),
+    label: |d| format!("command in {d} ({})", d.force_unit()),
     value: |r, k, j| r.cmd[k][j],
 };
 
@@ -135,8 +136,11 @@ pub struct Hypothesis {
     pub needs: Needs,
     /// The effect at parameter values `p` (one per [`Param`]).
     pub build: fn(&[f64]) -> Arc<dyn Term>,
-    /// The DOF it acts on first (for its evidence plot), an index into `DOFS`.
-    pub main_dof: usize,
+    /// The DOF it acts on first (for its evidence plot).
+    pub main_dof: Dof,
+    /// The DOFs its force acts in; empty: every DOF the command drives. An effect that acts in
+    /// none of the DOFs the model is compared in is listed untested.
+    pub acts_in: &'static [Dof],
     /// The regime its evidence quotes (a name in `REGIMES`).
     pub regime: &'static str,
     pub axis: Axis,

@@ -2,6 +2,7 @@
 //! zero (positive: the vehicle sinks). Taken along body z: pool runs are level.
 
 use super::{Axis, Env, Hypothesis, Limits, Needs, Param, State, Term};
+use crate::core::dof::Dof;
 use crate::core::model::Vec6;
 use std::sync::Arc;
 
@@ -16,7 +17,8 @@ pub static EFFECT: Hypothesis = Hypothesis {
     }],
     needs: Needs::Nothing,
     build: |p| Arc::new(NetBuoyancy { force_n: p[0] }),
-    main_dof: 2,
+    main_dof: Dof::Heave,
+    acts_in: &[Dof::Heave],
     regime: "heave",
     axis: Axis {
         label: |_| "depth (m)".into(),

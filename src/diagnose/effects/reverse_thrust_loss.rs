@@ -3,6 +3,7 @@
 //! stronger.
 
 use super::{COMMAND, Hypothesis, Limits, Needs, Param, Term};
+use crate::core::dof::Dof;
 use crate::core::model::Vec6;
 use std::sync::Arc;
 
@@ -17,7 +18,8 @@ pub static EFFECT: Hypothesis = Hypothesis {
     }],
     needs: Needs::Nothing,
     build: |p| Arc::new(ReverseThrustLoss { loss: p[0] }),
-    main_dof: 0,
+    main_dof: Dof::Surge,
+    acts_in: &[Dof::Surge, Dof::Sway, Dof::Heave],
     regime: "reverse_command",
     axis: COMMAND,
 };

@@ -3,6 +3,7 @@
 //! read, not the plant.
 
 use super::{Hypothesis, Limits, Needs, Param, SINCE_STEP, Term};
+use crate::core::dof::Dof;
 use std::sync::Arc;
 
 pub static EFFECT: Hypothesis = Hypothesis {
@@ -16,7 +17,8 @@ pub static EFFECT: Hypothesis = Hypothesis {
     }],
     needs: Needs::Nothing,
     build: |p| Arc::new(SensorDelay { delay_s: p[0] }),
-    main_dof: 0,
+    main_dof: Dof::Surge,
+    acts_in: &[],
     regime: "after_command_step",
     axis: SINCE_STEP,
 };

@@ -2,6 +2,7 @@
 //! with L the tether in the water (anchor to vehicle, plus slack) and c in N s^2/m^3.
 
 use super::{Axis, Env, Hypothesis, Limits, Needs, Param, State, Term, add_horizontal_drag};
+use crate::core::dof::Dof;
 use crate::core::model::Vec6;
 use std::sync::Arc;
 
@@ -30,7 +31,8 @@ pub static EFFECT: Hypothesis = Hypothesis {
             slack_m: p[1],
         })
     },
-    main_dof: 0,
+    main_dof: Dof::Surge,
+    acts_in: &[Dof::Surge, Dof::Sway],
     regime: "far_from_anchor",
     axis: Axis {
         label: |_| "distance from the tether anchor (m)".into(),

@@ -4,6 +4,7 @@
 //! command by its width (the usual dead-zone nonlinearity of an ESC or of seal friction).
 
 use super::{COMMAND, Hypothesis, Limits, Needs, Param, Term};
+use crate::core::dof::Dof;
 use crate::core::model::Vec6;
 use std::sync::Arc;
 
@@ -40,7 +41,8 @@ pub static EFFECT: Hypothesis = Hypothesis {
             offset: p[2],
         })
     },
-    main_dof: 0,
+    main_dof: Dof::Surge,
+    acts_in: &[],
     regime: "small_command",
     axis: COMMAND,
 };

@@ -2,6 +2,7 @@
 //! with one time constant for every DOF.
 
 use super::{Hypothesis, Limits, Needs, Param, SINCE_STEP, Term};
+use crate::core::dof::Dof;
 use std::sync::Arc;
 
 pub static EFFECT: Hypothesis = Hypothesis {
@@ -19,7 +20,8 @@ pub static EFFECT: Hypothesis = Hypothesis {
             time_constant_s: p[0],
         })
     },
-    main_dof: 0,
+    main_dof: Dof::Surge,
+    acts_in: &[],
     regime: "after_command_step",
     axis: SINCE_STEP,
 };

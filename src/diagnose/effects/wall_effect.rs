@@ -2,6 +2,7 @@
 //! velocity over ground, d the distance to the nearest wall.
 
 use super::{Axis, Env, Hypothesis, Limits, Needs, Param, State, Term, add_horizontal_drag};
+use crate::core::dof::Dof;
 use crate::core::model::Vec6;
 use std::sync::Arc;
 
@@ -30,7 +31,8 @@ pub static EFFECT: Hypothesis = Hypothesis {
             decay_m: p[1],
         })
     },
-    main_dof: 0,
+    main_dof: Dof::Surge,
+    acts_in: &[Dof::Surge, Dof::Sway],
     regime: "near_wall",
     axis: Axis {
         label: |_| "distance to the nearest wall (m)".into(),

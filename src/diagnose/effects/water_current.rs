@@ -2,6 +2,7 @@
 //! drag acts on the velocity relative to the water.
 
 use super::{Axis, Env, Hypothesis, Limits, Needs, Param, State, Term, drag};
+use crate::core::dof::Dof;
 use crate::core::model::Vec6;
 use std::sync::Arc;
 
@@ -29,7 +30,8 @@ pub static EFFECT: Hypothesis = Hypothesis {
             velocity_m_s: [p[0], p[1]],
         })
     },
-    main_dof: 0,
+    main_dof: Dof::Surge,
+    acts_in: &[Dof::Surge, Dof::Sway],
     regime: "heading_pool_x",
     axis: Axis {
         label: |_| "heading (deg)".into(),

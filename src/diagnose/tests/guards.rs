@@ -117,7 +117,8 @@ static SWAY_PUSH: Hypothesis = Hypothesis {
     }],
     needs: effects::Needs::Nothing,
     build: |p| Arc::new(SwayPush(p[0])),
-    main_dof: 1,
+    main_dof: crate::core::dof::Dof::Sway,
+    acts_in: &[],
     regime: "small_command",
     axis: effects::Axis {
         label: |_| "time (s)".into(),

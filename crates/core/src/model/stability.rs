@@ -86,13 +86,24 @@ impl<'de> Deserialize<'de> for Horizon {
     }
 }
 
-/// The Jacobian of the model's acceleration with respect to (u, v, w, r) at `nu` (central
-/// differences; the thrust adds a constant and drops out).
-pub fn jacobian(plant: &Plant, nu: &[f64; 4]) -> nalgebra::Matrix4<f64> {
-    let mut jac = nalgebra::Matrix4::zeros();
-    let base: Vec6 = [nu[0], nu[1], nu[2], 0.0, 0.0, nu[3]];
-    for (c, &i) in NU.iter().enumerate() {
-        let h = 1e-5 * (1.0 + nu[c].abs());
+/// The Jacobian of the model's acceleration with respect to the velocities of the DOFs among
+/// the four `slots` (indices into nu; u, v, w, r for [`along`]) that the model moves in, at
+/// `nu`, the other DOFs at rest (central differences; the thrust adds a constant and drops
+/// out). A DOF the model leaves out has no dynamics to grow or decay, and is not in it.
+pub fn jacobian(plant: &Plant, nu: &[f64; 4], slots: &[usize; 4]) -> nalgebra::DMatrix<f64> {
+    let mut base: Vec6 = [0.0; 6];
+    for (c, &i) in slots.iter().enumerate() {
+        base[i] = nu[c];
+    }
+    let on: Vec<(usize, usize)> = slots
+        .iter()
+        .copied()
+        .enumerate()
+        .filter(|&(_, i)| plant.active[i])
+        .collect();
+    let mut jac = nalgebra::DMatrix::zeros(on.len(), on.len());
+    for (c, &(slot, i)) in on.iter().enumerate() {
+        let h = 1e-5 * (1.0 + nu[slot].abs());
         let (mut plus, mut minus) = (base, base);
         plus[i] += h;
         minus[i] -= h;
@@ -100,25 +111,24 @@ pub fn jacobian(plant: &Plant, nu: &[f64; 4]) -> nalgebra::Matrix4<f64> {
             plant.accel(&plus, &[0.0; 6]),
             plant.accel(&minus, &[0.0; 6]),
         );
-        for (r, &k) in NU.iter().enumerate() {
+        for (r, &(_, k)) in on.iter().enumerate() {
             jac[(r, c)] = (ap[k] - am[k]) / (2.0 * h);
         }
     }
     jac
 }
 
-/// The largest real part of the linearised model's eigenvalues at `nu`, 1/s.
-pub fn growth_rate(plant: &Plant, nu: &[f64; 4]) -> f64 {
-    let jac = jacobian(plant, nu);
+/// The largest real part of the linearised model's eigenvalues at `nu` (velocities of the DOFs
+/// `slots`), 1/s; 0 for a model that moves in none of them.
+pub fn growth_rate(plant: &Plant, nu: &[f64; 4], slots: &[usize; 4]) -> f64 {
+    let jac = jacobian(plant, nu, slots);
     if jac.iter().any(|x| !x.is_finite()) {
         return f64::INFINITY;
     }
-    crate::numerics::complex_eigenvalues(nalgebra::DMatrix::from_iterator(
-        jac.nrows(),
-        jac.ncols(),
-        jac.iter().copied(),
-    ))
-    .map_or(f64::INFINITY, |ev| {
+    if jac.nrows() == 0 {
+        return 0.0;
+    }
+    crate::numerics::complex_eigenvalues(jac).map_or(f64::INFINITY, |ev| {
         ev.iter().map(|e| e.re).fold(f64::NEG_INFINITY, f64::max)
     })
 }
@@ -126,6 +136,18 @@ pub fn growth_rate(plant: &Plant, nu: &[f64; 4]) -> f64 {
 /// The model's stability along a run: recorded velocities `vel` (u, v, w, r per sample at
 /// times `t`, NaN where unknown, then taken as 0), and the horizon `setting` resolves to.
 pub fn along(plant: &Plant, t: &[f64], vel: &[[f64; 4]], setting: Horizon) -> Stability {
+    along_in(plant, t, vel, &NU, setting)
+}
+
+/// [`along`] with `vel` the velocities of the DOFs `slots` (indices into nu): a model in
+/// heave, roll, pitch and yaw is judged on its own motion.
+pub fn along_in(
+    plant: &Plant,
+    t: &[f64],
+    vel: &[[f64; 4]],
+    slots: &[usize; 4],
+    setting: Horizon,
+) -> Stability {
     let n = t.len().min(vel.len());
     let duration_s = if n > 1 { t[n - 1] - t[0] } else { 0.0 };
     // Every sample is not needed: the velocity changes little between neighbours.
@@ -133,7 +155,13 @@ pub fn along(plant: &Plant, t: &[f64], vel: &[[f64; 4]], setting: Horizon) -> St
     let idx: Vec<usize> = (0..n).step_by(stride).collect();
     let rates: Vec<f64> = idx
         .iter()
-        .map(|&k| growth_rate(plant, &vel[k].map(|x| if x.is_finite() { x } else { 0.0 })))
+        .map(|&k| {
+            growth_rate(
+                plant,
+                &vel[k].map(|x| if x.is_finite() { x } else { 0.0 }),
+                slots,
+            )
+        })
         .collect();
     let mut sorted = rates.clone();
     sorted.sort_by(f64::total_cmp);
@@ -239,7 +267,7 @@ mod tests {
         let v = Vehicle::reference();
         let h = Hydro::reference();
         let plant = Plant::new(&v, h);
-        let at_rest = growth_rate(&plant, &[0.0; 4]);
+        let at_rest = growth_rate(&plant, &[0.0; 4], &NU);
         assert!(at_rest < 0.0, "{at_rest}");
         // Surge at rest: -X_u / (m - X_udot), the slowest pole at rest is surge or sway.
         let surge_pole = h.lin[0][0] / (v.mass_kg - h.added[0][0]);
@@ -249,7 +277,7 @@ mod tests {
         assert!((at_rest - slowest).abs() < 1e-4, "{at_rest} vs {slowest}");
 
         let u = 1.3;
-        let fast = growth_rate(&plant, &[u, 0.0, 0.0, 0.0]);
+        let fast = growth_rate(&plant, &[u, 0.0, 0.0, 0.0], &NU);
         // Sway-yaw block at (u, 0, 0, 0): v_dot = (Y_v v - (m - X_udot) u r) / (m - Y_vdot),
         // r_dot = ((X_udot - Y_vdot) u v + N_r r) / (I - N_rdot), both sides' Coriolis from
         // eq. 6-7 with the added mass.
