@@ -75,7 +75,7 @@ impl Feature {
     }
 
     /// The named effect this term is, for the slot `j` of `slots` it acts in, if it is one in
-    /// disguise.
+    /// disguise (docs/formats.md's names: `coupled_drag` is any off-diagonal drag term).
     pub(super) fn named(self, slots: &Slots, j: usize) -> Option<&'static str> {
         let horizontal = |q: usize| matches!(slots.dofs[q], Dof::Surge | Dof::Sway);
         match self {
@@ -87,6 +87,10 @@ impl Feature {
             {
                 Some("coupled_drag")
             }
+            // Off-diagonal drag (docs/formats.md): a quadratic drag of another DOF's motion
+            // (`N += c |v| v`, `M += c |r| r`), or this DOF's drag scaled by another's speed.
+            Feature::Quadratic(a) if a != j => Some("coupled_drag"),
+            Feature::AbsProduct(a, b) if b == j && a != b => Some("coupled_drag"),
             Feature::CosHeading | Feature::SinHeading => Some("water_current"),
             Feature::WallDistance => Some("wall_effect"),
             Feature::TetherLength => Some("tether_drag"),

@@ -271,6 +271,13 @@ mod tests {
             Feature::CommandSign(3).named(&Slots::POOL, 3),
             Some("thruster_deadband")
         );
+        // Off-diagonal quadratic drag, in any DOF; a DOF's own quadratic drag is drift, and a
+        // signed product of two motions a Coriolis term.
+        let pool = |f: Feature, j: usize| f.named(&Slots::POOL, j);
+        assert_eq!(pool(Feature::Quadratic(1), 3), Some("coupled_drag"));
+        assert_eq!(pool(Feature::Quadratic(3), 3), None);
+        assert_eq!(pool(Feature::AbsProduct(3, 2), 2), Some("coupled_drag"));
+        assert_eq!(pool(Feature::Product(1, 3), 1), None);
         for f in [
             Feature::Sine(0.42),
             Feature::Command(0),
