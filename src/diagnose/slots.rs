@@ -61,6 +61,14 @@ impl Slots {
             .collect()
     }
 
+    /// The DOFs the model moves in that run `f` has no fused velocity for.
+    pub fn missing(&self, f: &crate::pool::fusion::Fused) -> Vec<Dof> {
+        self.on()
+            .map(|j| self.dofs[j])
+            .filter(|&d| slot_channel(f, d).is_none())
+            .collect()
+    }
+
     /// The slot velocities of a body-velocity vector.
     pub fn of_nu(&self, nu: &Vec6) -> [f64; 4] {
         std::array::from_fn(|j| nu[self.nu(j)])

@@ -443,4 +443,24 @@ fn a_model_is_compared_in_the_dofs_it_moves_in() {
     let surge_yaw = slots(&[Surge, Yaw]).unwrap();
     assert_eq!(surge_yaw.dofs, DOFS);
     assert_eq!(surge_yaw.active, [true, false, false, true]);
+    // A run with u, w and r fused but no body rates lacks roll and pitch for the rotational
+    // model, nothing for the one in surge and yaw.
+    let n = 10;
+    let some = || Some(vec![0.0; n]);
+    let fused = crate::pool::fusion::Fused {
+        t: (0..n).map(|k| k as f64 * 0.1).collect(),
+        vel: [some(), None, some(), some()],
+        std: [some(), None, some(), some()],
+        x: vec![f64::NAN; n],
+        y: vec![f64::NAN; n],
+        z: vec![0.0; n],
+        psi: vec![0.0; n],
+        roll_pitch: Default::default(),
+        tracked: Default::default(),
+        stats: Default::default(),
+    };
+    assert_eq!(rot.missing(&fused), [Roll, Pitch]);
+    assert!(surge_yaw.missing(&fused).is_empty());
+    assert!(Run::from_parts("r", false, vec![[0.0; 4]; n], &fused, rot).is_none());
+    assert!(Run::from_parts("r", false, vec![[0.0; 4]; n], &fused, surge_yaw).is_some());
 }

@@ -23,7 +23,7 @@ pub fn diagnose(
 ) -> anyhow::Result<(Diagnosis, Vec<Figure>)> {
     let start = std::time::Instant::now();
     let (runs, skipped, stability) = prepare_runs(plant, fused, crit);
-    let data = Data::new(runs)?;
+    let data = data_of(runs, &skipped)?;
     let diverged = diverged_runs(plant, &data);
     if !diverged.is_empty() {
         let elapsed = start.elapsed().as_secs_f64();
@@ -86,6 +86,18 @@ pub fn diagnose(
         elapsed_s: start.elapsed().as_secs_f64(),
     };
     Ok((diagnosis, figures))
+}
+
+/// The diagnosis's data from the runs it can use; when it can use none for want of a DOF,
+/// the error names the runs and what each lacks (`skipped`).
+fn data_of(runs: Vec<Run>, skipped: &[String]) -> anyhow::Result<Data> {
+    if runs.is_empty() && !skipped.is_empty() {
+        anyhow::bail!(
+            "no pool run can be diagnosed:\n  {}\n  help: the diagnosis compares the model in the DOFs it moves in; give the runs the sensors those need, or leave those DOFs out of the vehicle's `dofs`",
+            skipped.join("\n  ")
+        );
+    }
+    Data::new(runs)
 }
 
 /// The verdict: its sentence on the costs of what survived the selection, the discovered
@@ -326,9 +338,15 @@ pub(super) fn prepare_runs(
         .filter_map(|r| {
             let run = Run::from_fused(r, slots);
             if run.is_none() {
+                let missing: Vec<String> = slots
+                    .missing(&r.fused)
+                    .iter()
+                    .map(|d| d.to_string())
+                    .collect();
                 skipped.push(format!(
-                    "{}: not every DOF the model moves in was fused",
-                    r.meta.run
+                    "{}: no fused {} (the model moves there)",
+                    r.meta.run,
+                    missing.join(", ")
                 ));
             }
             run
