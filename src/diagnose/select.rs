@@ -121,7 +121,7 @@ pub fn untested(data: &Data) -> Vec<Untested> {
                 return Untested {
                     name: h.name.to_string(),
                     missing: format!(
-                        "a model that moves in {} (where the effect acts; this one is compared in {} only)",
+                        "a model that moves in {}, where the table's form of the effect acts (this one is compared in {} only; discovery still looks for other forms there)",
                         dofs.join(" or "),
                         compared(data)
                     ),
