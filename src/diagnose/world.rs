@@ -22,7 +22,8 @@ pub struct World {
     /// trigonometry; the velocities are the same to the bit.
     pub track_pose: bool,
     /// Gravity's direction in the body frame (level: [0, 0, 1]), held over a step as the pose
-    /// is: a model that rolls and pitches has its restoring moments from the recorded attitude.
+    /// is: a model that rolls and pitches turns its restoring moments with it. The caller sets
+    /// it: from the attitude a simulation carries, or the recorded one for equation error.
     pub gravity: [f64; 3],
 }
 
