@@ -93,10 +93,9 @@ impl Settings {
                 // predicts the held-out runs best), and say how each did.
                 started_from = own
                     .iter()
-                    .filter(|f| Slots::of(&f.plant(ctx.vehicle)).is_some())
-                    .map(|f| {
-                        crate::diagnose::start::held_out(f, &f.plant(ctx.vehicle), fused, &self.criteria)
-                    })
+                    .map(|f| (f, f.plant(ctx.vehicle)))
+                    .filter(|(_, plant)| Slots::of(plant).is_some())
+                    .map(|(f, plant)| crate::diagnose::start::held_out(f, &plant, fused, &self.criteria))
                     .collect();
                 let i = crate::diagnose::start::choose(&mut started_from);
                 match started_from.get(i) {

@@ -11,20 +11,13 @@ use crate::common::*;
 /// the diagnosis.
 fn diagnosed(lag_s: f64, fit: &str, seed: u64) -> serde_json::Value {
     use hydrofit::twin::six;
-    let p = example("six_dof_rov");
-    let dir = p.path();
-    let text = read(dir, "pipeline.yaml");
-    let vehicle = text.split("\nstages:").next().unwrap();
-    let pipeline = format!(
-        "{}\nstages:\n  pool: {{kind: pool, inputs: [\"cases/pool/*/\"]}}\n  fit: {{kind: fit, from: [pool], settings: {fit}}}\n  validate: {{kind: validate, from: [fit, pool]}}\n  diagnose: {{kind: diagnose, from: [fit, pool]}}\n  report: {{kind: report, from: [fit, pool, validate, diagnose]}}\n",
-        vehicle
-            .replace(
-                "dofs: [surge, sway, heave, roll, pitch, yaw]",
-                "dofs: [roll, pitch, yaw]"
-            )
-            .replace("structure: custom", "structure: diagonal")
+    let p = crate::e2e_six_dof::six_dof_project(
+        "[roll, pitch, yaw]",
+        &format!(
+            "  fit: {{kind: fit, from: [pool], settings: {fit}}}\n  validate: {{kind: validate, from: [fit, pool]}}\n  diagnose: {{kind: diagnose, from: [fit, pool]}}\n  report: {{kind: report, from: [fit, pool, validate, diagnose]}}\n"
+        ),
     );
-    std::fs::write(dir.join("pipeline.yaml"), pipeline).unwrap();
+    let dir = p.path();
     let cases = dir.join("cases/pool");
     std::fs::remove_dir_all(&cases).unwrap();
     let trials: Vec<six::Trial> = six::default_trials()

@@ -139,6 +139,25 @@ fn six_parameter_sets_from_pool_trials_alone_rank_as_the_data_say() {
     assert!(html.contains("Against the twin's coefficients"));
 }
 
+/// examples/six_dof_rov with the vehicle in `dofs` (a YAML list) under the diagonal structure,
+/// and a pool stage followed by `stages` (YAML lines indented under `stages:`).
+pub(crate) fn six_dof_project(dofs: &str, stages: &str) -> tempfile::TempDir {
+    let p = example("six_dof_rov");
+    let text = read(p.path(), "pipeline.yaml");
+    let vehicle = text.split("\nstages:").next().unwrap();
+    let pipeline = format!(
+        "{}\nstages:\n  pool: {{kind: pool, inputs: [\"cases/pool/*/\"]}}\n{stages}",
+        vehicle
+            .replace(
+                "dofs: [surge, sway, heave, roll, pitch, yaw]",
+                &format!("dofs: {dofs}")
+            )
+            .replace("structure: custom", "structure: diagonal")
+    );
+    std::fs::write(p.path().join("pipeline.yaml"), pipeline).unwrap();
+    p
+}
+
 /// A run that rolls and pitches has its yaw rate from the gyro (here the navigation log's body
 /// rate) whatever the model's DOFs: a yaw-only fit reads the same r as one beside roll and
 /// pitch. It took the heading filter's rate alone, which on the ExjobbROV bags (an EKF whose
@@ -147,20 +166,11 @@ fn six_parameter_sets_from_pool_trials_alone_rank_as_the_data_say() {
 fn a_yaw_only_model_of_a_rolling_vehicle_reads_the_gyros_yaw_rate() {
     let mut rates = Vec::new();
     for dofs in ["[yaw]", "[roll, pitch, yaw]"] {
-        let p = example("six_dof_rov");
-        let dir = p.path();
-        let text = read(dir, "pipeline.yaml");
-        let vehicle = text.split("\nstages:").next().unwrap();
-        let pipeline = format!(
-            "{}\nstages:\n  pool: {{kind: pool, inputs: [\"cases/pool/*/\"]}}\n  fit: {{kind: fit, from: [pool], settings: {{method: ols}}}}\n  validate: {{kind: validate, from: [fit, pool]}}\n  report: {{kind: report, from: [fit, pool, validate]}}\n",
-            vehicle
-                .replace(
-                    "dofs: [surge, sway, heave, roll, pitch, yaw]",
-                    &format!("dofs: {dofs}")
-                )
-                .replace("structure: custom", "structure: diagonal")
+        let p = six_dof_project(
+            dofs,
+            "  fit: {kind: fit, from: [pool], settings: {method: ols}}\n  validate: {kind: validate, from: [fit, pool]}\n  report: {kind: report, from: [fit, pool, validate]}\n",
         );
-        std::fs::write(dir.join("pipeline.yaml"), pipeline).unwrap();
+        let dir = p.path();
         ok(dir, &["build"]);
         let fusion = read(dir, "reports/fusion.json");
         assert!(
