@@ -1,12 +1,13 @@
 #!/usr/bin/env python3
 """Write a hydrofit project that builds the ExjobbROV pool-test bags (BlueROV, 2016) directly.
 
-    python3 scripts/exjobb/project.py BAG_DIR OUT_PROJECT [--open-loop-yaw]
+    python3 scripts/exjobb/project.py BAG_DIR OUT_PROJECT [--open-loop-yaw | --unseen]
     cargo run --release -- build --project OUT_PROJECT
 
 With --open-loop-yaw the project is the thesis's April open-loop yaw runs instead (`yaw_1` ..
 `yaw_5`: a random telegraph on the two horizontal thrusters), identified in yaw alone, with
-the split of open_loop_yaw.py.
+the split of open_loop_yaw.py. With --unseen every run of RUNS trains and the 34 other
+closed-loop May runs of UNSEEN are held out.
 
 No converter: each run folder's run.yaml points at its bag (by absolute path; the bags are not
 copied, their source has no licence) with the span of the bag that is the run, and names the
@@ -59,6 +60,48 @@ RUNS = [
     ("stepAllAttitude_2016-05-25-09-14-26.bag", "validate", [2.168, 16.199], "steps on the roll, pitch and yaw angle references"),
     ("sinPhiA1F05_2016-05-25-08-47-49.bag", "validate", [1.635, 22.435], "sine on the roll angle reference, 0.5 Hz (repeat)"),
     ("sinQA1F05_2016-05-25-08-26-38.bag", "validate", [2.240, 23.699], "sine on the pitch rate reference, 0.5 Hz"),
+]
+
+# Closed-loop runs of 23 and 25 May 2016 outside RUNS, held out by --unseen: every sine and
+# step test whose roll and pitch stay under 60 deg and that moves at all (README, "Runs the fit
+# never saw"). Spans by the rule of RUNS for the start; each ends 2 s before the last logged
+# command, not cut by inspection, so some end with the vehicle being handled.
+UNSEEN = [
+    ("sinAllA05Hz05_2016-05-23-15-30-25.bag", [2.492, 15.342]),
+    ("sinAllA05Hz05_2016-05-23-15-31-03.bag", [2.395, 22.505]),
+    ("sinAllAttitudeA05_2016-05-25-09-08-39.bag", [2.114, 23.944]),
+    ("sinAllAttitudeA05_2016-05-25-09-12-06.bag", [2.116, 21.766]),
+    ("sinAllAttitudeA1_2016-05-25-09-06-05.bag", [2.250, 16.520]),
+    ("sinAllAttitudeA1_2016-05-25-09-13-13.bag", [1.909, 23.080]),
+    ("sinPA1F05_2016-05-25-08-24-36.bag", [3.944, 12.551]),
+    ("sinPNewA05Hz05_2016-05-23-15-19-38.bag", [2.483, 21.383]),
+    ("sinPa05hz05_2016-05-23-15-13-18.bag", [1.565, 21.505]),
+    ("sinPhiA05F05_2016-05-25-08-48-58.bag", [1.717, 23.767]),
+    ("sinPhiA05F05_2016-05-25-08-49-50.bag", [1.982, 22.023]),
+    ("sinPhiA1F05_2016-05-25-08-40-17.bag", [1.951, 23.971]),
+    ("sinPsiA05F05_2016-05-25-09-00-24.bag", [2.707, 29.707]),
+    ("sinPsiA1F05_2016-05-25-08-59-00.bag", [2.260, 24.400]),
+    ("sinQA05F05_2016-05-25-08-28-01.bag", [2.589, 24.989]),
+    ("sinQNewA05Hz05_2016-05-23-15-20-56.bag", [4.122, 17.832]),
+    ("sinQa05hz05_2016-05-23-15-10-00.bag", [2.387, 21.507]),
+    ("sinRA05F05_2016-05-25-08-29-57.bag", [1.968, 19.918]),
+    ("sinRA1F05_2016-05-25-08-30-43.bag", [2.599, 21.210]),
+    ("sinRA1Hz05_2016-05-23-15-23-08.bag", [3.501, 13.420]),
+    ("sinRNewA05Hz05_2016-05-23-15-21-51.bag", [2.448, 11.877]),
+    ("sinRa05hz05_2016-05-23-15-07-27.bag", [2.561, 16.231]),
+    ("sinRa05hz05_2016-05-23-15-08-10.bag", [7.858, 32.728]),
+    ("sinThetaA05F05_2016-05-25-08-55-21.bag", [3.426, 22.836]),
+    ("stepAllAttitude_2016-05-25-09-15-24.bag", [1.727, 14.367]),
+    ("stepPhiS3E10_2016-05-25-08-51-21.bag", [2.740, 20.160]),
+    ("stepPhiS3E10_2016-05-25-08-52-37.bag", [2.996, 25.846]),
+    ("stepPsiS3E10_2016-05-25-09-02-58.bag", [1.944, 23.184]),
+    ("stepPsiS3E10_2016-05-25-09-04-01.bag", [2.520, 34.380]),
+    ("stepRS3E10_2016-05-25-08-32-35.bag", [3.412, 29.042]),
+    ("stepRS3E10_2016-05-25-08-34-41.bag", [3.881, 13.891]),
+    ("stepRS3E10_2016-05-25-08-35-17.bag", [2.259, 42.519]),
+    ("stepRs3e10_2016-05-23-13-59-06.bag", [2.168, 19.778]),
+    ("stepThetaS3E10_2016-05-25-08-56-31.bag", [2.027, 16.418]),
+    ("stepThetaS3E10_2016-05-25-08-57-15.bag", [3.816, 20.416]),
 ]
 
 PIPELINE = """\
@@ -135,9 +178,17 @@ def open_loop_yaw():
     return runs, pipeline
 
 
-def main(bag_dir, out, yaw):
+def unseen():
+    """Every run of RUNS for training, the runs of UNSEEN held out."""
+    runs = [(bag, "train", span, desc) for bag, _, span, desc in RUNS]
+    runs += [(bag, "validate", span, "a run the fit never saw") for bag, span in UNSEEN]
+    return runs, PIPELINE
+
+
+def main(bag_dir, out, mode):
     bag_dir, out = Path(bag_dir).resolve(), Path(out)
-    runs, pipeline = open_loop_yaw() if yaw else (RUNS, PIPELINE)
+    yaw = mode == "--open-loop-yaw"
+    runs, pipeline = {"--open-loop-yaw": open_loop_yaw, "--unseen": unseen}.get(mode, lambda: (RUNS, PIPELINE))()
     missing = [b for b, _, _, _ in runs if not (bag_dir / b).exists()]
     if missing:
         sys.exit(f"missing bags in {bag_dir}: {', '.join(missing)}")
@@ -156,7 +207,8 @@ def main(bag_dir, out, yaw):
 
 
 if __name__ == "__main__":
-    args = [a for a in sys.argv[1:] if a != "--open-loop-yaw"]
-    if len(args) != 2:
+    modes = [a for a in sys.argv[1:] if a.startswith("--")]
+    args = [a for a in sys.argv[1:] if not a.startswith("--")]
+    if len(args) != 2 or len(modes) > 1 or not set(modes) <= {"--open-loop-yaw", "--unseen"}:
         sys.exit(__doc__)
-    main(args[0], args[1], "--open-loop-yaw" in sys.argv[1:])
+    main(args[0], args[1], modes[0] if modes else None)
