@@ -57,27 +57,26 @@ impl<'a> Lines<'a> {
         }
     }
 
-    /// Whether DOF `j`'s residual `res` (per run, per DOF), pooled over the runs, has a line
-    /// no command has: its largest periodogram value over [`LINE_RATIO`] times its
+    /// The frequency (Hz) of a line no command has in DOF `j`'s residual `res` (per run, per
+    /// DOF), pooled over the runs: its largest periodogram value over [`LINE_RATIO`] times its
     /// neighbours' median ([`local_ratio`]), at a frequency where no command's periodogram
     /// stands out the same way (a manoeuvre repeated at a frequency leaves the model's error
     /// at that frequency: that is the model's response, not a force of its own).
-    pub fn uncommanded(&self, res: &[[Vec<f64>; 4]], j: usize) -> bool {
+    pub fn uncommanded(&self, res: &[[Vec<f64>; 4]], j: usize) -> Option<f64> {
         let p = self.periodogram(|r, k| res[r][j].get(k).copied().unwrap_or(f64::NAN));
-        let Some(peak) = argmax(&p) else {
-            return false;
-        };
+        let peak = argmax(&p)?;
         if local_ratio(&p, peak, self.df) <= LINE_RATIO {
-            return false;
+            return None;
         }
         let commands = self.commands.get_or_init(|| {
             (0..4)
                 .map(|q| self.periodogram(|r, k| self.runs[r].cmd[k][q]))
                 .collect()
         });
-        !commands
+        let commanded = commands
             .iter()
-            .any(|pc| local_ratio(pc, peak, self.df) > LINE_RATIO)
+            .any(|pc| local_ratio(pc, peak, self.df) > LINE_RATIO);
+        (!commanded).then(|| self.grid[peak])
     }
 
     /// The pooled periodogram of the signal `x(run, sample)`, NaN samples left out, runs

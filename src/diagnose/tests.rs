@@ -59,6 +59,23 @@ fn words_agree_with_numbers(d: &Diagnosis) {
                 v.contains("unexplained") || v.contains("does not explain"),
                 "{v}"
             );
+            // Within the noise floor pooled, a structured DOF decided it: the verdict says
+            // which, with figures at or above the multiples that count as structure.
+            if e.validation_cost_after <= d.criteria.within_noise * noise {
+                assert!(
+                    v.contains("times its noise"),
+                    "{v}
+cost {cost} noise {noise}"
+                );
+            }
+            for (multiple, why) in structured_figures(v) {
+                let floor = if why.starts_with("with a line") {
+                    2.0
+                } else {
+                    d.criteria.unexplained_noise_multiple
+                };
+                assert!(multiple > floor, "{v}");
+            }
         } else {
             assert!(v.contains(&e.name), "{} not in: {v}", e.name);
         }
@@ -66,6 +83,16 @@ fn words_agree_with_numbers(d: &Diagnosis) {
     for dropped in &d.dropped {
         assert!(v.contains(dropped.as_str()), "{v}");
     }
+}
+
+/// Each "X times its noise, <why>" the verdict `v` quotes for a structured DOF.
+fn structured_figures(v: &str) -> Vec<(f64, &str)> {
+    v.match_indices(" times its noise, ")
+        .map(|(i, m)| {
+            let number = v[..i].rsplit(' ').next().unwrap();
+            (number.parse().unwrap(), &v[i + m.len()..])
+        })
+        .collect()
 }
 
 /// The effects diagnosis `d` names, `unexplained` left out.

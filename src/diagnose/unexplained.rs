@@ -15,7 +15,7 @@ pub(super) fn unexplained_residual(
     data: &Data,
     selected: &dx::Selection,
     explained_cost: f64,
-    left: &[Dof],
+    left: &[Structured],
     crit: &Criteria,
 ) -> Found {
     let after_aug = dx::augmentation(selected);
@@ -24,13 +24,15 @@ pub(super) fn unexplained_residual(
     let regs = dx::regime_shares(&data.validate, &res_after, &data.scale);
     let s = data.eval(plant, &after_aug, true);
     let dofs = unexplained_dofs(data, &s, left, crit);
+    // Where it is, in the DOFs it is reported in when they hold any of it.
+    let worst = loc.iter().find(|m| dofs.contains(&m.dof)).or(loc.first());
     let top = regs
         .iter()
         .filter(|r| r.share_of_time > 0.05)
         .max_by(|a, b| {
             (a.share_of_error / a.share_of_time).total_cmp(&(b.share_of_error / b.share_of_time))
         });
-    let ev = unexplained_evidence(explained_cost, data.noise_cost, loc.first(), top);
+    let ev = unexplained_evidence(explained_cost, data.noise_cost, left, worst, top);
     let nm = dx::nmae_map(&s, &data.slots);
     Found {
         name: "unexplained".into(),
@@ -48,7 +50,7 @@ pub(super) fn unexplained_residual(
 
 /// The DOFs whose held-out residual after the effects is above the noise, and those found
 /// structured (`left`).
-fn unexplained_dofs(data: &Data, s: &dx::Sums, left: &[Dof], crit: &Criteria) -> Vec<Dof> {
+fn unexplained_dofs(data: &Data, s: &dx::Sums, left: &[Structured], crit: &Criteria) -> Vec<Dof> {
     let per_dof: Vec<f64> = (0..4)
         .map(|j| s.sse[j] / s.n[j].max(1.0) / data.scale[j])
         .collect();
@@ -57,26 +59,32 @@ fn unexplained_dofs(data: &Data, s: &dx::Sums, left: &[Dof], crit: &Criteria) ->
         .filter(|&j| per_dof[j] > crit.within_noise * noise_dof[j])
         .map(|j| data.slots.dofs[j])
         .collect();
-    for d in left {
-        if !dofs.contains(d) {
-            dofs.push(*d);
+    for d in left.iter().map(|l| l.dof) {
+        if !dofs.contains(&d) {
+            dofs.push(d);
         }
     }
     dofs
 }
 
-/// The evidence sentence of the `unexplained` entry: its size against the noise floor, where
-/// most of it is, and the regime it concentrates in.
+/// The evidence sentence of the `unexplained` entry: its size against the noise floor, the
+/// DOFs found structured with the figures that decided it, where most of it is, and the
+/// regime it concentrates in.
 fn unexplained_evidence(
     explained_cost: f64,
     noise_cost: f64,
+    left: &[Structured],
     worst: Option<&Mismatch>,
     top: Option<&dx::RegimeShare>,
 ) -> String {
     let mut ev = format!(
-        "After the effects above the held-out error cost is {explained_cost:.4}, {:.1} times the noise floor, and no effect of the table lowers it significantly",
+        "After the effects above the held-out error cost is {explained_cost:.4}, {:.1} times the noise floor",
         explained_cost / noise_cost
     );
+    if !left.is_empty() {
+        let _ = write!(ev, "; the residual is structured in {}", describe(left));
+    }
+    ev.push_str("; no effect of the table lowers it significantly");
     if let Some(m) = worst {
         let _ = write!(
             ev,
@@ -100,6 +108,42 @@ fn unexplained_evidence(
     ev
 }
 
+/// A DOF whose held-out residual is structured and above its noise, with the figures that
+/// decided it ([`structured_left`]).
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct Structured {
+    pub dof: Dof,
+    /// The residual's sum of squares over the fused velocities' noise variance summed alike.
+    pub multiple: f64,
+    /// The mean share over the runs of autocorrelation lags up to 5 s outside the 95 % band.
+    pub acf_outside: f64,
+    /// The line no command has (Hz), when it is the line that decided it.
+    pub line_hz: Option<f64>,
+}
+
+impl Structured {
+    /// "yaw: 6.2 times its noise, autocorrelated (outside the 95 % band at 45 % of the lags
+    /// up to 5 s)", or "... with a line at 0.42 Hz that no command has".
+    fn phrase(&self) -> String {
+        let why = match self.line_hz {
+            Some(f) => format!("with a line at {f:.2} Hz that no command has"),
+            None => format!(
+                "autocorrelated (outside the 95 % band at {} of the lags up to 5 s)",
+                pct(self.acf_outside)
+            ),
+        };
+        format!("{}: {:.1} times its noise, {why}", self.dof, self.multiple)
+    }
+}
+
+/// The structured DOFs in words, joined by "; " (empty when there are none).
+pub(super) fn describe(left: &[Structured]) -> String {
+    left.iter()
+        .map(Structured::phrase)
+        .collect::<Vec<_>>()
+        .join("; ")
+}
+
 /// The DOFs whose held-out residual, after the effects in `aug`, is structured and above its
 /// noise: what is left there is physics the model lacks, however much the named effects
 /// already explained. Structured is either
@@ -109,16 +153,19 @@ fn unexplained_evidence(
 ///   periodogram that no command has ([`super::spectrum::Lines::uncommanded`]): a periodic force is never
 ///   "within noise" (the fused velocities' own errors are coloured, so their
 ///   autocorrelation alone tells little below the higher multiple, but they make no line).
+///
+/// The pooled held-out cost may be within its noise floor while one DOF is not: the verdict
+/// then quotes these figures, the ones that decided it.
 pub(super) fn structured_left(
     plant: &Plant,
     data: &Data,
     aug: &Augmentation,
     crit: &Criteria,
-) -> Vec<Dof> {
+) -> Vec<Structured> {
     let res = dx::residuals(plant, aug, &data.validate);
     let lines = super::spectrum::Lines::new(&data.validate);
     (0..4)
-        .filter(|&j| {
+        .filter_map(|j| {
             let (mut sse, mut var, mut outside, mut runs) = (0.0, 0.0, 0.0, 0.0);
             for (r, e) in data.validate.iter().zip(&res) {
                 let e: Vec<f64> = e[j].iter().copied().filter(|x| x.is_finite()).collect();
@@ -132,12 +179,23 @@ pub(super) fn structured_left(
                 runs += 1.0;
             }
             if runs == 0.0 {
-                return false;
+                return None;
             }
-            let correlated = sse > crit.unexplained_noise_multiple * var && outside / runs > 0.2;
-            correlated || (sse > LINE_NOISE_MULTIPLE * var && lines.uncommanded(&res, j))
+            let (multiple, acf_outside) = (sse / var.max(1e-300), outside / runs);
+            let line_hz = || {
+                (multiple > LINE_NOISE_MULTIPLE)
+                    .then(|| lines.uncommanded(&res, j))
+                    .flatten()
+            };
+            let correlated = multiple > crit.unexplained_noise_multiple && acf_outside > 0.2;
+            let line_hz = if correlated { None } else { line_hz() };
+            (correlated || line_hz.is_some()).then(|| Structured {
+                dof: data.slots.dofs[j],
+                multiple,
+                acf_outside,
+                line_hz,
+            })
         })
-        .map(|j| data.slots.dofs[j])
         .collect()
 }
 

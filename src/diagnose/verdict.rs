@@ -5,7 +5,7 @@
 use super::drift::Drifted;
 use super::figures;
 use super::result::*;
-use super::unexplained::{structured_left, unexplained_residual};
+use super::unexplained::{Structured, describe, structured_left, unexplained_residual};
 use super::{self as dx, Augmentation, Criteria, Data, Mismatch, Run, Slots};
 use crate::core::dof::Dof;
 use crate::core::model::Plant;
@@ -114,7 +114,7 @@ fn compose_verdict(
     };
     let mut verdict = verdict_sentence(
         effects,
-        conclusion.unexplained,
+        conclusion.unexplained.then_some(&conclusion.structured[..]),
         conclusion.drift,
         &costs,
         crit.within_noise,
@@ -164,6 +164,9 @@ struct Conclusion {
     dropped: Vec<String>,
     /// The held-out cost of the effects kept, once some were dropped.
     cost_after_drop: Option<f64>,
+    /// The DOFs whose residual after the effects kept is structured above its noise, with the
+    /// figures that decided it: what the verdict quotes when the pooled cost is within noise.
+    structured: Vec<Structured>,
 }
 
 /// The named effects and their figures, or none when drift explains better, plus an
@@ -200,7 +203,7 @@ fn conclude(
     } else {
         structured_left(plant, data, &dx::augmentation(&selected), crit)
     };
-    let unexplained = |cost: f64, left: &[Dof], n_effects: usize| {
+    let unexplained = |cost: f64, left: &[Structured], n_effects: usize| {
         !left.is_empty()
             || (!within(cost) && (cost > 0.5 * costs.base.max(1e-12) || n_effects == 0))
     };
@@ -244,6 +247,7 @@ fn conclude(
             cost_after_drop: (!dropped.is_empty()).then_some(explained_cost),
             selected,
             dropped,
+            structured: if unexplained { left } else { Vec::new() },
         },
     ))
 }
@@ -469,20 +473,31 @@ struct Costs {
 }
 
 /// The one-sentence verdict.
+///
+/// `unexplained` holds the DOFs found structured when an `unexplained` entry is reported
+/// (possibly none: the cost alone then decided it); the sentence quotes their figures, so a
+/// pooled cost within the noise floor beside a structured DOF reads as what it is.
 fn verdict_sentence(
     effects: &[Found],
-    unexplained: bool,
+    unexplained: Option<&[Structured]>,
     drift: bool,
     c: &Costs,
     within_multiple: f64,
 ) -> String {
     let (base_cost, final_cost, re_cost) = (c.base, c.after_effects, c.reestimated);
-    if unexplained {
+    if let Some(left) = unexplained {
+        let which = if left.is_empty() {
+            String::new()
+        } else {
+            format!(" (in {})", describe(left))
+        };
         if effects.len() == 1 {
-            "The model does not explain the held-out runs, re-estimating its parameters does not either, and no effect of the table does: the residual is structured and is reported as unexplained, with where it is.".to_string()
+            format!(
+                "The model does not explain the held-out runs, re-estimating its parameters does not either, and no effect of the table does: the residual is structured{which} and is reported as unexplained, with where it is."
+            )
         } else {
             format!(
-                "{} {} part of the mismatch: the held-out error cost falls from {base_cost:.4} to {final_cost:.4} ({} of the start, {:.1} times the noise floor); a structured residual remains and is reported as unexplained.",
+                "{} {} part of the mismatch: the held-out error cost falls from {base_cost:.4} to {final_cost:.4} ({} of the start, {:.1} times the noise floor); a structured residual remains{which} and is reported as unexplained.",
                 effects
                     .iter()
                     .filter(|e| e.name != "unexplained")
@@ -554,7 +569,7 @@ mod tests {
             reestimated: 0.5203,
             noise: 0.005,
         };
-        let v = verdict_sentence(&[found("thruster_lag")], false, false, &costs, 5.0);
+        let v = verdict_sentence(&[found("thruster_lag")], None, false, &costs, 5.0);
         assert!(v.contains("from 0.4470 to 0.0200 (4 % of the start"), "{v}");
         assert!(
             v.contains("instead worsens it to 0.5203 (116 % of the start)"),
@@ -562,13 +577,44 @@ mod tests {
         );
         let v = verdict_sentence(
             &[found("thruster_lag"), found("unexplained")],
-            true,
+            Some(&[]),
             false,
             &costs,
             5.0,
         );
         assert!(
             v.contains("(4 % of the start, 4.0 times the noise floor)"),
+            "{v}"
+        );
+        // A structured DOF beside a pooled cost within the noise floor: the figures that
+        // decided it are quoted.
+        let left = [
+            Structured {
+                dof: Dof::Yaw,
+                multiple: 6.24,
+                acf_outside: 0.45,
+                line_hz: None,
+            },
+            Structured {
+                dof: Dof::Heave,
+                multiple: 2.5,
+                acf_outside: 0.1,
+                line_hz: Some(0.42),
+            },
+        ];
+        let within = Costs {
+            after_effects: 0.005,
+            ..costs
+        };
+        let v = verdict_sentence(
+            &[found("thruster_lag"), found("unexplained")],
+            Some(&left),
+            false,
+            &within,
+            5.0,
+        );
+        assert!(
+            v.contains("1.0 times the noise floor); a structured residual remains (in yaw: 6.2 times its noise, autocorrelated (outside the 95 % band at 45 % of the lags up to 5 s); heave: 2.5 times its noise, with a line at 0.42 Hz that no command has) and is reported as unexplained."),
             "{v}"
         );
     }
