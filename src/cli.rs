@@ -291,6 +291,11 @@ pub enum TwinCommand {
         /// Seeds of the scenarios' manoeuvres and sensor noise.
         #[arg(long = "seed", default_values_t = [2u64, 3])]
         seeds: Vec<u64>,
+        /// Render the runs as a vehicle that logs only its own navigation (a DVL's velocity
+        /// and an AHRS heading at 4-6 Hz, depth; no UWB, sonar or IMU) instead of the pool's
+        /// sensors.
+        #[arg(long)]
+        navigation_log: bool,
     },
 }
 
@@ -416,6 +421,9 @@ fn twin(root: &std::path::Path, what: TwinCommand) -> anyhow::Result<ExitCode> {
         TwinCommand::Auv { to } => cmd::twin::auv(root, &to.out, &to.truth, to.seed),
         TwinCommand::Dsrv { to } => cmd::twin::dsrv(root, &to.out, &to.truth, to.seed),
         TwinCommand::Tank { to } => cmd::twin::tank(root, &to.out, &to.truth, to.seed),
-        TwinCommand::CheckDiagnosis { seeds } => cmd::twin::check_diagnosis(&seeds),
+        TwinCommand::CheckDiagnosis {
+            seeds,
+            navigation_log,
+        } => cmd::twin::check_diagnosis(&seeds, navigation_log),
     }
 }

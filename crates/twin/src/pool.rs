@@ -13,7 +13,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 mod render;
-pub use render::{Latency, render, render_nav};
+pub use render::{Latency, NAV_DVL_PERIOD_S, render, render_nav};
 
 pub const POOL: Pool = Pool {
     length_m: 25.0,

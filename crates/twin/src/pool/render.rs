@@ -153,7 +153,7 @@ pub fn render_nav(
 const NAV_DVL_NOISE_M_S: f64 = 0.012;
 
 /// The DVL's ping interval, s.
-const NAV_DVL_PERIOD_S: f64 = 0.125;
+pub const NAV_DVL_PERIOD_S: f64 = 0.125;
 
 /// `nav.csv`: the vehicle's navigation output at an irregular 4-6 Hz, each row the last DVL
 /// ping's body velocity (white noise [`NAV_DVL_NOISE_M_S`]) and the AHRS's attitude (0.3 deg
