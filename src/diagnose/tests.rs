@@ -187,9 +187,10 @@ fn main_parameter(e: &Effect, d: &Diagnosis) -> (f64, [f64; 2], f64) {
             (total, around(total, 0.25), got("delay_s"))
         }
         // Outside the vocabulary: no named parameter (see `tests/discovery.rs`).
-        Effect::Wave { .. } | Effect::SkewedThruster { .. } | Effect::SurfaceDrag { .. } => {
-            (f64::NAN, [f64::NAN; 2], f64::NAN)
-        }
+        Effect::Wave { .. }
+        | Effect::SkewedThruster { .. }
+        | Effect::SurfaceDrag { .. }
+        | Effect::TetherTorsion { .. } => (f64::NAN, [f64::NAN; 2], f64::NAN),
     }
 }
 

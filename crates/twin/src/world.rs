@@ -67,10 +67,14 @@ pub enum Effect {
     /// Extra drag near the free surface (waves made, ventilation): surge and sway drag grow by
     /// c |v| v exp(-(z / depth_m)^2), z the depth below the surface.
     SurfaceDrag { coefficient: f64, depth_m: f64 },
+    /// A tether that twists as the vehicle turns: a yaw moment against the heading turned
+    /// through since the cable was laid untwisted (at heading 0), -k psi with psi continuous
+    /// (turns counted), N m per rad.
+    TetherTorsion { stiffness_nm_per_rad: f64 },
 }
 
 /// The effects outside the diagnosis's vocabulary, as `from_arg` takes them.
-pub const OUTSIDE: [&str; 3] = ["wave", "skewed_thruster", "surface_drag"];
+pub const OUTSIDE: [&str; 4] = ["wave", "skewed_thruster", "surface_drag", "tether_torsion"];
 
 pub const NAMES: [&str; 9] = [
     "net_buoyancy",
@@ -99,6 +103,7 @@ impl Effect {
             Effect::Wave { .. } => OUTSIDE[0],
             Effect::SkewedThruster { .. } => OUTSIDE[1],
             Effect::SurfaceDrag { .. } => OUTSIDE[2],
+            Effect::TetherTorsion { .. } => OUTSIDE[3],
         }
     }
 
@@ -143,6 +148,9 @@ impl Effect {
             "surface_drag" => Effect::SurfaceDrag {
                 coefficient: x,
                 depth_m: 1.0,
+            },
+            "tether_torsion" => Effect::TetherTorsion {
+                stiffness_nm_per_rad: x,
             },
             _ => {
                 let hint = hydrofit_core::diag::nearest(name, NAMES.into_iter().chain(OUTSIDE))
@@ -220,6 +228,7 @@ impl WorldPlant {
                     | Effect::WaterCurrent { .. }
                     | Effect::WallEffect { .. }
                     | Effect::SurfaceDrag { .. }
+                    | Effect::TetherTorsion { .. }
             )
         })
     }
@@ -335,6 +344,9 @@ impl WorldPlant {
                     f[0] -= coefficient * near * s.nu[0].abs() * s.nu[0];
                     f[1] -= coefficient * near * s.nu[1].abs() * s.nu[1];
                 }
+                Effect::TetherTorsion {
+                    stiffness_nm_per_rad,
+                } => f[5] -= stiffness_nm_per_rad * s.psi,
                 _ => {}
             }
         }

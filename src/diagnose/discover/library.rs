@@ -35,6 +35,9 @@ pub enum Feature {
     TetherLength,
     CosHeading,
     SinHeading,
+    /// The heading, continuous over the run (turns counted), rad: a moment that grows with
+    /// the turns made (a tether twisting).
+    Heading,
     /// sin and cos of 2 pi f t (two columns: amplitude and phase).
     Sine(f64),
 }
@@ -70,6 +73,7 @@ impl Feature {
             Feature::TetherLength => "L_tether".into(),
             Feature::CosHeading => "cos(psi)".into(),
             Feature::SinHeading => "sin(psi)".into(),
+            Feature::Heading => "psi".into(),
             Feature::Sine(f) => format!("sin(2 pi {f:.3} t + phase)"),
         }
     }
@@ -137,6 +141,7 @@ impl Feature {
             Feature::TetherLength => run.tether_length(k).unwrap_or(0.0),
             Feature::CosHeading => run.psi[k].cos(),
             Feature::SinHeading => run.psi[k].sin(),
+            Feature::Heading => pre.heading[k],
             Feature::Sine(f) => {
                 // On the logs' own clock (a run trimmed to its logs' overlap keeps it).
                 let (s, c) = (TAU * f * run.t[k]).sin_cos();
@@ -149,10 +154,12 @@ impl Feature {
     }
 }
 
-/// What a run's features need besides the sample: its commands through each lag.
+/// What a run's features need besides the sample: its commands through each lag, and its
+/// heading made continuous.
 #[derive(Debug, Clone)]
 pub struct Prepared {
     lagged: Vec<Vec<[f64; 4]>>,
+    heading: Vec<f64>,
 }
 
 pub(super) fn prepare(run: &Run) -> Prepared {
@@ -173,7 +180,29 @@ pub(super) fn prepare(run: &Run) -> Prepared {
             out
         })
         .collect();
-    Prepared { lagged }
+    Prepared {
+        lagged,
+        heading: continuous(&run.psi),
+    }
+}
+
+/// Angles `a` (rad) with the jumps of a full turn taken out; NaN samples stay NaN and do not
+/// break the count.
+fn continuous(a: &[f64]) -> Vec<f64> {
+    let (mut turns, mut last) = (0.0, f64::NAN);
+    a.iter()
+        .map(|&x| {
+            if !x.is_finite() {
+                return x;
+            }
+            if last.is_finite() {
+                let d = x - last;
+                turns -= TAU * (d / TAU).round();
+            }
+            last = x;
+            x + turns
+        })
+        .collect()
 }
 
 /// The library for DOF `j`, with the sines at `peaks` (Hz).
@@ -216,6 +245,9 @@ pub(super) fn library(j: usize, peaks: &[f64], data: &Data) -> Vec<Feature> {
         f.push(Feature::TetherLength);
     }
     f.extend([Feature::CosHeading, Feature::SinHeading]);
+    if data.slots.dofs[j] == Dof::Yaw {
+        f.push(Feature::Heading);
+    }
     f.extend(peaks.iter().map(|&p| Feature::Sine(p)));
     f
 }

@@ -1,8 +1,10 @@
 //! Discovery beyond the vocabulary, on twin scenarios whose physics no named effect describes:
-//! a wave's vertical force, a surge thruster mounted askew, drag that grows near the surface.
-//! The twin conceals each with its own code (`crate::twin::world`: a pure sine, a moment of the
-//! thrust delivered through the thrusters' own dynamics, a Gaussian fall-off with depth), none
-//! of which is a term of the discovery's library as written.
+//! a wave's vertical force, a surge thruster mounted askew, drag that grows near the surface,
+//! a tether that twists as the vehicle turns. The twin conceals each with its own code
+//! (`crate::twin::world`: a pure sine, a moment of the thrust delivered through the thrusters'
+//! own dynamics, a Gaussian fall-off with depth, a moment against the turns made), none of
+//! which is a term of the discovery's library as written but the last, whose heading the
+//! library reads off the fused log and counts the turns of itself.
 
 use super::*;
 use crate::core::dof::Dof;
@@ -104,4 +106,48 @@ fn drag_near_the_surface_is_found_with_depth_and_speed() {
         c.expression
     );
     proven(arg, &c);
+}
+
+/// A tether twisting as the vehicle turns (a yaw moment against the heading turned through,
+/// -k psi) is no named effect: it is found as `N += c psi` with c within 15 % of -k, on the
+/// pool's sensors and on a vehicle that logs only its navigation (its heading the AHRS's).
+#[test]
+fn a_yaw_moment_against_the_turns_made_is_found() {
+    let arg = "tether_torsion=1.5";
+    let check = |c: &crate::diagnose::result::Candidate, what: &str| {
+        eprintln!(
+            "{what}: {} (held-out cost {:.4} -> {:.4})",
+            c.expression, c.validation_cost_before, c.validation_cost_after
+        );
+        assert_eq!(c.dof, Dof::Yaw, "{what}: {}", c.expression);
+        let t = c
+            .terms
+            .iter()
+            .find(|t| t.term == "psi")
+            .unwrap_or_else(|| panic!("{what}: no heading term in {}", c.expression));
+        assert!(
+            (t.coefficient + 1.5).abs() < 0.15 * 1.5,
+            "{what}: {} N m/rad, twin -1.5 ({})",
+            t.coefficient,
+            c.expression
+        );
+        assert!(c.named_as.is_none(), "{what}: {:?}", c.named_as);
+        proven(arg, c);
+    };
+    let (_, c) = candidate(arg, 3);
+    check(&c, "pool sensors");
+    let e = Effect::from_arg(arg).unwrap();
+    let fused = scenario::fused_runs_seen(
+        std::slice::from_ref(&e),
+        2,
+        crate::twin::pool::Logs::Navigation,
+    )
+    .unwrap();
+    let d = full(&fused, &scenario::cfd_fit_plant(1).unwrap());
+    let c = d
+        .effects
+        .iter()
+        .find_map(|x| x.candidate.clone())
+        .unwrap_or_else(|| panic!("navigation log: no closed form\n{}", d.verdict));
+    check(&c, "navigation log");
 }
