@@ -300,7 +300,7 @@ mod tests {
         let tau: Vec<Vec6> = t
             .iter()
             .map(|&s| {
-                let sign = if (s / 2.0) as usize % 2 == 0 {
+                let sign = if ((s / 2.0) as usize).is_multiple_of(2) {
                     1.0
                 } else {
                     -1.0
