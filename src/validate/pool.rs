@@ -326,25 +326,7 @@ mod tests {
             fused.std[j] = Some(vec![0.01; t.len()]);
         }
         FusedRun {
-            meta: RunMeta {
-                run: "lagged".into(),
-                role: crate::pool::import::Role::Validate,
-                description: String::new(),
-                pool: None,
-                tether_anchor_m: None,
-                start_m: None,
-                sources: vec![],
-                known: [true; 4],
-                sensors: vec![],
-                stats: Default::default(),
-                stats_without_sonar: None,
-                notes: vec![],
-                repairs: vec![],
-                force_logged: true,
-                actuators: vec![],
-                design: None,
-                tilted: false,
-            },
+            meta: RunMeta::bare("lagged", crate::pool::import::Role::Validate),
             thrust: tau.iter().map(|x| [x[0], x[1], x[2], x[5]]).collect(),
             moments: Vec::new(),
             fused,

@@ -35,33 +35,19 @@ fn advance(
 
 /// The metadata of straight run `i`: runs 4 and 5 held out, in a 400 m basin with a tether.
 fn straight_meta(i: usize) -> crate::pool::fusion::run::RunMeta {
-    crate::pool::fusion::run::RunMeta {
-        run: format!("straight_{i}"),
-        role: if i >= 4 {
-            crate::pool::import::Role::Validate
-        } else {
-            crate::pool::import::Role::Train
-        },
-        description: String::new(),
-        pool: Some(crate::core::model::Pool {
-            length_m: 400.0,
-            width_m: 40.0,
-            depth_m: 10.0,
-        }),
-        tether_anchor_m: Some([0.0, 20.0, 0.0]),
-        start_m: None,
-        sources: vec![],
-        known: [true; 4],
-        sensors: vec![],
-        stats: Default::default(),
-        stats_without_sonar: None,
-        notes: vec![],
-        repairs: vec![],
-        force_logged: true,
-        actuators: vec![],
-        design: None,
-        tilted: false,
-    }
+    let role = if i >= 4 {
+        crate::pool::import::Role::Validate
+    } else {
+        crate::pool::import::Role::Train
+    };
+    let mut meta = crate::pool::fusion::run::RunMeta::bare(&format!("straight_{i}"), role);
+    meta.pool = Some(crate::core::model::Pool {
+        length_m: 400.0,
+        width_m: 40.0,
+        depth_m: 10.0,
+    });
+    meta.tether_anchor_m = Some([0.0, 20.0, 0.0]);
+    meta
 }
 
 /// Fast straight runs of the reference vehicle flown by a pilot who holds heading and speed

@@ -50,6 +50,32 @@ fn yes() -> bool {
     true
 }
 
+#[cfg(test)]
+impl RunMeta {
+    /// A run called `run` with every velocity known and nothing else recorded, for tests.
+    pub(crate) fn bare(run: &str, role: Role) -> RunMeta {
+        RunMeta {
+            run: run.into(),
+            role,
+            description: String::new(),
+            pool: None,
+            tether_anchor_m: None,
+            start_m: None,
+            sources: vec![],
+            known: [true; 4],
+            sensors: vec![],
+            stats: Stats::default(),
+            stats_without_sonar: None,
+            notes: vec![],
+            repairs: vec![],
+            force_logged: true,
+            actuators: vec![],
+            design: None,
+            tilted: false,
+        }
+    }
+}
+
 /// A fused run as stored: the thrust log and the fused state on its time base.
 #[derive(Debug, Clone)]
 pub struct FusedRun {
@@ -417,25 +443,7 @@ mod tests {
     /// DOF without a limit is left as logged.
     #[test]
     fn commands_are_clipped_at_the_vehicles_limits() {
-        let meta = RunMeta {
-            run: "r".into(),
-            role: Role::Train,
-            description: String::new(),
-            pool: None,
-            tether_anchor_m: None,
-            start_m: None,
-            sources: vec![],
-            known: [true; 4],
-            sensors: vec![],
-            stats: Stats::default(),
-            stats_without_sonar: None,
-            notes: vec![],
-            repairs: vec![],
-            force_logged: true,
-            actuators: vec![],
-            design: None,
-            tilted: false,
-        };
+        let meta = RunMeta::bare("r", Role::Train);
         let fused = Fused {
             t: vec![0.0, 1.0],
             vel: Default::default(),
