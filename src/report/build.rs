@@ -95,6 +95,7 @@ pub fn build(inp: &Inputs) -> anyhow::Result<Vec<(&'static str, Vec<u8>)>> {
                 runs: run_scores(b),
                 below_baselines: vec![],
                 behind_identified: vec![],
+                short_horizon: vec![],
             })
             .collect()
     });
@@ -206,12 +207,14 @@ fn score_model(
     let below_baselines = pool_model(inp, &f.stage).map_or(vec![], |m| m.shortfalls.clone());
     let behind_identified =
         pool_model(inp, &f.stage).map_or(vec![], |m| m.behind_identified.clone());
+    let short_horizon = pool_model(inp, &f.stage).map_or(vec![], |m| m.short_horizon.clone());
     Ok((
         ModelScore {
             model: f.stage.clone(),
             runs,
             below_baselines,
             behind_identified,
+            short_horizon,
         },
         html,
     ))

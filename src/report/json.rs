@@ -177,6 +177,10 @@ pub struct ModelScore {
     /// worse than the identified model.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub behind_identified: Vec<crate::validate::pool::Behind>,
+    /// The DOFs in which the model predicts a few samples ahead clearly worse than the
+    /// first-order baseline on the held-out pool runs.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub short_horizon: Vec<crate::validate::pool::ShortHorizon>,
 }
 
 #[derive(Debug, Serialize)]

@@ -61,10 +61,14 @@ pub fn score_models(
         }
     };
     let left_out = super::baseline::unmodelled_motion(vehicle, runs);
+    let dt = mean_interval(runs);
     for m in &mut models {
         m.shortfalls = super::baseline::shortfalls(m, baselines.first());
         for s in &mut m.shortfalls {
             s.unmodelled_motion = left_out.clone();
+        }
+        if let Some(b) = baselines.first() {
+            m.short_horizon = super::baseline::short_horizon(m, b, dt);
         }
     }
     let behind: Vec<Vec<super::pool::Behind>> = models
@@ -140,6 +144,7 @@ fn score_plant(
         mean_nmae,
         shortfalls: vec![],
         behind_identified: vec![],
+        short_horizon: vec![],
     };
     (score, simulations)
 }
@@ -222,4 +227,16 @@ fn cross_validate(
         });
     }
     (out, notes)
+}
+
+/// The mean sample interval of the fused runs, s (0.05 when none has two samples).
+fn mean_interval(runs: &[FusedRun]) -> f64 {
+    let (span, n) = runs
+        .iter()
+        .filter(|r| r.fused.t.len() > 1)
+        .fold((0.0, 0usize), |(s, n), r| {
+            let t = &r.fused.t;
+            (s + t[t.len() - 1] - t[0], n + t.len() - 1)
+        });
+    if n == 0 { 0.05 } else { span / n as f64 }
 }

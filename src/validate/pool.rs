@@ -62,6 +62,38 @@ pub struct ModelScore {
     /// runs clearly worse than the identified model (see [`super::baseline::behind`]).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub behind_identified: Vec<Behind>,
+    /// The DOFs in which the model beats the baselines' free run but predicts a few samples
+    /// ahead clearly worse than the first-order baseline (see [`super::baseline::short_horizon`]).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub short_horizon: Vec<ShortHorizon>,
+}
+
+/// A DOF in which a model predicts `samples` ahead of the fused state clearly worse than the
+/// first-order baseline, on the held-out runs: a model for control over such horizons should
+/// not be taken on its free run alone.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ShortHorizon {
+    pub dof: Dof,
+    pub samples: usize,
+    /// The horizon in seconds (the fused runs' mean sample interval times `samples`).
+    pub seconds: f64,
+    pub nmae: f64,
+    pub first_order_nmae: f64,
+}
+
+impl ShortHorizon {
+    /// The sentence the report shows.
+    pub fn sentence(&self, model: &str) -> String {
+        format!(
+            "{model} in {}: {} sample{} ({:.2} s) ahead of the fused state its held-out NMAE is {:.3}, the first-order model's {:.3}: over such horizons (a controller's prediction) the simpler model predicts better; weigh that before using this one for control",
+            self.dof,
+            self.samples,
+            if self.samples == 1 { "" } else { "s" },
+            self.seconds,
+            self.nmae,
+            self.first_order_nmae
+        )
+    }
 }
 
 /// A DOF in which a model read from a file predicts the held-out runs worse than the model

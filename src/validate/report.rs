@@ -121,7 +121,8 @@ fn stability(m: &ModelScore) -> Markup {
     }
 }
 
-/// The DOFs in which model `m` does not beat both baselines on the held-out runs.
+/// The DOFs in which model `m` does not beat both baselines on the held-out runs, and those
+/// in which it predicts a few samples ahead worse than the first-order baseline.
 fn shortfalls(m: &ModelScore) -> Markup {
     html! {
         @for s in &m.shortfalls {
@@ -129,6 +130,9 @@ fn shortfalls(m: &ModelScore) -> Markup {
         }
         @for b in &m.behind_identified {
             p class="warn" { (b.sentence(&m.model)) }
+        }
+        @for h in &m.short_horizon {
+            p class="warn" { (h.sentence(&m.model)) }
         }
     }
 }
