@@ -27,6 +27,7 @@ pub mod report;
 pub mod result;
 pub mod search;
 mod select;
+mod sentence;
 pub mod slots;
 mod spectrum;
 pub mod stage;

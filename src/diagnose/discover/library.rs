@@ -182,27 +182,8 @@ pub(super) fn prepare(run: &Run) -> Prepared {
         .collect();
     Prepared {
         lagged,
-        heading: continuous(&run.psi),
+        heading: crate::pool::fusion::unwrap_angles(&run.psi),
     }
-}
-
-/// Angles `a` (rad) with the jumps of a full turn taken out; NaN samples stay NaN and do not
-/// break the count.
-fn continuous(a: &[f64]) -> Vec<f64> {
-    let (mut turns, mut last) = (0.0, f64::NAN);
-    a.iter()
-        .map(|&x| {
-            if !x.is_finite() {
-                return x;
-            }
-            if last.is_finite() {
-                let d = x - last;
-                turns -= TAU * (d / TAU).round();
-            }
-            last = x;
-            x + turns
-        })
-        .collect()
 }
 
 /// The library for DOF `j`, with the sines at `peaks` (Hz).

@@ -31,7 +31,7 @@ use crate::pool::import::{G, PoolRun};
 use heading::{Heading, HeadingInput, heading};
 use kalman::{Mat, Vector};
 use numeric::wrap_pi;
-pub use numeric::{interp, interp_at, locate};
+pub use numeric::{interp, interp_at, locate, unwrap_angles};
 use position::{PositionFilter, Sensors};
 use serde::{Deserialize, Serialize};
 
@@ -88,19 +88,6 @@ pub fn noise_sigma(x: &[f64], floor: f64) -> f64 {
     let mut dev: Vec<f64> = d.iter().map(|v| (v - med).abs()).collect();
     dev.sort_by(f64::total_cmp);
     (1.4826 * dev[n / 2] / 6f64.sqrt()).max(floor)
-}
-
-fn unwrap_angles(a: &[f64]) -> Vec<f64> {
-    let mut out = Vec::with_capacity(a.len());
-    let mut off = 0.0;
-    for (k, &x) in a.iter().enumerate() {
-        if k > 0 {
-            let d = x - a[k - 1];
-            off -= (d / (2.0 * std::f64::consts::PI)).round() * 2.0 * std::f64::consts::PI;
-        }
-        out.push(x + off);
-    }
-    out
 }
 
 impl Settings {

@@ -59,4 +59,23 @@ pub(crate) fn wrap_pi(a: f64) -> f64 {
     (a + std::f64::consts::PI).rem_euclid(2.0 * std::f64::consts::PI) - std::f64::consts::PI
 }
 
+/// Angles `a` (rad) with the jumps of a full turn taken out, turns counted; NaN samples stay
+/// NaN and do not break the count.
+pub fn unwrap_angles(a: &[f64]) -> Vec<f64> {
+    let tau = std::f64::consts::TAU;
+    let (mut turns, mut last) = (0.0, f64::NAN);
+    a.iter()
+        .map(|&x| {
+            if !x.is_finite() {
+                return x;
+            }
+            if last.is_finite() {
+                turns -= tau * ((x - last) / tau).round();
+            }
+            last = x;
+            x + turns
+        })
+        .collect()
+}
+
 pub use crate::core::interp::{interp, interp_at, locate};
