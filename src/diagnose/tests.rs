@@ -190,7 +190,8 @@ fn main_parameter(e: &Effect, d: &Diagnosis) -> (f64, [f64; 2], f64) {
         Effect::Wave { .. }
         | Effect::SkewedThruster { .. }
         | Effect::SurfaceDrag { .. }
-        | Effect::TetherTorsion { .. } => (f64::NAN, [f64::NAN; 2], f64::NAN),
+        | Effect::TetherTorsion { .. }
+        | Effect::BatterySag { .. } => (f64::NAN, [f64::NAN; 2], f64::NAN),
     }
 }
 

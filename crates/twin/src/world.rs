@@ -71,10 +71,20 @@ pub enum Effect {
     /// through since the cable was laid untwisted (at heading 0), -k psi with psi continuous
     /// (turns counted), N m per rad.
     TetherTorsion { stiffness_nm_per_rad: f64 },
+    /// A battery that drains during the run: the thrusters' speed at a given command falls
+    /// with the voltage, so every thruster delivers the share 1 - loss t / 60 s of its force
+    /// (t on the run's clock, `loss_per_minute` the share lost per minute).
+    BatterySag { loss_per_minute: f64 },
 }
 
 /// The effects outside the diagnosis's vocabulary, as `from_arg` takes them.
-pub const OUTSIDE: [&str; 4] = ["wave", "skewed_thruster", "surface_drag", "tether_torsion"];
+pub const OUTSIDE: [&str; 5] = [
+    "wave",
+    "skewed_thruster",
+    "surface_drag",
+    "tether_torsion",
+    "battery_sag",
+];
 
 pub const NAMES: [&str; 9] = [
     "net_buoyancy",
@@ -104,6 +114,7 @@ impl Effect {
             Effect::SkewedThruster { .. } => OUTSIDE[1],
             Effect::SurfaceDrag { .. } => OUTSIDE[2],
             Effect::TetherTorsion { .. } => OUTSIDE[3],
+            Effect::BatterySag { .. } => OUTSIDE[4],
         }
     }
 
@@ -152,6 +163,7 @@ impl Effect {
             "tether_torsion" => Effect::TetherTorsion {
                 stiffness_nm_per_rad: x,
             },
+            "battery_sag" => Effect::BatterySag { loss_per_minute: x },
             _ => {
                 let hint = hydrofit_core::diag::nearest(name, NAMES.into_iter().chain(OUTSIDE))
                     .map_or(String::new(), |s| format!(" (did you mean `{s}`?)"));
@@ -364,6 +376,14 @@ impl WorldPlant {
             .sum()
     }
 
+    /// The share of its force a thruster delivers at time `t` (a battery's sag).
+    fn supply(&self, t: f64) -> f64 {
+        self.effects.iter().fold(1.0, |acc, e| match e {
+            Effect::BatterySag { loss_per_minute } => acc * (1.0 - loss_per_minute * t / 60.0),
+            _ => acc,
+        })
+    }
+
     fn deriv(&self, s: &State, cmd: &Vec6, t: f64) -> State {
         let target = self.shape_command(cmd);
         // With a lag, the state's `thrust` holds the motors' signed speeds, in sqrt(N).
@@ -374,6 +394,8 @@ impl WorldPlant {
             ),
             None => (target, [0.0; 6]),
         };
+        let supply = self.supply(t);
+        let thrust = thrust.map(|f| supply * f);
         if !self.track_pose {
             // No effect reads the pose (the caller checked): heading unused, pose held.
             let extra = self.extra_force_at(s, 0.0, 0.0, t);
