@@ -225,8 +225,8 @@ impl Run {
 pub struct Augmentation {
     pub terms: Vec<Arc<dyn effects::Term>>,
     pub delay_s: f64,
-    /// A term found by [`discover`] beyond the named effects, added as a force.
-    pub discovered: Option<Arc<discover::Discovered>>,
+    /// The terms found by [`discover`] beyond the named effects, added as forces.
+    pub discovered: Vec<Arc<discover::Discovered>>,
 }
 
 /// A set of effects with their parameter values.
@@ -343,7 +343,7 @@ fn simulate_checked(
     let mut out = Vec::with_capacity(n);
     let anchors = crate::core::model::stability::anchors(&run.t, &run.anchors_s);
     let mut next_anchor = 1;
-    let discovered = aug.discovered.as_ref().map(|d| (d, d.prepare(run)));
+    let discovered: Vec<_> = aug.discovered.iter().map(|d| (d, d.prepare(run))).collect();
     for k in 0..n {
         if anchors.get(next_anchor) == Some(&k) {
             // Multiple shooting: the window starts again from the fused state (thruster
@@ -361,9 +361,10 @@ fn simulate_checked(
         let span = run.t[k + 1] - run.t[k];
         let m = crate::core::model::dynamics::substeps(span, STEP);
         let c = run.cmd6(k);
-        let external = discovered
-            .as_ref()
-            .map_or([0.0; 6], |(d, pre)| d.force(run, pre, k, &s));
+        let external = discovered.iter().fold([0.0; 6], |acc, (d, pre)| {
+            let f = d.force(run, pre, k, &s);
+            std::array::from_fn(|i| acc[i] + f[i])
+        });
         for _ in 0..m {
             let h = span / m as f64;
             let Some(a) = att.as_mut() else {

@@ -196,16 +196,22 @@ fn effects_table(d: &Diagnosis) -> Markup {
 fn candidates(d: &Diagnosis) -> Markup {
     html! {
         @for e in &d.effects {
-            @if let Some(c) = &e.candidate { (candidate(c)) }
+            @if let Some(c) = &e.candidate {
+                @for (i, part) in c.parts().enumerate() { (candidate(part, i > 0)) }
+            }
         }
     }
 }
 
 /// The closed form discovery proposed for what no named effect explains: the expression, each
-/// term with its interval and how often it was selected, and the held-out errors.
-fn candidate(c: &crate::diagnose::result::Candidate) -> Markup {
+/// term with its interval and how often it was selected, and the held-out errors; `beside`
+/// for a term found with the ones before it in the model.
+fn candidate(c: &crate::diagnose::result::Candidate, beside: bool) -> Markup {
     html! {
-        h3 { "Discovered beyond the named effects" }
+        h3 {
+            @if beside { "Discovered in " (c.dof) ", beside the terms above" }
+            @else { "Discovered beyond the named effects" }
+        }
         p {
             "Sparse regression of the residual force on " (c.library_terms)
             " candidate terms (velocities and their products, commands and their lags, position, depth, walls, tether, heading, a constant, and sines at the residual's spectral peaks), kept only where the block-bootstrap resamples and the training runs agree, then proved on the held-out runs:"

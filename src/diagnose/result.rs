@@ -320,4 +320,23 @@ pub struct Candidate {
     pub validation_nmae_after: BTreeMap<Dof, f64>,
     pub validation_cost_before: f64,
     pub validation_cost_after: f64,
+    /// Terms found after this one in other DOFs, each with the terms before it in the model
+    /// (a battery's sag acts in every DOF a thruster drives): each proved on the held-out
+    /// runs by the same margin, its costs from the cost the terms before it left.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub also: Vec<Candidate>,
+}
+
+impl Candidate {
+    /// The held-out error cost after every term of the candidate.
+    pub fn cost_after_all(&self) -> f64 {
+        self.also
+            .last()
+            .map_or(self.validation_cost_after, |c| c.validation_cost_after)
+    }
+
+    /// This candidate and the ones after it.
+    pub fn parts(&self) -> impl Iterator<Item = &Candidate> {
+        std::iter::once(self).chain(&self.also)
+    }
 }

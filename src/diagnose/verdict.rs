@@ -295,10 +295,13 @@ fn joint_selection(
         };
         // Discovery without the effect finds the effect again (a constant heave force for
         // net buoyancy): the effect is confirmed, not explained away.
-        if c2.named_terms.iter().any(|n| n == h.name) {
+        if c2
+            .parts()
+            .any(|p| p.named_terms.iter().any(|n| n == h.name))
+        {
             continue;
         }
-        let (with, without) = (c.validation_cost_after, c2.validation_cost_after);
+        let (with, without) = (c.cost_after_all(), c2.cost_after_all());
         let gain = (without - with) / without.max(1e-300);
         let needed = crit.min_gain + crit.gain_per_parameter * h.params.len() as f64;
         if gain < needed || without - with < crit.min_noise_multiple * data.noise_cost {
@@ -312,8 +315,9 @@ fn joint_selection(
                 )
             };
             dropped.push(format!(
-                "The named effect {} was dropped: beside the discovered term ({}) it {change}",
-                h.name, c2.expression
+                "The named effect {} was dropped: beside the discovered terms ({}) it {change}",
+                h.name,
+                c2.expressions()
             ));
             selected = reduced;
             c = c2;

@@ -38,6 +38,9 @@ pub enum Feature {
     /// The heading, continuous over the run (turns counted), rad: a moment that grows with
     /// the turns made (a tether twisting).
     Heading,
+    /// A command times the run's clock: a thrust that fades or grows over the run (a battery
+    /// draining, `X += c t X`).
+    CommandTime(usize),
     /// sin and cos of 2 pi f t (two columns: amplitude and phase).
     Sine(f64),
 }
@@ -74,6 +77,7 @@ impl Feature {
             Feature::CosHeading => "cos(psi)".into(),
             Feature::SinHeading => "sin(psi)".into(),
             Feature::Heading => "psi".into(),
+            Feature::CommandTime(q) => format!("t {}", c(q)),
             Feature::Sine(f) => format!("sin(2 pi {f:.3} t + phase)"),
         }
     }
@@ -142,6 +146,7 @@ impl Feature {
             Feature::CosHeading => run.psi[k].cos(),
             Feature::SinHeading => run.psi[k].sin(),
             Feature::Heading => pre.heading[k],
+            Feature::CommandTime(q) => run.t[k] * cmd[q],
             Feature::Sine(f) => {
                 // On the logs' own clock (a run trimmed to its logs' overlap keeps it).
                 let (s, c) = (TAU * f * run.t[k]).sin_cos();
@@ -215,6 +220,7 @@ pub(super) fn library(j: usize, peaks: &[f64], data: &Data) -> Vec<Feature> {
         }
     }
     f.push(Feature::CommandSign(j));
+    f.push(Feature::CommandTime(j));
     f.extend([Feature::PoolX, Feature::PoolY, Feature::Depth]);
     for l in DEPTH_SCALES_M {
         f.push(Feature::NearSurfaceDrag(j, l));

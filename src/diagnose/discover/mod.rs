@@ -33,40 +33,91 @@
 mod figures;
 mod library;
 mod rows;
+mod search;
 mod select;
 mod term;
 
-use super::result::{Candidate, DiscoveredTerm, Figure, Found, pct};
-use super::{Augmentation, Criteria, Data};
+use super::result::{Candidate, DiscoveredTerm, Found, pct};
 use crate::core::dof::Dof;
-use crate::core::model::Plant;
-use library::prepare;
 pub use library::{Feature, Prepared};
-use rows::residual_rows;
+pub use search::discover;
 pub use select::{KEEP_SHARE, MAX_TERMS};
-use select::{Proposal, Variant, propose};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
-use std::sync::Arc;
 pub use term::Discovered;
 
 impl Candidate {
+    /// Every part's expression, `; `-separated.
+    pub fn expressions(&self) -> String {
+        let all: Vec<&str> = self.parts().map(|c| c.expression.as_str()).collect();
+        all.join("; ")
+    }
+
     /// The `unexplained` entry with the closed form discovery proposed: named as the effect it is
     /// in disguise when it is one, its held-out errors after the term, its evidence said.
     /// The verdict's sentence for it.
     pub fn verdict_sentence(&self) -> String {
-        format!(
-            " Discovery proposes a closed form for it: {}{}, which lowers the held-out error cost from {:.4} to {:.4}.",
+        let mut out = format!(
+            " Discovery proposes a closed form for it: {}{}, which lowers the held-out error cost from {:.4} to {:.4}",
             self.expression,
             self.named_as
                 .as_ref()
                 .map_or(String::new(), |n| format!(" (the form of {n})")),
             self.validation_cost_before,
             self.validation_cost_after
-        )
+        );
+        for c in &self.also {
+            let _ = write!(
+                out,
+                "; beside it, {}{} {} {:.4}",
+                c.expression,
+                c.named_as
+                    .as_ref()
+                    .map_or(String::new(), |n| format!(" (the form of {n})")),
+                if c.validation_cost_after < c.validation_cost_before {
+                    "lowers it further to"
+                } else {
+                    // Found with the others at once: alone it may not lower the cost.
+                    "takes it to"
+                },
+                c.validation_cost_after
+            );
+        }
+        out + "."
     }
 
     pub fn into_found(self, mut found: Found) -> Found {
+        for c in self.parts() {
+            c.write_evidence(&mut found.evidence);
+        }
+        // Named only when every part is the same named effect's form.
+        let named = self.named_as.clone().filter(|n| {
+            self.also
+                .iter()
+                .all(|c| c.named_as.as_deref() == Some(n.as_str()))
+        });
+        if let Some(n) = named {
+            let _ = write!(
+                found.evidence,
+                " The term is the form of {n}: reported under that name."
+            );
+            found.name = n;
+            found.parameters = self
+                .parts()
+                .flat_map(|c| &c.terms)
+                .map(|t| (t.term.clone(), t.coefficient))
+                .collect();
+        }
+        found.dofs = self.parts().map(|c| c.dof).collect();
+        let last = self.also.last().unwrap_or(&self);
+        found.validation_nmae_after = last.validation_nmae_after.clone();
+        found.validation_cost_after = self.cost_after_all();
+        found.candidate = Some(self);
+        found
+    }
+
+    /// What this term is and what it does on the held-out runs, for the evidence.
+    fn write_evidence(&self, evidence: &mut String) {
         let terms: Vec<String> = self
             .terms
             .iter()
@@ -83,7 +134,7 @@ impl Candidate {
             })
             .collect();
         let _ = write!(
-            found.evidence,
+            evidence,
             " Discovery, a sparse regression of the residual force on {} candidate terms, proposes {} from {}; added to the model it lowers the held-out error cost from {:.4} to {:.4} ({}).",
             self.library_terms,
             self.expression,
@@ -96,23 +147,6 @@ impl Candidate {
                 self.dof
             )
         );
-        if let Some(n) = &self.named_as {
-            let _ = write!(
-                found.evidence,
-                " The term is the form of {n}: reported under that name."
-            );
-            found.name = n.clone();
-            found.parameters = self
-                .terms
-                .iter()
-                .map(|t| (t.term.clone(), t.coefficient))
-                .collect();
-        }
-        found.dofs = vec![self.dof];
-        found.validation_nmae_after = self.validation_nmae_after.clone();
-        found.validation_cost_after = self.validation_cost_after;
-        found.candidate = Some(self);
-        found
     }
 }
 
@@ -125,7 +159,7 @@ fn nmae_change(before: &BTreeMap<Dof, f64>, after: &BTreeMap<Dof, f64>, d: Dof) 
 }
 
 /// `Z += 11.8 sin(2 pi 0.420 t + 0.30) N`.
-fn expression(dof: Dof, terms: &[DiscoveredTerm]) -> String {
+pub(super) fn expression(dof: Dof, terms: &[DiscoveredTerm]) -> String {
     let sym = dof.force();
     let parts: Vec<String> = terms
         .iter()
@@ -147,82 +181,13 @@ fn expression(dof: Dof, terms: &[DiscoveredTerm]) -> String {
     )
 }
 
-/// The discovery for the DOFs `dofs` where a structured residual is left after `aug`: the
-/// proven candidate, if any, and its figures.
-pub fn discover(
-    plant: &Plant,
-    data: &Data,
-    aug: &Augmentation,
-    dofs: &[Dof],
-    crit: &Criteria,
-) -> anyhow::Result<Option<(Candidate, Vec<Figure>)>> {
-    let rows = residual_rows(plant, aug, data);
-    if rows.at.len() < 100 {
-        return Ok(None);
-    }
-    let pre: Vec<Prepared> = data.train.iter().map(prepare).collect();
-    let before = data.eval(plant, aug, true);
-    let cb = before.cost(&data.scale);
-    let mut best: Option<(Candidate, Proposal, Variant)> = None;
-    for j in data.slots.among(dofs) {
-        let Some(p) = propose(data, &pre, &rows, j) else {
-            continue;
-        };
-        // The variant with the lowest held-out cost after the per-parameter penalty.
-        let scored: Vec<(usize, f64, super::Sums)> = p
-            .variants
-            .iter()
-            .enumerate()
-            .map(|(v, var)| {
-                let mut with = aug.clone();
-                with.discovered = Some(Arc::new(var.term.clone()));
-                let after = data.eval(plant, &with, true);
-                let penalised = after.cost(&data.scale)
-                    + crit.gain_per_parameter * cb * var.term.params() as f64;
-                (v, penalised, after)
-            })
-            .collect();
-        let Some((v, _, after)) = scored.into_iter().min_by(|a, b| a.1.total_cmp(&b.1)) else {
-            continue;
-        };
-        let var = p.variants[v].clone();
-        let ca = after.cost(&data.scale);
-        let gain = (cb - ca) / cb.max(1e-300);
-        let proven = gain >= crit.min_gain + crit.gain_per_parameter * var.term.params() as f64
-            && cb - ca >= crit.min_noise_multiple * data.noise_cost;
-        if !proven
-            || best
-                .as_ref()
-                .is_some_and(|b| b.0.validation_cost_after <= ca)
-        {
-            continue;
-        }
-        let (named_as, named_terms) = named_in(&var.term.features, &data.slots, j);
-        let candidate = Candidate {
-            dof: data.slots.dofs[j],
-            expression: expression(data.slots.dofs[j], &var.terms),
-            terms: var.terms.clone(),
-            named_as,
-            named_terms,
-            library_terms: p.library_terms,
-            spectrum_peaks_hz: p.peaks.clone(),
-            validation_nmae_before: super::nmae_map(&before, &data.slots),
-            validation_nmae_after: super::nmae_map(&after, &data.slots),
-            validation_cost_before: cb,
-            validation_cost_after: ca,
-        };
-        best = Some((candidate, p, var));
-    }
-    let Some((candidate, p, var)) = best else {
-        return Ok(None);
-    };
-    let figures = figures::figures(data, &rows, &pre, &candidate, &p, &var)?;
-    Ok(Some((candidate, figures)))
-}
-
 /// The named effect a discovered term in slot `j` is in disguise (every feature the same
 /// one), and the named effects whose form one of its features has.
-fn named_in(features: &[Feature], slots: &super::Slots, j: usize) -> (Option<String>, Vec<String>) {
+pub(super) fn named_in(
+    features: &[Feature],
+    slots: &super::Slots,
+    j: usize,
+) -> (Option<String>, Vec<String>) {
     let named: Vec<Option<&str>> = features.iter().map(|f| f.named(slots, j)).collect();
     let named_as = match named.first() {
         Some(Some(n)) if named.iter().all(|x| *x == Some(n)) => Some(n.to_string()),
