@@ -35,6 +35,11 @@ pub fn discover(
     };
     let (c0, v0) = &first.parts[0];
     let figures = figures::figures(data, &first.rows, &pre, c0, &first.proposal, v0)?;
+    // A first term that is a named effect's form (a command's lag deficit is `thruster_lag`)
+    // is reported under that name, alone, as it was found: neither terms in other DOFs added
+    // with it nor terms found after it are part of the effect, and beside it they would hide
+    // its name (a yaw `|r| r` making up for the lag's remainder did, on a twin).
+    let named = first.parts[0].0.named_as.is_some() && first.parts.len() == 1;
     let mut with = aug.clone();
     let mut left = dofs.to_vec();
     let mut parts: Vec<Candidate> = Vec::new();
@@ -45,7 +50,11 @@ pub fn discover(
             with.discovered.push(Arc::new(v.term));
             parts.push(c);
         }
-        next = step(plant, data, &with, &pre, &left, crit);
+        next = if named {
+            None
+        } else {
+            step(plant, data, &with, &pre, &left, crit)
+        };
     }
     let mut candidate = parts.remove(0);
     candidate.also = parts;
@@ -115,6 +124,16 @@ fn step(
         let c = candidate(data, &proposals[i], var, (&before, &after));
         (i, vec![(c, var.clone())])
     });
+    // A single term that is a named effect's form stands alone (see [`discover`]).
+    if let Some((first, parts)) = single.as_ref().filter(|s| s.1[0].0.named_as.is_some()) {
+        let (first, parts) = (*first, parts.clone());
+        let mut proposals = proposals;
+        return Some(Step {
+            parts,
+            rows,
+            proposal: proposals.swap_remove(first),
+        });
+    }
     let joint = together(plant, data, aug, &proposals, (&before, &penalty)).filter(|parts| {
         let params: usize = parts.iter().map(|(_, v)| v.term.params()).sum();
         proven(parts[parts.len() - 1].0.validation_cost_after, params)
