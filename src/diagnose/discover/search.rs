@@ -97,28 +97,7 @@ fn step(
         .into_iter()
         .filter_map(|j| propose(data, pre, &rows, j))
         .collect();
-    // One DOF: (proposal, variant, held-out sums after).
-    let mut single: Option<(usize, usize, Sums)> = None;
-    for (i, p) in proposals.iter().enumerate() {
-        let Some((v, after)) = p
-            .variants
-            .iter()
-            .enumerate()
-            .map(|(v, var)| (v, with_terms(plant, data, aug, [var])))
-            .min_by(|a, b| {
-                let pa = a.1.cost(&data.scale) + penalty(p.variants[a.0].term.params());
-                let pb = b.1.cost(&data.scale) + penalty(p.variants[b.0].term.params());
-                pa.total_cmp(&pb)
-            })
-        else {
-            continue;
-        };
-        let ca = after.cost(&data.scale);
-        let better = single.as_ref().is_none_or(|s| ca < s.2.cost(&data.scale));
-        if proven(ca, p.variants[v].term.params()) && better {
-            single = Some((i, v, after));
-        }
-    }
+    let single = best_single(plant, data, aug, &proposals, (&penalty, &proven));
     let single = single.map(|(i, v, after)| {
         let var = &proposals[i].variants[v];
         let c = candidate(data, &proposals[i], var, (&before, &after));
@@ -157,6 +136,44 @@ fn step(
     })
 }
 
+/// The held-out cost a closed form with this many coefficients pays.
+type Penalty<'a> = dyn Fn(usize) -> f64 + 'a;
+/// Whether a held-out cost after a closed form with this many coefficients proves it.
+type Proven<'a> = dyn Fn(f64, usize) -> bool + 'a;
+
+/// The single DOF's term of least held-out cost among the proven: (proposal, variant, held-out
+/// sums after), each proposal's variant the one of least penalised cost.
+fn best_single(
+    plant: &Plant,
+    data: &Data,
+    aug: &Augmentation,
+    proposals: &[Proposal],
+    (penalty, proven): (&Penalty<'_>, &Proven<'_>),
+) -> Option<(usize, usize, Sums)> {
+    let mut single: Option<(usize, usize, Sums)> = None;
+    for (i, p) in proposals.iter().enumerate() {
+        let Some((v, after)) = p
+            .variants
+            .iter()
+            .enumerate()
+            .map(|(v, var)| (v, with_terms(plant, data, aug, [var])))
+            .min_by(|a, b| {
+                let pa = a.1.cost(&data.scale) + penalty(p.variants[a.0].term.params());
+                let pb = b.1.cost(&data.scale) + penalty(p.variants[b.0].term.params());
+                pa.total_cmp(&pb)
+            })
+        else {
+            continue;
+        };
+        let ca = after.cost(&data.scale);
+        let better = single.as_ref().is_none_or(|s| ca < s.2.cost(&data.scale));
+        if proven(ca, p.variants[v].term.params()) && better {
+            single = Some((i, v, after));
+        }
+    }
+    single
+}
+
 /// Every proposing DOF's kept terms added together, when more than one DOF proposes: each
 /// DOF's full variant, then each replaced by a smaller variant of its proposal where that
 /// lowers the held-out cost after `penalty` (backward elimination within the set). Each part
@@ -167,7 +184,7 @@ fn together(
     data: &Data,
     aug: &Augmentation,
     proposals: &[Proposal],
-    (before, penalty): (&Sums, &dyn Fn(usize) -> f64),
+    (before, penalty): (&Sums, &Penalty<'_>),
 ) -> Option<Vec<(Candidate, Variant)>> {
     if proposals.len() < 2 {
         return None;
