@@ -343,7 +343,8 @@ fn simulate_checked(
     let mut out = Vec::with_capacity(n);
     let anchors = crate::core::model::stability::anchors(&run.t, &run.anchors_s);
     let mut next_anchor = 1;
-    let discovered: Vec<_> = aug.discovered.iter().map(|d| (d, d.prepare(run))).collect();
+    // What the terms read besides the sample is the run's, the same for every term.
+    let prepared = aug.discovered.first().map(|d| d.prepare(run));
     for k in 0..n {
         if anchors.get(next_anchor) == Some(&k) {
             // Multiple shooting: the window starts again from the fused state (thruster
@@ -361,9 +362,11 @@ fn simulate_checked(
         let span = run.t[k + 1] - run.t[k];
         let m = crate::core::model::dynamics::substeps(span, STEP);
         let c = run.cmd6(k);
-        let external = discovered.iter().fold([0.0; 6], |acc, (d, pre)| {
-            let f = d.force(run, pre, k, &s);
-            std::array::from_fn(|i| acc[i] + f[i])
+        let external = prepared.as_ref().map_or([0.0; 6], |pre| {
+            aug.discovered.iter().fold([0.0; 6], |acc, d| {
+                let f = d.force(run, pre, k, &s);
+                std::array::from_fn(|i| acc[i] + f[i])
+            })
         });
         for _ in 0..m {
             let h = span / m as f64;
