@@ -60,6 +60,25 @@ pub struct Common {
     /// scale (needs both in `from`); `fixed` (the default): the command is the force.
     #[serde(skip_serializing_if = "is_fixed")]
     pub thrust_gain: crate::identify::gain::ThrustGain,
+    /// Which DOFs of a fit of recordings alone carry a constant force: `every_dof` (the
+    /// default; those `vehicle.constant_force` lists and the others) or `listed` (only those).
+    #[serde(skip_serializing_if = "is_every_dof")]
+    pub constants: Constants,
+}
+
+/// The constant forces of a fit of recordings alone (`constants` in a fit's settings).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Constants {
+    /// Every DOF: a vehicle in the water is never exactly neutral in any of them.
+    #[default]
+    EveryDof,
+    /// Only the DOFs `vehicle.constant_force` lists.
+    Listed,
+}
+
+fn is_every_dof(c: &Constants) -> bool {
+    *c == Constants::EveryDof
 }
 
 fn is_fixed(g: &crate::identify::gain::ThrustGain) -> bool {
@@ -148,6 +167,7 @@ impl Default for Common {
             custom_terms: None,
             median_filter: None,
             thrust_gain: Default::default(),
+            constants: Default::default(),
         }
     }
 }

@@ -135,7 +135,7 @@ fn a_model_worse_than_rest_is_flagged() {
         .replace("  command_limits:", "  constant_force: [surge]\n  command_limits:")
         .replace(
             "fit: {kind: fit, from: [pool]}",
-            "fit: {kind: fit, from: [pool], settings: {command_lag: none, added_mass_prior: {heave: 0.1}}}",
+            "fit: {kind: fit, from: [pool], settings: {command_lag: none, added_mass_prior: {heave: 0.1}, constants: listed}}",
         );
     std::fs::write(root.join("pipeline.yaml"), pipeline).unwrap();
     ok(root, &["build"]);
