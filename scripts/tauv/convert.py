@@ -12,7 +12,8 @@ output folder only.
     python3 scripts/tauv/convert.py /path/to/bags-12-01-22 /tmp/tauv [--fold K]
 
 `--fold K` (0-3) holds out runs K, K+4, K+8, K+12 (default 3: runs 3, 7, 11, 15); the other 12
-train. Standard library only.
+train. `--receive-time` times the navigation log by when it was recorded rather than by its
+header stamps (about 0.2 s later). Standard library only.
 """
 
 import argparse
@@ -71,12 +72,12 @@ def col(head, name):
     return head.index(name)
 
 
-def convert_run(src, i, out, role):
+def convert_run(src, i, out, role, stamp):
     wh, w = rows(src / f"wrench_{i}.csv")
     nh, n = rows(src / f"navigation_state_{i}.csv")
     t_recv = [int(x[0]) * 1e-9 for x in w]
     # The navigation state at its header stamp (when it was valid; ~0.2 s before it was received).
-    t_nav = [int(x[col(nh, "field.header.stamp")]) * 1e-9 for x in n]
+    t_nav = [int(x[col(nh, stamp)]) * 1e-9 for x in n]
     # The first messages of a recording can be stale (a state stamped seconds before the
     # recording began, delivered late): the run starts at the first command.
     t0 = t_recv[0]
@@ -113,12 +114,17 @@ def main():
     ap.add_argument("src", type=Path, help="the folder bags-12-01-22 of TAUV-Playground")
     ap.add_argument("out", type=Path, help="the project folder to write")
     ap.add_argument("--fold", type=int, default=3, choices=range(4))
+    ap.add_argument(
+        "--receive-time",
+        action="store_true",
+        help="time the navigation log by when it was recorded (%%time), not by its header stamps",
+    )
     a = ap.parse_args()
     a.out.mkdir(parents=True, exist_ok=True)
     (a.out / "pipeline.yaml").write_text(PIPELINE)
     for i in RUNS:
         role = "validate" if i % 4 == a.fold else "train"
-        convert_run(a.src, i, a.out, role)
+        convert_run(a.src, i, a.out, role, "%time" if a.receive_time else "field.header.stamp")
     print(f"wrote {a.out} (held out: {[i for i in RUNS if i % 4 == a.fold]})")
 
 

@@ -72,7 +72,10 @@ impl Settings {
             return Some("constant forces in every DOF: the vehicle's `constant_force` lists none, and a vehicle in the water is never exactly neutral (buoyancy, a tether's pull, a thruster's offset, the controller's feed-forward)".into());
         }
         let names = |ds: &[crate::core::dof::Dof]| {
-            ds.iter().map(|d| d.to_string()).collect::<Vec<_>>().join(", ")
+            ds.iter()
+                .map(|d| d.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
         };
         Some(format!(
             "constant forces in every DOF: the vehicle's `constant_force` lists {}, and {} get one too, since a vehicle in the water is never exactly neutral there either (a thruster's offset, a tether's pull, the controller's feed-forward); a constant a DOF does not need comes out near zero (`constants: listed` in the fit's settings keeps only the list)",

@@ -167,6 +167,17 @@ pub fn load(
     }
     // Rows still sharing a time stamp (no regular clock could be fitted): the last of each.
     run.thrust.dedupe_times(&path);
+    let from_log = run.meta.log.is_some();
+    let spread: Vec<String> = (run.sensors_mut().into_iter())
+        .filter_map(|(name, log)| {
+            let r = timing::spread_bursts(log)?;
+            Some(match from_log {
+                true => format!("{dir}: the log's {name} signal: {r}"),
+                false => format!("{dir}/{name}.csv: {r}"),
+            })
+        })
+        .collect();
+    run.repairs.extend(spread);
     let logs = std::iter::once(&run.thrust).chain(run.sensor_logs());
     let notes: Vec<String> = logs.flat_map(|l| l.notes.iter().cloned()).collect();
     run.notes.extend(notes);
@@ -526,6 +537,20 @@ impl PoolRun {
         [&self.uwb, &self.sonar, &self.imu, &self.depth, &self.nav]
             .into_iter()
             .flatten()
+    }
+
+    /// The sensor logs the run has, by name, to repair.
+    fn sensors_mut(&mut self) -> Vec<(&'static str, &mut Log)> {
+        [
+            ("uwb", &mut self.uwb),
+            ("sonar", &mut self.sonar),
+            ("imu", &mut self.imu),
+            ("depth", &mut self.depth),
+            ("nav", &mut self.nav),
+        ]
+        .into_iter()
+        .filter_map(|(n, l)| Some((n, l.as_mut()?)))
+        .collect()
     }
 
     /// The sensor logs the run has, by name.

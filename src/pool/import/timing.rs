@@ -1,12 +1,20 @@
 //! Real-log timing (docs/formats.md): logs written by receive time arrive in bursts (many rows
 //! within a millisecond, then a stall) and start and stop at different times. The command log
 //! of a periodic controller gets a regular clock fitted to it; every log is cut to the span all
-//! of them cover. Each repair is returned as a sentence for the report.
+//! of them cover; a sensor log's bursts are spread over the time the rows were queued. Each
+//! repair is returned as a sentence for the report.
 
 use crate::pool::import::csvlog::Log;
 
 /// Share of intervals under 1 ms above which a log counts as written in bursts.
 const BURSTY_SHARE: f64 = 0.2;
+/// Share of a sensor log's intervals under 1 ms above which its rows are spread: a sensor
+/// writing every few milliseconds or slower does not measure twice within one, so a few such
+/// pairs already mean receive times (on the TAUV navigation logs, 8-50 % of them).
+const SENSOR_BURSTY_SHARE: f64 = 0.02;
+/// The mean interval a sensor log must have for its sub-millisecond intervals to count as
+/// bursts, s: a kilohertz IMU's rows are a millisecond apart by design.
+const SENSOR_PERIOD_S: f64 = 0.005;
 /// Longest receive latency a fitted clock may imply, s: beyond it rows were lost, not late.
 const MAX_LATENCY_S: f64 = 3.0;
 
@@ -21,9 +29,7 @@ pub fn repair_command_clock(log: &mut Log) -> Option<String> {
     if n < 10 {
         return None;
     }
-    let gaps: Vec<f64> = log.t.windows(2).map(|w| w[1] - w[0]).collect();
-    let tiny = gaps.iter().filter(|g| **g < 1e-3).count() as f64 / gaps.len() as f64;
-    let longest = gaps.iter().copied().fold(0.0, f64::max);
+    let (tiny, longest) = burstiness(&log.t);
     if tiny < BURSTY_SHARE {
         return None;
     }
@@ -65,6 +71,53 @@ pub fn repair_command_clock(log: &mut Log) -> Option<String> {
         1.0 / period,
         1e3 * sorted[n / 2],
         1e3 * worst
+    ))
+}
+
+/// The share of a log's intervals under 1 ms, and its longest interval, s.
+fn burstiness(t: &[f64]) -> (f64, f64) {
+    let gaps = t.windows(2).map(|w| w[1] - w[0]);
+    let tiny = gaps.clone().filter(|g| *g < 1e-3).count() as f64 / (t.len() - 1).max(1) as f64;
+    (tiny, gaps.fold(0.0, f64::max))
+}
+
+/// Spreads the rows of a sensor log written by receive time in bursts over the time they were
+/// queued: each burst's rows (intervals under 1 ms) evenly from just after the previous
+/// burst's release to its own, the last row at its release; the first burst's rows a mean row
+/// period apart before it. A sensor's rows, unlike a controller's, are not periodic (a
+/// navigation filter writes when a DVL ping or an AHRS update arrives), so no regular clock is
+/// fitted; rows stacked within a millisecond would otherwise read as motion in microseconds.
+/// The latency every row keeps (rows are received after they are measured) is not known from
+/// receive times and stays. Returns what was done, or None when the log is not bursty.
+pub fn spread_bursts(log: &mut Log) -> Option<String> {
+    let n = log.len();
+    if n < 10 {
+        return None;
+    }
+    let (tiny, longest) = burstiness(&log.t);
+    let mean_period = (log.t[n - 1] - log.t[0]) / (n - 1) as f64;
+    if tiny < SENSOR_BURSTY_SHARE || mean_period < SENSOR_PERIOD_S {
+        return None;
+    }
+    let starts: Vec<usize> = std::iter::once(0)
+        .chain((1..n).filter(|&k| log.t[k] - log.t[k - 1] >= 1e-3))
+        .collect();
+    let release: Vec<f64> = starts.iter().map(|&s| log.t[s]).collect();
+    for (j, &s) in starts.iter().enumerate() {
+        let end = starts.get(j + 1).copied().unwrap_or(n);
+        let k = end - s;
+        let from = match j {
+            0 => release[0] - k as f64 * mean_period,
+            _ => release[j - 1],
+        };
+        for i in 0..k {
+            log.t[s + i] = from + (release[j] - from) * (i + 1) as f64 / k as f64;
+        }
+    }
+    Some(format!(
+        "{:.0} % of its intervals are under 1 ms and the longest is {longest:.2} s (rows written by receive time, in bursts): each burst's {:.1} rows on average spread evenly over the time since the previous burst (the receive latency of every row stays)",
+        100.0 * tiny,
+        n as f64 / starts.len() as f64
     ))
 }
 
@@ -158,6 +211,52 @@ mod tests {
         let mut l = log(send.clone());
         assert!(repair_command_clock(&mut l).is_none());
         assert_eq!(l.t, send);
+    }
+
+    /// A navigation log measured at an irregular 5-15 Hz whose rows reach the logger in bursts
+    /// (stalls of 0.3-1.3 s, then the queue within a millisecond): spread, no two rows are
+    /// within a millisecond, the order is kept, and the rows sit far nearer their measured
+    /// times than their receive times did.
+    #[test]
+    fn a_sensor_logs_bursts_are_spread_over_their_stalls() {
+        let mut rng = crate::core::rng::Rng::new(3);
+        let mut send = vec![1.0];
+        while send.len() < 600 {
+            let last = send[send.len() - 1];
+            send.push(last + 1.0 / 15.0 + (1.0 / 5.0 - 1.0 / 15.0) * rng.uniform());
+        }
+        let mut recv: Vec<f64> = Vec::with_capacity(send.len());
+        let mut release = 1.0;
+        for &s in &send {
+            if s > release {
+                release = s + 0.3 + rng.uniform();
+            }
+            let r = release.max(s) + 2e-5 * (recv.len() % 40) as f64;
+            recv.push(recv.last().map_or(r, |p| p.max(r)));
+        }
+        let late = |t: &[f64]| {
+            t.iter().zip(&send).map(|(a, b)| (a - b).abs()).sum::<f64>() / send.len() as f64
+        };
+        let before = late(&recv);
+        let mut l = log(recv);
+        let note = spread_bursts(&mut l).expect("bursts are spread");
+        assert!(note.contains("spread evenly"), "{note}");
+        assert!(
+            l.t.windows(2).all(|w| w[1] - w[0] >= 1e-3),
+            "rows still stacked"
+        );
+        let after = late(&l.t);
+        assert!(
+            after < 0.5 * before,
+            "mean error {after} s, receive times {before} s"
+        );
+        // A regular log, and a kilohertz IMU, are left alone.
+        for period in [0.1, 0.001] {
+            let t: Vec<f64> = (0..500).map(|k| k as f64 * period).collect();
+            let mut l = log(t.clone());
+            assert!(spread_bursts(&mut l).is_none());
+            assert_eq!(l.t, t);
+        }
     }
 
     #[test]
