@@ -197,11 +197,15 @@ fn free_prior(
     if on_prior.is_empty() {
         return (Vec::new(), false);
     }
-    let mut wide = bounds.clone();
+    // The freed DOFs' drag may be as stiff as their heavier mass allows: a mass beyond its
+    // prior with its drag held to the lighter mass's bound would be a slower vehicle at the
+    // same gain only if the gain were wrong.
+    let mut prior = opts.added_mass_prior;
     for &j in &on_prior {
-        wide.lo[j] =
-            bounds.lo[j] * BEYOND_PRIOR / opts.added_mass_prior[dof_of(problem, j)].max(1e-9);
+        let i = dof_of(problem, j);
+        prior[i] = prior[i].max(BEYOND_PRIOR);
     }
+    let wide = plausible(&problem.layout, &opts.rigid_mass, &prior);
     let from = [r.theta.as_slice(), &r.nuisance].concat();
     let freed = output_error_lm_within(oe, &problem.layout, &from, opts.iterations, &wide);
     if freed.cost_after.is_nan() || freed.cost_after >= (1.0 - DEMAND) * r.cost_after {
