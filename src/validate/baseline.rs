@@ -81,6 +81,10 @@ pub fn first_order_vehicle(vehicle: &Vehicle) -> Vehicle {
     v
 }
 
+/// The first-order baseline's added mass bound, times the rigid-body term: wide enough for
+/// any time constant a closed-loop run shows (a per-DOF script fits its mass freely).
+const BASELINE_MASS_PRIOR: f64 = 50.0;
+
 /// The first-order baseline fitted on the training runs of `runs`; `None` (with the reason)
 /// when it cannot be fitted.
 pub fn fit_first_order(vehicle: &Vehicle, runs: &[FusedRun]) -> Result<Plant, String> {
@@ -98,6 +102,12 @@ pub fn fit_first_order(vehicle: &Vehicle, runs: &[FusedRun]) -> Result<Plant, St
     // The simple model a user would write: no command lag.
     let mut own = serde_json::Map::new();
     own.insert("command_lag".into(), "none".into());
+    // A black box per DOF, as a user's script fits it: its gain and time constant free, so its
+    // mass is not held to the physical prior the model's added mass is.
+    let prior: serde_json::Map<String, serde_json::Value> = (v.dofs.iter())
+        .map(|d| (d.to_string(), BASELINE_MASS_PRIOR.into()))
+        .collect();
+    own.insert("added_mass_prior".into(), prior.into());
     let method = crate::identify::Method::parse("pem", own)?;
     let opts = method.options(Options {
         rigid_mass: v.rigid_mass(),
