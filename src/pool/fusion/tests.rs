@@ -154,11 +154,7 @@ fn navigation_log_noise_is_told_from_the_manoeuvres() {
         .unwrap();
         for spec in &runs {
             let dir = format!("cases/{}", spec.name);
-            std::fs::remove_file(d.path().join(&dir).join("uwb.csv")).unwrap();
-            let files: Vec<String> = ["depth.csv", "nav.csv", "run.yaml", "thrust.csv"]
-                .iter()
-                .map(|f| format!("{dir}/{f}"))
-                .collect();
+            let files = without_uwb(d.path(), &dir);
             let run = crate::pool::import::load(d.path(), &dir, &files, None).unwrap();
             let f = fuse(&run, &Settings::default());
             for (j, (name, noise)) in f.stats.nav_sensor.iter().enumerate() {
@@ -189,6 +185,15 @@ fn navigation_log_noise_is_told_from_the_manoeuvres() {
         "{within} of {} channels within a factor 1.5: {ratios:?}",
         ratios.len()
     );
+}
+
+/// A field twin run folder's files with its UWB log removed: the navigation log alone.
+fn without_uwb(root: &std::path::Path, dir: &str) -> Vec<String> {
+    std::fs::remove_file(root.join(dir).join("uwb.csv")).unwrap();
+    ["depth.csv", "nav.csv", "run.yaml", "thrust.csv"]
+        .iter()
+        .map(|f| format!("{dir}/{f}"))
+        .collect()
 }
 
 /// RMSE of u, v, w, r against the field twin's `truth/<run>.csv` (t,u,v,w,r,...), at the fused
@@ -240,11 +245,7 @@ fn a_navigation_log_written_in_bursts_is_spread_before_it_is_fused() {
     let mut rng = crate::core::rng::Rng::new(11);
     for spec in &specs {
         let dir = format!("cases/{}", spec.name);
-        std::fs::remove_file(d.path().join(&dir).join("uwb.csv")).unwrap();
-        let files: Vec<String> = ["depth.csv", "nav.csv", "run.yaml", "thrust.csv"]
-            .iter()
-            .map(|f| format!("{dir}/{f}"))
-            .collect();
+        let files = without_uwb(d.path(), &dir);
         let truth =
             std::fs::read_to_string(d.path().join(format!("truth/{}.csv", spec.name))).unwrap();
         let load = || crate::pool::import::load(d.path(), &dir, &files, None).unwrap();
