@@ -12,7 +12,9 @@ output folder only.
     python3 scripts/tauv/convert.py /path/to/bags-12-01-22 /tmp/tauv [--fold K]
 
 `--fold K` (0-3) holds out runs K, K+4, K+8, K+12 (default 3: runs 3, 7, 11, 15); the other 12
-train. `--receive-time` times the navigation log by when it was recorded rather than by its
+train. `--direct` writes run folders whose `run.yaml` reads the two topic files of each run
+where they are (hydrofit reads `rostopic echo -p` files as a log; nothing is copied or
+converted). `--receive-time` times the navigation log by when it was recorded rather than by its
 header stamps (about 0.2 s later). Standard library only.
 """
 
@@ -109,6 +111,28 @@ def convert_run(src, i, out, role, stamp):
             g.write(f"{t - t0:.6f},{x[z]}\n")
 
 
+LOG_RUN = """\
+role: {role}
+description: "TAUV-Playground run {i} (2022-12-01), closed-loop pool run, read from its rostopic CSV files"
+log:
+  file: {src}
+  # wrench_<i>: the controller's commanded body wrench (geometry_msgs/Wrench, receive times).
+  wrench: {{topic: wrench_{i}, fields: [force.x, force.y, force.z, torque.z]}}
+  # navigation_state_<i>: the navigation filter's body velocity, Euler angles (rad, FRD in
+  # NED) and position (z down), at its header stamps.
+  velocity: {{topic: navigation_state_{i}, fields: [velocity.x, velocity.y, velocity.z]}}
+  attitude: {{topic: navigation_state_{i}, fields: [orientation.x, orientation.y, orientation.z]}}
+  depth: {{topic: navigation_state_{i}, fields: [position.z]}}
+"""
+
+
+def direct_run(src, i, out, role):
+    """A run folder whose run.yaml points at the run's two topic files in `src` (nothing copied)."""
+    run = out / "cases" / "pool" / f"run_{i:02d}"
+    run.mkdir(parents=True, exist_ok=True)
+    (run / "run.yaml").write_text(LOG_RUN.format(role=role, i=i, src=src.resolve()))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("src", type=Path, help="the folder bags-12-01-22 of TAUV-Playground")
@@ -119,12 +143,20 @@ def main():
         action="store_true",
         help="time the navigation log by when it was recorded (%%time), not by its header stamps",
     )
+    ap.add_argument(
+        "--direct",
+        action="store_true",
+        help="write run folders that read the rostopic CSV files where they are (no copies, no conversion)",
+    )
     a = ap.parse_args()
     a.out.mkdir(parents=True, exist_ok=True)
     (a.out / "pipeline.yaml").write_text(PIPELINE)
     for i in RUNS:
         role = "validate" if i % 4 == a.fold else "train"
-        convert_run(a.src, i, a.out, role, "%time" if a.receive_time else "field.header.stamp")
+        if a.direct:
+            direct_run(a.src, i, a.out, role)
+        else:
+            convert_run(a.src, i, a.out, role, "%time" if a.receive_time else "field.header.stamp")
     print(f"wrote {a.out} (held out: {[i for i in RUNS if i % 4 == a.fold]})")
 
 

@@ -108,14 +108,21 @@ fn sources(
 ) -> anyhow::Result<Vec<crate::core::provenance::InputFile>> {
     let mut out = ctx.inputs.to_vec();
     if let Some(src) = &run.log_source {
-        let hash = crate::core::fsutil::hash_file(&ctx.root.join(&src.path))
-            .map_err(|e| anyhow::anyhow!("{}: {e}", src.path))?;
-        out.push(crate::core::provenance::InputFile {
-            topics: src.topics.clone(),
-            span_s: Some(src.span_s),
-            ..crate::core::provenance::InputFile::new(&src.path, hash)
-        });
-        crate::pipeline::cache::write_watched(ctx.out, ctx.root, std::slice::from_ref(&src.path))?;
+        // A folder of topic files is read file by file: each is an input.
+        let files = match src.files.is_empty() {
+            true => std::slice::from_ref(&src.path),
+            false => &src.files[..],
+        };
+        for f in files {
+            let hash = crate::core::fsutil::hash_file(&ctx.root.join(f))
+                .map_err(|e| anyhow::anyhow!("{f}: {e}"))?;
+            out.push(crate::core::provenance::InputFile {
+                topics: src.topics.clone(),
+                span_s: Some(src.span_s),
+                ..crate::core::provenance::InputFile::new(f, hash)
+            });
+        }
+        crate::pipeline::cache::write_watched(ctx.out, ctx.root, files)?;
     }
     Ok(out)
 }

@@ -1,5 +1,5 @@
 //! Logs as vehicles write them: the twins' runs written as a ROS 1 bag, an MCAP file, a ROS 2
-//! SQLite bag and an ArduPilot DataFlash log read back to the same logs and the same fused velocities as their
+//! SQLite bag, an ArduPilot DataFlash log and `rostopic echo -p` topic files read back to the same logs and the same fused velocities as their
 //! CSV files, sample by sample; per-thruster PWM through a thruster layout and curve identifies
 //! the same model as the logged wrench; a run folder that names what its log lacks is a
 //! located error listing what the log holds; a real ArduSub log is read with no mapping.
@@ -12,11 +12,12 @@ use hydrofit::pool::import::csvlog::Log;
 use hydrofit::pool::import::{self, PoolRun};
 use std::path::Path;
 
-const FORMATS: [LogFormat; 4] = [
+const FORMATS: [LogFormat; 5] = [
     LogFormat::Ros1Bag,
     LogFormat::Mcap,
     LogFormat::Db3,
     LogFormat::DataFlash,
+    LogFormat::TopicCsv,
 ];
 
 fn files(root: &Path, dir: &str) -> Vec<String> {

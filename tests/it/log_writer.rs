@@ -24,6 +24,8 @@ pub enum LogFormat {
     /// A ROS 2 Humble SQLite bag (no definitions inside: the reader's built-in types).
     Db3,
     DataFlash,
+    /// Topics exported by `rostopic echo -p`: a CSV per topic, in a folder beside the run's.
+    TopicCsv,
 }
 
 impl LogFormat {
@@ -33,6 +35,7 @@ impl LogFormat {
             LogFormat::Mcap => "run.mcap",
             LogFormat::Db3 => "run.db3",
             LogFormat::DataFlash => "run.BIN",
+            LogFormat::TopicCsv => "topics",
         }
     }
 }
@@ -41,19 +44,19 @@ impl LogFormat {
 const EPOCH_S: f64 = 1.7e9;
 
 /// One message to write: its stream, time and numbers by field.
-struct Row {
-    stream: &'static str,
-    t: f64,
-    numbers: Vec<f64>,
+pub(crate) struct Row {
+    pub stream: &'static str,
+    pub t: f64,
+    pub numbers: Vec<f64>,
 }
 
 /// A stream of messages and how `run.yaml` maps it.
-struct Stream {
-    name: &'static str,
-    ros_topic: &'static str,
-    ros_type: &'static str,
+pub(crate) struct Stream {
+    pub name: &'static str,
+    pub ros_topic: &'static str,
+    pub ros_type: &'static str,
     /// The ROS field of each number.
-    ros_fields: Vec<String>,
+    pub ros_fields: Vec<String>,
     /// The DataFlash labels of each number (after TimeUS).
     df_labels: Vec<String>,
 }
@@ -68,7 +71,14 @@ pub fn write(
 ) -> anyhow::Result<String> {
     let alloc = thrusters.map(Thrusters::allocation);
     let (streams, rows, yaml) = plan(run, alloc.as_ref(), format)?;
-    let path = dir.join(format.file_name());
+    let mut path = dir.join(format.file_name());
+    let mut file = format.file_name().to_string();
+    if format == LogFormat::TopicCsv {
+        // Beside the run folder: a `nav.csv` inside it would be read as the run's own CSV.
+        let name = dir.file_name().context("a run folder")?.to_string_lossy();
+        file = format!("../{name}_topics");
+        path = dir.join(&file);
+    }
     match format {
         LogFormat::Ros1Bag => {
             let mut w = BagWriter::create(&path, BagCompression::Lz4)?;
@@ -86,11 +96,9 @@ pub fn write(
             w.finish()?;
         }
         LogFormat::DataFlash => write_dataflash(&path, &streams, &rows)?,
+        LogFormat::TopicCsv => crate::topic_csv_writer::write(&path, &streams, &rows, EPOCH_S)?,
     }
-    Ok(format!(
-        "log:\n  file: {}\n  stack: none\n{yaml}",
-        format.file_name()
-    ))
+    Ok(format!("log:\n  file: {file}\n  stack: none\n{yaml}"))
 }
 
 /// The streams, their rows and the mapping, from the run's logs.
@@ -455,6 +463,8 @@ fn mapping(s: &Stream, format: LogFormat, idx: &[usize], extra: &str) -> String 
         .iter()
         .map(|&i| match format {
             LogFormat::DataFlash => s.df_labels[i].clone(),
+            // `rostopic echo -p` writes an array's elements as `data0`, `data1`.
+            LogFormat::TopicCsv => s.ros_fields[i].replace(['[', ']'], ""),
             _ => s.ros_fields[i].clone(),
         })
         .collect();

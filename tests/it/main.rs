@@ -28,4 +28,5 @@ mod openfoam_results;
 mod readme;
 mod report_browser;
 mod six_dof;
+mod topic_csv_writer;
 mod twin_truth;

@@ -1,6 +1,6 @@
 //! Logs as vehicles write them, read without user code: ROS 1 bags (`.bag`), ROS 2 bags
-//! (MCAP `.mcap` and SQLite `.db3`, CDR payloads), ArduPilot DataFlash logs (`.BIN`) and MAVLink
-//! telemetry logs (`.tlog`). The first three describe their own messages (a ROS message
+//! (MCAP `.mcap` and SQLite `.db3`, CDR payloads), ArduPilot DataFlash logs (`.BIN`), MAVLink
+//! telemetry logs (`.tlog`) and topics exported by `rostopic echo -p` (a CSV per topic). The first three describe their own messages (a ROS message
 //! definition, an MCAP schema, a DataFlash FMT record), so any message is decoded into a
 //! [`Value`] tree without compiled-in types; MAVLink is not self-describing, so the tlog
 //! reader compiles in the messages ArduSub users need. A field is picked by its path
@@ -25,6 +25,7 @@ pub mod msgdef;
 pub mod ros1;
 pub mod ros_types;
 pub mod tlog;
+pub mod topic_csv;
 pub mod value;
 mod wire;
 pub mod write;
@@ -47,6 +48,8 @@ pub enum Format {
     Tlog,
     /// ROS 2 bag in SQLite (`.db3`), CDR messages.
     Db3,
+    /// Topics exported by `rostopic echo -p`: a CSV file per topic, or a folder of them.
+    TopicCsv,
 }
 
 impl Format {
@@ -57,6 +60,7 @@ impl Format {
             Format::DataFlash => "ArduPilot DataFlash log",
             Format::Tlog => "MAVLink telemetry log",
             Format::Db3 => "ROS 2 SQLite bag",
+            Format::TopicCsv => "rostopic CSV",
         }
     }
 }
@@ -125,6 +129,7 @@ enum Inner {
     DataFlash(dataflash::Bin),
     Tlog(tlog::Tlog),
     Db3(db3::Db3),
+    TopicCsv(topic_csv::TopicCsv),
 }
 
 /// The first bytes of each format.
@@ -140,6 +145,17 @@ impl Log {
     /// a tlog when its name ends in `.tlog`. A rosbag2 folder is opened through its storage
     /// file ([`db3::storage_file`]), which is then the log's `path`.
     pub fn open(path: &Path) -> Result<Log, LogError> {
+        if topic_csv::is_topic_folder(path) {
+            let (csv, topics) = topic_csv::TopicCsv::open(path)?;
+            let (path, format, inner) =
+                (path.to_path_buf(), Format::TopicCsv, Inner::TopicCsv(csv));
+            return Ok(Log {
+                path,
+                format,
+                topics,
+                inner,
+            });
+        }
         let path = &db3::storage_file(path)?;
         let data = std::fs::read(path).map_err(|e| {
             LogError::new(path, format!("cannot read the log: {e}"))
@@ -165,6 +181,10 @@ impl Log {
             drop(data);
             let (db, topics) = db3::Db3::open(path)?;
             (Format::Db3, topics, Inner::Db3(db))
+        } else if data.starts_with(topic_csv::MAGIC) {
+            drop(data);
+            let (csv, topics) = topic_csv::TopicCsv::open(path)?;
+            (Format::TopicCsv, topics, Inner::TopicCsv(csv))
         } else if data.starts_with(ZSTD_MAGIC) {
             return Err(LogError::new(
                 path,
@@ -213,6 +233,7 @@ impl Log {
             Inner::DataFlash(b) => b.read(&self.path, &self.topics, wanted, each),
             Inner::Tlog(t) => t.read(&self.path, &self.topics, wanted, each),
             Inner::Db3(d) => d.read(&self.path, &self.topics, wanted, each),
+            Inner::TopicCsv(c) => c.read(wanted, each),
         }
     }
 
@@ -226,6 +247,22 @@ impl Log {
             Inner::DataFlash(b) => b.notes(),
             Inner::Tlog(t) => t.notes(),
             Inner::Db3(d) => d.notes(),
+            Inner::TopicCsv(_) => Vec::new(),
+        }
+    }
+
+    /// The files the messages of `topics` are read from: the log's own file, or for a folder
+    /// of topic files each topic's file (each is an input of what is read from it).
+    pub fn files(&self, topics: &[usize]) -> Vec<PathBuf> {
+        match &self.inner {
+            Inner::TopicCsv(c) if self.path.is_dir() => {
+                let mut out: Vec<PathBuf> =
+                    topics.iter().map(|&t| c.file(t).to_path_buf()).collect();
+                out.sort();
+                out.dedup();
+                out
+            }
+            _ => vec![self.path.clone()],
         }
     }
 }

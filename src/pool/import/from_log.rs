@@ -27,6 +27,10 @@ pub struct LogSource {
     pub topics: BTreeMap<String, String>,
     /// The span read, seconds from the log's first message.
     pub span_s: [f64; 2],
+    /// For a folder of topic files (`rostopic echo -p`), the files read, each an input of the
+    /// run; empty when the log is one file (`path`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub files: Vec<String>,
 }
 
 /// The run's logs as read from the vehicle's log.
@@ -84,7 +88,8 @@ pub fn read(
     }
     let mut out = FromLog::default();
     let sources = sources(&log, spec, thrusters, &mut out.notes);
-    let (start, end) = span(&log, spec, &shown)?;
+    let timed = timed_topics(&log, &sources);
+    let (start, end) = span(&log, &timed, spec, &shown)?;
     let samples = read_signals(&log, &sources, spec.time, start, end, &shown)?;
     for n in log.notes() {
         out.notes.push(format!("{shown}: {n}"));
@@ -97,7 +102,13 @@ pub fn read(
             .iter()
             .map(|(k, s)| (k.to_string(), s.source.topic.clone()))
             .collect(),
-        span_s: [start, end].map(|x| ((x - log_start(&log)) * 1e6).round() / 1e6),
+        span_s: [start, end].map(|x| ((x - log_start(&log, &timed)) * 1e6).round() / 1e6),
+        files: match log.format == Format::TopicCsv && log.path.is_dir() {
+            true => (log.files(&timed).iter())
+                .map(|f| resolve(root, dir, &f.to_string_lossy()).1)
+                .collect(),
+            false => Vec::new(),
+        },
     });
     Ok(out)
 }
@@ -203,7 +214,21 @@ fn default_stack(log: &VehicleLog) -> Stack {
 /// The time of the log's first timed message. A DataFlash log's format and parameter records
 /// carry no time of their own (they read as the time of the message before them): only
 /// messages with a `TimeUS` or `TimeMS` field count.
-fn log_start(log: &VehicleLog) -> f64 {
+/// The topics whose times make the log's span: all of them, but in a folder of topic files
+/// (`rostopic echo -p`, often every run of a day side by side) those the run reads.
+fn timed_topics(log: &VehicleLog, sources: &[(&'static str, Chosen)]) -> Vec<usize> {
+    if !(log.format == Format::TopicCsv && log.path.is_dir()) {
+        return (0..log.topics.len()).collect();
+    }
+    let mut out: Vec<usize> = (sources.iter())
+        .filter_map(|(_, c)| log.topic(&c.source.topic))
+        .collect();
+    out.sort_unstable();
+    out.dedup();
+    out
+}
+
+fn log_start(log: &VehicleLog, timed_in: &[usize]) -> f64 {
     let timed = |t: &hydrofit_logs::Topic| {
         log.format != Format::DataFlash
             || t.schema
@@ -211,16 +236,20 @@ fn log_start(log: &VehicleLog) -> f64 {
                 .iter()
                 .any(|f| f.name == "TimeUS" || f.name == "TimeMS")
     };
-    log.topics
-        .iter()
+    (timed_in.iter().map(|&i| &log.topics[i]))
         .filter(|t| t.count > 0 && timed(t))
         .map(|t| t.first_s)
         .fold(f64::INFINITY, f64::min)
 }
 
 /// The run's span in the log's clock.
-fn span(log: &VehicleLog, spec: &LogSpec, shown: &str) -> Result<(f64, f64), InputError> {
-    let start = log_start(log);
+fn span(
+    log: &VehicleLog,
+    timed: &[usize],
+    spec: &LogSpec,
+    shown: &str,
+) -> Result<(f64, f64), InputError> {
+    let start = log_start(log, timed);
     if !start.is_finite() {
         return Err(InputError::file(
             shown,
@@ -228,9 +257,7 @@ fn span(log: &VehicleLog, spec: &LogSpec, shown: &str) -> Result<(f64, f64), Inp
             "record the run again, or point `log.file` at the right log",
         ));
     }
-    let end = log
-        .topics
-        .iter()
+    let end = (timed.iter().map(|&i| &log.topics[i]))
         .map(|t| t.last_s)
         .fold(f64::NEG_INFINITY, f64::max);
     let Some([a, b]) = spec.span_s else {

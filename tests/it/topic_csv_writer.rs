@@ -1,0 +1,44 @@
+//! A test fixture: a twin's run as `rostopic echo -p` would export its topics, one CSV per
+//! topic (`%time`, the header's stamp, the fields), for the log writer (`log_writer.rs`).
+
+use crate::log_writer::{Row, Stream};
+use std::path::Path;
+
+/// `t` (s since the run's start) as `rostopic echo -p` writes times: whole nanoseconds since
+/// the Unix epoch.
+fn nanos(epoch_s: f64, t: f64) -> String {
+    let at = epoch_s + t;
+    let secs = at.floor();
+    let ns = ((at - secs) * 1e9).round().min(999_999_999.0);
+    format!("{}{:09}", secs as u64, ns as u64)
+}
+
+/// Each stream as its topic's `rostopic echo -p` file in the folder `path`: `%time` (the
+/// receive time), the header's stamp where the type has a header, then the numbers.
+pub fn write(path: &Path, streams: &[Stream], rows: &[Row], epoch_s: f64) -> anyhow::Result<()> {
+    std::fs::create_dir_all(path)?;
+    for s in streams {
+        let header = !s.ros_type.ends_with("MultiArray");
+        let mut text = String::from("%time");
+        if header {
+            text += ",field.header.seq,field.header.stamp,field.header.frame_id";
+        }
+        for f in &s.ros_fields {
+            text += &format!(",field.{}", f.replace(['[', ']'], ""));
+        }
+        text += "\n";
+        for (k, r) in rows.iter().filter(|r| r.stream == s.name).enumerate() {
+            text += &nanos(epoch_s, r.t);
+            if header {
+                text += &format!(",{k},{},base_link", nanos(epoch_s, r.t));
+            }
+            for x in &r.numbers {
+                text += &format!(",{x}");
+            }
+            text += "\n";
+        }
+        let stem = s.ros_topic.trim_start_matches('/');
+        std::fs::write(path.join(format!("{stem}.csv")), text)?;
+    }
+    Ok(())
+}
