@@ -211,9 +211,6 @@ fn default_stack(log: &VehicleLog) -> Stack {
     }
 }
 
-/// The time of the log's first timed message. A DataFlash log's format and parameter records
-/// carry no time of their own (they read as the time of the message before them): only
-/// messages with a `TimeUS` or `TimeMS` field count.
 /// The topics whose times make the log's span: all of them, but in a folder of topic files
 /// (`rostopic echo -p`, often every run of a day side by side) those the run reads.
 fn timed_topics(log: &VehicleLog, sources: &[(&'static str, Chosen)]) -> Vec<usize> {
@@ -225,9 +222,16 @@ fn timed_topics(log: &VehicleLog, sources: &[(&'static str, Chosen)]) -> Vec<usi
         .collect();
     out.sort_unstable();
     out.dedup();
+    // None of them there: the signal that names a missing topic says so, listing the topics.
+    if out.is_empty() {
+        return (0..log.topics.len()).collect();
+    }
     out
 }
 
+/// The time of the log's first timed message. A DataFlash log's format and parameter records
+/// carry no time of their own (they read as the time of the message before them): only
+/// messages with a `TimeUS` or `TimeMS` field count; only the topics `timed_in`.
 fn log_start(log: &VehicleLog, timed_in: &[usize]) -> f64 {
     let timed = |t: &hydrofit_logs::Topic| {
         log.format != Format::DataFlash
