@@ -534,9 +534,7 @@ impl Sensors {
 impl PoolRun {
     /// The sensor logs the run has, in the order their notes are listed.
     fn sensor_logs(&self) -> impl Iterator<Item = &Log> {
-        [&self.uwb, &self.sonar, &self.imu, &self.depth, &self.nav]
-            .into_iter()
-            .flatten()
+        self.sensors().into_iter().map(|(_, l)| l)
     }
 
     /// The sensor logs the run has, by name, to repair.

@@ -25,8 +25,6 @@ pub const MAGIC: &[u8] = b"%time,";
 #[derive(Debug)]
 pub struct TopicCsv {
     files: Vec<PathBuf>,
-    /// Per topic: the column of `field.header.stamp`, if any.
-    stamps: Vec<Option<usize>>,
 }
 
 /// A tree of fields built from dotted column names, in column order.
@@ -128,16 +126,28 @@ fn starts_with_magic(p: &Path) -> bool {
         .is_ok_and(|_| head == MAGIC)
 }
 
+/// A topic file's text.
+fn read_text(f: &Path) -> Result<String, LogError> {
+    std::fs::read_to_string(f)
+        .map_err(|e| LogError::new(f, format!("cannot read the topic file: {e}")))
+}
+
+/// A line's cells, trimmed (a file written on Windows ends its lines with `\r`).
+fn cells(line: &str) -> Vec<String> {
+    line.split(',').map(|s| s.trim().to_string()).collect()
+}
+
+/// The non-empty lines of a file, and the header's fields (without `%time`) from the first.
+fn lines_and_names(text: &str) -> (impl Iterator<Item = &str>, Vec<String>) {
+    let mut lines = text.lines().filter(|l| !l.trim().is_empty());
+    let names = lines.next().map_or(Vec::new(), |h| cells(h).split_off(1));
+    (lines, names)
+}
+
 /// The header's fields (without `%time`), the rows, and the path for messages.
 fn split(path: &Path, text: &str) -> Result<(Vec<String>, Vec<Vec<String>>), LogError> {
-    let mut lines = text.lines().filter(|l| !l.trim().is_empty());
-    let head = lines.next().unwrap_or_default();
-    let names: Vec<String> = (head.split(',').skip(1))
-        .map(|s| s.trim().to_string())
-        .collect();
-    let rows: Vec<Vec<String>> = lines
-        .map(|l| l.split(',').map(|s| s.trim().to_string()).collect())
-        .collect();
+    let (lines, names) = lines_and_names(text);
+    let rows: Vec<Vec<String>> = lines.map(cells).collect();
     if let Some((k, r)) = rows
         .iter()
         .enumerate()
@@ -186,30 +196,20 @@ impl TopicCsv {
             true => topic_files(path)?,
             false => vec![path.to_path_buf()],
         };
-        let mut out = TopicCsv {
-            files: Vec::new(),
-            stamps: Vec::new(),
-        };
         let mut topics = Vec::new();
-        for f in files {
-            let text = std::fs::read_to_string(&f)
-                .map_err(|e| LogError::new(&f, format!("cannot read the topic file: {e}")))?;
+        for f in &files {
+            let text = read_text(f)?;
             // Only the header, the first row and the times of the first and last rows: the
             // rows are read when the topic is (a folder may hold a day of runs).
-            let mut lines = text.lines().filter(|l| !l.trim().is_empty());
-            let names: Vec<String> = (lines.next().unwrap_or_default().split(','))
-                .skip(1)
-                .map(|s| s.trim().to_string())
-                .collect();
-            let cells = |l: &str| l.split(',').map(|s| s.to_string()).collect::<Vec<_>>();
+            let (mut lines, names) = lines_and_names(&text);
             let first = lines.next().map(cells);
             let (count, last) =
                 lines.fold((first.iter().count(), None), |(n, _), l| (n + 1, Some(l)));
             let last = last.map(cells).or_else(|| first.clone());
-            let (node, stamp) = tree(&names, first.as_ref());
+            let (node, _) = tree(&names, first.as_ref());
             let schema = node.schema(&mut Vec::new());
             let time = |r: &Option<Vec<String>>, k: usize| match r {
-                Some(r) => receive_s(&f, r, k),
+                Some(r) => receive_s(f, r, k),
                 None => Ok(f64::NAN),
             };
             let (first_s, last_s) = (time(&first, 0)?, time(&last, count.max(1) - 1)?);
@@ -224,10 +224,8 @@ impl TopicCsv {
                 last_s,
                 schema,
             });
-            out.files.push(f);
-            out.stamps.push(stamp);
         }
-        Ok((out, topics))
+        Ok((TopicCsv { files }, topics))
     }
 
     /// The file each topic is read from.
@@ -244,13 +242,11 @@ impl TopicCsv {
         let mut all: Vec<Message> = Vec::new();
         for &topic in wanted {
             let f = &self.files[topic];
-            let text = std::fs::read_to_string(f)
-                .map_err(|e| LogError::new(f, format!("cannot read the topic file: {e}")))?;
-            let (names, rows) = split(f, &text)?;
-            let (node, _) = tree(&names, rows.first());
+            let (names, rows) = split(f, &read_text(f)?)?;
+            let (node, stamp) = tree(&names, rows.first());
             for (k, r) in rows.iter().enumerate() {
                 let cells: Vec<&str> = r[1..].iter().map(|s| s.as_str()).collect();
-                let stamp_s = (self.stamps[topic])
+                let stamp_s = stamp
                     .and_then(|c| nanos_s(cells.get(c)?))
                     .filter(|s| s.is_finite() && *s > 0.0);
                 all.push(Message {

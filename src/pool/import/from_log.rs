@@ -103,7 +103,7 @@ pub fn read(
             .map(|(k, s)| (k.to_string(), s.source.topic.clone()))
             .collect(),
         span_s: [start, end].map(|x| ((x - log_start(&log, &timed)) * 1e6).round() / 1e6),
-        files: match log.format == Format::TopicCsv && log.path.is_dir() {
+        files: match is_topic_folder(&log) {
             true => (log.files(&timed).iter())
                 .map(|f| resolve(root, dir, &f.to_string_lossy()).1)
                 .collect(),
@@ -211,10 +211,15 @@ fn default_stack(log: &VehicleLog) -> Stack {
     }
 }
 
+/// Whether the log is a folder of `rostopic echo -p` files, one topic each.
+fn is_topic_folder(log: &VehicleLog) -> bool {
+    log.format == Format::TopicCsv && log.path.is_dir()
+}
+
 /// The topics whose times make the log's span: all of them, but in a folder of topic files
 /// (`rostopic echo -p`, often every run of a day side by side) those the run reads.
 fn timed_topics(log: &VehicleLog, sources: &[(&'static str, Chosen)]) -> Vec<usize> {
-    if !(log.format == Format::TopicCsv && log.path.is_dir()) {
+    if !is_topic_folder(log) {
         return (0..log.topics.len()).collect();
     }
     let mut out: Vec<usize> = (sources.iter())
