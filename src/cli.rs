@@ -57,10 +57,10 @@ pub enum Command {
         model: Option<String>,
     },
     /// List what a vehicle's log holds (ROS 1 bag, ROS 2 bag (MCAP or .db3, or its folder),
-    /// ArduPilot .BIN, .tlog, or rostopic echo -p CSV files): topics, types, counts, rates
-    /// and, with --fields, every field's path.
+    /// ArduPilot .BIN, .tlog, rostopic echo -p CSV files or other CSV tables with a time
+    /// column): topics, types, counts, rates and, with --fields, every field's path.
     Inspect {
-        /// The log, a rosbag2 folder, or a folder of rostopic CSV files.
+        /// The log, a rosbag2 folder, or a folder of CSV files with a time column.
         log: PathBuf,
         /// Also list every field of every topic by the path run.yaml's `log:` names it.
         #[arg(long)]

@@ -63,6 +63,7 @@ pub fn mix(a: &Allocation, cmd: &[[f64; 4]]) -> Mixed {
         Command::Pwm => "us",
         Command::Normalised => "normalised",
         Command::Rpm => "rpm",
+        Command::Newtons => "N",
     };
     let columns: Vec<String> = a
         .units
@@ -101,7 +102,7 @@ impl Mixed {
         let mut out = format!("t,{}\n", self.columns.join(","));
         let decimals = match self.summary.command {
             Command::Pwm | Command::Rpm => 1,
-            Command::Normalised => 4,
+            Command::Normalised | Command::Newtons => 4,
         };
         for (k, row) in self.commands.iter().enumerate() {
             let _ = write!(out, "{:.2}", k as f64 * super::DT);
@@ -126,7 +127,7 @@ mod tests {
             command: Command::Pwm,
             neutral_us: 1500.0,
             half_range_us: 400.0,
-            curve: Curve::Named(NamedCurve::T200_16v),
+            curve: Some(Curve::Named(NamedCurve::T200_16v)),
             gain: 1.0,
         }
         .allocation()

@@ -236,7 +236,12 @@ pub fn thrusters_section(t: Option<&Thrusters>) -> anyhow::Result<Markup> {
     } else {
         names.join(", ")
     };
-    let curve = thrust_curve(t, &a)?;
+    let curve = match (t.command, &t.curve) {
+        (Command::Newtons, None) => html! {
+            p { "The logged commands are thrusts in newtons (gain " (t.gain) "), used as they are: no curve." }
+        },
+        _ => thrust_curve(t, &a)?,
+    };
     Ok(html! {
         h2 id="thrusters" { "Thrusters" }
         p {
@@ -297,6 +302,7 @@ fn thrust_curve(t: &Thrusters, a: &Allocation) -> anyhow::Result<Markup> {
         Command::Pwm => "command (PWM, us)",
         Command::Normalised => "command (normalised)",
         Command::Rpm => "shaft speed (rpm)",
+        Command::Newtons => "thrust command (N)",
     };
     crate::core::plot::lines::figure(
         "thrust-curve",

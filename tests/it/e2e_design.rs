@@ -249,7 +249,7 @@ fn a_design_stage_proposes_at_every_build_with_the_commands_of_each_thruster() {
         command: Command::Pwm,
         neutral_us: 1500.0,
         half_range_us: 400.0,
-        curve: Curve::Named(NamedCurve::T200_16v),
+        curve: Some(Curve::Named(NamedCurve::T200_16v)),
         gain: 1.0,
     }
     .allocation();

@@ -1,5 +1,6 @@
 //! Logs as vehicles write them: the twins' runs written as a ROS 1 bag, an MCAP file, a ROS 2
-//! SQLite bag, an ArduPilot DataFlash log and `rostopic echo -p` topic files read back to the same logs and the same fused velocities as their
+//! SQLite bag, an ArduPilot DataFlash log, `rostopic echo -p` topic files and a simulator's
+//! tables (a CSV per topic, `timestamp` in seconds) read back to the same logs and the same fused velocities as their
 //! CSV files, sample by sample; per-thruster PWM through a thruster layout and curve identifies
 //! the same model as the logged wrench; a run folder that names what its log lacks is a
 //! located error listing what the log holds; a real ArduSub log is read with no mapping.
@@ -12,12 +13,13 @@ use hydrofit::pool::import::csvlog::Log;
 use hydrofit::pool::import::{self, PoolRun};
 use std::path::Path;
 
-const FORMATS: [LogFormat; 5] = [
+const FORMATS: [LogFormat; 6] = [
     LogFormat::Ros1Bag,
     LogFormat::Mcap,
     LogFormat::Db3,
     LogFormat::DataFlash,
     LogFormat::TopicCsv,
+    LogFormat::PlainCsv,
 ];
 
 fn files(root: &Path, dir: &str) -> Vec<String> {
@@ -149,7 +151,7 @@ fn heavy() -> Thrusters {
         command: Command::Pwm,
         neutral_us: 1500.0,
         half_range_us: 400.0,
-        curve: Curve::Named(NamedCurve::T200_16v),
+        curve: Some(Curve::Named(NamedCurve::T200_16v)),
         gain: 2.0,
     }
 }
@@ -214,58 +216,13 @@ fn per_thruster_pwm_identifies_the_model_the_wrench_does() {
                 .fold(0.0, f64::max);
             assert!(worst < 1.0, "{n}: command column {c} off by {worst}");
         }
-        for f in ["uwb.csv", "sonar.csv", "imu.csv", "depth.csv"] {
-            if root.join(&from).join(f).exists() {
-                std::fs::copy(root.join(&from).join(f), root.join(&to).join(f)).unwrap();
-            }
-        }
-        // Sensors from the CSV files, the command from the bag.
-        let yaml = std::fs::read_to_string(root.join(&to).join("run.yaml")).unwrap();
-        let kept: Vec<&str> = yaml
-            .lines()
-            .filter(|l| {
-                !l.contains("position:")
-                    && !l.contains("sonar:")
-                    && !l.contains("attitude:")
-                    && !l.contains("rates:")
-                    && !l.contains("acceleration:")
-                    && !l.contains("depth:")
-            })
-            .collect();
-        std::fs::write(root.join(&to).join("run.yaml"), kept.join("\n") + "\n").unwrap();
+        sensors_from_csv(root, &from, &to);
     }
-    let yaml = serde_yaml_ng::to_string(&serde_json::json!({"thrusters": thrusters})).unwrap();
-    let indented: String = yaml.lines().map(|l| format!("  {l}\n")).collect();
-    std::fs::write(
-        wrench.join("pipeline.yaml"),
-        PIPELINE.replace("THRUSTERS\n", ""),
-    )
-    .unwrap();
-    std::fs::write(
-        pwm.join("pipeline.yaml"),
-        PIPELINE.replace("THRUSTERS\n", &indented),
-    )
-    .unwrap();
+    write_pipeline(&wrench, None);
+    write_pipeline(&pwm, Some(&thrusters));
     ok(&wrench, &["build"]);
     ok(&pwm, &["build"]);
-    let params = |p: &Path| -> Vec<(String, f64, f64, bool)> {
-        json(p, "reports/parameters.json")["parameters"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|x| {
-                let v = |k: &str| x[k].as_f64().unwrap_or(f64::NAN);
-                let sure = x["identifiable"].as_bool().unwrap_or(true);
-                (
-                    x["name"].as_str().unwrap().to_string(),
-                    v("value"),
-                    v("stderr"),
-                    sure,
-                )
-            })
-            .collect()
-    };
-    let (a, b) = (params(&wrench), params(&pwm));
+    let (a, b) = (coefficients(&wrench), coefficients(&pwm));
     assert_eq!(a.len(), b.len());
     // The same model: each coefficient the runs determine within 3 % or two standard errors
     // (whole-microsecond PWM moves each thrust by up to a tenth of a newton). A DOF with a
@@ -330,6 +287,129 @@ fn per_thruster_pwm_identifies_the_model_the_wrench_does() {
                     && i["blake3"].as_str().is_some_and(|h| h.len() == 64)
             }),
             "{file} is an input, with its topic and hash: {inputs}"
+        );
+    }
+}
+
+/// The run folder `to` (its command from a log) given the sensors of the CSV run `from`: its
+/// CSV files copied, their lines dropped from `log:`.
+fn sensors_from_csv(root: &Path, from: &str, to: &str) {
+    for f in ["uwb.csv", "sonar.csv", "imu.csv", "depth.csv"] {
+        if root.join(from).join(f).exists() {
+            std::fs::copy(root.join(from).join(f), root.join(to).join(f)).unwrap();
+        }
+    }
+    let yaml = std::fs::read_to_string(root.join(to).join("run.yaml")).unwrap();
+    let kept: Vec<&str> = yaml
+        .lines()
+        .filter(|l| {
+            !l.contains("position:")
+                && !l.contains("sonar:")
+                && !l.contains("attitude:")
+                && !l.contains("rates:")
+                && !l.contains("acceleration:")
+                && !l.contains("depth:")
+        })
+        .collect();
+    std::fs::write(root.join(to).join("run.yaml"), kept.join("\n") + "\n").unwrap();
+}
+
+/// `project/pipeline.yaml`: [`PIPELINE`] with `thrusters` (or a logged wrench).
+fn write_pipeline(project: &Path, thrusters: Option<&Thrusters>) {
+    let indented: String = match thrusters {
+        Some(t) => {
+            let yaml = serde_yaml_ng::to_string(&serde_json::json!({"thrusters": t})).unwrap();
+            yaml.lines().map(|l| format!("  {l}\n")).collect()
+        }
+        None => String::new(),
+    };
+    let text = PIPELINE.replace("THRUSTERS\n", &indented);
+    std::fs::write(project.join("pipeline.yaml"), text).unwrap();
+}
+
+/// Each coefficient of a built project: name, value, standard error, identifiable.
+fn coefficients(p: &Path) -> Vec<(String, f64, f64, bool)> {
+    json(p, "reports/parameters.json")["parameters"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| {
+            let v = |k: &str| x[k].as_f64().unwrap_or(f64::NAN);
+            let sure = x["identifiable"].as_bool().unwrap_or(true);
+            (
+                x["name"].as_str().unwrap().to_string(),
+                v("value"),
+                v("stderr"),
+                sure,
+            )
+        })
+        .collect()
+}
+
+/// A simulator logs each thruster's thrust in newtons, in tables with its own clock: through
+/// `command: newtons` (no curve) the runs identify the model the logged wrench does, to the
+/// digits the tables keep.
+#[test]
+fn per_thruster_thrust_in_newtons_identifies_the_model_the_wrench_does() {
+    let d = tempfile::tempdir().unwrap();
+    let root = d.path();
+    ok(
+        root,
+        &[
+            "twin",
+            "pool",
+            "--out",
+            "twin/pool",
+            "--truth",
+            "truth",
+            "--effect",
+            "none",
+        ],
+    );
+    let thrusters = Thrusters {
+        command: Command::Newtons,
+        curve: None,
+        gain: 1.0,
+        ..heavy()
+    };
+    let (wrench, newtons) = (root.join("wrench"), root.join("newtons"));
+    let names: Vec<String> = std::fs::read_dir(root.join("twin/pool"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
+        .collect();
+    for n in &names {
+        let from = format!("twin/pool/{n}");
+        hydrofit::core::fsutil::copy_dir(&root.join(&from), &wrench.join("cases/pool").join(n))
+            .unwrap();
+        let to = format!("newtons/cases/pool/{n}");
+        let run = as_log(root, &from, &to, LogFormat::PlainCsv, Some(&thrusters));
+        let csv = load(root, &from, None);
+        for c in 0..4 {
+            let worst = (csv.thrust.cols[c].iter().zip(&run.thrust.cols[c]))
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
+            assert!(worst < 1e-6, "{n}: command column {c} off by {worst}");
+        }
+        sensors_from_csv(root, &from, &to);
+        // The tables out of `cases/pool/`, whose every folder is a run.
+        let tables = format!("{n}_tables");
+        std::fs::create_dir_all(newtons.join("logs")).unwrap();
+        let at = newtons.join("cases/pool").join(&tables);
+        std::fs::rename(at, newtons.join("logs").join(&tables)).unwrap();
+        let yaml = std::fs::read_to_string(root.join(&to).join("run.yaml")).unwrap();
+        let moved = yaml.replace(&format!("../{tables}"), &format!("../../../logs/{tables}"));
+        std::fs::write(root.join(&to).join("run.yaml"), moved).unwrap();
+    }
+    write_pipeline(&wrench, None);
+    write_pipeline(&newtons, Some(&thrusters));
+    ok(&wrench, &["build"]);
+    ok(&newtons, &["build"]);
+    let (a, b) = (coefficients(&wrench), coefficients(&newtons));
+    assert_eq!(a.len(), b.len());
+    for ((n, x, se, _), (_, y, _, _)) in a.iter().zip(&b) {
+        assert!(
+            (x - y).abs() <= 1e-3 * x.abs() + 0.01 * se,
+            "{n}: {x} from the wrench, {y} from thrusts in newtons"
         );
     }
 }

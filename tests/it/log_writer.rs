@@ -7,7 +7,7 @@
 //! crate's writers.
 
 use anyhow::Context;
-use hydrofit::core::model::thrusters::{Allocation, Thrusters};
+use hydrofit::core::model::thrusters::{Allocation, Command, Thrusters};
 use hydrofit::pool::import::PoolRun;
 use hydrofit::pool::import::csvlog::Log;
 use hydrofit_logs::write::{
@@ -26,6 +26,9 @@ pub enum LogFormat {
     DataFlash,
     /// Topics exported by `rostopic echo -p`: a CSV per topic, in a folder beside the run's.
     TopicCsv,
+    /// A simulator's tables: a CSV per topic with a `timestamp` column in seconds of its own
+    /// clock and flat column names (`pose_pose_orientation_x`), in a folder beside the run's.
+    PlainCsv,
 }
 
 impl LogFormat {
@@ -36,6 +39,7 @@ impl LogFormat {
             LogFormat::Db3 => "run.db3",
             LogFormat::DataFlash => "run.BIN",
             LogFormat::TopicCsv => "topics",
+            LogFormat::PlainCsv => "tables",
         }
     }
 }
@@ -73,10 +77,10 @@ pub fn write(
     let (streams, rows, yaml) = plan(run, alloc.as_ref(), format)?;
     let mut path = dir.join(format.file_name());
     let mut file = format.file_name().to_string();
-    if format == LogFormat::TopicCsv {
+    if matches!(format, LogFormat::TopicCsv | LogFormat::PlainCsv) {
         // Beside the run folder: a `nav.csv` inside it would be read as the run's own CSV.
         let name = dir.file_name().context("a run folder")?.to_string_lossy();
-        file = format!("../{name}_topics");
+        file = format!("../{name}_{}", format.file_name());
         path = dir.join(&file);
     }
     match format {
@@ -97,6 +101,7 @@ pub fn write(
         }
         LogFormat::DataFlash => write_dataflash(&path, &streams, &rows)?,
         LogFormat::TopicCsv => crate::topic_csv_writer::write(&path, &streams, &rows, EPOCH_S)?,
+        LogFormat::PlainCsv => crate::topic_csv_writer::write_plain(&path, &streams, &rows)?,
     }
     Ok(format!("log:\n  file: {file}\n  stack: none\n{yaml}"))
 }
@@ -231,7 +236,8 @@ fn command(
 }
 
 /// Whole-microsecond PWM commands whose thrusts give `tau` through the allocation: the
-/// minimum-norm thrusts f = B^T (B B^T)^+ tau, each through the inverse of the curve.
+/// minimum-norm thrusts f = B^T (B B^T)^+ tau, each through the inverse of the curve (the
+/// thrusts themselves for commands in newtons).
 pub fn pwm(a: &Allocation, tau: &[f64; 6]) -> anyhow::Result<Vec<f64>> {
     let n = a.columns.len();
     let b = nalgebra::DMatrix::from_fn(6, n, |i, j| a.columns[j][i]);
@@ -240,6 +246,9 @@ pub fn pwm(a: &Allocation, tau: &[f64; 6]) -> anyhow::Result<Vec<f64>> {
         .pseudo_inverse(1e-9)
         .map_err(|e| anyhow::anyhow!("the allocation has no pseudo-inverse: {e}"))?;
     let f = pinv * nalgebra::DVector::from_column_slice(tau);
+    if a.command_kind() == Command::Newtons {
+        return Ok(f.iter().copied().collect());
+    }
     Ok(f.iter().map(|&fi| inverse_thrust(a, fi).round()).collect())
 }
 
@@ -315,22 +324,26 @@ fn imu(
     let ros = format != LogFormat::DataFlash;
     let topic = topic_of(&s, format);
     if l.has(0) {
-        *yaml += &if ros {
+        *yaml += &if format == LogFormat::PlainCsv {
+            // A table's quaternion: four flat columns x, y, z, w.
+            let q = fields_of(&s, format, &[0, 1, 2, 3]);
+            field_map("attitude", &topic, &q, ", frame: ned")
+        } else if ros {
             format!("  attitude: {{topic: {topic}, quaternion: orientation, frame: ned}}\n")
         } else {
             field_map("attitude", &topic, &s.df_labels[0..3], "")
         };
     }
     let (r, a) = if ros {
-        (&s.ros_fields[4..7], &s.ros_fields[7..10])
+        ([4, 5, 6], [7, 8, 9])
     } else {
-        (&s.df_labels[3..6], &s.df_labels[6..9])
+        ([3, 4, 5], [6, 7, 8])
     };
     if l.has(3) {
-        *yaml += &field_map("rates", &topic, r, "");
+        *yaml += &field_map("rates", &topic, &fields_of(&s, format, &r), "");
     }
     if l.has(6) {
-        *yaml += &field_map("acceleration", &topic, a, "");
+        *yaml += &field_map("acceleration", &topic, &fields_of(&s, format, &a), "");
     }
     streams.push(s);
 }
@@ -389,16 +402,17 @@ fn nav(
     }
     let ros = format != LogFormat::DataFlash;
     let topic = topic_of(&s, format);
-    let fields = |a: usize, b: usize| {
-        if ros {
-            s.ros_fields[a..b].to_vec()
-        } else {
-            s.df_labels[a..b].to_vec()
+    let fields = |a: usize, b: usize| -> Vec<String> {
+        match format {
+            LogFormat::DataFlash => s.df_labels[a..b].to_vec(),
+            _ => fields_of(&s, format, &(a..b).collect::<Vec<_>>()),
         }
     };
     *yaml += &field_map("velocity", &topic, &fields(0, 3), "");
     if l.has(3) {
-        *yaml += &if ros {
+        *yaml += &if format == LogFormat::PlainCsv {
+            field_map("attitude", &topic, &fields(3, 7), ", frame: ned")
+        } else if ros {
             format!(
                 "  attitude: {{topic: {topic}, quaternion: pose.pose.orientation, frame: ned}}\n"
             )
@@ -459,16 +473,25 @@ fn df_name(stream: &str) -> &'static str {
 
 /// The `run.yaml` line mapping signal `s` (its numbers `idx`).
 fn mapping(s: &Stream, format: LogFormat, idx: &[usize], extra: &str) -> String {
-    let fields: Vec<String> = idx
-        .iter()
+    field_map(
+        s.name,
+        &topic_of(s, format),
+        &fields_of(s, format, idx),
+        extra,
+    )
+}
+
+/// The names of numbers `idx` of stream `s` in a log of `format`.
+fn fields_of(s: &Stream, format: LogFormat, idx: &[usize]) -> Vec<String> {
+    idx.iter()
         .map(|&i| match format {
             LogFormat::DataFlash => s.df_labels[i].clone(),
             // `rostopic echo -p` writes an array's elements as `data0`, `data1`.
             LogFormat::TopicCsv => s.ros_fields[i].replace(['[', ']'], ""),
+            LogFormat::PlainCsv => crate::topic_csv_writer::flat(&s.ros_fields[i]),
             _ => s.ros_fields[i].clone(),
         })
-        .collect();
-    field_map(s.name, &topic_of(s, format), &fields, extra)
+        .collect()
 }
 
 fn field_map(signal: &str, topic: &str, fields: &[String], extra: &str) -> String {

@@ -1,5 +1,6 @@
 //! A test fixture: a twin's run as `rostopic echo -p` would export its topics, one CSV per
-//! topic (`%time`, the header's stamp, the fields), for the log writer (`log_writer.rs`).
+//! topic (`%time`, the header's stamp, the fields), or as a simulator's tables (`timestamp` in
+//! seconds, flat column names), for the log writer (`log_writer.rs`).
 
 use crate::log_writer::{Row, Stream};
 use std::path::Path;
@@ -32,6 +33,38 @@ pub fn write(path: &Path, streams: &[Stream], rows: &[Row], epoch_s: f64) -> any
             if header {
                 text += &format!(",{k},{},base_link", nanos(epoch_s, r.t));
             }
+            for x in &r.numbers {
+                text += &format!(",{x}");
+            }
+            text += "\n";
+        }
+        let stem = s.ros_topic.trim_start_matches('/');
+        std::fs::write(path.join(format!("{stem}.csv")), text)?;
+    }
+    Ok(())
+}
+
+/// The clock a simulator's tables start at, s (its own time since it started, not the epoch).
+const SIM_START_S: f64 = 312.5;
+
+/// A field's name as a flat table column: `pose.pose.orientation.x` is
+/// `pose_pose_orientation_x`, `data[3]` is `data3`.
+pub fn flat(field: &str) -> String {
+    field.replace('.', "_").replace(['[', ']'], "")
+}
+
+/// Each stream as a table in the folder `path`, as a simulator or an analysis tool writes
+/// them: `timestamp` in seconds of its own clock, then the numbers under flat names.
+pub fn write_plain(path: &Path, streams: &[Stream], rows: &[Row]) -> anyhow::Result<()> {
+    std::fs::create_dir_all(path)?;
+    for s in streams {
+        let mut text = String::from("timestamp");
+        for f in &s.ros_fields {
+            text += &format!(",{}", flat(f));
+        }
+        text += "\n";
+        for r in rows.iter().filter(|r| r.stream == s.name) {
+            text += &format!("{:.9}", SIM_START_S + r.t);
             for x in &r.numbers {
                 text += &format!(",{x}");
             }

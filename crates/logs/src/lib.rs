@@ -1,6 +1,7 @@
 //! Logs as vehicles write them, read without user code: ROS 1 bags (`.bag`), ROS 2 bags
 //! (MCAP `.mcap` and SQLite `.db3`, CDR payloads), ArduPilot DataFlash logs (`.BIN`), MAVLink
-//! telemetry logs (`.tlog`) and topics exported by `rostopic echo -p` (a CSV per topic). The first three describe their own messages (a ROS message
+//! telemetry logs (`.tlog`) and CSV files with a time column (a topic per file: `rostopic echo
+//! -p`'s exports, PlotJuggler's, PX4's, a simulator's). The first three describe their own messages (a ROS message
 //! definition, an MCAP schema, a DataFlash FMT record), so any message is decoded into a
 //! [`Value`] tree without compiled-in types; MAVLink is not self-describing, so the tlog
 //! reader compiles in the messages ArduSub users need. A field is picked by its path
@@ -15,6 +16,7 @@
 //! [`ros_types`].
 
 mod compress;
+pub mod csv_clock;
 pub mod dataflash;
 pub mod db3;
 mod encode;
@@ -50,6 +52,8 @@ pub enum Format {
     Db3,
     /// Topics exported by `rostopic echo -p`: a CSV file per topic, or a folder of them.
     TopicCsv,
+    /// Any other CSV file with a time column (one topic), or a folder of them.
+    Csv,
 }
 
 impl Format {
@@ -61,6 +65,7 @@ impl Format {
             Format::Tlog => "MAVLink telemetry log",
             Format::Db3 => "ROS 2 SQLite bag",
             Format::TopicCsv => "rostopic CSV",
+            Format::Csv => "CSV with a time column",
         }
     }
 }
@@ -146,15 +151,7 @@ impl Log {
     /// file ([`db3::storage_file`]), which is then the log's `path`.
     pub fn open(path: &Path) -> Result<Log, LogError> {
         if topic_csv::is_topic_folder(path) {
-            let (csv, topics) = topic_csv::TopicCsv::open(path)?;
-            let (path, format, inner) =
-                (path.to_path_buf(), Format::TopicCsv, Inner::TopicCsv(csv));
-            return Ok(Log {
-                path,
-                format,
-                topics,
-                inner,
-            });
+            return Ok(Log::csv(path)?);
         }
         let path = &db3::storage_file(path)?;
         let data = std::fs::read(path).map_err(|e| {
@@ -181,10 +178,9 @@ impl Log {
             drop(data);
             let (db, topics) = db3::Db3::open(path)?;
             (Format::Db3, topics, Inner::Db3(db))
-        } else if data.starts_with(topic_csv::MAGIC) {
+        } else if topic_csv::is_timed_csv(&data) {
             drop(data);
-            let (csv, topics) = topic_csv::TopicCsv::open(path)?;
-            (Format::TopicCsv, topics, Inner::TopicCsv(csv))
+            return Log::csv(path);
         } else if data.starts_with(ZSTD_MAGIC) {
             return Err(LogError::new(
                 path,
@@ -198,13 +194,28 @@ impl Log {
                 "not a ROS 1 bag, an MCAP file or an ArduPilot DataFlash log (unknown first bytes)",
             )
             .at(0)
-            .fix("give the log the vehicle wrote (.bag, .mcap, .BIN, or a .tlog named so); CSV logs go in the run folder as thrust.csv, nav.csv ..."));
+            .fix("give the log the vehicle wrote (.bag, .mcap, .BIN, a .tlog named so, or a CSV file whose header names a time column: `time`, `timestamp`, `t`, `%time`)"));
         };
         Ok(Log {
             path: path.to_path_buf(),
             format,
             topics,
             inner,
+        })
+    }
+
+    /// A CSV file with a time column, or a folder of them.
+    fn csv(path: &Path) -> Result<Log, LogError> {
+        let (csv, topics) = topic_csv::TopicCsv::open(path)?;
+        let format = match csv.is_rostopic() {
+            true => Format::TopicCsv,
+            false => Format::Csv,
+        };
+        Ok(Log {
+            path: path.to_path_buf(),
+            format,
+            topics,
+            inner: Inner::TopicCsv(csv),
         })
     }
 
@@ -238,7 +249,8 @@ impl Log {
     }
 
     /// What the reader stepped over in a log it could still read (damaged bytes skipped, a
-    /// last record cut off, packets with a bad checksum), one sentence each; empty for an
+    /// last record cut off, packets with a bad checksum) and what it assumed (the unit of a CSV
+    /// file's time column where its name does not give one), one sentence each; empty for an
     /// undamaged log. Formats that do not report such things yet give none.
     pub fn notes(&self) -> Vec<String> {
         match &self.inner {
@@ -247,7 +259,7 @@ impl Log {
             Inner::DataFlash(b) => b.notes(),
             Inner::Tlog(t) => t.notes(),
             Inner::Db3(d) => d.notes(),
-            Inner::TopicCsv(_) => Vec::new(),
+            Inner::TopicCsv(c) => c.notes(),
         }
     }
 

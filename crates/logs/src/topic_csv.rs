@@ -1,30 +1,34 @@
-//! Topics exported as CSV by `rostopic echo -p` (or `rostopic echo -b bag -p`): one file per
-//! topic, a header `%time,field.a,field.b.c,...` and one row per message, `%time` the
-//! receive time in nanoseconds since the Unix epoch. A log is one such file (one topic, named
-//! by the file's stem) or a folder of them (one topic per file), so the two topics of a run
-//! recorded as `wrench_3.csv` and `navigation_state_3.csv` are read as one log.
+//! Logs written as CSV files with a time column, one topic per file: topics exported by
+//! `rostopic echo -p` (or `rostopic echo -b bag -p`), PlotJuggler's and PX4's CSV exports, a
+//! simulator's or an analysis tool's tables. A log is one such file (one topic, named by the
+//! file's stem) or a folder of them (one topic per file), so the two topics of a run recorded
+//! as `wrench_3.csv` and `navigation_state_3.csv` are read as one log. Which column is the
+//! time, and in what unit, is [`crate::csv_clock`]'s: `%time` (nanoseconds) in a `rostopic`
+//! file.
 //!
-//! - Columns become a message's fields by their names without `field.`, dots nesting them
-//!   (`field.velocity.x` is `velocity.x`); an array's elements, which `rostopic` writes as
-//!   `field.data0`, `field.data1`, keep those names.
+//! - Columns become a message's fields by their names (a `rostopic` file's without `field.`),
+//!   dots nesting them (`field.velocity.x` is `velocity.x`); an array's elements, which
+//!   `rostopic` writes as `field.data0`, `field.data1`, keep those names.
 //! - A column whose first row reads as a number is numeric (an empty or unreadable cell is
 //!   NaN); any other is text.
-//! - `field.header.stamp` (nanoseconds) is the message's stamp where it is not zero.
+//! - In a `rostopic` file, `field.header.stamp` (nanoseconds) is the message's stamp where it
+//!   is not zero.
 //! - Opening reads each file once to count its rows and find its first and last time; a
 //!   topic's rows are parsed (and a row with more or fewer cells than the header refused) when
 //!   it is read.
 
+use crate::csv_clock::{self, Clock};
 use crate::value::{Field, Kind, Leaf, Schema, Value};
 use crate::{LogError, Message, Topic};
 use std::path::{Path, PathBuf};
-
-/// The first bytes of a `rostopic echo -p` file.
-pub const MAGIC: &[u8] = b"%time,";
 
 /// An open set of topic files.
 #[derive(Debug)]
 pub struct TopicCsv {
     files: Vec<PathBuf>,
+    clocks: Vec<Clock>,
+    /// CSV files of the folder that are not read: their header names no time.
+    untimed: Vec<PathBuf>,
 }
 
 /// A tree of fields built from dotted column names, in column order.
@@ -98,32 +102,48 @@ fn number(cell: Option<&str>) -> f64 {
     cell.and_then(|s| s.trim().parse().ok()).unwrap_or(f64::NAN)
 }
 
-/// Whether `path` is a folder of topic files (a folder with a `%time` CSV in it and no
-/// rosbag2 storage), so that [`crate::Log::open`] reads it as one log.
+/// Whether `path` is a folder of topic files (a folder with a CSV file whose header names a
+/// time), so that [`crate::Log::open`] reads it as one log.
 pub fn is_topic_folder(path: &Path) -> bool {
     path.is_dir() && !topic_files(path).unwrap_or_default().is_empty()
 }
 
-/// The `rostopic echo -p` files of a folder, sorted by name.
+/// Whether the bytes of a file are a CSV log: a first line with a comma that names a time.
+pub fn is_timed_csv(data: &[u8]) -> bool {
+    let head = &data[..data.len().min(64 * 1024)];
+    let line = head.split(|b| *b == b'\n').next().unwrap_or_default();
+    let line = String::from_utf8_lossy(line);
+    line.contains(',') && csv_clock::names_a_time(&cells(&line))
+}
+
+/// The CSV files of a folder whose header names a time, sorted by name.
 fn topic_files(dir: &Path) -> Result<Vec<PathBuf>, LogError> {
+    Ok(csv_files(dir)?.0)
+}
+
+/// The CSV files of a folder, sorted by name: those whose header names a time, and the others.
+fn csv_files(dir: &Path) -> Result<(Vec<PathBuf>, Vec<PathBuf>), LogError> {
     let read = std::fs::read_dir(dir)
         .map_err(|e| LogError::new(dir, format!("cannot list the folder: {e}")))?;
-    let mut out: Vec<PathBuf> = read
+    let mut all: Vec<PathBuf> = read
         .filter_map(Result::ok)
         .map(|e| e.path())
         .filter(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv")))
-        .filter(|p| starts_with_magic(p))
         .collect();
-    out.sort();
-    Ok(out)
+    all.sort();
+    Ok(all
+        .into_iter()
+        .partition(|p| first_bytes(p).is_some_and(|d| is_timed_csv(&d))))
 }
 
-fn starts_with_magic(p: &Path) -> bool {
+/// The first 64 KiB of a file (enough for its header line).
+fn first_bytes(p: &Path) -> Option<Vec<u8>> {
     use std::io::Read;
-    let mut head = [0u8; 6];
+    let mut head = Vec::new();
     std::fs::File::open(p)
-        .and_then(|mut f| f.read_exact(&mut head))
-        .is_ok_and(|_| head == MAGIC)
+        .and_then(|f| f.take(64 * 1024).read_to_end(&mut head))
+        .ok()?;
+    Some(head)
 }
 
 /// A topic file's text.
@@ -132,100 +152,119 @@ fn read_text(f: &Path) -> Result<String, LogError> {
         .map_err(|e| LogError::new(f, format!("cannot read the topic file: {e}")))
 }
 
-/// A line's cells, trimmed (a file written on Windows ends its lines with `\r`).
+/// A line's cells, trimmed of blanks and quotes (a file written on Windows ends its lines
+/// with `\r`; a spreadsheet may quote its names).
 fn cells(line: &str) -> Vec<String> {
-    line.split(',').map(|s| s.trim().to_string()).collect()
+    line.split(',')
+        .map(|s| csv_clock::bare(s).to_string())
+        .collect()
 }
 
-/// The non-empty lines of a file, and the header's fields (without `%time`) from the first.
-fn lines_and_names(text: &str) -> (impl Iterator<Item = &str>, Vec<String>) {
+/// The non-empty lines of a file after its header, and the header's cells.
+fn lines_and_header(text: &str) -> (impl Iterator<Item = &str>, Vec<String>) {
     let mut lines = text.lines().filter(|l| !l.trim().is_empty());
-    let names = lines.next().map_or(Vec::new(), |h| cells(h).split_off(1));
-    (lines, names)
+    let header = lines.next().map_or(Vec::new(), cells);
+    (lines, header)
 }
 
-/// The header's fields (without `%time`), the rows, and the path for messages.
-fn split(path: &Path, text: &str) -> Result<(Vec<String>, Vec<Vec<String>>), LogError> {
-    let (lines, names) = lines_and_names(text);
-    let rows: Vec<Vec<String>> = lines.map(cells).collect();
-    if let Some((k, r)) = rows
-        .iter()
-        .enumerate()
-        .find(|(_, r)| r.len() != names.len() + 1)
-    {
-        return Err(LogError::new(
-            path,
-            format!(
-                "row {} has {} cells where the header names {} (a field holding a comma?)",
-                k + 2,
-                r.len(),
-                names.len() + 1
-            ),
-        )
-        .fix("export the topic again with `rostopic echo -p`, or leave the topic out"));
-    }
-    Ok((names, rows))
-}
-
-/// Nanoseconds since the Unix epoch as seconds: whole nanoseconds are split before they
-/// become a float, which holds 1.7e18 only to 256 ns.
-fn nanos_s(cell: &str) -> Option<f64> {
-    let cell = cell.trim();
-    match cell.parse::<u64>() {
-        Ok(ns) => Some((ns / 1_000_000_000) as f64 + (ns % 1_000_000_000) as f64 * 1e-9),
-        Err(_) => cell.parse::<f64>().ok().map(|ns| ns * 1e-9),
-    }
-}
-
-/// A row's `%time`, s.
-fn receive_s(path: &Path, row: &[String], k: usize) -> Result<f64, LogError> {
-    nanos_s(&row[0]).ok_or_else(|| {
+/// The clock of a file from its header and first rows, or an error saying which names a
+/// time column may have.
+fn clock_of(path: &Path, header: &[String], first: &[Vec<String>]) -> Result<Clock, LogError> {
+    csv_clock::clock(header, first.iter().map(|r| r.as_slice())).ok_or_else(|| {
         LogError::new(
             path,
-            format!("row {}: `%time` `{}` is not a number", k + 2, row[0]),
+            format!("a CSV file with no time column (its header: {})", header.join(", ")),
         )
-        .fix("the first column of a `rostopic echo -p` file is the receive time in nanoseconds")
+        .fix("name the time column `time`, `timestamp`, `t` or `%time`, with its unit where it is not seconds (`time_us`, `timestamp_ms`, `t_ns`)")
     })
 }
 
+/// A row's time, s.
+fn time_s(path: &Path, clock: &Clock, row: &[String], k: usize) -> Result<f64, LogError> {
+    let cell = row.get(clock.column).map_or("", |s| s.as_str());
+    csv_clock::seconds(cell, clock.unit_s).ok_or_else(|| {
+        LogError::new(
+            path,
+            format!("row {}: the time `{cell}` is not a number", k + 2),
+        )
+        .fix("every row needs a number in the time column")
+    })
+}
+
+/// A row's cells without the time column: the fields, in the order of [`field_names`].
+fn fields<'a>(row: &'a [String], clock: &Clock) -> Vec<&'a str> {
+    (row.iter().enumerate())
+        .filter(|(c, _)| *c != clock.column)
+        .map(|(_, s)| s.as_str())
+        .collect()
+}
+
+/// The header's field names (the time column left out; a `rostopic` file's without `field.`).
+fn field_names(header: &[String], clock: &Clock) -> Vec<String> {
+    let names = fields(header, clock).into_iter();
+    match clock.rostopic {
+        true => names
+            .map(|n| n.strip_prefix("field.").unwrap_or(n).to_string())
+            .collect(),
+        false => names.map(str::to_string).collect(),
+    }
+}
+
+/// How many rows a clock's unit is read from when the name does not give it.
+const UNIT_ROWS: usize = 2000;
+
 impl TopicCsv {
     /// Opens a topic file or a folder of them and lists the topics: each file's stem, its row
-    /// count and the receive times of its first and last rows.
+    /// count and the times of its first and last rows.
     pub fn open(path: &Path) -> Result<(TopicCsv, Vec<Topic>), LogError> {
-        let files = match path.is_dir() {
-            true => topic_files(path)?,
-            false => vec![path.to_path_buf()],
+        let (files, untimed) = match path.is_dir() {
+            true => csv_files(path)?,
+            false => (vec![path.to_path_buf()], Vec::new()),
         };
         let mut topics = Vec::new();
+        let mut clocks = Vec::new();
         for f in &files {
             let text = read_text(f)?;
-            // Only the header, the first row and the times of the first and last rows: the
-            // rows are read when the topic is (a folder may hold a day of runs).
-            let (mut lines, names) = lines_and_names(&text);
-            let first = lines.next().map(cells);
-            let (count, last) =
-                lines.fold((first.iter().count(), None), |(n, _), l| (n + 1, Some(l)));
-            let last = last.map(cells).or_else(|| first.clone());
-            let (node, _) = tree(&names, first.as_ref());
+            // The header, the first rows (for the clock's unit and the fields' kinds) and the
+            // last row: the rows are parsed when the topic is read (a folder may hold a day
+            // of runs).
+            let (mut lines, header) = lines_and_header(&text);
+            let first: Vec<Vec<String>> = lines.by_ref().take(UNIT_ROWS).map(cells).collect();
+            let (count, last) = lines.fold((first.len(), None), |(n, _), l| (n + 1, Some(l)));
+            let last = last.map(cells).or_else(|| first.last().cloned());
+            let clock = clock_of(f, &header, &first)?;
+            let (node, _) = tree(&field_names(&header, &clock), first.first(), &clock);
             let schema = node.schema(&mut Vec::new());
-            let time = |r: &Option<Vec<String>>, k: usize| match r {
-                Some(r) => receive_s(f, r, k),
+            let time = |r: Option<&Vec<String>>, k: usize| match r {
+                Some(r) => time_s(f, &clock, r, k),
                 None => Ok(f64::NAN),
             };
-            let (first_s, last_s) = (time(&first, 0)?, time(&last, count.max(1) - 1)?);
+            let (first_s, last_s) = (
+                time(first.first(), 0)?,
+                time(last.as_ref(), count.max(1) - 1)?,
+            );
             let name = f
                 .file_stem()
                 .map_or(String::new(), |s| s.to_string_lossy().into());
             topics.push(Topic {
                 name,
-                type_name: "rostopic CSV".into(),
+                type_name: match clock.rostopic {
+                    true => "rostopic CSV".into(),
+                    false => "CSV".into(),
+                },
                 count: count as u64,
                 first_s,
                 last_s,
                 schema,
             });
+            clocks.push(clock);
         }
-        Ok((TopicCsv { files }, topics))
+        let csv = TopicCsv {
+            files,
+            clocks,
+            untimed,
+        };
+        Ok((csv, topics))
     }
 
     /// The file each topic is read from.
@@ -233,7 +272,31 @@ impl TopicCsv {
         &self.files[topic]
     }
 
-    /// Calls `each` with every message of `wanted`, in receive-time order across them.
+    /// Whether every file is a `rostopic echo -p` export.
+    pub fn is_rostopic(&self) -> bool {
+        self.clocks.iter().all(|c| c.rostopic)
+    }
+
+    /// How the time of each file whose column name gives no unit was read, and which CSV
+    /// files of the folder were not read (no time column).
+    pub fn notes(&self) -> Vec<String> {
+        let name = |f: &Path| {
+            f.file_name()
+                .map_or(String::new(), |n| n.to_string_lossy().into())
+        };
+        let inferred = (self.files.iter().zip(&self.clocks))
+            .filter(|(_, c)| !c.inferred.is_empty())
+            .map(|(f, c)| format!("{}: {}", name(f), c.inferred));
+        let untimed = self.untimed.iter().map(|f| {
+            format!(
+                "{}: not read, its header names no time column (`time`, `timestamp`, `t`, `%time`, ...)",
+                name(f)
+            )
+        });
+        inferred.chain(untimed).collect()
+    }
+
+    /// Calls `each` with every message of `wanted`, in time order across them.
     pub fn read(
         &self,
         wanted: &[usize],
@@ -241,17 +304,17 @@ impl TopicCsv {
     ) -> Result<(), LogError> {
         let mut all: Vec<Message> = Vec::new();
         for &topic in wanted {
-            let f = &self.files[topic];
-            let (names, rows) = split(f, &read_text(f)?)?;
-            let (node, stamp) = tree(&names, rows.first());
+            let (f, clock) = (&self.files[topic], &self.clocks[topic]);
+            let (header, rows) = split(f, &read_text(f)?)?;
+            let (node, stamp) = tree(&field_names(&header, clock), rows.first(), clock);
             for (k, r) in rows.iter().enumerate() {
-                let cells: Vec<&str> = r[1..].iter().map(|s| s.as_str()).collect();
+                let cells = fields(r, clock);
                 let stamp_s = stamp
-                    .and_then(|c| nanos_s(cells.get(c)?))
+                    .and_then(|c| csv_clock::seconds(cells.get(c)?, 1e-9))
                     .filter(|s| s.is_finite() && *s > 0.0);
                 all.push(Message {
                     topic,
-                    log_time_s: receive_s(f, r, k)?,
+                    log_time_s: time_s(f, clock, r, k)?,
                     stamp_s,
                     value: node.value(&cells),
                 });
@@ -262,22 +325,46 @@ impl TopicCsv {
     }
 }
 
-/// The field tree of a header (names without `%time`), numeric where the first row's cell
-/// reads as a number, and the column of `field.header.stamp`.
-fn tree(names: &[String], first: Option<&Vec<String>>) -> (Node, Option<usize>) {
+/// The header's cells and the rows; a row with more or fewer cells than the header is an
+/// error with its line.
+fn split(path: &Path, text: &str) -> Result<(Vec<String>, Vec<Vec<String>>), LogError> {
+    let (lines, header) = lines_and_header(text);
+    let rows: Vec<Vec<String>> = lines.map(cells).collect();
+    if let Some((k, r)) = rows
+        .iter()
+        .enumerate()
+        .find(|(_, r)| r.len() != header.len())
+    {
+        return Err(LogError::new(
+            path,
+            format!(
+                "row {} has {} cells where the header names {} (a field holding a comma?)",
+                k + 2,
+                r.len(),
+                header.len()
+            ),
+        )
+        .fix("export the topic again (with `rostopic echo -p` for a ROS topic), or leave the topic out"));
+    }
+    Ok((header, rows))
+}
+
+/// The field tree of the field names, numeric where the first row's cell reads as a number,
+/// and (in a `rostopic` file) the field of `header.stamp`.
+fn tree(names: &[String], first: Option<&Vec<String>>, clock: &Clock) -> (Node, Option<usize>) {
+    let first = first.map(|r| fields(r, clock));
     let mut node = Node::default();
     let mut stamp = None;
     for (c, name) in names.iter().enumerate() {
-        let bare = name.strip_prefix("field.").unwrap_or(name);
-        let numeric = first.is_none_or(|r| {
-            let cell = r.get(c + 1).map_or("", |s| s.trim());
+        let numeric = first.as_ref().is_none_or(|r| {
+            let cell = r.get(c).map_or("", |s| s.trim());
             cell.is_empty() || cell.parse::<f64>().is_ok()
         });
         let leaf = if numeric { Leaf::F64 } else { Leaf::Text };
-        if bare == "header.stamp" {
+        if clock.rostopic && name == "header.stamp" {
             stamp = Some(c);
         }
-        let path: Vec<&str> = bare.split('.').collect();
+        let path: Vec<&str> = name.split('.').collect();
         node.insert(&path, c, leaf);
     }
     (node, stamp)
@@ -356,6 +443,57 @@ mod tests {
         assert_eq!(log.topics[0].schema.leaves().len(), 2);
         let e = log.read(&[0], &mut |_| Ok(())).unwrap_err();
         assert!(e.what.contains("row 2"), "{}", e.what);
+        std::fs::remove_dir_all(d).unwrap();
+    }
+
+    /// Tables other tools write: a simulator's pose and per-thruster thrust in seconds (one
+    /// file with a byte-order mark), and a PX4 `ulog2csv` table timed in whole microseconds.
+    #[test]
+    fn csv_files_with_a_time_column_read_as_a_log_and_say_their_unit() {
+        let d = scratch("plain");
+        let pose =
+            "timestamp,position_x,linear_velocity_x\n1284.956,7.9,-0.29\n1285.006,7.89,-0.30\n";
+        let thrust =
+            "\u{feff}timestamp,thrust0,thrust1\n1284.958,5.77,-2.88\n1285.008,5.78,-0.82\n";
+        std::fs::write(d.as_path().join("pose_data.csv"), pose).unwrap();
+        std::fs::write(d.as_path().join("thrust_data.csv"), thrust).unwrap();
+        let log = crate::Log::open(d.as_path()).unwrap();
+        assert_eq!(log.format, crate::Format::Csv);
+        let names: Vec<&str> = log.topics.iter().map(|t| t.name.as_str()).collect();
+        assert_eq!(names, ["pose_data", "thrust_data"]);
+        assert!((log.topics[1].last_s - 1285.008).abs() < 1e-9);
+        let u = log.topics[0].schema.select("linear_velocity_x").unwrap();
+        let t1 = log.topics[1].schema.select("thrust1").unwrap();
+        let mut seen = Vec::new();
+        log.read(&[0, 1], &mut |m| {
+            let s = [&u, &t1][m.topic];
+            seen.push((m.topic, m.log_time_s, m.stamp_s, s.get(&m.value).unwrap()));
+            Ok(())
+        })
+        .unwrap();
+        assert_eq!(seen.iter().map(|s| s.0).collect::<Vec<_>>(), [0, 1, 0, 1]);
+        assert_eq!((seen[1].3, seen[2].3, seen[2].2), (-2.88, -0.30, None));
+        assert!(
+            log.notes().is_empty(),
+            "fractional times are seconds: {:?}",
+            log.notes()
+        );
+
+        let px4 = d.as_path().join("vehicle_local_position_0.csv");
+        std::fs::write(
+            &px4,
+            "timestamp,vx,vy\n20000000,0.1,0.2\n20004000,0.1,0.3\n",
+        )
+        .unwrap();
+        let log = crate::Log::open(&px4).unwrap();
+        assert_eq!(log.format, crate::Format::Csv);
+        assert!((log.topics[0].last_s - 20.004).abs() < 1e-12);
+        assert!(log.notes()[0].contains("microseconds"), "{:?}", log.notes());
+
+        let untimed = d.as_path().join("gains.txt");
+        std::fs::write(&untimed, "kp,kd\n1,2\n").unwrap();
+        let e = crate::Log::open(&untimed).unwrap_err();
+        assert!(e.fix.contains("time column"), "{e}");
         std::fs::remove_dir_all(d).unwrap();
     }
 }

@@ -211,9 +211,9 @@ fn default_stack(log: &VehicleLog) -> Stack {
     }
 }
 
-/// Whether the log is a folder of `rostopic echo -p` files, one topic each.
+/// Whether the log is a folder of CSV files (`rostopic echo -p`'s or others), one topic each.
 fn is_topic_folder(log: &VehicleLog) -> bool {
-    log.format == Format::TopicCsv && log.path.is_dir()
+    matches!(log.format, Format::TopicCsv | Format::Csv) && log.path.is_dir()
 }
 
 /// The topics whose times make the log's span: all of them, but in a folder of topic files
@@ -421,6 +421,17 @@ fn compile<'a>(
             format!("add `fields: [...]` (the message has: {schema})"),
         ));
     }
+    if name == "attitude" && !matches!(fields.len(), 3 | 4) {
+        return Err(InputError::file(
+            shown,
+            format!(
+                "the attitude on `{}` names {} fields",
+                s.topic,
+                fields.len()
+            ),
+            "name three angles (roll, pitch, yaw), four quaternion components (x, y, z, w), or `quaternion: <path>`",
+        ));
+    }
     let selectors = fields
         .iter()
         .map(|f| {
@@ -444,8 +455,10 @@ fn compile<'a>(
     })
 }
 
-/// What a log holds, a line per topic, as `hydrofit inspect` prints it.
+/// What a log holds, a line per topic, as `hydrofit inspect` prints it, and the reader's
+/// notes (a folder's CSV files that are not topics).
 pub fn listing(log: &VehicleLog) -> String {
+    let notes = log.notes().into_iter().map(|n| format!("  note: {n}"));
     log.topics
         .iter()
         .map(|t| {
@@ -457,6 +470,7 @@ pub fn listing(log: &VehicleLog) -> String {
                 t.rate_hz()
             )
         })
+        .chain(notes)
         .collect::<Vec<_>>()
         .join("\n")
 }

@@ -35,7 +35,8 @@ pub struct LogSpec {
     /// `enu`) it is turned into the body frame with the attitude.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub velocity: Option<Source>,
-    /// Roll, pitch, yaw as three fields, or a quaternion (`quaternion: orientation`).
+    /// Roll, pitch, yaw as three fields, or a quaternion: four fields x, y, z, w, or its path
+    /// (`quaternion: orientation`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub attitude: Option<Source>,
     /// Body rates p, q, r.

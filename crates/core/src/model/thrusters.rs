@@ -18,8 +18,8 @@ pub struct Thrusters {
     /// The thrusters in the order of the logged commands.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub units: Vec<Thruster>,
-    /// What a logged command is: `pwm` (microseconds; the default), `normalised` (-1..1) or
-    /// `rpm`.
+    /// What a logged command is: `pwm` (microseconds; the default), `normalised` (-1..1),
+    /// `rpm` or `newtons` (the thrust itself, as a simulator's thruster topics give it).
     #[serde(default)]
     pub command: Command,
     /// A PWM command's neutral and half range: thrust follows (pwm - neutral_us) /
@@ -30,8 +30,10 @@ pub struct Thrusters {
     pub half_range_us: f64,
     /// Thrust against the normalised command (PWM and normalised commands) or the shaft
     /// speed (rpm): a named curve (`t200_16v`, `t200_12v`) or a table
-    /// `{input: [...], thrust_n: [...]}`.
-    pub curve: Curve,
+    /// `{input: [...], thrust_n: [...]}`. Commands in newtons need none (a table there
+    /// states the thrusters' limits: thrust against thrust, held at its ends).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub curve: Option<Curve>,
     /// A factor on every thrust (a thrust curve measured on another supply voltage, a
     /// nozzle); 1 by default.
     #[serde(default = "one")]
@@ -74,7 +76,14 @@ pub enum Command {
     Normalised,
     /// Shaft speed in rev/min; the curve is thrust against rpm.
     Rpm,
+    /// The thrust itself, N (a simulator's per-thruster thrust, a thrust the autopilot
+    /// logs); through the curve when one is given, else as it is.
+    Newtons,
 }
+
+/// The thrust a command in newtons is held to when no curve states the thrusters' limits: none
+/// a vehicle reaches.
+const NEWTONS_UNLIMITED: f64 = 1e4;
 
 /// A thrust curve: named, or a table of thrust (N) against the normalised command (or rpm),
 /// interpolated linearly and held at its ends.
@@ -276,8 +285,27 @@ impl Thrusters {
                 self.gain
             ));
         }
-        out.extend(curve_problems(&self.curve.table()));
+        match (&self.curve, self.command) {
+            (None, Command::Newtons) => {}
+            (None, _) => out.push(
+                "thrusters: give a `curve` (t200_16v, t200_12v or {input: [...], thrust_n: [...]}): a pwm, normalised or rpm command becomes thrust through it".into(),
+            ),
+            (Some(_), _) => out.extend(curve_problems(&self.curve_table())),
+        }
         out
+    }
+
+    /// The curve as a table: the one given, or for commands in newtons without one thrust
+    /// against itself (empty for other commands without one: a problem).
+    fn curve_table(&self) -> (Vec<f64>, Vec<f64>) {
+        match (&self.curve, self.command) {
+            (Some(c), _) => c.table(),
+            (None, Command::Newtons) => {
+                let ends = vec![-NEWTONS_UNLIMITED, NEWTONS_UNLIMITED];
+                (ends.clone(), ends)
+            }
+            (None, _) => (Vec::new(), Vec::new()),
+        }
     }
 
     /// The allocation of a described set (call [`Thrusters::problems`] first).
@@ -295,7 +323,7 @@ impl Thrusters {
         Allocation {
             units,
             columns,
-            curve: self.curve.table(),
+            curve: self.curve_table(),
             command: self.command,
             neutral_us: self.neutral_us,
             half_range_us: self.half_range_us,
@@ -326,7 +354,7 @@ impl Allocation {
     pub fn thrust(&self, c: f64) -> f64 {
         let x = match self.command {
             Command::Pwm => (c - self.neutral_us) / self.half_range_us,
-            Command::Normalised | Command::Rpm => c,
+            Command::Normalised | Command::Rpm | Command::Newtons => c,
         };
         self.gain * interp(&self.curve.0, &self.curve.1, x)
     }
@@ -367,7 +395,7 @@ impl Allocation {
         };
         let logged = match self.command {
             Command::Pwm => self.neutral_us + at * self.half_range_us,
-            Command::Normalised | Command::Rpm => at,
+            Command::Normalised | Command::Rpm | Command::Newtons => at,
         };
         (logged, clipped)
     }
@@ -382,7 +410,7 @@ impl Allocation {
         let (x0, x1) = (self.curve.0[0], self.curve.0[self.curve.0.len() - 1]);
         let to_command = |x: f64| match self.command {
             Command::Pwm => self.neutral_us + x * self.half_range_us,
-            Command::Normalised | Command::Rpm => x,
+            Command::Normalised | Command::Rpm | Command::Newtons => x,
         };
         let xs: Vec<f64> = (0..n)
             .map(|k| to_command(x0 + (x1 - x0) * k as f64 / (n - 1).max(1) as f64))
@@ -449,7 +477,7 @@ mod tests {
             command: Command::default(),
             neutral_us: 1500.0,
             half_range_us: 400.0,
-            curve: Curve::Named(NamedCurve::T200_16v),
+            curve: Some(Curve::Named(NamedCurve::T200_16v)),
             gain: 1.0,
         }
     }
@@ -524,12 +552,34 @@ mod tests {
     #[test]
     fn a_bad_description_is_said() {
         let mut t = thrusters(Layout::Bluerov2);
-        t.curve = Curve::Table {
+        t.curve = Some(Curve::Table {
             input: vec![0.0, 0.0],
             thrust_n: vec![1.0, 2.0],
-        };
+        });
         t.gain = -1.0;
         let p = t.problems().join("; ");
         assert!(p.contains("increasing") && p.contains("gain"), "{p}");
+        t.curve = None;
+        assert!(t.problems().iter().any(|p| p.contains("give a `curve`")));
+    }
+
+    /// A simulator logs each thruster's thrust: it goes into the allocation as it is, or
+    /// held at a curve's ends where one states the limits.
+    #[test]
+    fn commands_in_newtons_need_no_curve() {
+        let mut t = thrusters(Layout::Bluerov2);
+        (t.command, t.curve) = (Command::Newtons, None);
+        assert!(t.problems().is_empty(), "{:?}", t.problems());
+        let a = t.allocation();
+        assert_eq!((a.thrust(12.5), a.thrust(-30.0)), (12.5, -30.0));
+        assert_eq!(a.command_for(7.0), (7.0, false));
+        let w = a.wrench(&[10.0, 10.0, 0.0, 0.0, 0.0, 0.0]);
+        let s = std::f64::consts::FRAC_1_SQRT_2;
+        assert!((w[0] + 20.0 * s).abs() < 1e-9 && w[1].abs() < 1e-9, "{w:?}");
+        t.curve = Some(Curve::Table {
+            input: vec![-40.0, 40.0],
+            thrust_n: vec![-40.0, 40.0],
+        });
+        assert_eq!(t.allocation().thrust(55.0), 40.0);
     }
 }

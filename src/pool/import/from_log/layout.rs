@@ -149,7 +149,8 @@ fn vector(s: &Samples, src: &Source, q: Quantity) -> Series {
     }
 }
 
-/// Roll, pitch, yaw (rad, NED / FRD), from three angles or a quaternion.
+/// Roll, pitch, yaw (rad, NED / FRD), from three angles or a quaternion (`quaternion: <path>`,
+/// or four fields x, y, z, w: a table's flat columns).
 fn attitude(s: &Samples, src: &Source) -> Series {
     let k = if src.unit == Some(Unit::Deg) {
         std::f64::consts::PI / 180.0
@@ -159,11 +160,11 @@ fn attitude(s: &Samples, src: &Source) -> Series {
     let rows = s
         .rows
         .iter()
-        .map(|r| match &src.quaternion {
-            Some(_) => {
+        .map(|r| match src.quaternion.is_some() || r.len() == 4 {
+            true => {
                 super::super::frames::euler_from_quaternion([r[0], r[1], r[2], r[3]], src.frame)
             }
-            None => {
+            false => {
                 let e = [0, 1, 2].map(|j| k * r.get(j).copied().unwrap_or(f64::NAN));
                 super::super::frames::euler_to_ned(e, src.frame)
             }
