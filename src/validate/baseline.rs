@@ -28,6 +28,14 @@ impl Shortfall {
             Some(b) if nmae < 1.0 => format!("the first-order model per DOF (NMAE {b:.3})"),
             _ => "predicting that the vehicle stays at rest (NMAE 1.000)".to_string(),
         };
+        if let Some(b) = self
+            .first_order_nmae
+            .filter(|&b| nmae < 1.0 && level(nmae, b))
+        {
+            return format!(
+                "{model} in {d}: held-out NMAE {nmae:.3}, level with the first-order model per DOF ({b:.3}) but not better: its further terms predict no better in {d} than added mass, linear drag and a constant force, which do as well with fewer coefficients"
+            );
+        }
         let left_out = match self.unmodelled_motion.as_slice() {
             [] => String::new(),
             dofs => {
@@ -42,6 +50,18 @@ impl Shortfall {
             "{model} in {d}: held-out NMAE {nmae:.3} does not beat {what}; do not use this model in {d} without a better one{left_out}"
         )
     }
+}
+
+/// How far behind the first-order baseline a model's held-out NMAE may be and still be level
+/// with it: 5 % of the baseline's, or 0.005 where that is larger (the NMAE of runs a model
+/// predicts to 1 % moves by that much with a run's noise).
+const LEVEL_RELATIVE: f64 = 0.05;
+const LEVEL_ABSOLUTE: f64 = 0.005;
+
+/// Whether held-out NMAE `nmae` is level with the first-order baseline's `first_order` (at or
+/// behind it by no more than [`LEVEL_RELATIVE`] or [`LEVEL_ABSOLUTE`]).
+fn level(nmae: f64, first_order: f64) -> bool {
+    nmae - first_order <= (LEVEL_RELATIVE * first_order).max(LEVEL_ABSOLUTE)
 }
 
 /// Roll and pitch, where `vehicle` leaves them out and a held-out run rolls or pitches.
@@ -307,10 +327,27 @@ mod tests {
             s[1].sentence("fit")
         );
         assert!(
-            s[0].sentence("fit").contains("first-order"),
+            s[0].sentence("fit")
+                .contains("does not beat the first-order"),
             "{}",
             s[0].sentence("fit")
         );
+        // Behind the baseline by under 5 %: still a shortfall, said as level with it.
+        let level = Shortfall {
+            nmae: Some(0.788),
+            first_order_nmae: Some(0.781),
+            ..s[0].clone()
+        };
+        assert!(
+            level
+                .sentence("fit")
+                .contains("level with the first-order model per DOF (0.781)")
+        );
+        let behind = Shortfall {
+            nmae: Some(0.83),
+            ..level.clone()
+        };
+        assert!(behind.sentence("fit").contains("does not beat"));
         // Without a baseline, only rest is the bar; a diverged held-out run is a shortfall.
         let s = shortfalls(&m, None);
         assert_eq!(s.iter().map(|x| x.dof).collect::<Vec<_>>(), [Yaw]);
