@@ -37,6 +37,10 @@ pub static REGIMES: &[Regime] = &[
         label: "deeper than the run's median depth",
     },
     Regime {
+        name: "near_surface",
+        label: "within 0.5 m of the surface, where a vehicle breaking it loses buoyancy",
+    },
+    Regime {
         name: "heading_pool_x",
         label: "heading within 90 degrees of pool +x",
     },
@@ -72,6 +76,11 @@ fn in_regime(name: &str, run: &Run, k: usize, j: usize, med: &RunMedians) -> Opt
         "far_from_anchor" => run.tether_length(k)? > med.tether?,
         "near_wall" => run.wall_distance(k)? < 2.0,
         "deep" => run.pos[2][k] > med.depth,
+        "near_surface" => {
+            let z = run.pos[2][k];
+            med.depth_logged
+                .then_some(z.is_finite() && z < NEAR_SURFACE_M)?
+        }
         "heading_pool_x" => run.psi[k].cos() > 0.0,
         "cross_flow" => cross(run, k)? > med.cross,
         "heave" => run.slots.dofs[j] == Dof::Heave,
@@ -79,10 +88,17 @@ fn in_regime(name: &str, run: &Run, k: usize, j: usize, med: &RunMedians) -> Opt
     })
 }
 
+/// Depth within which a vehicle is near the surface, m: about its own height, where a
+/// BlueROV-sized frame starts to break it.
+const NEAR_SURFACE_M: f64 = 0.5;
+
 struct RunMedians {
     cmd_max: [f64; 4],
     tether: Option<f64>,
     depth: f64,
+    /// Whether the run's depth was measured (a dead-reckoned track without a depth sensor
+    /// holds it at 0).
+    depth_logged: bool,
     cross: f64,
 }
 
@@ -103,6 +119,7 @@ fn medians(run: &Run) -> RunMedians {
             .anchor
             .map(|_| median((0..n).filter_map(|k| run.tether_length(k)).collect())),
         depth: median(run.pos[2].clone()),
+        depth_logged: run.pos[2].iter().any(|z| z.is_finite() && *z != 0.0),
         cross: median((0..n).filter_map(|k| cross(run, k)).collect()),
     }
 }
@@ -250,4 +267,57 @@ fn error_windows(run: &Run, j: usize, sq: &[f64], scale: f64) -> Vec<[f64; 2]> {
 
 fn round2(x: f64) -> f64 {
     (x * 100.0).round() / 100.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::core::model::{Hydro, Plant, Vehicle};
+
+    /// A run of `n` samples at 10 Hz at depth `depth(k)`, moving in heave only.
+    fn run(n: usize, depth: impl Fn(usize) -> f64) -> Run {
+        let plant = Plant::new(&Vehicle::reference(), Hydro::reference());
+        let slots = super::super::Slots::of(&plant).unwrap();
+        let zeros = vec![0.0; n];
+        Run {
+            name: "r".into(),
+            validate: true,
+            t: (0..n).map(|k| k as f64 * 0.1).collect(),
+            slots,
+            cmd: vec![[0.0, 0.0, 10.0, 0.0]; n],
+            vel: std::array::from_fn(|_| zeros.clone()),
+            std: std::array::from_fn(|_| vec![0.01; n]),
+            noise_share: [1.0; 4],
+            pos: [zeros.clone(), zeros.clone(), (0..n).map(depth).collect()],
+            psi: zeros.clone(),
+            pool: None,
+            anchor: None,
+            dead_reckoned: false,
+            att: Default::default(),
+            anchors_s: Vec::new(),
+        }
+    }
+
+    /// A held-out run that rises to the surface and stops there, the model's heave going on:
+    /// the error is where the run is within half a metre of the surface; a run whose depth
+    /// is not known (held at 0) tells nothing of it.
+    #[test]
+    fn an_error_at_the_surface_concentrates_there() {
+        let n = 200;
+        let r = run(n, |k| (2.0 - 0.01 * k as f64).max(0.1));
+        let heave = r.slots.slot(Dof::Heave).unwrap();
+        let mut e: [Vec<f64>; 4] = std::array::from_fn(|_| vec![0.0; n]);
+        for (k, x) in e[heave].iter_mut().enumerate() {
+            *x = if r.pos[2][k] < 0.3 { 0.2 } else { 0.01 };
+        }
+        let shares = regime_shares(std::slice::from_ref(&r), &[e.clone()], &[1.0; 4]);
+        let s = shares.iter().find(|s| s.regime == "near_surface").unwrap();
+        assert!(
+            s.share_of_error > 0.9 && s.share_of_time < 0.25 * 1.1,
+            "{s:?}"
+        );
+        let unknown = run(n, |_| 0.0);
+        let shares = regime_shares(&[unknown], &[e], &[1.0; 4]);
+        assert!(shares.iter().all(|s| s.regime != "near_surface"));
+    }
 }
