@@ -181,6 +181,13 @@ impl Log {
         } else if topic_csv::is_timed_csv(&data) {
             drop(data);
             return Log::csv(path);
+        } else if topic_csv::is_semicolon_csv(&data) {
+            return Err(LogError::new(
+                path,
+                "a CSV table separated by `;` (a spreadsheet's export, decimal commas?)",
+            )
+            .at(0)
+            .fix("export it with `,` between columns and `.` as the decimal point"));
         } else if data.starts_with(ZSTD_MAGIC) {
             return Err(LogError::new(
                 path,

@@ -116,6 +116,19 @@ pub fn is_timed_csv(data: &[u8]) -> bool {
     line.contains(',') && csv_clock::names_a_time(&cells(&line))
 }
 
+/// Whether the bytes of a file are a `;`-separated table whose header names a time (a
+/// spreadsheet's export with decimal commas): refused with how to write it, not misread.
+pub fn is_semicolon_csv(data: &[u8]) -> bool {
+    let head = &data[..data.len().min(64 * 1024)];
+    let line = head.split(|b| *b == b'\n').next().unwrap_or_default();
+    let line = String::from_utf8_lossy(line);
+    let cells: Vec<String> = line
+        .split(';')
+        .map(|c| csv_clock::bare(c).to_string())
+        .collect();
+    !line.contains(',') && cells.len() > 1 && csv_clock::names_a_time(&cells)
+}
+
 /// The CSV files of a folder whose header names a time, sorted by name.
 fn topic_files(dir: &Path) -> Result<Vec<PathBuf>, LogError> {
     Ok(csv_files(dir)?.0)
@@ -489,6 +502,11 @@ mod tests {
         assert_eq!(log.format, crate::Format::Csv);
         assert!((log.topics[0].last_s - 20.004).abs() < 1e-12);
         assert!(log.notes()[0].contains("microseconds"), "{:?}", log.notes());
+
+        let semicolons = d.as_path().join("excel.csv");
+        std::fs::write(&semicolons, "time;u\n0,05;1,5\n").unwrap();
+        let e = crate::Log::open(&semicolons).unwrap_err();
+        assert!(e.what.contains("separated by `;`"), "{e}");
 
         let untimed = d.as_path().join("gains.txt");
         std::fs::write(&untimed, "kp,kd\n1,2\n").unwrap();
