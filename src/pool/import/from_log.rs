@@ -6,6 +6,7 @@
 //! through `vehicle.thrusters`.
 
 mod layout;
+mod parts;
 
 use super::csvlog::Log;
 use super::log_spec::{LogSpec, Source, Stack, TimeSource};
@@ -223,7 +224,8 @@ fn timed_topics(log: &VehicleLog, sources: &[(&'static str, Chosen)]) -> Vec<usi
         return (0..log.topics.len()).collect();
     }
     let mut out: Vec<usize> = (sources.iter())
-        .filter_map(|(_, c)| log.topic(&c.source.topic))
+        .flat_map(|(_, c)| c.source.topics())
+        .filter_map(|t| log.topic(&t))
         .collect();
     out.sort_unstable();
     out.dedup();
@@ -285,12 +287,16 @@ fn span(
     Ok((start + a, (start + b).min(end)))
 }
 
-/// A compiled signal: its topic's index and a selector per field.
+/// A compiled signal, or one part of a signal spread over several topics: its topic's index
+/// and a selector per field.
 struct Compiled<'a> {
     name: &'static str,
     topic: usize,
     selectors: Vec<Selector>,
     chosen: &'a Chosen,
+    /// Which of the signal's topics this is, and how many it has.
+    part: usize,
+    parts: usize,
 }
 
 /// Reads every signal's topic once and returns each signal's samples within the span.
@@ -305,7 +311,12 @@ fn read_signals<'a>(
     let compiled: Vec<Compiled<'a>> = sources
         .iter()
         .map(|(name, c)| compile(log, name, c, shown))
-        .collect::<Result<_, _>>()?;
+        .collect::<Result<Vec<_>, _>>()?
+        .into_iter()
+        .flatten()
+        .collect();
+    // The parts of signals spread over several topics, each message as it came.
+    let mut pieces: BTreeMap<&'static str, Vec<parts::Piece>> = BTreeMap::new();
     let mut out: BTreeMap<&'static str, Samples> = compiled
         .iter()
         .map(|c| {
@@ -345,8 +356,16 @@ fn read_signals<'a>(
                 ));
             }
             let s = out.get_mut(c.name).expect("every signal has samples");
-            s.t.push(t - start);
-            s.rows.push(row);
+            if c.parts > 1 {
+                pieces.entry(c.name).or_default().push(parts::Piece {
+                    t: t - start,
+                    part: c.part,
+                    row,
+                });
+            } else {
+                s.t.push(t - start);
+                s.rows.push(row);
+            }
             *(if stamped {
                 &mut s.stamped
             } else {
@@ -368,6 +387,13 @@ fn read_signals<'a>(
             "check the fields against `hydrofit inspect` of the log",
         ));
     }
+    for (name, p) in pieces {
+        let (s, n) = (
+            out.get_mut(name).expect("a signal"),
+            parts_of(&compiled, name),
+        );
+        (s.t, s.rows) = parts::merged(p, n);
+    }
     for s in out.values_mut() {
         sort_by_time(s);
     }
@@ -385,19 +411,46 @@ fn sort_by_time(s: &mut Samples) {
     s.rows = idx.iter().map(|&k| s.rows[k].clone()).collect();
 }
 
-/// A signal's topic and fields checked against the log: a missing topic or field lists what
-/// the log holds.
+/// How many topics signal `name` is spread over.
+fn parts_of(compiled: &[Compiled], name: &str) -> usize {
+    compiled
+        .iter()
+        .find(|c| c.name == name)
+        .map_or(1, |c| c.parts)
+}
+
+/// A signal's topics and fields checked against the log, one compiled part per topic: a
+/// missing topic or field lists what the log holds.
 fn compile<'a>(
     log: &VehicleLog,
     name: &'static str,
     c: &'a Chosen,
     shown: &str,
+) -> Result<Vec<Compiled<'a>>, InputError> {
+    let topics = c.source.topics();
+    let parts = topics.len();
+    (topics.iter().enumerate())
+        .map(|(part, topic)| {
+            let mut one = compile_part(log, name, c, shown, topic)?;
+            (one.part, one.parts) = (part, parts);
+            Ok(one)
+        })
+        .collect()
+}
+
+/// One topic of a signal (see [`compile`]).
+fn compile_part<'a>(
+    log: &VehicleLog,
+    name: &'static str,
+    c: &'a Chosen,
+    shown: &str,
+    topic_name: &str,
 ) -> Result<Compiled<'a>, InputError> {
     let s = &c.source;
-    let topic = log.topic(&s.topic).ok_or_else(|| {
+    let topic = log.topic(topic_name).ok_or_else(|| {
         InputError::file(
             shown,
-            format!("the log has no topic `{}` (for the {name})", s.topic),
+            format!("the log has no topic `{topic_name}` (for the {name})"),
             format!(
                 "name one the log has in run.yaml's `log.{name}.topic`:\n{}",
                 listing(log)
@@ -452,6 +505,8 @@ fn compile<'a>(
         topic,
         selectors,
         chosen: c,
+        part: 0,
+        parts: 1,
     })
 }
 

@@ -78,6 +78,9 @@ pub enum TimeSource {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Source {
+    /// The topic; `{a..b}` in it stands for topics a .. b-1, one part of the signal each (a
+    /// simulator's per-thruster topics: `/rov/thrusters/{0..6}/input`), in that order, each
+    /// giving the `fields` named.
     pub topic: String,
     /// Field paths (`twist.twist.linear.x`, `data[3]`, `C1`); `name[a..b]` stands for
     /// `name[a]` .. `name[b-1]`.
@@ -184,6 +187,19 @@ impl Source {
             ));
         }
         Ok(out)
+    }
+}
+
+impl Source {
+    /// The topics the signal is read from: `topic`, or each topic its `{a..b}` stands for.
+    pub fn topics(&self) -> Vec<String> {
+        let braced = self.topic.split_once('{').and_then(|(head, rest)| {
+            let (range, tail) = rest.split_once('}')?;
+            let (a, b) = range.split_once("..")?;
+            let (a, b): (usize, usize) = (a.trim().parse().ok()?, b.trim().parse().ok()?);
+            (a < b && b - a <= 64).then(|| (a..b).map(|k| format!("{head}{k}{tail}")).collect())
+        });
+        braced.unwrap_or_else(|| vec![self.topic.clone()])
     }
 }
 

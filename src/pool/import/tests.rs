@@ -139,3 +139,60 @@ fn a_navigation_log_with_gaps_and_no_rates_is_read() {
     ]);
     assert!(load(d.path(), "cases/pool/r1", &files, None).is_err());
 }
+
+/// A simulator's tables: each of two thrusters' thrust (N) on its own topic, at its own times,
+/// and a navigation table, read as a log with the command spread over `{0..2}`; the wrench at
+/// each command sample holds the other thruster's latest thrust.
+#[test]
+fn a_command_spread_over_one_topic_per_thruster_is_merged() {
+    use crate::core::model::thrusters::{Command, Thrusters};
+    let d = tempfile::tempdir().unwrap();
+    let logs = d.path().join("logs");
+    std::fs::create_dir_all(&logs).unwrap();
+    let table = |name: &str, header: &str, rows: &dyn Fn(usize) -> String| {
+        let text: String = (0..40).map(|k| rows(k) + "\n").collect();
+        std::fs::write(logs.join(name), format!("{header}\n{text}")).unwrap();
+    };
+    // Thruster 0 at 20 Hz from 10.0 s, thruster 1 at 10 Hz from 10.02 s.
+    table("thrust_0.csv", "time,data", &|k| {
+        format!("{:.3},{}", 10.0 + 0.05 * k as f64, k)
+    });
+    table("thrust_1.csv", "time,data", &|k| {
+        format!("{:.3},-2.5", 10.02 + 0.1 * k as f64)
+    });
+    table("nav.csv", "time,u,v,w", &|k| {
+        format!("{:.3},0.1,0,0", 10.0 + 0.1 * k as f64)
+    });
+    let yaml = "role: train\nlog:\n  file: ../../../logs\n  command: {topic: 'thrust_{0..2}', fields: [data]}\n  velocity: {topic: nav, fields: [u, v, w]}\n";
+    let files = vec!["cases/pool/r1/run.yaml".to_string()];
+    std::fs::create_dir_all(d.path().join("cases/pool/r1")).unwrap();
+    std::fs::write(d.path().join("cases/pool/r1/run.yaml"), yaml).unwrap();
+    let thrusters: Thrusters = serde_yaml_ng::from_str(
+        "command: newtons\nunits:\n  - {position_m: [0, 0.1, 0], direction: [1, 0, 0]}\n  - {position_m: [0, -0.1, 0], direction: [1, 0, 0]}\n",
+    )
+    .unwrap();
+    assert_eq!(thrusters.command, Command::Newtons);
+    let run = load(d.path(), "cases/pool/r1", &files, Some(&thrusters)).unwrap();
+    let x = &run.thrust.cols[0];
+    // From 10.02 s (both have spoken): thruster 0's k-th thrust plus -2.5 of thruster 1.
+    assert!(
+        (run.thrust.t[0] - 0.02).abs() < 1e-9,
+        "{:?}",
+        &run.thrust.t[..3]
+    );
+    assert!((x[0] - (0.0 - 2.5)).abs() < 1e-9, "{:?}", &x[..4]);
+    let k = run
+        .thrust
+        .t
+        .iter()
+        .position(|t| (t - 0.5).abs() < 1e-9)
+        .unwrap();
+    assert!((x[k] - (10.0 - 2.5)).abs() < 1e-9, "at 0.5 s: {}", x[k]);
+    // The moment of the two, 0.1 m either side: N = -0.1 X0 + 0.1 X1 (x forward, y starboard).
+    let n = &run.thrust.cols[3];
+    assert!(
+        (n[k] - (-0.1 * 10.0 + 0.1 * -2.5)).abs() < 1e-9,
+        "N at 0.5 s: {}",
+        n[k]
+    );
+}
