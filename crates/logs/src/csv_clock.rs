@@ -75,10 +75,10 @@ fn time_name(cell: &str) -> Option<Option<f64>> {
             format!(" [{suffix}]"),
             format!("[{suffix}]"),
         ] {
-            if let Some(base) = n.strip_suffix(written.as_str()) {
-                if TIME_NAMES.contains(&base) {
-                    return Some(Some(unit));
-                }
+            if let Some(base) = n.strip_suffix(written.as_str())
+                && TIME_NAMES.contains(&base)
+            {
+                return Some(Some(unit));
             }
         }
     }

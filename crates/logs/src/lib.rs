@@ -151,7 +151,7 @@ impl Log {
     /// file ([`db3::storage_file`]), which is then the log's `path`.
     pub fn open(path: &Path) -> Result<Log, LogError> {
         if topic_csv::is_topic_folder(path) {
-            return Ok(Log::csv(path)?);
+            return Log::csv(path);
         }
         let path = &db3::storage_file(path)?;
         let data = std::fs::read(path).map_err(|e| {
