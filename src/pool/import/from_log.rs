@@ -317,21 +317,7 @@ fn read_signals<'a>(
         .collect();
     // The parts of signals spread over several topics, each message as it came.
     let mut pieces: BTreeMap<&'static str, Vec<parts::Piece>> = BTreeMap::new();
-    let mut out: BTreeMap<&'static str, Samples> = compiled
-        .iter()
-        .map(|c| {
-            (
-                c.name,
-                Samples {
-                    topic: c.chosen.source.topic.clone(),
-                    t: Vec::new(),
-                    rows: Vec::new(),
-                    stamped: 0,
-                    received: 0,
-                },
-            )
-        })
-        .collect();
+    let mut out = no_samples(&compiled);
     let mut wanted: Vec<usize> = compiled.iter().map(|c| c.topic).collect();
     wanted.sort_unstable();
     wanted.dedup();
@@ -379,20 +365,11 @@ fn read_signals<'a>(
         InputError::file(shown, format!("{}{at}", e.what), e.fix)
     })?;
     if let Some(b) = bad {
-        return Err(InputError::file(
-            shown,
-            format!(
-                "{b}: none of the fields is in the message (an array shorter than the fields named?)"
-            ),
-            "check the fields against `hydrofit inspect` of the log",
-        ));
+        return Err(no_field(shown, &b));
     }
     for (name, p) in pieces {
-        let (s, n) = (
-            out.get_mut(name).expect("a signal"),
-            parts_of(&compiled, name),
-        );
-        (s.t, s.rows) = parts::merged(p, n);
+        let s = out.get_mut(name).expect("a signal");
+        (s.t, s.rows) = parts::merged(p, parts_of(&compiled, name));
     }
     for s in out.values_mut() {
         sort_by_time(s);
@@ -409,6 +386,33 @@ fn sort_by_time(s: &mut Samples) {
     idx.sort_by(|&a, &b| s.t[a].total_cmp(&s.t[b]));
     s.t = idx.iter().map(|&k| s.t[k]).collect();
     s.rows = idx.iter().map(|&k| s.rows[k].clone()).collect();
+}
+
+/// A message with none of the fields named (`what`: the signal, its topic and the time).
+fn no_field(shown: &str, what: &str) -> InputError {
+    InputError::file(
+        shown,
+        format!(
+            "{what}: none of the fields is in the message (an array shorter than the fields named?)"
+        ),
+        "check the fields against `hydrofit inspect` of the log",
+    )
+}
+
+/// Each compiled signal's samples, none read yet.
+fn no_samples(compiled: &[Compiled]) -> BTreeMap<&'static str, Samples> {
+    (compiled.iter())
+        .map(|c| {
+            let s = Samples {
+                topic: c.chosen.source.topic.clone(),
+                t: Vec::new(),
+                rows: Vec::new(),
+                stamped: 0,
+                received: 0,
+            };
+            (c.name, s)
+        })
+        .collect()
 }
 
 /// How many topics signal `name` is spread over.
