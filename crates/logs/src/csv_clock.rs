@@ -132,8 +132,9 @@ fn inferred_unit<'a>(name: &str, cells: impl Iterator<Item = &'a String>) -> (f6
         (true, m) if m >= 1.0 => (1e-3, "milliseconds"),
         _ => (1.0, "seconds"),
     };
-    // Fractional values are seconds beyond doubt: only a unit read from whole numbers is said.
-    let said = match whole {
+    // Fractional values are seconds beyond doubt: only a unit other than seconds read from
+    // whole numbers is said.
+    let said = match whole && unit != 1.0 {
         true => format!(
             "time column `{name}` read as {what} (whole numbers, median step {median}); name it `{name}_s`, `{name}_ms`, `{name}_us` or `{name}_ns` to say its unit"
         ),

@@ -495,13 +495,22 @@ mod tests {
         let px4 = d.as_path().join("vehicle_local_position_0.csv");
         std::fs::write(
             &px4,
-            "timestamp,vx,vy\n20000000,0.1,0.2\n20004000,0.1,0.3\n",
+            "timestamp,vx,output[1]\n20000000,0.1,0.2\n20004000,0.1,0.3\n",
         )
         .unwrap();
         let log = crate::Log::open(&px4).unwrap();
         assert_eq!(log.format, crate::Format::Csv);
         assert!((log.topics[0].last_s - 20.004).abs() < 1e-12);
         assert!(log.notes()[0].contains("microseconds"), "{:?}", log.notes());
+        // A column named with brackets is that column, not an array's element.
+        let out1 = log.topics[0].schema.select("output[1]").unwrap();
+        let mut last = f64::NAN;
+        log.read(&[0], &mut |m| {
+            last = out1.get(&m.value).unwrap();
+            Ok(())
+        })
+        .unwrap();
+        assert_eq!(last, 0.3);
 
         let semicolons = d.as_path().join("excel.csv");
         std::fs::write(&semicolons, "time;u\n0,05;1,5\n").unwrap();

@@ -147,6 +147,18 @@ impl Schema {
 
     /// Compiles `path`. The error lists the paths the schema has, for the message a user sees.
     pub fn select(&self, path: &str) -> Result<Selector, String> {
+        // A table's column named with brackets or dots of its own (`channels[0]`): the whole
+        // path is one field's name.
+        if let Some(i) = self.fields.iter().position(|f| f.name == path)
+            && matches!(&self.fields[i].kind, Kind::Leaf(l) if l.is_numeric())
+            && split_path(path).count() > 1
+        {
+            return Ok(Selector {
+                path: path.to_string(),
+                steps: vec![Step::Field(i)],
+                stamp: false,
+            });
+        }
         let mut steps = Vec::new();
         let mut kind_here: Option<&Kind> = None;
         let mut schema = Some(self);

@@ -191,10 +191,13 @@ fn a_file_that_is_no_tlog_is_an_error() {
     assert!(e.what.contains("not a MAVLink telemetry log"), "{e}");
     assert_eq!((e.offset, e.path.as_path()), (Some(0), f.0.as_path()));
     assert!(!e.fix.is_empty());
-    // The same bytes without the .tlog name are no known format.
+    // The same bytes without the .tlog name are a CSV table with a time column; text that is
+    // neither is no known format.
     let g = TempFile::new("text.log", b"timestamp,roll\n1,2\n");
+    assert_eq!(Log::open(&g.0).unwrap().format, Format::Csv);
+    let h = TempFile::new("notes.log", b"the dive went well\n");
     assert!(
-        Log::open(&g.0)
+        Log::open(&h.0)
             .unwrap_err()
             .what
             .contains("unknown first bytes")
