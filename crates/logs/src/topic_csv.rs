@@ -193,8 +193,8 @@ fn clock_of(path: &Path, header: &[String], first: &[Vec<String>]) -> Result<Clo
 }
 
 /// A row's time, s.
-fn time_s(path: &Path, clock: &Clock, row: &[String], k: usize) -> Result<f64, LogError> {
-    let cell = row.get(clock.column).map_or("", |s| s.as_str());
+fn time_s<S: AsRef<str>>(path: &Path, clock: &Clock, row: &[S], k: usize) -> Result<f64, LogError> {
+    let cell = row.get(clock.column).map_or("", |s| s.as_ref());
     csv_clock::seconds(cell, clock.unit_s).ok_or_else(|| {
         LogError::new(
             path,
@@ -205,10 +205,10 @@ fn time_s(path: &Path, clock: &Clock, row: &[String], k: usize) -> Result<f64, L
 }
 
 /// A row's cells without the time column: the fields, in the order of [`field_names`].
-fn fields<'a>(row: &'a [String], clock: &Clock) -> Vec<&'a str> {
+fn fields<'a, S: AsRef<str>>(row: &'a [S], clock: &Clock) -> Vec<&'a str> {
     (row.iter().enumerate())
         .filter(|(c, _)| *c != clock.column)
-        .map(|(_, s)| s.as_str())
+        .map(|(_, s)| s.as_ref())
         .collect()
 }
 
@@ -318,16 +318,22 @@ impl TopicCsv {
         let mut all: Vec<Message> = Vec::new();
         for &topic in wanted {
             let (f, clock) = (&self.files[topic], &self.clocks[topic]);
-            let (header, rows) = split(f, &read_text(f)?)?;
-            let (node, stamp) = tree(&field_names(&header, clock), rows.first(), clock);
-            for (k, r) in rows.iter().enumerate() {
-                let cells = fields(r, clock);
+            let text = read_text(f)?;
+            let (lines, header) = lines_and_header(&text);
+            let mut lines = lines.peekable();
+            let first = lines.peek().map(|l| cells(l));
+            let (node, stamp) = tree(&field_names(&header, clock), first.as_ref(), clock);
+            // Row by row, the cells borrowed from the text: a table of millions of rows is
+            // neither copied cell by cell nor held twice.
+            for (k, line) in lines.enumerate() {
+                let r = row(f, line, k, header.len())?;
+                let cells = fields(&r, clock);
                 let stamp_s = stamp
                     .and_then(|c| csv_clock::seconds(cells.get(c)?, 1e-9))
                     .filter(|s| s.is_finite() && *s > 0.0);
                 all.push(Message {
                     topic,
-                    log_time_s: time_s(f, clock, r, k)?,
+                    log_time_s: time_s(f, clock, &r, k)?,
                     stamp_s,
                     value: node.value(&cells),
                 });
@@ -338,28 +344,22 @@ impl TopicCsv {
     }
 }
 
-/// The header's cells and the rows; a row with more or fewer cells than the header is an
-/// error with its line.
-fn split(path: &Path, text: &str) -> Result<(Vec<String>, Vec<Vec<String>>), LogError> {
-    let (lines, header) = lines_and_header(text);
-    let rows: Vec<Vec<String>> = lines.map(cells).collect();
-    if let Some((k, r)) = rows
-        .iter()
-        .enumerate()
-        .find(|(_, r)| r.len() != header.len())
-    {
+/// Row `k` (0 after the header) of a file whose header has `width` cells, its cells borrowed;
+/// a row with more or fewer cells is an error with its line.
+fn row<'a>(path: &Path, line: &'a str, k: usize, width: usize) -> Result<Vec<&'a str>, LogError> {
+    let r: Vec<&str> = line.split(',').map(csv_clock::bare).collect();
+    if r.len() != width {
         return Err(LogError::new(
             path,
             format!(
-                "row {} has {} cells where the header names {} (a field holding a comma?)",
+                "row {} has {} cells where the header names {width} (a field holding a comma?)",
                 k + 2,
                 r.len(),
-                header.len()
             ),
         )
         .fix("export the topic again (with `rostopic echo -p` for a ROS topic), or leave the topic out"));
     }
-    Ok((header, rows))
+    Ok(r)
 }
 
 /// The field tree of the field names, numeric where the first row's cell reads as a number,
