@@ -174,26 +174,9 @@ stages:
 fn per_thruster_pwm_identifies_the_model_the_wrench_does() {
     let d = tempfile::tempdir().unwrap();
     let root = d.path();
-    ok(
-        root,
-        &[
-            "twin",
-            "pool",
-            "--out",
-            "twin/pool",
-            "--truth",
-            "truth",
-            "--effect",
-            "none",
-        ],
-    );
+    let names = twin_pool(root);
     let thrusters = heavy();
     let (wrench, pwm) = (root.join("wrench"), root.join("pwm"));
-    let mut names: Vec<String> = std::fs::read_dir(root.join("twin/pool"))
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
-        .collect();
-    names.sort();
     for (k, n) in names.iter().enumerate() {
         let from = format!("twin/pool/{n}");
         hydrofit::core::fsutil::copy_dir(&root.join(&from), &wrench.join("cases/pool").join(n))
@@ -291,6 +274,18 @@ fn per_thruster_pwm_identifies_the_model_the_wrench_does() {
     }
 }
 
+/// The pool twin's effect-free runs written under `root/twin/pool`, their names sorted.
+fn twin_pool(root: &Path) -> Vec<String> {
+    let args = ["twin", "pool", "--out", "twin/pool", "--truth", "truth"];
+    ok(root, &[&args[..], &["--effect", "none"]].concat());
+    let mut names: Vec<String> = std::fs::read_dir(root.join("twin/pool"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
+        .collect();
+    names.sort();
+    names
+}
+
 /// The run folder `to` (its command from a log) given the sensors of the CSV run `from`: its
 /// CSV files copied, their lines dropped from `log:`.
 fn sensors_from_csv(root: &Path, from: &str, to: &str) {
@@ -353,19 +348,7 @@ fn coefficients(p: &Path) -> Vec<(String, f64, f64, bool)> {
 fn per_thruster_thrust_in_newtons_identifies_the_model_the_wrench_does() {
     let d = tempfile::tempdir().unwrap();
     let root = d.path();
-    ok(
-        root,
-        &[
-            "twin",
-            "pool",
-            "--out",
-            "twin/pool",
-            "--truth",
-            "truth",
-            "--effect",
-            "none",
-        ],
-    );
+    let names = twin_pool(root);
     let thrusters = Thrusters {
         command: Command::Newtons,
         curve: None,
@@ -373,10 +356,6 @@ fn per_thruster_thrust_in_newtons_identifies_the_model_the_wrench_does() {
         ..heavy()
     };
     let (wrench, newtons) = (root.join("wrench"), root.join("newtons"));
-    let names: Vec<String> = std::fs::read_dir(root.join("twin/pool"))
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
-        .collect();
     for n in &names {
         let from = format!("twin/pool/{n}");
         hydrofit::core::fsutil::copy_dir(&root.join(&from), &wrench.join("cases/pool").join(n))
