@@ -91,15 +91,19 @@ pub fn names_a_time(header: &[String]) -> bool {
 }
 
 /// The time column of a header row (the first that names a time) and its unit, or `None`
-/// when no column does. `rows` are the first rows of the file, read when the name gives no
-/// unit.
-pub fn clock<'a>(header: &[String], rows: impl Iterator<Item = &'a [String]>) -> Option<Clock> {
+/// when no column does. Where the name gives no unit, `given` (seconds per unit, the user's)
+/// is taken, else the unit is read from `rows`, the first rows of the file.
+pub fn clock<'a>(
+    header: &[String],
+    rows: impl Iterator<Item = &'a [String]>,
+    given: Option<f64>,
+) -> Option<Clock> {
     let (column, unit) = header
         .iter()
         .enumerate()
         .find_map(|(c, h)| Some((c, time_name(h)?)))?;
     let rostopic = bare(&header[column]) == ROSTOPIC_TIME;
-    let (unit_s, inferred) = match unit {
+    let (unit_s, inferred) = match unit.or(given) {
         Some(u) => (u, String::new()),
         None => inferred_unit(&header[column], rows.filter_map(|r| r.get(column))),
     };
@@ -174,7 +178,7 @@ mod tests {
 
     fn of(name: &str, values: &[&str]) -> Option<Clock> {
         let r = rows(values);
-        clock(&header(&[name, "x"]), r.iter().map(|r| r.as_slice()))
+        clock(&header(&[name, "x"]), r.iter().map(|r| r.as_slice()), None)
     }
 
     #[test]
@@ -217,8 +221,29 @@ mod tests {
         // The time column need not be the first (a pandas index before it).
         let h = header(&["", "x", "Time"]);
         let r = [vec!["0".to_string(), "1".into(), "0.25".into()]];
-        let c = clock(&h, r.iter().map(|r| r.as_slice())).unwrap();
+        let c = clock(&h, r.iter().map(|r| r.as_slice()), None).unwrap();
         assert_eq!((c.column, c.unit_s), (2, 1.0));
+        // A unit the user gives is taken where the name gives none, and said by no note.
+        let r = rows(&["0", "1000", "2000"]);
+        let at = |name: &str| {
+            clock(
+                &header(&[name, "x"]),
+                r.iter().map(|r| r.as_slice()),
+                Some(1e-3),
+            )
+        };
+        assert_eq!(
+            of("timestamp", &["0", "1000", "2000"]).unwrap().unit_s,
+            1e-6
+        );
+        assert_eq!(
+            (
+                at("timestamp").unwrap().unit_s,
+                at("timestamp").unwrap().inferred
+            ),
+            (1e-3, String::new())
+        );
+        assert_eq!(at("time_s").unwrap().unit_s, 1.0, "the name's unit stands");
     }
 
     #[test]

@@ -116,6 +116,14 @@ pub struct Message {
     pub value: Value,
 }
 
+/// What the user says of a log that the log does not say itself.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Options {
+    /// Seconds per unit of a CSV table's time column whose name gives no unit (`None`: read
+    /// from its values, [`csv_clock`]).
+    pub csv_time_unit_s: Option<f64>,
+}
+
 /// An open log: what it holds, and the means to read it.
 #[derive(Debug)]
 pub struct Log {
@@ -150,8 +158,13 @@ impl Log {
     /// a tlog when its name ends in `.tlog`. A rosbag2 folder is opened through its storage
     /// file ([`db3::storage_file`]), which is then the log's `path`.
     pub fn open(path: &Path) -> Result<Log, LogError> {
+        Log::open_with(path, &Options::default())
+    }
+
+    /// [`Log::open`] with what the user says of the log ([`Options`]).
+    pub fn open_with(path: &Path, options: &Options) -> Result<Log, LogError> {
         if topic_csv::is_topic_folder(path) {
-            return Log::csv(path);
+            return Log::csv(path, options);
         }
         let path = &db3::storage_file(path)?;
         let data = std::fs::read(path).map_err(|e| {
@@ -180,7 +193,7 @@ impl Log {
             (Format::Db3, topics, Inner::Db3(db))
         } else if topic_csv::is_timed_csv(&data) {
             drop(data);
-            return Log::csv(path);
+            return Log::csv(path, options);
         } else if topic_csv::is_semicolon_csv(&data) {
             return Err(LogError::new(
                 path,
@@ -212,8 +225,8 @@ impl Log {
     }
 
     /// A CSV file with a time column, or a folder of them.
-    fn csv(path: &Path) -> Result<Log, LogError> {
-        let (csv, topics) = topic_csv::TopicCsv::open(path)?;
+    fn csv(path: &Path, options: &Options) -> Result<Log, LogError> {
+        let (csv, topics) = topic_csv::TopicCsv::open(path, options.csv_time_unit_s)?;
         let format = match csv.is_rostopic() {
             true => Format::TopicCsv,
             false => Format::Csv,

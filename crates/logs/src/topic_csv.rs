@@ -182,8 +182,13 @@ fn lines_and_header(text: &str) -> (impl Iterator<Item = &str>, Vec<String>) {
 
 /// The clock of a file from its header and first rows, or an error saying which names a
 /// time column may have.
-fn clock_of(path: &Path, header: &[String], first: &[Vec<String>]) -> Result<Clock, LogError> {
-    csv_clock::clock(header, first.iter().map(|r| r.as_slice())).ok_or_else(|| {
+fn clock_of(
+    path: &Path,
+    header: &[String],
+    first: &[Vec<String>],
+    given: Option<f64>,
+) -> Result<Clock, LogError> {
+    csv_clock::clock(header, first.iter().map(|r| r.as_slice()), given).ok_or_else(|| {
         LogError::new(
             path,
             format!("a CSV file with no time column (its header: {})", header.join(", ")),
@@ -228,8 +233,9 @@ const UNIT_ROWS: usize = 2000;
 
 impl TopicCsv {
     /// Opens a topic file or a folder of them and lists the topics: each file's stem, its row
-    /// count and the times of its first and last rows.
-    pub fn open(path: &Path) -> Result<(TopicCsv, Vec<Topic>), LogError> {
+    /// count and the times of its first and last rows. `time_unit_s` is the unit of a time
+    /// column whose name gives none (read from its values when `None`).
+    pub fn open(path: &Path, time_unit_s: Option<f64>) -> Result<(TopicCsv, Vec<Topic>), LogError> {
         let (files, untimed) = match path.is_dir() {
             true => csv_files(path)?,
             false => (vec![path.to_path_buf()], Vec::new()),
@@ -245,7 +251,7 @@ impl TopicCsv {
             let first: Vec<Vec<String>> = lines.by_ref().take(UNIT_ROWS).map(cells).collect();
             let (count, last) = lines.fold((first.len(), None), |(n, _), l| (n + 1, Some(l)));
             let last = last.map(cells).or_else(|| first.last().cloned());
-            let clock = clock_of(f, &header, &first)?;
+            let clock = clock_of(f, &header, &first, time_unit_s)?;
             let (node, _) = tree(&field_names(&header, &clock), first.first(), &clock);
             let schema = node.schema(&mut Vec::new());
             let time = |r: Option<&Vec<String>>, k: usize| match r {

@@ -77,10 +77,23 @@ pub fn read(
     thrusters: Option<&Thrusters>,
 ) -> Result<FromLog, InputError> {
     let (abs, mut shown) = resolve(root, dir, &spec.file);
-    let log = VehicleLog::open(&abs).map_err(|e| {
+    let options = hydrofit_logs::Options {
+        csv_time_unit_s: spec.time_unit.map(|u| u.seconds()),
+    };
+    let log = VehicleLog::open_with(&abs, &options).map_err(|e| {
         let at = e.offset.map_or(String::new(), |o| format!(" (byte {o})"));
         InputError::file(&shown, format!("{}{at}", e.what), e.fix)
     })?;
+    if spec.time_unit.is_some() && !matches!(log.format, Format::TopicCsv | Format::Csv) {
+        return Err(InputError::file(
+            &shown,
+            format!(
+                "`time_unit` is for CSV tables; this is a {}, which says its own times",
+                log.format.name()
+            ),
+            "leave `time_unit` out of run.yaml's `log:`",
+        ));
+    }
     // A rosbag2 folder was opened through its storage file: that file is the input.
     if log.path != abs
         && let Some(name) = log.path.file_name()

@@ -25,6 +25,10 @@ pub struct LogSpec {
     /// time the log recorded it), `header` or `receive`.
     #[serde(default)]
     pub time: TimeSource,
+    /// The unit of a CSV table's time column whose name gives none (`s`, `ms`, `us`, `ns`);
+    /// read from its values when left out (docs/logs.md).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub time_unit: Option<TimeUnit>,
     /// Per-thruster commands, one field per unit of `vehicle.thrusters`, in its order.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub command: Option<Source>,
@@ -72,6 +76,28 @@ pub enum TimeSource {
     Auto,
     Header,
     Receive,
+}
+
+/// The unit of a CSV table's time column.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TimeUnit {
+    S,
+    Ms,
+    Us,
+    Ns,
+}
+
+impl TimeUnit {
+    /// Seconds per unit.
+    pub fn seconds(self) -> f64 {
+        match self {
+            TimeUnit::S => 1.0,
+            TimeUnit::Ms => 1e-3,
+            TimeUnit::Us => 1e-6,
+            TimeUnit::Ns => 1e-9,
+        }
+    }
 }
 
 /// Where one signal is in the log.

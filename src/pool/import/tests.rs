@@ -196,3 +196,29 @@ fn a_command_spread_over_one_topic_per_thruster_is_merged() {
         n[k]
     );
 }
+
+/// A table timed in whole milliseconds a second apart reads as microseconds unless run.yaml
+/// says `time_unit: ms`.
+#[test]
+fn run_yaml_says_the_unit_of_a_tables_time() {
+    let d = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(d.path().join("cases/pool/r1")).unwrap();
+    let rows: String = (0..30)
+        .map(|k| format!("{},{},0,0,0\n", 5000 + 1000 * k, k))
+        .collect();
+    std::fs::write(d.path().join("wrench.csv"), format!("time,X,Y,Z,N\n{rows}")).unwrap();
+    let step = |unit: &str| {
+        let yaml = format!(
+            "role: train\nlog:\n  file: ../../../wrench.csv\n  {unit}\n  wrench: {{topic: wrench, fields: [X, Y, Z, N]}}\n"
+        );
+        std::fs::write(d.path().join("cases/pool/r1/run.yaml"), yaml).unwrap();
+        let files = vec!["cases/pool/r1/run.yaml".to_string()];
+        let run = load(d.path(), "cases/pool/r1", &files, None).unwrap();
+        run.thrust.t[1] - run.thrust.t[0]
+    };
+    assert!((step("time_unit: ms") - 1.0).abs() < 1e-9);
+    assert!(
+        (step("time: auto") - 1e-3).abs() < 1e-12,
+        "read from its values: us"
+    );
+}
