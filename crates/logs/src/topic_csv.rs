@@ -103,25 +103,34 @@ fn number(cell: Option<&str>) -> f64 {
 }
 
 /// Whether `path` is a folder of topic files (a folder with a CSV file whose header names a
-/// time), so that [`crate::Log::open`] reads it as one log.
+/// time, and no rosbag2 storage: a bag's folder with a CSV export beside it is the bag), so
+/// that [`crate::Log::open`] reads it as one log.
 pub fn is_topic_folder(path: &Path) -> bool {
-    path.is_dir() && !topic_files(path).unwrap_or_default().is_empty()
+    let bag = |e: &std::ffi::OsStr| e.eq_ignore_ascii_case("db3") || e.eq_ignore_ascii_case("mcap");
+    let has_bag = std::fs::read_dir(path).is_ok_and(|entries| {
+        entries
+            .filter_map(Result::ok)
+            .any(|e| e.file_name() == "metadata.yaml" || e.path().extension().is_some_and(bag))
+    });
+    path.is_dir() && !has_bag && !topic_files(path).unwrap_or_default().is_empty()
+}
+
+/// The first line of a file's first bytes.
+fn first_line(data: &[u8]) -> std::borrow::Cow<'_, str> {
+    let head = &data[..data.len().min(64 * 1024)];
+    String::from_utf8_lossy(head.split(|b| *b == b'\n').next().unwrap_or_default())
 }
 
 /// Whether the bytes of a file are a CSV log: a first line with a comma that names a time.
 pub fn is_timed_csv(data: &[u8]) -> bool {
-    let head = &data[..data.len().min(64 * 1024)];
-    let line = head.split(|b| *b == b'\n').next().unwrap_or_default();
-    let line = String::from_utf8_lossy(line);
+    let line = first_line(data);
     line.contains(',') && csv_clock::names_a_time(&cells(&line))
 }
 
 /// Whether the bytes of a file are a `;`-separated table whose header names a time (a
 /// spreadsheet's export with decimal commas): refused with how to write it, not misread.
 pub fn is_semicolon_csv(data: &[u8]) -> bool {
-    let head = &data[..data.len().min(64 * 1024)];
-    let line = head.split(|b| *b == b'\n').next().unwrap_or_default();
-    let line = String::from_utf8_lossy(line);
+    let line = first_line(data);
     let cells: Vec<String> = line
         .split(';')
         .map(|c| csv_clock::bare(c).to_string())
@@ -517,6 +526,17 @@ mod tests {
         })
         .unwrap();
         assert_eq!(last, 0.3);
+
+        // A rosbag2 folder with a CSV export beside its storage is the bag, not the tables.
+        let bag = d.as_path().join("bag");
+        std::fs::create_dir_all(&bag).unwrap();
+        std::fs::write(
+            bag.join("metadata.yaml"),
+            "rosbag2_bagfile_information: {}\n",
+        )
+        .unwrap();
+        std::fs::write(bag.join("export.csv"), "time,x\n0.5,1\n").unwrap();
+        assert!(!is_topic_folder(&bag));
 
         let semicolons = d.as_path().join("excel.csv");
         std::fs::write(&semicolons, "time;u\n0,05;1,5\n").unwrap();
