@@ -24,10 +24,6 @@ impl Shortfall {
                 "{model} in {d}: its simulation diverged on a held-out run; do not use this model in {d}"
             );
         };
-        let what = match self.first_order_nmae {
-            Some(b) if nmae < 1.0 => format!("the first-order model per DOF (NMAE {b:.3})"),
-            _ => "predicting that the vehicle stays at rest (NMAE 1.000)".to_string(),
-        };
         if let Some(b) = self
             .first_order_nmae
             .filter(|&b| nmae < 1.0 && level(nmae, b))
@@ -36,6 +32,10 @@ impl Shortfall {
                 "{model} in {d}: held-out NMAE {nmae:.3}, level with the first-order model per DOF ({b:.3}) but not better: its further terms predict no better in {d} than added mass, linear drag and a constant force, which do as well with fewer coefficients"
             );
         }
+        let what = match self.first_order_nmae {
+            Some(b) if nmae < 1.0 => format!("the first-order model per DOF (NMAE {b:.3})"),
+            _ => "predicting that the vehicle stays at rest (NMAE 1.000)".to_string(),
+        };
         let left_out = match self.unmodelled_motion.as_slice() {
             [] => String::new(),
             dofs => {

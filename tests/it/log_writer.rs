@@ -402,12 +402,7 @@ fn nav(
     }
     let ros = format != LogFormat::DataFlash;
     let topic = topic_of(&s, format);
-    let fields = |a: usize, b: usize| -> Vec<String> {
-        match format {
-            LogFormat::DataFlash => s.df_labels[a..b].to_vec(),
-            _ => fields_of(&s, format, &(a..b).collect::<Vec<_>>()),
-        }
-    };
+    let fields = |a: usize, b: usize| fields_of(&s, format, &(a..b).collect::<Vec<_>>());
     *yaml += &field_map("velocity", &topic, &fields(0, 3), "");
     if l.has(3) {
         *yaml += &if format == LogFormat::PlainCsv {

@@ -17,31 +17,24 @@ fn nanos(epoch_s: f64, t: f64) -> String {
 /// Each stream as its topic's `rostopic echo -p` file in the folder `path`: `%time` (the
 /// receive time), the header's stamp where the type has a header, then the numbers.
 pub fn write(path: &Path, streams: &[Stream], rows: &[Row], epoch_s: f64) -> anyhow::Result<()> {
-    std::fs::create_dir_all(path)?;
-    for s in streams {
-        let header = !s.ros_type.ends_with("MultiArray");
-        let mut text = String::from("%time");
-        if header {
-            text += ",field.header.seq,field.header.stamp,field.header.frame_id";
-        }
-        for f in &s.ros_fields {
-            text += &format!(",field.{}", f.replace(['[', ']'], ""));
-        }
-        text += "\n";
-        for (k, r) in rows.iter().filter(|r| r.stream == s.name).enumerate() {
-            text += &nanos(epoch_s, r.t);
-            if header {
-                text += &format!(",{k},{},base_link", nanos(epoch_s, r.t));
-            }
-            for x in &r.numbers {
-                text += &format!(",{x}");
-            }
-            text += "\n";
-        }
-        let stem = s.ros_topic.trim_start_matches('/');
-        std::fs::write(path.join(format!("{stem}.csv")), text)?;
-    }
-    Ok(())
+    let stamped = |s: &Stream| !s.ros_type.ends_with("MultiArray");
+    let header = |s: &Stream| {
+        let names = s
+            .ros_fields
+            .iter()
+            .map(|f| format!(",field.{}", f.replace(['[', ']'], "")));
+        let stamp = if stamped(s) {
+            ",field.header.seq,field.header.stamp,field.header.frame_id"
+        } else {
+            ""
+        };
+        format!("%time{stamp}{}", names.collect::<String>())
+    };
+    let time = |s: &Stream, k: usize, t: f64| match stamped(s) {
+        true => format!("{},{k},{},base_link", nanos(epoch_s, t), nanos(epoch_s, t)),
+        false => nanos(epoch_s, t),
+    };
+    write_tables(path, streams, rows, header, time)
 }
 
 /// The clock a simulator's tables start at, s (its own time since it started, not the epoch).
@@ -56,15 +49,28 @@ pub fn flat(field: &str) -> String {
 /// Each stream as a table in the folder `path`, as a simulator or an analysis tool writes
 /// them: `timestamp` in seconds of its own clock, then the numbers under flat names.
 pub fn write_plain(path: &Path, streams: &[Stream], rows: &[Row]) -> anyhow::Result<()> {
+    let header = |s: &Stream| {
+        let names = s.ros_fields.iter().map(|f| format!(",{}", flat(f)));
+        format!("timestamp{}", names.collect::<String>())
+    };
+    let time = |_: &Stream, _: usize, t: f64| format!("{:.9}", SIM_START_S + t);
+    write_tables(path, streams, rows, header, time)
+}
+
+/// Each stream as `<topic>.csv` in the folder `path`: the `header` line, then per row its
+/// time cells (`time` of the stream, the row's index in it and its time) and its numbers.
+fn write_tables(
+    path: &Path,
+    streams: &[Stream],
+    rows: &[Row],
+    header: impl Fn(&Stream) -> String,
+    time: impl Fn(&Stream, usize, f64) -> String,
+) -> anyhow::Result<()> {
     std::fs::create_dir_all(path)?;
     for s in streams {
-        let mut text = String::from("timestamp");
-        for f in &s.ros_fields {
-            text += &format!(",{}", flat(f));
-        }
-        text += "\n";
-        for r in rows.iter().filter(|r| r.stream == s.name) {
-            text += &format!("{:.9}", SIM_START_S + r.t);
+        let mut text = header(s) + "\n";
+        for (k, r) in rows.iter().filter(|r| r.stream == s.name).enumerate() {
+            text += &time(s, k, r.t);
             for x in &r.numbers {
                 text += &format!(",{x}");
             }

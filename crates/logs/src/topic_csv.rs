@@ -112,7 +112,7 @@ pub fn is_topic_folder(path: &Path) -> bool {
             .filter_map(Result::ok)
             .any(|e| e.file_name() == "metadata.yaml" || e.path().extension().is_some_and(bag))
     });
-    path.is_dir() && !has_bag && !topic_files(path).unwrap_or_default().is_empty()
+    path.is_dir() && !has_bag && csv_files(path).is_ok_and(|(timed, _)| !timed.is_empty())
 }
 
 /// The first line of a file's first bytes.
@@ -136,11 +136,6 @@ pub fn is_semicolon_csv(data: &[u8]) -> bool {
         .map(|c| csv_clock::bare(c).to_string())
         .collect();
     !line.contains(',') && cells.len() > 1 && csv_clock::names_a_time(&cells)
-}
-
-/// The CSV files of a folder whose header names a time, sorted by name.
-fn topic_files(dir: &Path) -> Result<Vec<PathBuf>, LogError> {
-    Ok(csv_files(dir)?.0)
 }
 
 /// The CSV files of a folder, sorted by name: those whose header names a time, and the others.
