@@ -98,6 +98,22 @@ impl Settings {
     }
 }
 
+/// Why a diagonal model has the net weight W - B and no heave constant, when it has.
+fn net_weight_note(vehicle: &crate::core::model::Vehicle) -> Option<String> {
+    use crate::core::model::{Term, params::ParamLayout};
+    let layout = ParamLayout::build(
+        vehicle.structure,
+        &vehicle.dofs,
+        &vehicle.constant_force,
+        &vehicle.custom_terms.clone().unwrap_or_default(),
+    )
+    .ok()?;
+    let diagonal = vehicle.structure == crate::core::model::Structure::Diagonal;
+    (diagonal && layout.terms.contains(&Term::NetWeight)).then(|| {
+        "net buoyancy as the net weight W-B: vertical in the water, it tilts into surge and sway as the vehicle rolls and pitches, where a constant force fixed to the body cannot follow it; it takes the place of a constant heave force (level, the two are the same force)".to_string()
+    })
+}
+
 impl StageImpl for Settings {
     /// Only the settings the chosen method reads, so tuning the swarm does not rerun a
     /// least-squares fit (and a deterministic method shows no seed).
@@ -113,6 +129,7 @@ impl StageImpl for Settings {
         if let Some(note) = self.constants_for_recordings(ctx, cases.is_empty(), &mut vehicle) {
             notes.push(note);
         }
+        notes.extend(net_weight_note(&vehicle));
         let vehicle = &vehicle;
         let (runs, pool_responses, run_notes) =
             training_runs(ctx, vehicle, self.common.median_filter.as_ref())?;

@@ -137,6 +137,10 @@ impl ParamLayout {
             .filter(|d| constant.contains(d))
             .collect();
         let mut terms = structure.terms(dofs, &constant, custom)?;
+        // A structure may take a constant's place with a physical term (the net weight).
+        let constant: Vec<Dof> = (constant.into_iter())
+            .filter(|d| terms.contains(&Term::Constant(d.index())))
+            .collect();
         if structure == Structure::Diagonal {
             // Seed 001 Table 1 order: the vehicle's DOF order within each group.
             let pos = |t: &Term| dofs.iter().position(|d| *d == t.dof());
@@ -245,5 +249,25 @@ mod tests {
         let mut h = Hydro::reference();
         h.constant[2] = -8.0;
         assert_eq!(c.to_hydro(&c.from_hydro(&h)), h);
+    }
+
+    /// Beside roll or pitch the diagonal model's net buoyancy is the net weight, which tilts
+    /// with the vehicle, in place of a heave constant; the other constants stay.
+    #[test]
+    fn a_tilting_diagonal_model_has_the_net_weight_for_its_heave_constant() {
+        let l = ParamLayout::with_constant(&Dof::ALL, &Dof::ALL);
+        let names = l.names();
+        assert!(names.contains(&"W-B".to_string()), "{names:?}");
+        assert!(!names.contains(&"Z_0".to_string()), "{names:?}");
+        assert!(names.contains(&"X_0".to_string()), "{names:?}");
+        assert_eq!(
+            l.constant,
+            [Dof::Surge, Dof::Sway, Dof::Roll, Dof::Pitch, Dof::Yaw]
+        );
+        // Level, or without a translational DOF, there is no net weight to tell apart.
+        let level = ParamLayout::with_constant(&[Dof::Heave, Dof::Yaw], &[Dof::Heave]);
+        assert_eq!(level.names().last().map(String::as_str), Some("Z_0"));
+        let turning = ParamLayout::with_constant(&[Dof::Roll, Dof::Pitch], &[Dof::Roll]);
+        assert!(!turning.names().contains(&"W-B".to_string()));
     }
 }

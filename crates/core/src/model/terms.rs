@@ -285,6 +285,14 @@ impl Structure {
             // would where the model has no pitch (eta_x) or roll (eta_y): there they are those
             // cross terms alone, and a model of roll by itself has no column for them at all.
             let free = |i: usize| ix.contains(&i) && !constant.contains(&Dof::ALL[i]);
+            // The net weight W - B is vertical: as the vehicle pitches or rolls it tilts into
+            // surge and sway, where a body-fixed constant force cannot follow it (pitched
+            // 30 deg, 2 N of buoyancy pushes 1 N along the hull).
+            // At level trim it is a constant heave force, which it replaces.
+            if ix.iter().any(|&i| i < 3) {
+                out.retain(|t| *t != Term::Constant(2));
+                out.push(Term::NetWeight);
+            }
             out.push(Term::Moment(2));
             if free(4) {
                 out.push(Term::Moment(0));
