@@ -271,7 +271,7 @@ pub enum EstimateError {
         "the cases never excite {dof}: {params} cannot be identified. Add CFD cases that move the vehicle in {dof}, or remove {dof} from vehicle.dofs"
     )]
     Unexcited { dof: String, params: String },
-    #[error("no samples to fit: the stage received no CFD responses")]
+    #[error("no samples to fit: no CFD case or pool run reached this stage")]
     NoData,
     #[error("the least-squares solution is not finite (the regressor is singular)")]
     Singular,

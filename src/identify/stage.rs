@@ -272,16 +272,27 @@ fn check_mass(
     Ok(())
 }
 
-/// `skip_start_s` (and the added-mass window after it) must leave samples to fit: a time
-/// beyond every run is a setting to fix, said at its line.
+/// There must be something to fit, and `skip_start_s` (and the added-mass window after it)
+/// must leave samples of it: a time beyond every run is a setting to fix, said at its line.
+/// With every input failed upstream the error names them, not an empty fit.
 fn check_windows<'r>(
     ctx: &RunCtx,
     common: &Common,
     responses: impl Iterator<Item = &'r crate::core::response::Response>,
 ) -> anyhow::Result<()> {
-    let end = responses
-        .filter_map(|r| r.t.last().copied())
-        .fold(f64::NEG_INFINITY, f64::max);
+    let ends: Vec<f64> = responses.filter_map(|r| r.t.last().copied()).collect();
+    if ends.is_empty() && !ctx.failed_upstream.is_empty() {
+        let failed: Vec<String> = ctx
+            .failed_upstream
+            .iter()
+            .map(|(id, _)| id.to_string())
+            .collect();
+        anyhow::bail!(
+            "nothing to fit: every input failed upstream ({}); see their errors above",
+            failed.join(", ")
+        );
+    }
+    let end = ends.into_iter().fold(f64::NEG_INFINITY, f64::max);
     if end.is_finite() && common.skip_start_s >= end {
         return Err(ctx.setting_error(
             "skip_start_s",

@@ -93,6 +93,36 @@ fn a_bad_case_fails_only_what_depends_on_it() {
     );
 }
 
+/// A fit of pool runs alone whose every run fails to import says so, naming them, rather
+/// than that it received no CFD cases (what it said before).
+#[test]
+fn a_fit_whose_every_run_failed_names_them() {
+    let p = tempfile::tempdir().unwrap();
+    let dir = p.path();
+    std::fs::write(
+        dir.join("pipeline.yaml"),
+        "vehicle: {name: x, mass_kg: 30, inertia_kg_m2: {zz: 1}, dofs: [surge, yaw]}\nstages:\n  pool: {kind: pool, inputs: [\"cases/pool/*/\"]}\n  fit: {kind: fit, from: [pool]}\n",
+    )
+    .unwrap();
+    for run in ["a", "b"] {
+        let d = dir.join("cases/pool").join(run);
+        std::fs::create_dir_all(&d).unwrap();
+        std::fs::write(d.join("run.yaml"), "role: train\n").unwrap();
+        std::fs::write(
+            d.join("thrust.csv"),
+            "t,X_N,Y_N,Z_N,N_Nm\n0,1,0,0,0\n0.1,1,0,0,zz\n",
+        )
+        .unwrap();
+    }
+    let o = run(dir, &["build"]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    assert!(
+        err.contains("error: stage fit failed\n  nothing to fit: every input failed upstream (pool[a], pool[b])"),
+        "{err}"
+    );
+}
+
 #[test]
 fn input_error_classes_reach_the_user() {
     let cases: [(&str, &str); 5] = [
