@@ -151,6 +151,38 @@ const MCAP_MAGIC: &[u8] = b"\x89MCAP0\r\n";
 const DATAFLASH_MAGIC: &[u8] = &[0xA3, 0x95];
 const ZSTD_MAGIC: &[u8] = &[0x28, 0xB5, 0x2F, 0xFD];
 
+const HEADERLESS: &str = "a CSV table without a header (its first row is numbers): its columns have no names to read them by";
+const HEADERLESS_FIX: &str = "give the table a header line naming its columns, the time among them (`t` in seconds, or `time_ms`, ...): MATLAB's `writetable` writes one, `writematrix` does not; or convert it into a run folder's files (docs/formats.md)";
+
+/// The error for a folder of CSV files none of which names a time: each listed, those whose
+/// first row is numbers said to have no header.
+fn untimed_folder(path: &Path, files: &[PathBuf]) -> LogError {
+    let headerless = |f: &PathBuf| {
+        let mut head = vec![0; 4096];
+        let n = std::fs::File::open(f)
+            .and_then(|mut r| std::io::Read::read(&mut r, &mut head))
+            .unwrap_or(0);
+        topic_csv::is_headerless_table(&head[..n])
+    };
+    let list: Vec<String> = (files.iter())
+        .map(|f| {
+            let name = f.file_name().unwrap_or_default().to_string_lossy();
+            match headerless(f) {
+                true => format!("{name} (no header: its first row is numbers)"),
+                false => format!("{name} (no time column in its header)"),
+            }
+        })
+        .collect();
+    LogError::new(
+        path,
+        format!(
+            "a folder of CSV files none of which names a time column: {}",
+            list.join(", ")
+        ),
+    )
+    .fix(HEADERLESS_FIX)
+}
+
 impl Log {
     /// Opens `path`, recognises its format by its first bytes (not its extension) and lists
     /// its topics. Reads the index where the format has one, otherwise scans the file once.
@@ -165,6 +197,9 @@ impl Log {
     pub fn open_with(path: &Path, options: &Options) -> Result<Log, LogError> {
         if topic_csv::is_topic_folder(path) {
             return Log::csv(path, options);
+        }
+        if let Some(files) = topic_csv::untimed_folder(path) {
+            return Err(untimed_folder(path, &files));
         }
         let path = &db3::storage_file(path)?;
         let data = std::fs::read(path).map_err(|e| {
@@ -201,6 +236,8 @@ impl Log {
             )
             .at(0)
             .fix("export it with `,` between columns and `.` as the decimal point"));
+        } else if topic_csv::is_headerless_table(&data) {
+            return Err(LogError::new(path, HEADERLESS).at(0).fix(HEADERLESS_FIX));
         } else if data.starts_with(ZSTD_MAGIC) {
             return Err(LogError::new(
                 path,
@@ -303,4 +340,29 @@ impl Log {
 fn is_tlog(path: &Path) -> bool {
     path.extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("tlog"))
+}
+
+#[cfg(test)]
+mod tests {
+    /// A table without a header (MATLAB's `writematrix`) and a folder of them are refused
+    /// as what they are, with how to write them, not as logs of unknown bytes or bags.
+    #[test]
+    fn a_table_without_a_header_is_named_as_such() {
+        let d = std::env::temp_dir().join(format!("hydrofit-headerless-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        let pose = d.join("pose_data.csv");
+        std::fs::write(&pose, "-1.2e-18,4.84e-05,0,0.02\n0.1,0.2,0.3,0.4\n").unwrap();
+        std::fs::write(d.join("gains.csv"), "kp,kd\n1,2\n").unwrap();
+        let e = super::Log::open(&pose).unwrap_err();
+        assert!(e.what.contains("without a header"), "{e}");
+        assert!(e.fix.contains("writematrix"), "{e}");
+        let e = super::Log::open(&d).unwrap_err();
+        assert!(
+            e.what.contains("gains.csv (no time column in its header)")
+                && e.what
+                    .contains("pose_data.csv (no header: its first row is numbers)"),
+            "{e}"
+        );
+        std::fs::remove_dir_all(d).unwrap();
+    }
 }

@@ -106,13 +106,34 @@ fn number(cell: Option<&str>) -> f64 {
 /// time, and no rosbag2 storage: a bag's folder with a CSV export beside it is the bag), so
 /// that [`crate::Log::open`] reads it as one log.
 pub fn is_topic_folder(path: &Path) -> bool {
+    path.is_dir() && !has_bag(path) && csv_files(path).is_ok_and(|(timed, _)| !timed.is_empty())
+}
+
+/// Whether a folder holds a rosbag2 bag (its metadata or a storage file).
+fn has_bag(path: &Path) -> bool {
     let bag = |e: &std::ffi::OsStr| e.eq_ignore_ascii_case("db3") || e.eq_ignore_ascii_case("mcap");
-    let has_bag = std::fs::read_dir(path).is_ok_and(|entries| {
+    std::fs::read_dir(path).is_ok_and(|entries| {
         entries
             .filter_map(Result::ok)
             .any(|e| e.file_name() == "metadata.yaml" || e.path().extension().is_some_and(bag))
-    });
-    path.is_dir() && !has_bag && csv_files(path).is_ok_and(|(timed, _)| !timed.is_empty())
+    })
+}
+
+/// A folder of CSV files none of which names a time, and no bag: the files, to be listed in
+/// the error (a folder of tables without headers, as MATLAB's `writematrix` writes them).
+pub fn untimed_folder(path: &Path) -> Option<Vec<PathBuf>> {
+    if !path.is_dir() || has_bag(path) {
+        return None;
+    }
+    let (timed, others) = csv_files(path).ok()?;
+    (timed.is_empty() && !others.is_empty()).then_some(others)
+}
+
+/// Whether a file's first line is numbers only: a table without a header (MATLAB's
+/// `writematrix`, numpy's `savetxt`), whose columns have no names to read them by.
+pub fn is_headerless_table(data: &[u8]) -> bool {
+    let cells = cells(&first_line(data));
+    cells.len() > 1 && cells.iter().all(|c| c.trim().parse::<f64>().is_ok())
 }
 
 /// The first line of a file's first bytes.
