@@ -358,6 +358,7 @@ impl Setup {
             dead_reckoned: false,
             att: Default::default(),
             anchors_s: Vec::new(),
+            tilt: None,
         }
     }
 }

@@ -295,6 +295,7 @@ mod tests {
             dead_reckoned: false,
             att: Default::default(),
             anchors_s: Vec::new(),
+            tilt: None,
         }
     }
 

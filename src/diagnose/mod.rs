@@ -90,6 +90,8 @@ pub struct Run {
     /// Times at which simulations of this run are re-anchored to the fused velocity (multiple
     /// shooting, where the model is locally unstable along it); empty: the whole run.
     pub anchors_s: Vec<f64>,
+    /// A six-DOF model's roll and pitch, simulated but not scored ([`slots::Tilt`]).
+    pub tilt: Option<Box<slots::Tilt>>,
 }
 
 impl Run {
@@ -110,6 +112,7 @@ impl Run {
             .map(|run| Run {
                 pool: r.meta.pool,
                 anchor: r.meta.tether_anchor_m,
+                tilt: slots.tilts.then(|| Box::new(slots::Tilt::of(r))),
                 ..run
             })
             .map(|run| run.reckoned_from(r.meta.start_m))
@@ -157,7 +160,8 @@ impl Run {
             (vel[j], std[j], noise_share[j]) = (v.to_vec(), s.to_vec(), share);
         }
         let rp = &f.roll_pitch;
-        let rotation = slots.slot(Dof::Roll).is_some() || slots.slot(Dof::Pitch).is_some();
+        let rotation =
+            slots.tilts || slots.slot(Dof::Roll).is_some() || slots.slot(Dof::Pitch).is_some();
         let att = match rotation && rp.roll.len() == n && rp.pitch.len() == n {
             true => [rp.roll.clone(), rp.pitch.clone()],
             false => Default::default(),
@@ -178,14 +182,19 @@ impl Run {
             dead_reckoned: false,
             att,
             anchors_s: Vec::new(),
+            tilt: None,
         })
     }
 
-    /// The command at sample k as a generalised force (zero outside the slots).
+    /// The command at sample k as a generalised force (zero outside the slots and a six-DOF
+    /// model's roll and pitch).
     pub fn cmd6(&self, k: usize) -> Vec6 {
         let mut c = [0.0; 6];
         for j in 0..4 {
             c[self.slots.nu(j)] = self.cmd[k][j];
+        }
+        if let Some(m) = self.tilt.as_ref().and_then(|t| t.cmd.get(k)) {
+            (c[3], c[4]) = (m[0], m[1]);
         }
         c
     }
@@ -307,9 +316,14 @@ fn world_for(plant: &Plant, aug: &Augmentation, run: &Run) -> World {
 fn anchor_velocity(run: &Run, rec: &Shifted, k: usize, s: &mut State) {
     let n = run.t.len();
     let (a, b) = (k.saturating_sub(2), (k + 2).min(n - 1));
+    let mean = |v: &[f64]| (a..=b).map(|q| rec.at(v, q)).sum::<f64>() / (b - a + 1) as f64;
     for j in 0..4 {
-        s.nu[run.slots.nu(j)] =
-            (a..=b).map(|q| rec.at(&run.vel[j], q)).sum::<f64>() / (b - a + 1) as f64;
+        s.nu[run.slots.nu(j)] = mean(&run.vel[j]);
+    }
+    for (i, rate) in run.tilt.iter().flat_map(|t| t.rate.iter().enumerate()) {
+        if rate.len() == n {
+            s.nu[3 + i] = mean(rate);
+        }
     }
 }
 
@@ -337,6 +351,11 @@ fn simulate_checked(
     let mut s = State::default();
     for j in 0..4 {
         s.nu[run.slots.nu(j)] = rec.at(&run.vel[j], 0);
+    }
+    for (i, rate) in run.tilt.iter().flat_map(|t| t.rate.iter().enumerate()) {
+        if rate.len() == n {
+            s.nu[3 + i] = rec.at(rate, 0);
+        }
     }
     s.thrust = w.shape_command(&run.cmd6(0));
     let mut att = recorded_attitude(run, &rec, 0);
