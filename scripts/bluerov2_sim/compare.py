@@ -17,15 +17,19 @@ SIMULATOR = {
 }
 
 
-def main():
-    out = Path(sys.argv[1])
+def compare(out, simulator):
+    """Prints the default fit's coefficients of the project `out` beside `simulator`'s."""
     params = json.loads((out / "reports" / "parameters.json").read_text())["parameters"]
     print(f"{'':8s} {'simulator':>10s} {'hydrofit':>10s} {'std err':>8s}  identifiable")
     for p in params:
-        if p["model"] != "fit" or p["name"] not in SIMULATOR:
+        if p["model"] != "fit" or p["name"] not in simulator:
             continue
         se = p.get("stderr") or 0.0
-        print(f"{p['name']:8s} {SIMULATOR[p['name']]:10.4f} {p['value']:10.4f} {se:8.4f}  {p.get('identifiable')}")
+        print(f"{p['name']:8s} {simulator[p['name']]:10.4f} {p['value']:10.4f} {se:8.4f}  {p.get('identifiable')}")
+
+
+def main():
+    compare(Path(sys.argv[1]), SIMULATOR)
 
 
 if __name__ == "__main__":

@@ -17,9 +17,10 @@ the repository): 115 s cut into four runs of 29 s, the last held out.
 """
 
 import argparse
-import json
 import math
 from pathlib import Path
+
+from compare import compare
 
 STEP_S = 0.05
 RUNS = 4
@@ -94,16 +95,6 @@ def write(src, out):
     print(f"wrote {out}: {RUNS} runs of {per * STEP_S:.0f} s, the last held out")
 
 
-def compare(out):
-    params = json.loads((out / "reports" / "parameters.json").read_text())["parameters"]
-    print(f"{'':8s} {'simulator':>10s} {'hydrofit':>10s} {'std err':>8s}  identifiable")
-    for p in params:
-        if p["model"] != "fit" or p["name"] not in SIMULATOR:
-            continue
-        se = p.get("stderr") or 0.0
-        print(f"{p['name']:8s} {SIMULATOR[p['name']]:10.4f} {p['value']:10.4f} {se:8.4f}  {p.get('identifiable')}")
-
-
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--compare", type=Path, metavar="OUT", help="print a built project's coefficients beside the simulator's")
@@ -111,7 +102,7 @@ def main():
     ap.add_argument("out", type=Path, nargs="?", help="the project folder to write")
     args = ap.parse_args()
     if args.compare:
-        compare(args.compare)
+        compare(args.compare, SIMULATOR)
     elif args.src and args.out:
         write(args.src.resolve(), args.out)
     else:

@@ -19,12 +19,24 @@ fn lagged_run(plant: &Plant, lag_s: f64, rng: &mut Rng) -> Response {
         })
         .collect();
     let nu = plant.simulate(&t, &lagged(&t, &cmd, lag_s), [0.0; 6], 0.01);
-    let dofs = Vehicle::reference()
-        .dofs
+    logged(t, &cmd, &nu, &Vehicle::reference().dofs, 0.005, rng)
+}
+
+/// The response a run's log gives in `dofs`: the command, and the velocities `nu` with white
+/// noise of deviation `noise` (the acceleration differentiated from them).
+fn logged(
+    t: Vec<f64>,
+    cmd: &[[f64; 6]],
+    nu: &[[f64; 6]],
+    dofs: &[crate::core::dof::Dof],
+    noise: f64,
+    rng: &mut Rng,
+) -> Response {
+    let dofs = dofs
         .iter()
         .map(|&d| {
             let i = d.index();
-            let velocity: Vec<f64> = nu.iter().map(|v| v[i] + 0.005 * rng.normal()).collect();
+            let velocity: Vec<f64> = nu.iter().map(|v| v[i] + noise * rng.normal()).collect();
             let series = Series {
                 force: cmd.iter().map(|c| c[i]).collect(),
                 accel: differentiate(&t, &velocity),
@@ -233,27 +245,12 @@ fn tilting_run(plant: &Plant, vehicle: &Vehicle, rng: &mut Rng) -> Response {
             x = rk4(plant, &x, &level, 0.01);
         }
     }
-    let dofs = vehicle
-        .dofs
-        .iter()
-        .map(|&d| {
-            let i = d.index();
-            let velocity: Vec<f64> = nu.iter().map(|v| v[i] + 0.003 * rng.normal()).collect();
-            let series = Series {
-                force: cmd.iter().map(|c| c[i]).collect(),
-                accel: differentiate(&t, &velocity),
-                velocity,
-                force_source: Source::Column,
-                accel_source: Source::Differentiated,
-            };
-            (d, series)
-        })
-        .collect();
-    let attitude = att
+    let mut r = logged(t, &cmd, &nu, &vehicle.dofs, 0.003, rng);
+    r.attitude = att
         .iter()
         .map(|a| a.map(|x| x + 0.002 * rng.normal()))
         .collect();
-    Response { t, dofs, attitude }
+    r
 }
 
 /// A vehicle that pitches and rolls with net buoyancy feels it along its hull: the default fit
