@@ -3,6 +3,7 @@ use crate::cmd::scenario;
 use crate::diagnose::{Diagnosis, diagnose};
 use crate::twin::world::Effect;
 
+mod attitude;
 mod discovery;
 mod guards;
 mod joint;
