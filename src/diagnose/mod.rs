@@ -320,9 +320,15 @@ fn anchor_velocity(run: &Run, rec: &Shifted, k: usize, s: &mut State) {
     for j in 0..4 {
         s.nu[run.slots.nu(j)] = mean(&run.vel[j]);
     }
+    tilt_rates(run, s, mean);
+}
+
+/// A six-DOF model's roll and pitch rates set from the run's logged ones, by `value` of each
+/// series (where it is logged).
+fn tilt_rates(run: &Run, s: &mut State, value: impl Fn(&[f64]) -> f64) {
     for (i, rate) in run.tilt.iter().flat_map(|t| t.rate.iter().enumerate()) {
-        if rate.len() == n {
-            s.nu[3 + i] = mean(rate);
+        if rate.len() == run.t.len() {
+            s.nu[3 + i] = value(rate);
         }
     }
 }
@@ -372,11 +378,7 @@ fn simulate_checked(
     for j in 0..4 {
         s.nu[run.slots.nu(j)] = rec.at(&run.vel[j], 0);
     }
-    for (i, rate) in run.tilt.iter().flat_map(|t| t.rate.iter().enumerate()) {
-        if rate.len() == n {
-            s.nu[3 + i] = rec.at(rate, 0);
-        }
-    }
+    tilt_rates(run, &mut s, |rate| rec.at(rate, 0));
     s.thrust = w.shape_command(&run.cmd6(0));
     let mut att = recorded_attitude(run, &rec, 0);
     let step = att.map_or(STEP, |_| attitude_step(plant));

@@ -100,14 +100,8 @@ impl Settings {
 
 /// Why a diagonal model has the net weight W - B and no heave constant, when it has.
 fn net_weight_note(vehicle: &crate::core::model::Vehicle) -> Option<String> {
-    use crate::core::model::{Term, params::ParamLayout};
-    let layout = ParamLayout::build(
-        vehicle.structure,
-        &vehicle.dofs,
-        &vehicle.constant_force,
-        &vehicle.custom_terms.clone().unwrap_or_default(),
-    )
-    .ok()?;
+    use crate::core::model::{ParamLayout, Term};
+    let layout = ParamLayout::of(vehicle);
     let diagonal = vehicle.structure == crate::core::model::Structure::Diagonal;
     (diagonal && layout.terms.contains(&Term::NetWeight)).then(|| {
         "net buoyancy as the net weight W-B: vertical in the water, it tilts into surge and sway as the vehicle rolls and pitches, where a constant force fixed to the body cannot follow it; it takes the place of a constant heave force (level, the two are the same force)".to_string()

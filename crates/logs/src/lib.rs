@@ -156,18 +156,11 @@ const HEADERLESS_FIX: &str = "give the table a header line naming its columns, t
 
 /// The error for a folder of CSV files none of which names a time: each listed, those whose
 /// first row is numbers said to have no header.
-fn untimed_folder(path: &Path, files: &[PathBuf]) -> LogError {
-    let headerless = |f: &PathBuf| {
-        let mut head = vec![0; 4096];
-        let n = std::fs::File::open(f)
-            .and_then(|mut r| std::io::Read::read(&mut r, &mut head))
-            .unwrap_or(0);
-        topic_csv::is_headerless_table(&head[..n])
-    };
+fn untimed_folder(path: &Path, files: &[(PathBuf, bool)]) -> LogError {
     let list: Vec<String> = (files.iter())
-        .map(|f| {
+        .map(|(f, headerless)| {
             let name = f.file_name().unwrap_or_default().to_string_lossy();
-            match headerless(f) {
+            match headerless {
                 true => format!("{name} (no header: its first row is numbers)"),
                 false => format!("{name} (no time column in its header)"),
             }

@@ -119,14 +119,20 @@ fn has_bag(path: &Path) -> bool {
     })
 }
 
-/// A folder of CSV files none of which names a time, and no bag: the files, to be listed in
-/// the error (a folder of tables without headers, as MATLAB's `writematrix` writes them).
-pub fn untimed_folder(path: &Path) -> Option<Vec<PathBuf>> {
+/// A folder of CSV files none of which names a time, and no bag: the files, each with
+/// whether its first row is numbers (a table without a header, as MATLAB's `writematrix`
+/// writes it), to be listed in the error.
+pub fn untimed_folder(path: &Path) -> Option<Vec<(PathBuf, bool)>> {
     if !path.is_dir() || has_bag(path) {
         return None;
     }
     let (timed, others) = csv_files(path).ok()?;
-    (timed.is_empty() && !others.is_empty()).then_some(others)
+    let headerless = |p: &PathBuf| first_bytes(p).is_some_and(|d| is_headerless_table(&d));
+    if !timed.is_empty() || others.is_empty() {
+        return None;
+    }
+    let flags: Vec<bool> = others.iter().map(headerless).collect();
+    Some(others.into_iter().zip(flags).collect())
 }
 
 /// Whether a file's first line is numbers only: a table without a header (MATLAB's

@@ -54,6 +54,21 @@ fn logged(
     }
 }
 
+/// The prediction-error fit with its default settings of `responses` of `vehicle`, with
+/// `tune` applied to its options first.
+fn default_fit(vehicle: &Vehicle, responses: &[Response], tune: impl FnOnce(&mut Options)) -> Fit {
+    let refs: Vec<_> = responses.iter().collect();
+    let reg = Regression::build(vehicle, &refs, 0.0);
+    let mut o = Options {
+        rigid_mass: vehicle.rigid_mass(),
+        output_error: Some((vehicle, &refs[..])),
+        ..Options::default()
+    };
+    Pem.settings(Default::default()).unwrap().apply(&mut o);
+    tune(&mut o);
+    Pem.fit(&reg, &o).unwrap()
+}
+
 /// A known command lag is found within three of its standard errors (counted beside the
 /// coefficients; the line search alone leaves it up to its 0.02 s bracket off, a hundred
 /// of them), and the correlation matrix has its row.
@@ -66,18 +81,9 @@ fn the_command_lag_is_found_and_counted_with_the_coefficients() {
         let responses: Vec<_> = (0..4)
             .map(|_| lagged_run(&plant, truth, &mut rng))
             .collect();
-        let refs: Vec<_> = responses.iter().collect();
-        let reg = Regression::build(&vehicle, &refs, 0.0);
-        let mut o = Options {
-            rigid_mass: vehicle.rigid_mass(),
-            output_error: Some((&vehicle, &refs[..])),
-            ..Options::default()
-        };
-        Pem.settings(Default::default()).unwrap().apply(&mut o);
         // The reference vehicle's heave added mass is 2.4 times its mass: within reach
         // (held at 2, the lag grows to make up the missing inertia).
-        o.added_mass_prior[2] = 3.0;
-        let fit = Pem.fit(&reg, &o).unwrap();
+        let fit = default_fit(&vehicle, &responses, |o| o.added_mass_prior[2] = 3.0);
         let l = fit.command_lag.expect("a lag found");
         assert!(
             (l.value_s - truth).abs() <= 3.0 * l.stderr_s,
@@ -268,15 +274,7 @@ fn net_buoyancy_tilts_with_the_vehicle_and_is_found() {
         .map(|a| a[1].abs().to_degrees())
         .fold(0.0, f64::max);
     assert!(max_pitch > 15.0, "the runs pitch to {max_pitch} deg only");
-    let refs: Vec<_> = responses.iter().collect();
-    let reg = Regression::build(&vehicle, &refs, 0.0);
-    let mut o = Options {
-        rigid_mass: vehicle.rigid_mass(),
-        output_error: Some((&vehicle, &refs[..])),
-        ..Options::default()
-    };
-    Pem.settings(Default::default()).unwrap().apply(&mut o);
-    let fit = Pem.fit(&reg, &o).unwrap();
+    let fit = default_fit(&vehicle, &responses, |_| {});
     let value = |name: &str| {
         let p = fit.parameters.iter().find(|p| p.name == name);
         p.unwrap_or_else(|| panic!("no {name} in {:?}", fit.parameters))
