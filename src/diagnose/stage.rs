@@ -70,8 +70,28 @@ impl StageImpl for Settings {
         )?;
         diagnosis.runs.skipped.extend(ctx.failed_notes());
         diagnosis.started_from = started_from;
+        the_logs_own_lag(&mut diagnosis, &fused);
         crate::core::fsutil::write_json(&ctx.out.join(RESULT), &diagnosis)?;
         crate::core::fsutil::write_json(&ctx.out.join(FIGURES), &figures)
+    }
+}
+
+/// A lag named where the runs measured their navigation log's latency against the depth gauge
+/// says so beside its evidence: the two look alike, and the log's part is not the thrusters'.
+fn the_logs_own_lag(
+    d: &mut crate::diagnose::result::Diagnosis,
+    fused: &[crate::pool::fusion::run::FusedRun],
+) {
+    let Some(s) = crate::pool::fusion::latency::Summary::of(
+        fused.iter().map(|r| r.meta.stats.nav_latency.as_ref()),
+    ) else {
+        return;
+    };
+    for e in &mut d.effects {
+        if e.name == "thruster_lag" || e.name == "sensor_delay" {
+            e.evidence
+                .push_str(&format!("; of this lag, {}", s.sentence()));
+        }
     }
 }
 

@@ -356,8 +356,10 @@ fn training_runs(
 )> {
     let (mut refs, mut responses, mut notes) = (Vec::new(), Vec::new(), Vec::new());
     let mut unknown: Vec<crate::core::dof::Dof> = Vec::new();
+    let mut latencies = Vec::new();
     for up in ctx.upstream_of(Artifact::PoolRuns) {
         let run = crate::pool::fusion::run::load_for(&up.dir, vehicle)?;
+        latencies.push(run.meta.stats.nav_latency);
         if run.meta.role != crate::pool::import::Role::Train {
             continue;
         }
@@ -404,5 +406,7 @@ fn training_runs(
             has.join(", ")
         );
     }
+    let latency = crate::pool::fusion::latency::Summary::of(latencies.iter().map(Option::as_ref));
+    notes.extend(latency.map(|s| s.sentence()));
     Ok((refs, responses, notes))
 }

@@ -95,8 +95,14 @@ pub fn section(runs: &[FusedRun], accuracy: &[FusionAccuracy]) -> Markup {
     if runs.is_empty() {
         return Markup::default();
     }
+    let latency = crate::pool::fusion::latency::Summary::of(
+        runs.iter().map(|r| r.meta.stats.nav_latency.as_ref()),
+    );
     html! {
         (fusion_table(runs))
+        @if let Some(s) = latency {
+            p id="nav-latency" { "Navigation-log latency: " (s.sentence()) "." }
+        }
         (repairs(runs))
         (accuracy_table(accuracy))
     }

@@ -24,7 +24,10 @@ impl StageImpl for Settings {
     }
 
     fn run(&self, ctx: &RunCtx) -> anyhow::Result<()> {
-        let run = load_run(ctx)?;
+        let mut run = load_run(ctx)?;
+        if let Some(d) = self.fusion.nav_latency_s {
+            fusion::latency::take_out(&mut run, d)?;
+        }
         ctx.progress.set_message(format!("fusing {}", run.name));
         let mut fused = fusion::fuse(&run, &self.fusion);
         let rolls = [crate::core::dof::Dof::Roll, crate::core::dof::Dof::Pitch];

@@ -17,6 +17,7 @@
 
 mod heading;
 pub mod kalman;
+pub mod latency;
 pub mod motion;
 pub mod nav;
 mod numeric;
@@ -61,6 +62,11 @@ pub struct Settings {
     /// Sensors to leave out, e.g. `[sonar]`, to see what each contributes.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub exclude: Vec<String>,
+    /// How late the navigation log is, s: its rows are read this much earlier in every run
+    /// (a DVL's or a navigation filter's latency; the runs measure it against the depth
+    /// gauge where they change depth, [`latency`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub nav_latency_s: Option<f64>,
 }
 
 /// The noise levels used, after estimation (SI: m, rad, rad/s, m/s^2).
@@ -185,6 +191,9 @@ pub struct Stats {
     pub gyro_bias_dps: Option<f64>,
     pub noise: Noise,
     pub notes: Vec<String>,
+    /// The navigation log's latency against the depth gauge, where this run tells it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nav_latency: Option<latency::NavLatency>,
 }
 
 impl Fused {
@@ -248,6 +257,10 @@ pub fn fuse(run: &PoolRun, s: &Settings) -> Fused {
     let mut fused = assemble(run, out_t, &track, hd.as_ref(), stats);
     if let Some(nav) = sensors.nav {
         use_nav(&mut fused, nav, hd.as_ref());
+        fused.stats.nav_latency = run.depth.as_ref().and_then(|d| latency::measure(nav, d));
+        if let Some(m) = &fused.stats.nav_latency {
+            fused.stats.notes.push(latency::sentence(m));
+        }
     }
     fused
 }
