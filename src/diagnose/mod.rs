@@ -21,6 +21,7 @@ pub mod discover;
 mod drift;
 pub mod effects;
 mod figures;
+mod latency;
 mod locate;
 pub mod reckon;
 pub mod report;

@@ -113,6 +113,10 @@ pub struct Runs {
     /// from the navigation log's velocity and heading, each with the drift it may carry.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub dead_reckoned: Vec<String>,
+    /// The navigation log's latency against the depth gauge that the runs measured, taken out
+    /// before the diagnosis (a property of the log, not physics to name), s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub latency_taken_out_s: Option<f64>,
 }
 
 impl Runs {
@@ -134,6 +138,7 @@ impl Runs {
                     )
                 })
                 .collect(),
+            latency_taken_out_s: None,
         }
     }
 }

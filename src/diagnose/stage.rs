@@ -76,12 +76,16 @@ impl StageImpl for Settings {
     }
 }
 
-/// A lag named where the runs measured their navigation log's latency against the depth gauge
-/// says so beside its evidence: the two look alike, and the log's part is not the thrusters'.
+/// A lag named where the runs measured their navigation log's latency against the depth gauge,
+/// and the diagnosis did not take it out (the model's command lag holds it), says so beside
+/// its evidence: the two look alike, and the log's part is not the thrusters'.
 fn the_logs_own_lag(
     d: &mut crate::diagnose::result::Diagnosis,
     fused: &[crate::pool::fusion::run::FusedRun],
 ) {
+    if d.runs.latency_taken_out_s.is_some() {
+        return;
+    }
     let Some(s) = crate::pool::fusion::latency::Summary::of(
         fused.iter().map(|r| r.meta.stats.nav_latency.as_ref()),
     ) else {

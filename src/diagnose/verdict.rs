@@ -23,6 +23,8 @@ pub fn diagnose(
     progress: &(dyn Fn(&str) + Sync),
 ) -> anyhow::Result<(Diagnosis, Vec<Figure>)> {
     let start = std::time::Instant::now();
+    let (fused, latency) = super::latency::taken_out(plant, fused);
+    let fused = &fused[..];
     let (runs, skipped, stability) = prepare_runs(plant, fused, crit);
     let data = data_of(runs, &skipped)?;
     let diverged = diverged_runs(plant, &data);
@@ -78,7 +80,10 @@ pub fn diagnose(
         regimes,
         hypotheses: search.tested,
         criteria: crit.clone(),
-        runs: Runs::of(&data, skipped),
+        runs: Runs {
+            latency_taken_out_s: latency,
+            ..Runs::of(&data, skipped)
+        },
         diverged: Vec::new(),
         untested: dx::untested(&data),
         dropped: conclusion.dropped.clone(),
@@ -229,7 +234,8 @@ fn conclude(
                     left = structured_left(plant, data, &aug, crit);
                     f = unexplained_residual(plant, data, &selected, explained_cost, &left, crit);
                 }
-                f = c.into_found(f);
+                let taken: Vec<&str> = selected.iter().map(|(h, _)| h.name).collect();
+                f = c.into_found(f, &taken);
                 disc_figures = figs;
             }
         }

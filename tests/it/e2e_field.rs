@@ -56,8 +56,9 @@ fn field_logs_without_cfd_give_a_sound_model_and_a_diagnosis_that_names_only_wha
         .collect();
     // The navigation filter is a first-order low-pass (0.25 s) behind a 0.15 s latency: from
     // velocity logs alone a first-order lag on the sensor side cannot be told from one on the
-    // command side, so it may come out as `sensor_delay` or as `thruster_lag`, with a time
-    // near the filter's.
+    // command side. The diagnosis takes out the latency the runs measure against the depth
+    // gauge (tests/it/e2e_nav_latency.rs); what is left of it may still come out as
+    // `sensor_delay` or as `thruster_lag`, with a time near the filter's.
     // An effect the twin does not hide may be named only together with a hidden one that the
     // held-out runs cannot tell from it (its `alike`).
     let hidden_names = [

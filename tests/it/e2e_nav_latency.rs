@@ -1,7 +1,7 @@
 //! The navigation log's latency, measured against the depth gauge and taken out
-//! (`src/pool/fusion/latency.rs`), on the field twin (examples/field_rov), whose navigation
-//! filter is a first-order low-pass (`nav_filter_s`) behind a transport latency
-//! (`nav_latency_s`) while its depth gauge is prompt.
+//! (`src/pool/fusion/latency.rs`, `src/diagnose/latency.rs`), on the field twin
+//! (examples/field_rov), whose navigation filter is a first-order low-pass (`nav_filter_s`)
+//! behind a transport latency (`nav_latency_s`) while its depth gauge is prompt.
 
 use crate::common::*;
 
@@ -21,9 +21,10 @@ fn measured(dir: &std::path::Path) -> (f64, usize) {
 
 /// Measured on the runs that change depth, the latency lies between the transport latency and
 /// that plus the filter's time constant (a low-pass delays a motion by up to its time
-/// constant, less the faster the motion). Set in the pool stage's settings, it is taken out of
-/// every run: the diagnosis then names no lag (the twin's thrusters have none) and still the
-/// hidden buoyancy within 15 %.
+/// constant, less the faster the motion). The diagnosis of the example's model (no command
+/// lag) takes it out and names no lag: the twin's thrusters have none. Set in the pool stage's
+/// settings, it is taken out of every run before the fusion; the diagnosis then has nothing
+/// left to take out and names no lag either; the hidden buoyancy within 15 % both times.
 #[test]
 fn a_navigation_logs_latency_is_measured_and_taken_out() {
     let p = example("field_rov");
@@ -40,6 +41,13 @@ fn a_navigation_logs_latency_is_measured_and_taken_out() {
         "measured {value} s; the log's latency {latency} s behind a {filter} s filter"
     );
     assert!(runs >= 3, "told by {runs} runs");
+    let d = json(dir, "reports/diagnosis.json");
+    let out = d["runs"]["latency_taken_out_s"].as_f64();
+    assert!(
+        out.is_some_and(|x| (x - value).abs() < 0.006),
+        "the diagnosis took out {out:?}, the runs measured {value}"
+    );
+    no_lag_and_the_buoyancy(&d, &h);
 
     let pipeline = read(dir, "pipeline.yaml");
     let at = "    inputs: [\"cases/pool/*/\"]\n";
@@ -48,6 +56,32 @@ fn a_navigation_logs_latency_is_measured_and_taken_out() {
     std::fs::write(dir.join("pipeline.yaml"), pipeline.replacen(at, &set, 1)).unwrap();
     ok(dir, &["build"]);
     let d = json(dir, "reports/diagnosis.json");
+    assert!(
+        d["runs"]["latency_taken_out_s"].is_null(),
+        "taken out twice"
+    );
+    no_lag_and_the_buoyancy(&d, &h);
+    let html = read(dir, "reports/index.html");
+    assert!(
+        html.contains("read 0."),
+        "the shift is not among the timing repairs"
+    );
+
+    // A latency no log has is refused with what the setting means.
+    let wrong =
+        read(dir, "pipeline.yaml").replace(&format!("nav_latency_s: {value}"), "nav_latency_s: 3");
+    std::fs::write(dir.join("pipeline.yaml"), wrong).unwrap();
+    let o = run(dir, &["build"]);
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("fusion.nav_latency_s = 3"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+/// The diagnosis `d` names no lag, and the twin's hidden buoyancy (`h`) within 15 %.
+fn no_lag_and_the_buoyancy(d: &serde_json::Value, h: &serde_json::Value) {
     let effects = d["effects"].as_array().unwrap();
     for e in effects {
         assert!(
@@ -65,22 +99,5 @@ fn a_navigation_logs_latency_is_measured_and_taken_out() {
     assert!(
         (up - truth_up).abs() < 0.15 * truth_up,
         "{up} N for {truth_up}"
-    );
-    let html = read(dir, "reports/index.html");
-    assert!(
-        html.contains("read 0."),
-        "the shift is not among the timing repairs"
-    );
-
-    // A latency no log has is refused with what the setting means.
-    let wrong =
-        read(dir, "pipeline.yaml").replace(&format!("nav_latency_s: {value}"), "nav_latency_s: 3");
-    std::fs::write(dir.join("pipeline.yaml"), wrong).unwrap();
-    let o = run(dir, &["build"]);
-    assert!(!o.status.success());
-    assert!(
-        stderr(&o).contains("fusion.nav_latency_s = 3"),
-        "{}",
-        stderr(&o)
     );
 }

@@ -86,15 +86,21 @@ impl Candidate {
         out + "."
     }
 
-    pub fn into_found(self, mut found: Found) -> Found {
+    /// `found` (the `unexplained` entry) with this candidate; renamed as the named effect it
+    /// is in disguise, unless that effect is among `taken` (already named: the term then
+    /// corrects it, as a lag-deficit term beside a thruster lag fitted long, and stays
+    /// `unexplained` with its form said).
+    pub fn into_found(self, mut found: Found, taken: &[&str]) -> Found {
         for c in self.parts() {
             c.write_evidence(&mut found.evidence);
         }
         // Named only when every part is the same named effect's form.
         let named = self.named_as.clone().filter(|n| {
-            self.also
-                .iter()
-                .all(|c| c.named_as.as_deref() == Some(n.as_str()))
+            !taken.contains(&n.as_str())
+                && self
+                    .also
+                    .iter()
+                    .all(|c| c.named_as.as_deref() == Some(n.as_str()))
         });
         if let Some(n) = named {
             let _ = write!(

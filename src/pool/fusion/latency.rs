@@ -6,10 +6,11 @@
 //! vertical velocity read `d` seconds later, integrated, follows the depth best at the log's
 //! latency `d`. Measured per run where the run changes depth enough to tell.
 //!
-//! Measured, not applied: a run that holds its depth cannot be measured, and runs of one
-//! vehicle corrected by different amounts would give its fit two lags. The report gathers
-//! the runs' figures; `fusion: {nav_latency_s: ...}` in the pool stage's settings takes a
-//! latency out of every run alike.
+//! The fusion measures it but does not apply it: a run that holds its depth cannot be
+//! measured, and runs of one vehicle corrected by different amounts would give its fit two
+//! lags. The report gathers the runs' figures; the diagnosis takes their median out of every
+//! run it reads ([`crate::diagnose`]'s `latency`), and `fusion: {nav_latency_s: ...}` in the
+//! pool stage's settings takes a latency out of every run alike before anything reads it.
 
 use crate::pool::import::csvlog::Log;
 use serde::{Deserialize, Serialize};
@@ -196,7 +197,7 @@ impl Summary {
     /// What the report and the fit's and diagnosis's notes say of it.
     pub fn sentence(&self) -> String {
         format!(
-            "the navigation log runs {:.2} s behind the depth gauge (median of {} of {} runs, {:.2}-{:.2} s; the others hold their depth too well to tell): a lag of the log that a model takes as a command lag and a diagnosis as a thruster lag or sensor delay; where the gauge is prompt, `fusion: {{nav_latency_s: {:.2}}}` in the pool stage's settings takes it out of every run",
+            "the navigation log runs {:.2} s behind the depth gauge (median of {} of {} runs, {:.2}-{:.2} s; the others hold their depth too well to tell): a lag of the log that a model takes as a command lag, and that the diagnosis of a model without one takes out; where the gauge is prompt, `fusion: {{nav_latency_s: {:.2}}}` in the pool stage's settings takes it out of every run before the fit",
             self.median_s, self.runs, self.of, self.range_s[0], self.range_s[1], self.median_s
         )
     }
@@ -205,7 +206,7 @@ impl Summary {
 /// The sentence a run's notes carry for `m`.
 pub fn sentence(m: &NavLatency) -> String {
     format!(
-        "the navigation log's velocity runs {:.2} s behind the depth gauge (its vertical velocity, integrated, follows the depth {:.2} s later: misfit {:.2e} m^2 against {:.2e} at none, depth spread {:.2} m): a latency of the log, which a fit takes as a command lag and a diagnosis as a thruster lag or sensor delay; where the gauge is prompt, `fusion: {{nav_latency_s: ...}}` in the pool stage's settings takes it out of every run",
+        "the navigation log's velocity runs {:.2} s behind the depth gauge (its vertical velocity, integrated, follows the depth {:.2} s later: misfit {:.2e} m^2 against {:.2e} at none, depth spread {:.2} m): a latency of the log, which a fit takes as a command lag; where the gauge is prompt, `fusion: {{nav_latency_s: ...}}` in the pool stage's settings takes it out of every run",
         m.value_s, m.value_s, m.misfit_m2, m.misfit_at_zero_m2, m.depth_spread_m
     )
 }

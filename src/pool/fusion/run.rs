@@ -347,6 +347,17 @@ impl FusedRun {
         [c[0], c[1], c[2], kk, m, c[3]]
     }
 
+    /// The run with its logged command through a first-order lag of `lag_s`: paired with a
+    /// recording that follows the motion by such a lag (a navigation filter's low-pass), the
+    /// command as it shows in it (for a linear vehicle a lag on either side is the same).
+    pub fn with_command_lagged(mut self, lag_s: f64) -> FusedRun {
+        let tau: Vec<crate::core::model::Vec6> =
+            (0..self.thrust.len()).map(|k| self.tau(k)).collect();
+        let lagged = crate::core::model::dynamics::lagged(&self.fused.t, &tau, lag_s);
+        self.set_command(&lagged);
+        self
+    }
+
     /// The run with its logged command replaced by the force `plant` says it gives: through
     /// the model's command lag and times its command gain ([`Plant::command`]).
     ///
@@ -359,6 +370,12 @@ impl FusedRun {
         let tau: Vec<crate::core::model::Vec6> =
             (0..self.thrust.len()).map(|k| self.tau(k)).collect();
         let given = plant.command(&self.fused.t, &tau);
+        self.set_command(&given);
+        self
+    }
+
+    /// The command replaced by `given` (X, Y, Z, K, M, N per sample).
+    fn set_command(&mut self, given: &[crate::core::model::Vec6]) {
         let has_moments = !self.moments.is_empty();
         for (k, x) in given.iter().enumerate() {
             self.thrust[k] = [x[0], x[1], x[2], x[5]];
@@ -366,7 +383,6 @@ impl FusedRun {
                 self.moments[k] = [x[3], x[4]];
             }
         }
-        self
     }
 
     /// Roll and pitch at sample `k` (level where no sensor gave them).
