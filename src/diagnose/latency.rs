@@ -26,7 +26,7 @@ fn known(plant: &Plant, fused: &[FusedRun]) -> Option<f64> {
     if lagged {
         return None;
     }
-    let s = Summary::of(fused.iter().map(|r| r.meta.stats.nav_latency.as_ref()))?;
+    let s = Summary::of_runs(fused)?;
     (s.median_s >= LEAST_S).then_some(s.median_s)
 }
 

@@ -102,7 +102,7 @@ fn started_from(d: &Diagnosis) -> Markup {
 fn untested(d: &Diagnosis) -> Markup {
     html! {
         @if let Some(l) = d.runs.latency_taken_out_s {
-            p { (format!("The navigation log runs {l:.2} s behind the depth gauge (measured on the runs that change depth, see the fusion above): that latency is the log's, not physics the model leaves out, and was taken out before the diagnosis (each run's command read {l:.2} s later, as the late recording shows it)." )) }
+            p { (format!("The navigation log runs {l:.2} s behind the depth gauge (measured on the runs that change depth, see the fusion above): that latency is the log's, not physics the model leaves out, and was taken out before the diagnosis (each run's command passed through a first-order lag of {l:.2} s, as the late, low-passed recording shows it)." )) }
         }
         @if !d.runs.dead_reckoned.is_empty() {
             p { "Without a position sensor, the position the tether and wall hypotheses read is dead-reckoned from the navigation log's velocity and heading:" }

@@ -86,9 +86,7 @@ fn the_logs_own_lag(
     if d.runs.latency_taken_out_s.is_some() {
         return;
     }
-    let Some(s) = crate::pool::fusion::latency::Summary::of(
-        fused.iter().map(|r| r.meta.stats.nav_latency.as_ref()),
-    ) else {
+    let Some(s) = crate::pool::fusion::latency::Summary::of_runs(fused) else {
         return;
     };
     for e in &mut d.effects {

@@ -95,9 +95,7 @@ pub fn section(runs: &[FusedRun], accuracy: &[FusionAccuracy]) -> Markup {
     if runs.is_empty() {
         return Markup::default();
     }
-    let latency = crate::pool::fusion::latency::Summary::of(
-        runs.iter().map(|r| r.meta.stats.nav_latency.as_ref()),
-    );
+    let latency = crate::pool::fusion::latency::Summary::of_runs(runs);
     html! {
         (fusion_table(runs))
         @if let Some(s) = latency {

@@ -194,6 +194,11 @@ impl Summary {
         })
     }
 
+    /// Of the fused runs' measurements.
+    pub fn of_runs(runs: &[crate::pool::fusion::run::FusedRun]) -> Option<Summary> {
+        Summary::of(runs.iter().map(|r| r.meta.stats.nav_latency.as_ref()))
+    }
+
     /// What the report and the fit's and diagnosis's notes say of it.
     pub fn sentence(&self) -> String {
         format!(
