@@ -86,7 +86,9 @@ fn the_logs_own_lag(
     if d.runs.latency_taken_out_s.is_some() {
         return;
     }
-    let Some(s) = crate::pool::fusion::latency::Summary::of_runs(fused) else {
+    let Some(s) =
+        crate::pool::fusion::latency::Summary::of_runs(fused).filter(|s| s.median_s > 0.0)
+    else {
         return;
     };
     for e in &mut d.effects {

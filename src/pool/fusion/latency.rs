@@ -201,6 +201,12 @@ impl Summary {
 
     /// What the report and the fit's and diagnosis's notes say of it.
     pub fn sentence(&self) -> String {
+        if self.median_s < 0.0 {
+            return format!(
+                "the depth gauge runs {:.2} s behind the navigation log (median of {} of {} runs, {:.2}-{:.2} s): the gauge is the late one, so nothing is taken out of the log",
+                -self.median_s, self.runs, self.of, self.range_s[0], self.range_s[1]
+            );
+        }
         format!(
             "the navigation log runs {:.2} s behind the depth gauge (median of {} of {} runs, {:.2}-{:.2} s; the others hold their depth too well to tell): a lag of the log that a model takes as a command lag, and that the diagnosis of a model without one takes out; where the gauge is prompt, `fusion: {{nav_latency_s: {:.2}}}` in the pool stage's settings takes it out of every run before the fit",
             self.median_s, self.runs, self.of, self.range_s[0], self.range_s[1], self.median_s
@@ -210,6 +216,12 @@ impl Summary {
 
 /// The sentence a run's notes carry for `m`.
 pub fn sentence(m: &NavLatency) -> String {
+    if m.value_s < 0.0 {
+        return format!(
+            "the depth gauge runs {:.2} s behind the navigation log (the log's vertical velocity, integrated, follows the depth {:.2} s earlier): the gauge is the late one",
+            -m.value_s, -m.value_s
+        );
+    }
     format!(
         "the navigation log's velocity runs {:.2} s behind the depth gauge (its vertical velocity, integrated, follows the depth {:.2} s later: misfit {:.2e} m^2 against {:.2e} at none, depth spread {:.2} m): a latency of the log, which a fit takes as a command lag; where the gauge is prompt, `fusion: {{nav_latency_s: ...}}` in the pool stage's settings takes it out of every run",
         m.value_s, m.value_s, m.misfit_m2, m.misfit_at_zero_m2, m.depth_spread_m
@@ -269,6 +281,21 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// A gauge later than the log reads as a negative latency, and is said as the gauge's.
+    #[test]
+    fn a_late_depth_gauge_reads_as_a_negative_latency() {
+        let (nav, gauge) = logs(-0.2, 0.5);
+        let m = measure(&nav, &gauge).expect("measured");
+        assert!((m.value_s + 0.2).abs() <= 0.02, "{m:?}");
+        assert!(sentence(&m).starts_with("the depth gauge runs 0.20 s behind"));
+        let s = Summary::of([Some(&m)].into_iter()).unwrap();
+        assert!(
+            s.sentence().contains("nothing is taken out"),
+            "{}",
+            s.sentence()
+        );
     }
 
     /// A run that holds its depth within centimetres is not measured.
