@@ -181,14 +181,7 @@ pub fn load(
     let logs = std::iter::once(&run.thrust).chain(run.sensor_logs());
     let notes: Vec<String> = logs.flat_map(|l| l.notes.iter().cloned()).collect();
     run.notes.extend(notes);
-    // Disjoint fields: the command log is trimmed while the sensor logs are read.
-    let sensors: Vec<&Log> = [&run.uwb, &run.sonar, &run.imu, &run.depth, &run.nav]
-        .into_iter()
-        .flatten()
-        .collect();
-    if let Some(r) = timing::trim_to_overlap(&mut run.thrust, &sensors) {
-        run.repairs.push(format!("{path}: {r}"));
-    }
+    run.trim_command_to_sensors();
     Ok(run)
 }
 
@@ -532,6 +525,19 @@ impl Sensors {
 }
 
 impl PoolRun {
+    /// The command log cut to the span where every sensor log has data, the cut said in the
+    /// timing repairs ([`timing::trim_to_overlap`]).
+    pub fn trim_command_to_sensors(&mut self) {
+        // Disjoint fields: the command log is trimmed while the sensor logs are read.
+        let sensors: Vec<&Log> = [&self.uwb, &self.sonar, &self.imu, &self.depth, &self.nav]
+            .into_iter()
+            .flatten()
+            .collect();
+        if let Some(r) = timing::trim_to_overlap(&mut self.thrust, &sensors) {
+            self.repairs.push(format!("{}: {r}", self.command_path));
+        }
+    }
+
     /// The sensor logs the run has, in the order their notes are listed.
     fn sensor_logs(&self) -> impl Iterator<Item = &Log> {
         self.sensors().into_iter().map(|(_, l)| l)

@@ -158,3 +158,23 @@ pub fn openfoam_results(rows: usize) -> (tempfile::TempDir, PathBuf) {
     std::fs::write(dir.join("log.pimpleFoam"), out).unwrap();
     (d, dir)
 }
+
+/// The field twin's diagnosis `d` names its hidden buoyancy (`h`, the truth's `hidden`) within
+/// 15 %.
+pub fn field_buoyancy_named(d: &serde_json::Value, h: &serde_json::Value) {
+    let effects = d["effects"].as_array().unwrap();
+    let names: Vec<&str> = effects
+        .iter()
+        .map(|e| e["name"].as_str().unwrap())
+        .collect();
+    let buoy = effects
+        .iter()
+        .find(|e| e["name"] == "net_buoyancy")
+        .unwrap_or_else(|| panic!("buoyancy not named: {names:?}\n{}", d["verdict"]));
+    let up = -buoy["parameters"]["force_n"].as_f64().unwrap();
+    let truth_up = h["buoyancy_up_n"].as_f64().unwrap();
+    assert!(
+        (up - truth_up).abs() < 0.15 * truth_up,
+        "buoyancy {up} N up, hidden {truth_up} N"
+    );
+}

@@ -50,10 +50,6 @@ fn field_logs_without_cfd_give_a_sound_model_and_a_diagnosis_that_names_only_wha
     // twin does not hide (its tether, its navigation latency; saturation is declared).
     let d = json(dir, "reports/diagnosis.json");
     let effects = d["effects"].as_array().unwrap();
-    let names: Vec<&str> = effects
-        .iter()
-        .map(|e| e["name"].as_str().unwrap())
-        .collect();
     // The navigation filter is a first-order low-pass (0.25 s) behind a 0.15 s latency: from
     // velocity logs alone a first-order lag on the sensor side cannot be told from one on the
     // command side. The diagnosis takes out the latency the runs measure against the depth
@@ -117,16 +113,7 @@ fn field_logs_without_cfd_give_a_sound_model_and_a_diagnosis_that_names_only_wha
             e["name"]
         );
     }
-    let buoy = effects
-        .iter()
-        .find(|e| e["name"] == "net_buoyancy")
-        .unwrap_or_else(|| panic!("buoyancy not named: {names:?}\n{}", d["verdict"]));
-    let up = -buoy["parameters"]["force_n"].as_f64().unwrap();
-    let truth_up = h["buoyancy_up_n"].as_f64().unwrap();
-    assert!(
-        (up - truth_up).abs() < 0.15 * truth_up,
-        "buoyancy {up} N up, hidden {truth_up} N"
-    );
+    field_buoyancy_named(&d, &h);
     for e in effects.iter().filter(|e| e["name"] != "unexplained") {
         let (before, after) = (&e["validation_nmae_before"], &e["validation_nmae_after"]);
         let gain: f64 = before

@@ -90,14 +90,5 @@ fn no_lag_and_the_buoyancy(d: &serde_json::Value, h: &serde_json::Value) {
             d["verdict"]
         );
     }
-    let buoy = effects
-        .iter()
-        .find(|e| e["name"] == "net_buoyancy")
-        .unwrap_or_else(|| panic!("buoyancy not named: {}", d["verdict"]));
-    let up = -buoy["parameters"]["force_n"].as_f64().unwrap();
-    let truth_up = h["buoyancy_up_n"].as_f64().unwrap();
-    assert!(
-        (up - truth_up).abs() < 0.15 * truth_up,
-        "{up} N for {truth_up}"
-    );
+    field_buoyancy_named(d, h);
 }

@@ -131,14 +131,7 @@ pub fn take_out(run: &mut crate::pool::import::PoolRun, d: f64) -> anyhow::Resul
         "the navigation log read {d:.3} s earlier (fusion.nav_latency_s): its latency taken out"
     ));
     // Its last `d` seconds now end before the command log does.
-    let sensors: Vec<&Log> = [&run.uwb, &run.sonar, &run.imu, &run.depth, &run.nav]
-        .into_iter()
-        .flatten()
-        .collect();
-    if let Some(r) = crate::pool::import::timing::trim_to_overlap(&mut run.thrust, &sensors) {
-        let path = run.command_path.clone();
-        run.repairs.push(format!("{path}: {r}"));
-    }
+    run.trim_command_to_sensors();
     Ok(())
 }
 

@@ -351,9 +351,7 @@ impl FusedRun {
     /// recording that follows the motion by such a lag (a navigation filter's low-pass), the
     /// command as it shows in it (for a linear vehicle a lag on either side is the same).
     pub fn with_command_lagged(mut self, lag_s: f64) -> FusedRun {
-        let tau: Vec<crate::core::model::Vec6> =
-            (0..self.thrust.len()).map(|k| self.tau(k)).collect();
-        let lagged = crate::core::model::dynamics::lagged(&self.fused.t, &tau, lag_s);
+        let lagged = crate::core::model::dynamics::lagged(&self.fused.t, &self.taus(), lag_s);
         self.set_command(&lagged);
         self
     }
@@ -367,11 +365,14 @@ impl FusedRun {
         if no_lag && plant.command_gain == 1.0 {
             return self;
         }
-        let tau: Vec<crate::core::model::Vec6> =
-            (0..self.thrust.len()).map(|k| self.tau(k)).collect();
-        let given = plant.command(&self.fused.t, &tau);
+        let given = plant.command(&self.fused.t, &self.taus());
         self.set_command(&given);
         self
+    }
+
+    /// The logged command at every sample (X, Y, Z, K, M, N).
+    fn taus(&self) -> Vec<crate::core::model::Vec6> {
+        (0..self.thrust.len()).map(|k| self.tau(k)).collect()
     }
 
     /// The command replaced by `given` (X, Y, Z, K, M, N per sample).
