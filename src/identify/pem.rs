@@ -21,6 +21,7 @@ use super::refine::{Bounds, output_error_lm_within};
 use super::{Estimate, EstimateError, Estimator, Fit, Options, Regression};
 use crate::core::dof::Dof;
 use crate::core::model::params::Group;
+use crate::core::model::terms::Term;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -121,7 +122,8 @@ impl Estimator for Pem {
             with_lag(vehicle, responses, layout, &theta0, &bounds, opts);
         let oe = OutputError::with_lag(vehicle, responses, lag.as_ref().map_or(0.0, |l| l.value_s))
             .with_per_run(opts.per_run);
-        let (demanded, freed) = free_prior(problem, &oe, &bounds, opts, &mut r);
+        let (demanded, wide) = free_prior(problem, &oe, &bounds, opts, &mut r);
+        let freed = wide.is_some();
         // The lag was found by a line search, the coefficients at it: counted as a parameter,
         // its trade with the inertia and damping widens their errors. The polish's last joint
         // view is of this very fit unless the prior was freed since.
@@ -142,7 +144,15 @@ impl Estimator for Pem {
         let parameters = (0..r.theta.len())
             .map(|j| {
                 let beyond = demanded.iter().find(|d| d.0 == j).map(|d| (d.1, d.2));
-                let e = estimate(problem, &bounds, &r, j, opts, beyond);
+                // A freed fit's coefficients are judged against the bounds it was fitted in.
+                let e = estimate(
+                    problem,
+                    wide.as_ref().unwrap_or(&bounds),
+                    &r,
+                    j,
+                    opts,
+                    beyond,
+                );
                 over_the_lag(e, lag.as_ref(), j, problem)
             })
             .collect();
@@ -183,19 +193,19 @@ impl Estimator for Pem {
 /// The prior is soft: an added mass on it is freed (up to the population methods' search
 /// bound) and kept beyond it only when the runs demand it; then `r` is the freed fit. Returns
 /// the parameters the runs took beyond their prior, with the output error held on it and
-/// freed, and whether `r` was replaced by the freed fit.
+/// freed, and the bounds of the freed fit when `r` was replaced by it.
 fn free_prior(
     problem: &Regression,
     oe: &OutputError,
     bounds: &Bounds,
     opts: &Options,
     r: &mut super::refine::Refined,
-) -> (Vec<(usize, f64, f64)>, bool) {
+) -> (Vec<(usize, f64, f64)>, Option<Bounds>) {
     let on_prior: Vec<usize> = (0..r.theta.len())
         .filter(|&j| is_added_mass(problem, j) && bounds.at_prior(j, r.theta[j]))
         .collect();
     if on_prior.is_empty() {
-        return (Vec::new(), false);
+        return (Vec::new(), None);
     }
     // The freed DOFs' drag may be as stiff as their heavier mass allows: a mass beyond its
     // prior with its drag held to the lighter mass's bound would be a slower vehicle at the
@@ -209,7 +219,7 @@ fn free_prior(
     let from = [r.theta.as_slice(), &r.nuisance].concat();
     let freed = output_error_lm_within(oe, &problem.layout, &from, opts.iterations, &wide);
     if freed.cost_after.is_nan() || freed.cost_after >= (1.0 - DEMAND) * r.cost_after {
-        return (Vec::new(), false);
+        return (Vec::new(), None);
     }
     let demanded = on_prior
         .iter()
@@ -217,7 +227,7 @@ fn free_prior(
         .map(|&j| (j, r.cost_after, freed.cost_after))
         .collect();
     *r = freed;
-    (demanded, true)
+    (demanded, Some(wide))
 }
 
 /// The output-error fit from `theta0` with the command lag `opts` asks for: none, the one set,
@@ -435,22 +445,35 @@ fn dof_of(problem: &Regression, j: usize) -> usize {
 }
 
 /// The range of every coefficient: its physical sign, the added mass of each DOF at most
-/// `prior` times its rigid-body term, and the diagonal drag no stiffer than a time constant of
-/// [`FASTEST_S`] (at [`SPEED_REF`] for the quadratic term) with the largest plausible mass.
+/// `prior` times its rigid-body term, the diagonal drag no stiffer than a time constant of
+/// [`FASTEST_S`] (at [`SPEED_REF`] for the quadratic term) with the largest plausible mass,
+/// and a restoring moment (eta) no stiffer than a natural frequency of 1 / [`FASTEST_S`] in
+/// the lightest of the rotations it rights, with that rotation's largest plausible inertia.
 pub fn plausible(
     layout: &crate::core::model::ParamLayout,
     rigid_mass: &[f64; 6],
     prior: &[f64; 6],
 ) -> Bounds {
     let mut b = Bounds::signs(layout);
+    let heaviest = |i: usize| (1.0 + prior[i]) * rigid_mass[i];
     for (j, t) in layout.terms.iter().enumerate() {
         let i = t.dof().index();
-        let heaviest = (1.0 + prior[i]) * rigid_mass[i];
-        match t.group() {
-            Group::AddedMass if t.is_diagonal() => b.lo[j] = -prior[i] * rigid_mass[i],
-            Group::LinearDrag if t.is_diagonal() => b.lo[j] = -heaviest / FASTEST_S,
-            Group::QuadraticDrag if t.is_diagonal() => {
-                b.lo[j] = -heaviest / (FASTEST_S * SPEED_REF)
+        match (t, t.group()) {
+            (_, Group::AddedMass) if t.is_diagonal() => b.lo[j] = -prior[i] * rigid_mass[i],
+            (_, Group::LinearDrag) if t.is_diagonal() => b.lo[j] = -heaviest(i) / FASTEST_S,
+            (_, Group::QuadraticDrag) if t.is_diagonal() => {
+                b.lo[j] = -heaviest(i) / (FASTEST_S * SPEED_REF)
+            }
+            (Term::Moment(_), _) => {
+                let stiffest = t
+                    .equations()
+                    .iter()
+                    .filter(|d| layout.dofs.contains(d))
+                    .map(|d| heaviest(d.index()) / (FASTEST_S * FASTEST_S))
+                    .fold(f64::INFINITY, f64::min);
+                if stiffest.is_finite() && stiffest > 0.0 {
+                    (b.lo[j], b.hi[j]) = (-stiffest, stiffest);
+                }
             }
             _ => {}
         }
@@ -499,6 +522,19 @@ fn estimate(
         _ if at_search_bound => (
             Some(format!(
                 "{name} ran to {BEYOND_PRIOR} times its rigid-body term: the runs push it without bound, so it stands in for something the model lacks (a lag, a filtered sensor) or they cannot tell this inertia from the damping"
+            )),
+            true,
+        ),
+        _ if at_prior && matches!(term, Term::Moment(_)) => (
+            Some(format!(
+                "{name} sits on its stiffness bound (a natural frequency of {:.0} rad/s with the heaviest inertia the prior allows): a restoring moment this stiff pins the attitude, so it stands in for a moment the model lacks in {}: one that follows the motion (a coupling from another DOF, as a sway velocity's roll moment K_v or a surge velocity's pitch moment M_u in `custom_terms`), a constant moment (`constant_force`), or the runs' attitude does not follow their logged moments",
+                1.0 / FASTEST_S,
+                term.equations()
+                    .iter()
+                    .filter(|d| problem.layout.dofs.contains(d))
+                    .map(|d| d.to_string())
+                    .collect::<Vec<_>>()
+                    .join(" and "),
             )),
             true,
         ),

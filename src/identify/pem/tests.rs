@@ -289,3 +289,89 @@ fn net_buoyancy_tilts_with_the_vehicle_and_is_found() {
     assert!((xu + 5.5).abs() < 1.1, "X_udot {xu} for -5.5");
     assert!((eta - 2.256).abs() < 0.2, "eta_z {eta} for 2.256");
 }
+
+/// A restoring moment is bounded as the drag is: no stiffer than a natural frequency of
+/// 1 / FASTEST_S with the heaviest inertia the prior allows. When the logged roll and pitch
+/// moments do not drive the motion (here the horizontal thrust's lever is wrong by 0.5 m in
+/// the log), the output error pins the attitude with the stiffest spring it may: on a real
+/// BlueROV2 Heavy's tank runs eta_z came out 682 N m (a metacentric height of 6 m) and was
+/// reported identifiable to 28 %. Now it stops at the bound, flagged, with the reason; and a
+/// drag whose inertia was freed beyond its prior is judged against the freed bound.
+#[test]
+fn a_restoring_moment_that_pins_the_attitude_is_flagged_at_its_bound() {
+    use crate::core::dof::Dof;
+    let (vehicle, plant) = buoyant_six_dof();
+    let mut rng = Rng::derive(5, "tilting runs");
+    let responses: Vec<_> = (0..4)
+        .map(|_| {
+            let mut r = tilting_run(&plant, &vehicle, &mut rng);
+            let (x, y) = (
+                r.dofs[&Dof::Surge].force.clone(),
+                r.dofs[&Dof::Sway].force.clone(),
+            );
+            let roll = &mut r.dofs.get_mut(&Dof::Roll).unwrap().force;
+            roll.iter_mut().zip(&y).for_each(|(k, y)| *k -= 0.5 * y);
+            let pitch = &mut r.dofs.get_mut(&Dof::Pitch).unwrap().force;
+            pitch.iter_mut().zip(&x).for_each(|(m, x)| *m += 0.5 * x);
+            r
+        })
+        .collect();
+    let fit = default_fit(&vehicle, &responses, |_| {});
+    let p = |name: &str| fit.parameters.iter().find(|p| p.name == name).unwrap();
+    // Roll's heaviest inertia: 0.16 kg m^2 and twice that added; (1 / 0.1 s)^2 times it.
+    let (eta, bound) = (p("eta_z"), 3.0 * 0.16 / (FASTEST_S * FASTEST_S));
+    assert!(
+        eta.value.abs() <= bound * (1.0 + 1e-9),
+        "eta_z {} beyond {bound}",
+        eta.value
+    );
+    assert!(
+        (eta.value - bound).abs() < 1e-6 * bound,
+        "eta_z {} not pinned",
+        eta.value
+    );
+    let note = eta.note.as_deref().unwrap_or_default();
+    assert!(
+        !eta.identifiable && note.contains("stiffness bound") && note.contains("K_v"),
+        "{note}"
+    );
+    assert!(note.contains("roll and pitch"), "{note}");
+    // Pitch's inertia was freed (M_qdot to 5 times the rigid term), its drag with it, to the
+    // freed bound: on it, it is flagged as on any other.
+    let (mq, freed) = (p("M_q"), -6.0 * 0.16 / FASTEST_S);
+    assert!((mq.value - freed).abs() < 1e-6 * freed.abs(), "M_q {mq:?}");
+    assert!(
+        !mq.identifiable,
+        "M_q on its freed bound, not flagged: {mq:?}"
+    );
+}
+
+/// The restoring moment's bound counts only the rotations the model has: a model in roll and
+/// yaw takes roll's inertia; one without roll or pitch has no eta.
+#[test]
+fn a_restoring_moments_bound_follows_the_rotations_it_rights() {
+    use crate::core::dof::Dof;
+    use crate::core::model::ParamLayout;
+    let rigid = [10.0, 10.0, 10.0, 0.2, 0.5, 0.4];
+    let prior = [2.0; 6];
+    let bound_of = |dofs: &[Dof]| {
+        let layout = ParamLayout::new(dofs);
+        let b = plausible(&layout, &rigid, &prior);
+        let j = layout.names().iter().position(|n| n == "eta_z");
+        j.map(|j| (b.lo[j], b.hi[j]))
+    };
+    let six = bound_of(&Dof::ALL).unwrap();
+    assert!(
+        (six.1 - 3.0 * 0.2 / 0.01).abs() < 1e-9 && six.0 == -six.1,
+        "{six:?}"
+    );
+    let pitch_only = bound_of(&[Dof::Pitch, Dof::Yaw]).unwrap();
+    assert!(
+        (pitch_only.1 - 3.0 * 0.5 / 0.01).abs() < 1e-9,
+        "{pitch_only:?}"
+    );
+    assert_eq!(
+        bound_of(&[Dof::Surge, Dof::Sway, Dof::Heave, Dof::Yaw]),
+        None
+    );
+}
