@@ -141,21 +141,9 @@ impl Estimator for Pem {
                 l.profile = super::lag::profile(vehicle, responses, on, at, &from, &bounds);
             }
         }
-        let parameters = (0..r.theta.len())
-            .map(|j| {
-                let beyond = demanded.iter().find(|d| d.0 == j).map(|d| (d.1, d.2));
-                // A freed fit's coefficients are judged against the bounds it was fitted in.
-                let e = estimate(
-                    problem,
-                    wide.as_ref().unwrap_or(&bounds),
-                    &r,
-                    j,
-                    opts,
-                    beyond,
-                );
-                over_the_lag(e, lag.as_ref(), j, problem)
-            })
-            .collect();
+        // A freed fit's coefficients are judged against the bounds it was fitted in.
+        let judged = (wide.as_ref().unwrap_or(&bounds), demanded.as_slice());
+        let parameters = estimates(problem, judged, &r, opts, lag.as_ref());
         let residual = ols::residual_sigma(problem, &r.theta);
         Ok(Fit {
             parameters,
@@ -188,6 +176,24 @@ impl Estimator for Pem {
             thrust_gain: None,
         })
     }
+}
+
+/// Every coefficient of the refined answer `r` judged against `bounds`, with the values the
+/// runs `demanded` beyond their prior and the range each takes over the command lags.
+fn estimates(
+    problem: &Regression,
+    (bounds, demanded): (&Bounds, &[(usize, f64, f64)]),
+    r: &super::refine::Refined,
+    opts: &Options,
+    lag: Option<&LagEstimate>,
+) -> Vec<Estimate> {
+    (0..r.theta.len())
+        .map(|j| {
+            let beyond = demanded.iter().find(|d| d.0 == j).map(|d| (d.1, d.2));
+            let e = estimate(problem, bounds, r, j, opts, beyond);
+            over_the_lag(e, lag, j, problem)
+        })
+        .collect()
 }
 
 /// The prior is soft: an added mass on it is freed (up to the population methods' search
