@@ -32,7 +32,13 @@ const JERKS: [f64; 12] = [
 /// Channel `z` (times `t`, NaN rows skipped) smoothed onto `out_t` with its noise measured
 /// apart from its motion and the jerk density chosen from the data.
 pub fn smooth(t: &[f64], z: &[f64], out_t: &[f64], floor: f64) -> Smoothed {
-    smooth_ml_over(t, z, out_t, noise_level(t, z, floor), &JERKS).0
+    smooth_with(t, z, out_t, noise_level(t, z, floor))
+}
+
+/// Channel `z` smoothed onto `out_t` under a noise known otherwise (a bound from another
+/// sensor of the same motion), the jerk density chosen from the data.
+pub fn smooth_with(t: &[f64], z: &[f64], out_t: &[f64], noise: Noise) -> Smoothed {
+    smooth_ml_over(t, z, out_t, noise, &JERKS).0
 }
 
 /// The noise of samples `z` at times `t` (NaN rows left out), told apart from the motion.
