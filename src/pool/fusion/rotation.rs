@@ -28,44 +28,43 @@ const ANGLE_FLOOR_DEG: f64 = 0.01;
 /// Roll, pitch, p and q of `run` at the times `t`, from the IMU where it has them, else from
 /// the navigation log; what came from where, and what is missing, in `notes`.
 pub fn fuse(run: &PoolRun, t: &[f64], notes: &mut Vec<String>) -> RollPitch {
-    // IMU columns: roll 0, pitch 1, p 3, q 4; navigation log: roll 3, pitch 4, p 6, q 7.
-    let sources: [(&str, Option<&Log>, [usize; 4]); 2] = [
-        ("IMU", run.imu.as_ref(), [0, 1, 3, 4]),
-        ("navigation log", run.nav.as_ref(), [3, 4, 6, 7]),
+    // IMU columns: roll 0, pitch 1, yaw 2, p 3, q 4; navigation log: roll 3, pitch 4, yaw 5,
+    // p 6, q 7.
+    let sources: [(&str, Option<&Log>, [usize; 5]); 2] = [
+        ("IMU", run.imu.as_ref(), [0, 1, 3, 4, 2]),
+        ("navigation log", run.nav.as_ref(), [3, 4, 6, 7, 5]),
     ];
-    // The log of each source, with its roll, pitch and yaw columns, for the rates' bound.
-    let attitude = |src: &str| match src {
-        "IMU" => run.imu.as_ref().map(|l| (l, [0, 1, 2])),
-        _ => run.nav.as_ref().map(|l| (l, [3, 4, 5])),
-    };
+    // The first source with column `slot`: its name, its log, the column and the log's roll,
+    // pitch and yaw columns (for the rates' bound).
     let pick = |slot: usize| {
         sources.iter().find_map(|(name, log, cols)| {
             let log = (*log)?;
-            log.col(cols[slot]).map(|z| (*name, &log.t, z))
+            let z = log.col(cols[slot])?;
+            Some((*name, log, z, [cols[0], cols[1], cols[4]]))
         })
     };
     let mut out = RollPitch::default();
     for (j, name) in ["p", "q"].iter().enumerate() {
-        let Some((src, ts, z)) = pick(2 + j) else {
+        let Some((src, log, z, angles)) = pick(2 + j) else {
             notes.push(format!(
                 "no {name}: neither an IMU nor the navigation log gives it"
             ));
             continue;
         };
         notes.push(format!("{name} from the {src}"));
-        let noise = rate_noise(name, ts, z, attitude(src).map(|(l, c)| (l, c, j)), notes);
-        let s = motion::smooth_with(ts, z, t, noise);
+        let noise = rate_noise(name, &log.t, z, Some((log, angles, j)), notes);
+        let s = motion::smooth_with(&log.t, z, t, noise);
         out.rate[j] = Some(s.v);
         out.rate_std[j] = Some(s.std);
     }
     for (j, name) in ["roll", "pitch"].iter().enumerate() {
-        let Some((_, ts, z)) = pick(j) else {
+        let Some((_, log, z, _)) = pick(j) else {
             notes.push(format!(
                 "no {name} angle: the buoyancy moment is taken at level trim"
             ));
             continue;
         };
-        let v = motion::smooth(ts, z, t, ANGLE_FLOOR_DEG.to_radians()).v;
+        let v = motion::smooth(&log.t, z, t, ANGLE_FLOOR_DEG.to_radians()).v;
         if j == 0 { out.roll = v } else { out.pitch = v }
     }
     out
@@ -106,9 +105,10 @@ pub(crate) fn rate_noise(
 }
 
 /// The robust spread (1.4826 times the median absolute deviation) of a logged body rate
-/// `z` (p for `j` 0, q for 1) about the rate its own log's attitude gives, Euler's kinematics
-/// (Fossen 2011 eq. 2.28: p = phi' - psi' sin theta, q = theta' cos phi + psi' sin phi
-/// cos theta) with the angles differentiated centrally at each sample. It holds the noise of
+/// `z` (p for `j` 0, q for 1) about the rate its own log's attitude gives by the kinematics
+/// of ZYX Euler angles (the inverse of Fossen 2011's T_Theta: p = phi' - psi' sin theta,
+/// q = theta' cos phi + psi' sin phi cos theta), the angles differentiated centrally at each
+/// sample. It holds the noise of
 /// both and none of the motion, so it bounds the rate's noise where the motion is
 /// slow against the samples; on a fast IMU it is the angles' noise over a short step, larger
 /// than the gyro's, and bounds nothing. `None` without all three angles or with fewer than
