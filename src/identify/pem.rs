@@ -471,10 +471,8 @@ pub fn plausible(
                 b.lo[j] = -heaviest(i) / (FASTEST_S * SPEED_REF)
             }
             (Term::Moment(_), _) => {
-                let stiffest = t
-                    .equations()
+                let stiffest = rights(*t, layout)
                     .iter()
-                    .filter(|d| layout.dofs.contains(d))
                     .map(|d| heaviest(d.index()) / (FASTEST_S * FASTEST_S))
                     .fold(f64::INFINITY, f64::min);
                 if stiffest.is_finite() && stiffest > 0.0 {
@@ -485,6 +483,13 @@ pub fn plausible(
         }
     }
     b
+}
+
+/// The rotations of `layout` that restoring moment `t` rights (eta_z: roll and pitch).
+fn rights(t: Term, layout: &crate::core::model::ParamLayout) -> Vec<Dof> {
+    let mut dofs = t.equations();
+    dofs.retain(|d| layout.dofs.contains(d));
+    dofs
 }
 
 /// The fastest a vehicle's velocity may settle under its drag alone, s: a drag fitted stiffer
@@ -535,9 +540,8 @@ fn estimate(
             Some(format!(
                 "{name} sits on its stiffness bound (a natural frequency of {:.0} rad/s with the heaviest inertia the prior allows): a restoring moment this stiff pins the attitude, so it stands in for a moment the model lacks in {}: one that follows the motion (a coupling from another DOF, as a sway velocity's roll moment K_v or a surge velocity's pitch moment M_u in `custom_terms`), a constant moment (`constant_force`), or the runs' attitude does not follow their logged moments",
                 1.0 / FASTEST_S,
-                term.equations()
+                rights(term, &problem.layout)
                     .iter()
-                    .filter(|d| problem.layout.dofs.contains(d))
                     .map(|d| d.to_string())
                     .collect::<Vec<_>>()
                     .join(" and "),

@@ -34,7 +34,7 @@ pub struct Noise {
 }
 
 /// Robust standard deviation (1.4826 MAD about the median).
-fn robust_std(mut d: Vec<f64>) -> f64 {
+pub(crate) fn robust_std(mut d: Vec<f64>) -> f64 {
     if d.len() < 5 {
         return 0.0;
     }

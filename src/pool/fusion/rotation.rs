@@ -4,7 +4,8 @@
 //! ([`super::motion`]).
 
 use super::motion;
-use super::nav::Noise;
+use super::nav::{Noise, robust_std};
+use super::numeric::wrap_pi;
 use crate::pool::import::PoolRun;
 use crate::pool::import::csvlog::Log;
 use serde::{Deserialize, Serialize};
@@ -115,14 +116,11 @@ pub(crate) fn rate_noise(
 /// 20 samples that have them.
 fn kinematic_spread(log: &Log, cols: [usize; 3], j: usize, z: &[f64]) -> Option<f64> {
     let (roll, pitch, yaw) = (log.col(cols[0])?, log.col(cols[1])?, log.col(cols[2])?);
-    let wrap = |a: f64| {
-        (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI
-    };
     let t = &log.t;
-    let mut d: Vec<f64> = (1..t.len().saturating_sub(1))
+    let d: Vec<f64> = (1..t.len().saturating_sub(1))
         .filter_map(|k| {
             let h = t[k + 1] - t[k - 1];
-            let rate = |a: &[f64]| wrap(a[k + 1] - a[k - 1]) / h;
+            let rate = |a: &[f64]| wrap_pi(a[k + 1] - a[k - 1]) / h;
             let (phi, theta) = (roll[k], pitch[k]);
             let kin = match j {
                 0 => rate(roll) - rate(yaw) * theta.sin(),
@@ -132,16 +130,7 @@ fn kinematic_spread(log: &Log, cols: [usize; 3], j: usize, z: &[f64]) -> Option<
             (h > 0.0 && e.is_finite()).then_some(e)
         })
         .collect();
-    if d.len() < 20 {
-        return None;
-    }
-    let median = |v: &mut Vec<f64>| {
-        v.sort_by(f64::total_cmp);
-        v[v.len() / 2]
-    };
-    let m = median(&mut d);
-    let mut dev: Vec<f64> = d.iter().map(|x| (x - m).abs()).collect();
-    Some(1.4826 * median(&mut dev))
+    (d.len() >= 20).then(|| robust_std(d))
 }
 
 /// Roll or pitch, RMS about its mean, beyond which a run's heading no longer turns at r: 5 deg
