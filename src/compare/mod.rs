@@ -104,6 +104,7 @@ fn identify(data: &Data, c: &Candidate) -> anyhow::Result<Identified> {
         added_mass_window_s: None,
         thrust_gain: Default::default(),
         progress: None,
+        optional_constants: &[],
     };
     fit::identify(&d, &req)
 }

@@ -31,6 +31,10 @@ pub struct Request<'a> {
     /// Whether the logged command's gain is identified against the CFD cases (see [`gain`]).
     pub thrust_gain: ThrustGain,
     pub progress: Option<&'a (dyn Fn(f64) + Sync)>,
+    /// The DOFs of `vehicle.constant_force` the user did not ask for: a prediction-error fit
+    /// of pool runs keeps each only where cross-validation across the runs says it predicts
+    /// them better (see [`super::constants`]).
+    pub optional_constants: &'a [crate::core::dof::Dof],
 }
 
 /// The identified parameters and what the identification did besides.
@@ -134,8 +138,65 @@ pub fn identify(data: &Data, req: &Request) -> anyhow::Result<Identified> {
     identify_as_logged(data, req)
 }
 
-/// [`identify`] with the pool runs' command taken as the force.
+/// [`identify`] with the pool runs' command taken as the force, without the optional
+/// constants cross-validation drops.
 fn identify_as_logged(data: &Data, req: &Request) -> anyhow::Result<Identified> {
+    let Some(choice) = choose_constants(data, req) else {
+        let mut id = identify_once(data, req, None)?;
+        let n = data.pool.len();
+        if !req.optional_constants.is_empty() && n < super::constants::MIN_RUNS {
+            id.notes.insert(0, format!(
+                "{n} training run(s): too few to choose the constant forces by cross-validation (it needs {}), so every candidate is kept",
+                super::constants::MIN_RUNS
+            ));
+        }
+        return Ok(id);
+    };
+    use crate::core::model::ParamLayout;
+    let mut vehicle = data.vehicle.clone();
+    vehicle
+        .constant_force
+        .retain(|d| !choice.dropped.contains(d));
+    let chosen = Data {
+        vehicle: &vehicle,
+        cases: data.cases.clone(),
+        pool: data.pool.clone(),
+        ..*data
+    };
+    let all = crate::core::model::ParamLayout::of(data.vehicle);
+    let start = super::constants::mapped(&all, &choice.theta, &ParamLayout::of(&vehicle));
+    let mut id = identify_once(&chosen, req, Some((choice.command_lag, &start)))?;
+    id.notes.insert(0, choice.sentence());
+    Ok(id)
+}
+
+/// Which of the request's optional constants cross-validation keeps, for a prediction-error
+/// fit of pool runs alone (`None` for any other fit, or too few runs to choose on).
+fn choose_constants(data: &Data, req: &Request) -> Option<super::constants::Choice> {
+    let pem = req.method.estimator.minimises_output_error();
+    if !pem || !data.cases.is_empty() || req.optional_constants.is_empty() {
+        return None;
+    }
+    let opts = req.method.options(Options::default());
+    let full = super::constants::Full {
+        vehicle: data.vehicle,
+        skip_start_s: data.skip_start_s,
+        rigid_mass: data.vehicle.rigid_mass(),
+        added_mass_prior: opts.added_mass_prior,
+        command_lag: opts.command_lag,
+        iterations: opts.iterations,
+    };
+    super::constants::choose(&full, &data.pool, req.optional_constants)
+}
+
+/// One identification of `data.vehicle` as `req` asks, with the constants the vehicle has;
+/// a prediction-error fit at the command lag and from the coefficients of `warm` when given
+/// (a lag searched, and a model fitted near it, already).
+fn identify_once(
+    data: &Data,
+    req: &Request,
+    warm: Option<(super::lag::CommandLag, &[f64])>,
+) -> anyhow::Result<Identified> {
     let mut notes = Vec::new();
     let (problem, masses) = data.problem(&mut notes);
     let one_mass = masses.windows(2).all(|w| w[0] == w[1]);
@@ -162,12 +223,15 @@ fn identify_as_logged(data: &Data, req: &Request) -> anyhow::Result<Identified> 
     if pem && !refs.is_empty() {
         sim_vehicle = data.vehicle.clone();
     }
-    let opts = req.method.options(Options {
+    let mut opts = req.method.options(Options {
         rigid_mass: sim_vehicle.rigid_mass(),
         progress: req.progress,
         output_error: simulate.then_some((&sim_vehicle, &refs[..])),
         ..Default::default()
     });
+    if let Some((lag, start)) = warm {
+        (opts.command_lag, opts.start) = (lag, Some(start));
+    }
     let (mut fit, one_step) = match req.added_mass_window_s {
         None => (req.method.estimator.fit(&problem, &opts)?, None),
         Some(window) => two_step_fit(data, req, &problem, &opts, window)?,

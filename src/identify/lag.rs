@@ -18,6 +18,13 @@ pub enum CommandLag {
     Auto,
     None,
     Seconds(f64),
+    /// `auto` whose search is done: the lag it found, and the output error without a lag
+    /// ([`search`]'s `c0`). Not a setting: the constants' choice searches once for both of
+    /// its fits ([`super::constants`]).
+    Found {
+        value_s: f64,
+        cost_without: f64,
+    },
 }
 
 #[derive(Serialize, Deserialize)]
@@ -33,6 +40,7 @@ impl Serialize for CommandLag {
             CommandLag::Auto => Repr::Word("auto".into()),
             CommandLag::None => Repr::Word("none".into()),
             CommandLag::Seconds(x) => Repr::Seconds(*x),
+            CommandLag::Found { value_s, .. } => Repr::Seconds(*value_s),
         }
         .serialize(s)
     }
@@ -168,16 +176,26 @@ pub fn search(
         return None;
     }
     let estimate = LagEstimate {
-        value_s: best,
-        // Counted with the coefficients, once they are refitted at the lag (see
-        // `pem::with_joint_errors`).
-        stderr_s: f64::NAN,
-        cost_without: c0,
         cost_with: c,
-        estimated: true,
-        profile: Vec::new(),
+        ..LagEstimate::found(best, c0)
     };
     Some((estimate, best_theta))
+}
+
+impl LagEstimate {
+    /// The lag `value_s` a search found, where the output error without a lag was
+    /// `cost_without`; its standard error is counted with the coefficients once they are
+    /// refitted at it (see `pem::with_joint_errors`).
+    pub fn found(value_s: f64, cost_without: f64) -> LagEstimate {
+        LagEstimate {
+            value_s,
+            stderr_s: f64::NAN,
+            cost_without,
+            cost_with: f64::NAN,
+            estimated: true,
+            profile: Vec::new(),
+        }
+    }
 }
 
 /// The spacing of the lags of [`profile`], s.

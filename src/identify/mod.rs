@@ -1,5 +1,6 @@
 //! Estimators of the hydrodynamic parameters, behind one registry so `pipeline.yaml` can name them.
 
+pub mod constants;
 pub mod fallback;
 pub mod fit;
 pub mod gain;
@@ -142,6 +143,9 @@ pub struct Options<'a> {
     pub command_lag: lag::CommandLag,
     /// The per-run nuisance parameters the prediction-error method estimates.
     pub per_run: per_run::Kinds,
+    /// Where the prediction-error method's refinement starts, in the layout's order, instead
+    /// of the least-squares answer (the constants' choice has fitted near it already).
+    pub start: Option<&'a [f64]>,
 }
 
 impl<'a> Options<'a> {
@@ -170,6 +174,7 @@ impl Default for Options<'_> {
             added_mass_prior: [pem::DEFAULT_PRIOR; 6],
             command_lag: lag::CommandLag::None,
             per_run: per_run::Kinds::DEFAULT,
+            start: None,
         }
     }
 }

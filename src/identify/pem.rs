@@ -117,11 +117,16 @@ impl Estimator for Pem {
         // Each run and DOF counts by its relative error (1 / its mean square velocity), as the
         // held-out NMAE scores it; weighting a DOF over all runs together let the runs that move
         // most in it decide, and the real vehicle's held-out roll NMAE doubled.
-        let theta0: Vec<f64> = start.parameters.iter().map(|p| p.value).collect();
+        let ls: Vec<f64> = start.parameters.iter().map(|p| p.value).collect();
+        let warm = opts.start.filter(|t| t.len() == layout.len());
+        let theta0 = warm.map_or_else(|| ls.clone(), <[f64]>::to_vec);
         let (mut lag, mut r, polished) =
             with_lag(vehicle, responses, layout, &theta0, &bounds, opts);
         let oe = OutputError::with_lag(vehicle, responses, lag.as_ref().map_or(0.0, |l| l.value_s))
             .with_per_run(opts.per_run);
+        if warm.is_some() {
+            r.cost_before = oe.cost(layout, &ls); // the report compares the least-squares start
+        }
         let (demanded, wide) = free_prior(problem, &oe, &bounds, opts, &mut r);
         let freed = wide.is_some();
         // The lag was found by a line search, the coefficients at it: counted as a parameter,
@@ -237,8 +242,9 @@ fn free_prior(
 }
 
 /// The output-error fit from `theta0` with the command lag `opts` asks for: none, the one set,
-/// or (`auto`) the one the runs demand, searched from the fit without a lag; with the joint
-/// view of the fit and the lag where the search's polish left one at that fit.
+/// or (`auto`) the one the runs demand, searched from the fit without a lag (or found by such
+/// a search already); with the joint view of the fit and the lag where the search's polish
+/// left one at that fit.
 fn with_lag(
     vehicle: &crate::core::model::Vehicle,
     responses: &[&crate::core::response::Response],
@@ -254,6 +260,20 @@ fn with_lag(
     let fit = |lag: f64, from: &[f64]| {
         let oe = OutputError::with_lag(vehicle, responses, lag).with_per_run(opts.per_run);
         output_error_lm_within(&oe, layout, from, opts.iterations, bounds)
+    };
+    // The fit at a lag found, polished with the lag counted beside the coefficients.
+    let at_found = |est: LagEstimate, from: &[f64]| {
+        let joint_at = |lag: f64, r: &super::refine::Refined| {
+            joint(vehicle, responses, layout, opts.per_run, lag, r)
+        };
+        let r = fit(est.value_s, from);
+        let (value_s, r, last) = polish_lag(&fit, &joint_at, est.value_s, r);
+        let est = LagEstimate {
+            value_s,
+            cost_with: r.cost_after,
+            ..est
+        };
+        (Some(est), r, last)
     };
     match opts.command_lag {
         CommandLag::None => (None, fit(0.0, theta0), None),
@@ -274,24 +294,18 @@ fn with_lag(
             let from = [r0.theta.as_slice(), &r0.nuisance].concat();
             let on = (layout, opts.per_run);
             match super::lag::search(vehicle, responses, on, &from, r0.cost_after, bounds) {
-                Some((est, theta)) => {
-                    let joint_at = |lag: f64, r: &super::refine::Refined| {
-                        joint(vehicle, responses, layout, opts.per_run, lag, r)
-                    };
-                    let r = fit(est.value_s, &theta);
-                    let (value_s, r, last) = polish_lag(&fit, &joint_at, est.value_s, r);
-                    (
-                        Some(LagEstimate {
-                            value_s,
-                            cost_with: r.cost_after,
-                            ..est
-                        }),
-                        r,
-                        last,
-                    )
-                }
+                Some((est, theta)) => at_found(est, &theta),
                 None => (None, r0, None),
             }
+        }
+        CommandLag::Found {
+            value_s,
+            cost_without,
+        } => {
+            // From the least-squares start, as `auto` goes on from its fit without a lag.
+            let r = fit(value_s, theta0);
+            let from = [r.theta.as_slice(), &r.nuisance].concat();
+            at_found(LagEstimate::found(value_s, cost_without), &from)
         }
     }
 }
@@ -450,57 +464,6 @@ fn dof_of(problem: &Regression, j: usize) -> usize {
     problem.layout.terms[j].dof().index()
 }
 
-/// The range of every coefficient: its physical sign, the added mass of each DOF at most
-/// `prior` times its rigid-body term, the diagonal drag no stiffer than a time constant of
-/// [`FASTEST_S`] (at [`SPEED_REF`] for the quadratic term) with the largest plausible mass,
-/// and a restoring moment (eta) no stiffer than a natural frequency of 1 / [`FASTEST_S`] in
-/// the lightest of the rotations it rights, with that rotation's largest plausible inertia.
-pub fn plausible(
-    layout: &crate::core::model::ParamLayout,
-    rigid_mass: &[f64; 6],
-    prior: &[f64; 6],
-) -> Bounds {
-    let mut b = Bounds::signs(layout);
-    let heaviest = |i: usize| (1.0 + prior[i]) * rigid_mass[i];
-    for (j, t) in layout.terms.iter().enumerate() {
-        let i = t.dof().index();
-        match (t, t.group()) {
-            (_, Group::AddedMass) if t.is_diagonal() => b.lo[j] = -prior[i] * rigid_mass[i],
-            (_, Group::LinearDrag) if t.is_diagonal() => b.lo[j] = -heaviest(i) / FASTEST_S,
-            (_, Group::QuadraticDrag) if t.is_diagonal() => {
-                b.lo[j] = -heaviest(i) / (FASTEST_S * SPEED_REF)
-            }
-            (Term::Moment(_), _) => {
-                let stiffest = rights(*t, layout)
-                    .iter()
-                    .map(|d| heaviest(d.index()) / (FASTEST_S * FASTEST_S))
-                    .fold(f64::INFINITY, f64::min);
-                if stiffest.is_finite() && stiffest > 0.0 {
-                    (b.lo[j], b.hi[j]) = (-stiffest, stiffest);
-                }
-            }
-            _ => {}
-        }
-    }
-    b
-}
-
-/// The rotations of `layout` that restoring moment `t` rights (eta_z: roll and pitch).
-fn rights(t: Term, layout: &crate::core::model::ParamLayout) -> Vec<Dof> {
-    let mut dofs = t.equations();
-    dofs.retain(|d| layout.dofs.contains(d));
-    dofs
-}
-
-/// The fastest a vehicle's velocity may settle under its drag alone, s: a drag fitted stiffer
-/// stands in for something the model lacks (a constant force it cannot otherwise explain
-/// makes the output error prefer a velocity pinned at zero), and stiffer than the simulator's
-/// step it would not even integrate.
-pub const FASTEST_S: f64 = 0.1;
-
-/// The speed at which a quadratic drag's time constant is taken, m/s or rad/s.
-const SPEED_REF: f64 = 2.0;
-
 /// Parameter `j` of the refined answer `r`: its standard error from the output error's
 /// Jacobian, not identifiable when that is over half the value or the value sits on the prior
 /// (or, freed, on the search bound). `beyond`: the output error with the value held on the
@@ -583,5 +546,9 @@ fn estimate(
     }
 }
 
+mod bounds;
+use bounds::rights;
+pub use bounds::{FASTEST_S, plausible};
+
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

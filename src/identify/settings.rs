@@ -60,9 +60,10 @@ pub struct Common {
     /// scale (needs both in `from`); `fixed` (the default): the command is the force.
     #[serde(skip_serializing_if = "is_fixed")]
     pub thrust_gain: crate::identify::gain::ThrustGain,
-    /// Which DOFs of a fit of recordings alone carry a constant force: `every_dof` (the
-    /// default; those `vehicle.constant_force` lists and the others) or `listed` (only those).
-    #[serde(skip_serializing_if = "is_every_dof")]
+    /// Which DOFs of a fit of recordings alone carry a constant force: `chosen` (the default:
+    /// those `vehicle.constant_force` lists, and the others where cross-validation across the
+    /// runs keeps them), `every_dof` (the listed and the others) or `listed` (only those).
+    #[serde(skip_serializing_if = "is_chosen")]
     pub constants: Constants,
 }
 
@@ -70,15 +71,18 @@ pub struct Common {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Constants {
-    /// Every DOF: a vehicle in the water is never exactly neutral in any of them.
+    /// The listed DOFs, and each other DOF where its constant predicts the runs left out of
+    /// a cross-validation better (see [`crate::identify::constants`]).
     #[default]
+    Chosen,
+    /// Every DOF: a vehicle in the water is never exactly neutral in any of them.
     EveryDof,
     /// Only the DOFs `vehicle.constant_force` lists.
     Listed,
 }
 
-fn is_every_dof(c: &Constants) -> bool {
-    *c == Constants::EveryDof
+fn is_chosen(c: &Constants) -> bool {
+    *c == Constants::Chosen
 }
 
 fn is_fixed(g: &crate::identify::gain::ThrustGain) -> bool {

@@ -40,55 +40,72 @@ impl Settings {
 }
 
 impl Settings {
-    /// Recordings alone: every DOF carries a constant force, those the vehicle lists and the
-    /// others. A real vehicle is never exactly neutral (buoyancy, a tether's pull, a thruster's
-    /// offset, the controller's feed-forward in the command), and without the constant the
-    /// simulation error is cut by pinning the DOF's velocity at zero with a stiff drag or by
-    /// lowering its gain. A list of `[heave]` names the net buoyancy the user expects, not a
-    /// claim that the other DOFs are balanced: on the TAUV runs (scripts/tauv) the sway
-    /// offset of -3.7 N it left out cost sway's held-out NMAE 1.02 against 0.86 with it.
-    /// Returns the note.
+    /// Recordings alone: every DOF is a candidate for a constant force, those the vehicle
+    /// lists and the others. A real vehicle is never exactly neutral (buoyancy, a tether's
+    /// pull, a thruster's offset, the controller's feed-forward in the command), and without
+    /// the constant the simulation error is cut by pinning the DOF's velocity at zero with a
+    /// stiff drag or by lowering its gain: on the TAUV runs (scripts/tauv) the sway offset of
+    /// -3.7 N cost sway's held-out NMAE 1.01 against 0.86 with it. With `constants: chosen`
+    /// (the default) the unlisted ones are kept only where cross-validation says they predict
+    /// left-out runs better ([`crate::identify::constants`]). Returns the note and the
+    /// unlisted DOFs given a candidate constant.
     fn constants_for_recordings(
         &self,
         ctx: &RunCtx,
         no_cfd: bool,
         vehicle: &mut crate::core::model::Vehicle,
-    ) -> Option<String> {
+    ) -> Option<(String, Vec<crate::core::dof::Dof>)> {
+        use super::settings::Constants;
         let pool_only = no_cfd && ctx.upstream_of(Artifact::PoolRuns).next().is_some();
         let added: Vec<_> = (vehicle.dofs.iter())
             .filter(|d| !vehicle.constant_force.contains(d))
             .copied()
             .collect();
-        let every = self.common.constants == super::settings::Constants::EveryDof;
         if !(pool_only
-            && every
+            && self.common.constants != Constants::Listed
             && !added.is_empty()
             && self.method.estimator.minimises_output_error())
         {
             return None;
         }
         let listed = std::mem::replace(&mut vehicle.constant_force, vehicle.dofs.clone());
-        if listed.is_empty() {
-            return Some("constant forces in every DOF: the vehicle's `constant_force` lists none, and a vehicle in the water is never exactly neutral (buoyancy, a tether's pull, a thruster's offset, the controller's feed-forward)".into());
-        }
         let names = |ds: &[crate::core::dof::Dof]| {
             ds.iter()
                 .map(|d| d.to_string())
                 .collect::<Vec<_>>()
                 .join(", ")
         };
-        Some(format!(
-            "constant forces in every DOF: the vehicle's `constant_force` lists {}, and {} get one too, since a vehicle in the water is never exactly neutral there either (a thruster's offset, a tether's pull, the controller's feed-forward); a constant a DOF does not need comes out near zero (`constants: listed` in the fit's settings keeps only the list)",
-            names(&listed),
-            names(&added)
-        ))
+        let lists = match listed.is_empty() {
+            true => "lists none".to_string(),
+            false => format!("lists {}", names(&listed)),
+        };
+        let note = match self.common.constants {
+            Constants::Chosen => format!(
+                "constant forces: the vehicle's `constant_force` {lists}; {} are candidates too, since a vehicle in the water is never exactly neutral (a thruster's offset, a tether's pull, the controller's feed-forward), each kept only where it predicts runs left out of the fit better (`constants: every_dof` keeps them all, `constants: listed` only the list)",
+                names(&added)
+            ),
+            _ => format!(
+                "constant forces in every DOF: the vehicle's `constant_force` {lists}, and {} get one too, since a vehicle in the water is never exactly neutral there either (a thruster's offset, a tether's pull, the controller's feed-forward)",
+                names(&added)
+            ),
+        };
+        let optional = match self.common.constants {
+            Constants::Chosen => added,
+            _ => Vec::new(),
+        };
+        Some((note, optional))
     }
 }
 
 impl Settings {
     /// What `fit::identify` is asked, with `progress` told the fraction done.
-    fn request<'a>(&'a self, progress: &'a (dyn Fn(f64) + Sync)) -> fit::Request<'a> {
+    fn request<'a>(
+        &'a self,
+        progress: &'a (dyn Fn(f64) + Sync),
+        optional_constants: &'a [crate::core::dof::Dof],
+    ) -> fit::Request<'a> {
         fit::Request {
+            optional_constants,
             method: &self.method,
             objective: self.common.objective,
             added_mass_window_s: self.common.added_mass_window_s,
@@ -120,9 +137,10 @@ impl StageImpl for Settings {
         let mut vehicle = self.vehicle(ctx.vehicle)?;
         let (cases, responses) = cfd_cases(ctx)?;
         let mut notes = Vec::new();
-        if let Some(note) = self.constants_for_recordings(ctx, cases.is_empty(), &mut vehicle) {
-            notes.push(note);
-        }
+        let (note, optional) =
+            (self.constants_for_recordings(ctx, cases.is_empty(), &mut vehicle)).unzip();
+        notes.extend(note);
+        let optional = optional.unwrap_or_default();
         notes.extend(net_weight_note(&vehicle));
         let vehicle = &vehicle;
         let (runs, pool_responses, run_notes) =
@@ -154,14 +172,14 @@ impl StageImpl for Settings {
             .set_message(format!("fitting with {}", self.method.name()));
         let bar = ctx.progress;
         let report = move |f: f64| bar.set_message(format!("{:.0} %", 100.0 * f));
-        let id = fit::identify(&data, &self.request(&report))?;
+        let id = fit::identify(&data, &self.request(&report, &optional))?;
         notes.extend(id.notes);
         let fit = id.fit;
         let objective = match fit.refinement {
             Some(_) => Objective::OutputError,
             None => self.common.objective,
         };
-        let mut fit = self.physical_mass(&data, fit, &mut notes)?;
+        let mut fit = self.physical_mass(&data, (fit, &id.constant_force), &mut notes)?;
         if per_metre_of_span(&cases, runs.len())? {
             for p in &mut fit.parameters {
                 p.unit = crate::core::model::params::per_metre_of_span(&p.unit);
@@ -211,13 +229,26 @@ impl Settings {
     /// The fit with a physical mass matrix: as identified; for total least squares with the
     /// DOFs it left without a positive mass taken from ordinary least squares, where they stand
     /// alone ([`crate::identify::fallback`]); otherwise refused with the reason.
+    ///
+    /// The fit is of `data.vehicle` with the constant forces it kept (cross-validation may
+    /// have dropped some).
     fn physical_mass(
         &self,
         data: &fit::Data,
-        fit: crate::identify::Fit,
+        (fit, constant_force): (crate::identify::Fit, &[crate::core::dof::Dof]),
         notes: &mut Vec<String>,
     ) -> anyhow::Result<crate::identify::Fit> {
         use crate::identify::fallback;
+        let as_fitted = crate::core::model::Vehicle {
+            constant_force: constant_force.to_vec(),
+            ..data.vehicle.clone()
+        };
+        let data = &fit::Data {
+            vehicle: &as_fitted,
+            cases: data.cases.clone(),
+            pool: data.pool.clone(),
+            ..*data
+        };
         let layout = crate::core::model::ParamLayout::of(data.vehicle);
         let bad = fallback::unphysical_dofs(data.vehicle, &layout, &fit).unwrap_or_default();
         let fit = if self.method.estimator.name() == "tls" && !bad.is_empty() {
@@ -226,7 +257,7 @@ impl Settings {
             let request = fit::Request {
                 method: &ols,
                 progress: None,
-                ..self.request(&|_| {})
+                ..self.request(&|_| {}, &[])
             };
             let from = fit::identify(data, &request)?.fit;
             let bad_dofs: Vec<_> = bad.iter().map(|(d, _)| *d).collect();

@@ -6,7 +6,7 @@ use crate::core::rng::Rng;
 
 /// A run of the reference vehicle under random steps of the command, delivered through a
 /// first-order lag of `lag_s`, its velocities noisy.
-fn lagged_run(plant: &Plant, lag_s: f64, rng: &mut Rng) -> Response {
+pub(crate) fn lagged_run(plant: &Plant, lag_s: f64, rng: &mut Rng) -> Response {
     let t: Vec<f64> = (0..1200).map(|k| k as f64 * 0.05).collect();
     let scale = [40.0, 40.0, 40.0, 0.0, 0.0, 8.0];
     let mut level = [0.0; 6];

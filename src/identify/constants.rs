@@ -1,0 +1,302 @@
+//! Which DOFs of a fit of recordings alone keep a constant force: chosen by cross-validation
+//! across the training runs, the way an engineer decides whether an offset is the vehicle's
+//! or one run's.
+//!
+//! A constant force the user did not list (`vehicle.constant_force`) is a candidate in every
+//! DOF: a vehicle in the water is never exactly neutral. But a constant fitted to some runs
+//! also takes up whatever those runs share by chance (a pilot who mostly drove forward, a
+//! tether that pulled one way that day) and trades with the drag and the added mass; on a
+//! run it was not fitted to it can predict worse than no constant at all. On the BlueROV2
+//! Heavy's tank runs (scripts/smarc) the surge constant of 1.4 N raised the held-out surge
+//! NMAE from 0.22 to 0.48, on the TAUV runs (scripts/tauv) from 0.77 to 0.79, while the TAUV's
+//! sway constant of -3.7 N lowered sway's from 1.01 to 0.86.
+//!
+//! So before the fit, the training runs are split by run into folds; the model with every
+//! candidate, and for each candidate the model without it, are refitted (Levenberg-Marquardt
+//! on the output error, from the least-squares start refined on every run) on all folds but
+//! one and simulated on the one left out. A DOF keeps its constant when the left-out runs'
+//! NMAE in that DOF is lower with it by more than [`MARGIN`]; otherwise the simpler model
+//! predicts them as well, and the fit is made without it.
+//!
+//! The folds are fitted at the command lag the fit asks for; with `auto` (the default) the lag
+//! is searched once, on every run with every candidate, and the fit starts from the lag that
+//! search found (the search is the fit's most costly part). A command lag left out of the
+//! folds would have the constants make up for it: on twin runs with a 0.1 s lag and no yaw
+//! constant, a yaw constant lowered the lag-free folds' yaw error by 8 %.
+
+use super::lag::CommandLag;
+use super::output_error::OutputError;
+use super::refine::output_error_lm_within;
+use crate::core::dof::Dof;
+use crate::core::model::{ParamLayout, Vehicle};
+use crate::core::response::Response;
+use std::collections::BTreeMap;
+
+/// The relative drop of a DOF's left-out error a constant must bring to be kept: below it the
+/// two models predict the left-out runs alike, and the one without the constant is simpler.
+pub const MARGIN: f64 = 0.01;
+
+/// Folds at most; each holds every `FOLDS`-th run.
+const FOLDS: usize = 4;
+
+/// Fewest training runs the choice is made on (two folds of at least one run, and a model
+/// fitted on more than one).
+pub const MIN_RUNS: usize = 3;
+
+/// Accepted Levenberg-Marquardt steps of each fold's refit of the model with every candidate
+/// (half that for each model without one, which starts from it; twice it for the start).
+const ITERATIONS: usize = 10;
+
+/// What cross-validation chose.
+#[derive(Debug, Clone)]
+pub struct Choice {
+    /// The candidates dropped.
+    pub dropped: Vec<Dof>,
+    /// Per candidate DOF, the left-out runs' mean NMAE in that DOF with every candidate, and
+    /// without that one.
+    pub scores: BTreeMap<Dof, (f64, f64)>,
+    pub folds: usize,
+    /// The command lag the folds were fitted at, for the fit to start from (`auto` searched
+    /// once: [`CommandLag::Found`], or [`CommandLag::None`] where the runs demand none).
+    pub command_lag: CommandLag,
+    /// The coefficients of the model with every candidate fitted at it on every run, in the
+    /// order of its layout.
+    pub theta: Vec<f64>,
+}
+
+impl Choice {
+    /// The report's sentence.
+    pub fn sentence(&self) -> String {
+        let said: Vec<String> = self
+            .scores
+            .iter()
+            .map(|(d, (with, without))| {
+                let verdict = if self.dropped.contains(d) {
+                    "dropped"
+                } else {
+                    "kept"
+                };
+                format!("{d} {verdict} ({with:.3} with, {without:.3} without)")
+            })
+            .collect();
+        format!(
+            "constant forces chosen by {}-fold cross-validation across the training runs (each fold's runs predicted by the model refitted on the others; a constant is kept where it lowers its DOF's left-out NMAE by more than {:.0} %): {}",
+            self.folds,
+            100.0 * MARGIN,
+            said.join(", ")
+        )
+    }
+}
+
+/// How the candidates are judged: the vehicle with every candidate, and what the fit is
+/// asked (the skip of its least-squares start, its bounds, its command lag and steps).
+pub struct Full<'a> {
+    pub vehicle: &'a Vehicle,
+    pub skip_start_s: f64,
+    pub rigid_mass: [f64; 6],
+    pub added_mass_prior: [f64; 6],
+    pub command_lag: CommandLag,
+    pub iterations: usize,
+}
+
+/// The constants of `candidates` (DOFs whose constant the user did not ask for) kept or
+/// dropped by cross-validation across `runs`; `None` with fewer than [`MIN_RUNS`] runs.
+///
+/// Each candidate is judged alone, against the model with every candidate: its DOF's
+/// left-out error with the constant and without it, the others kept (dropping all at once
+/// let one DOF's change move another's error, through the added mass the two share).
+pub fn choose(full: &Full, runs: &[&Response], candidates: &[Dof]) -> Option<Choice> {
+    let layout = ParamLayout::of(full.vehicle);
+    let candidates: Vec<(Dof, Vehicle)> = (candidates.iter())
+        .filter(|d| full.vehicle.constant_force.contains(d))
+        .map(|d| (*d, without(full.vehicle, *d)))
+        .filter(|(_, v)| ParamLayout::of(v).terms != layout.terms)
+        .collect();
+    if runs.len() < MIN_RUNS || candidates.is_empty() {
+        return None;
+    }
+    use rayon::prelude::*;
+    let (command_lag, from) = start(full, runs, &layout);
+    let lag_s = match command_lag {
+        CommandLag::Seconds(x) | CommandLag::Found { value_s: x, .. } => x,
+        CommandLag::Auto | CommandLag::None => 0.0,
+    };
+    let folds = runs.len().min(FOLDS);
+    let per_fold: Vec<Vec<Scored>> = (0..folds)
+        .into_par_iter()
+        .map(|f| fold((full, lag_s), runs, (f, folds), &from, &candidates))
+        .collect();
+    let mut scores = BTreeMap::new();
+    for (i, (d, _)) in candidates.iter().enumerate() {
+        let mean = |pick: &dyn Fn(&Scored) -> Option<f64>| {
+            let v: Vec<f64> = per_fold.iter().flatten().filter_map(pick).collect();
+            v.iter().sum::<f64>() / v.len().max(1) as f64
+        };
+        let with = mean(&|s: &Scored| s.with.get(d).copied());
+        let alone = mean(&|s: &Scored| s.without[i].get(d).copied());
+        scores.insert(*d, (with, alone));
+    }
+    let dropped = (scores.iter())
+        .filter(|(_, (with, without))| !kept(*with, *without))
+        .map(|(d, _)| *d)
+        .collect();
+    Some(Choice {
+        dropped,
+        scores,
+        folds,
+        command_lag,
+        theta: from,
+    })
+}
+
+/// Whether a constant whose DOF's left-out error is `with` with it and `without` without it
+/// is kept (not when either is not a number).
+fn kept(with: f64, without: f64) -> bool {
+    with < (1.0 - MARGIN) * without
+}
+
+/// `vehicle` without the constant force of `dof`.
+fn without(vehicle: &Vehicle, dof: Dof) -> Vehicle {
+    let mut v = vehicle.clone();
+    v.constant_force.retain(|d| *d != dof);
+    v
+}
+
+/// One left-out run's relative errors per DOF: with every candidate, and without each.
+struct Scored {
+    with: BTreeMap<Dof, f64>,
+    without: Vec<BTreeMap<Dof, f64>>,
+}
+
+/// Fold `f` of `folds`: the full model refitted on the other folds' runs from `from`, and
+/// from it each model without one candidate; each scored on the fold's runs.
+fn fold(
+    (full, lag_s): (&Full, f64),
+    runs: &[&Response],
+    (f, folds): (usize, usize),
+    from: &[f64],
+    candidates: &[(Dof, Vehicle)],
+) -> Vec<Scored> {
+    let (test, train): (Vec<_>, Vec<_>) =
+        (runs.iter().enumerate()).partition(|(c, _)| c % folds == f);
+    let train: Vec<&Response> = train.into_iter().map(|(_, r)| *r).collect();
+    let test: Vec<&Response> = test.into_iter().map(|(_, r)| *r).collect();
+    let (with, theta) = refit(
+        (full, lag_s),
+        full.vehicle,
+        (&train, &test),
+        from,
+        ITERATIONS,
+    );
+    let layout = ParamLayout::of(full.vehicle);
+    let without: Vec<Vec<BTreeMap<Dof, f64>>> = candidates
+        .iter()
+        .map(|(_, v)| {
+            let from = mapped(&layout, &theta, &ParamLayout::of(v));
+            refit((full, lag_s), v, (&train, &test), &from, ITERATIONS / 2).0
+        })
+        .collect();
+    (with.into_iter().enumerate())
+        .map(|(c, with)| Scored {
+            with,
+            without: without.iter().map(|w| w[c].clone()).collect(),
+        })
+        .collect()
+}
+
+/// `vehicle`'s model refitted on `train` from `from` in `iterations` steps at most: each
+/// `test` run's relative errors per DOF, and the coefficients.
+fn refit(
+    (full, lag_s): (&Full, f64),
+    vehicle: &Vehicle,
+    (train, test): (&[&Response], &[&Response]),
+    from: &[f64],
+    iterations: usize,
+) -> (Vec<BTreeMap<Dof, f64>>, Vec<f64>) {
+    let layout = ParamLayout::of(vehicle);
+    let bounds = super::pem::plausible(&layout, &full.rigid_mass, &full.added_mass_prior);
+    let oe = OutputError::with_lag(vehicle, train, lag_s);
+    let fitted = output_error_lm_within(&oe, &layout, from, iterations, &bounds);
+    let oe = OutputError::with_lag(vehicle, test, lag_s);
+    let errors = (0..test.len())
+        .map(|c| relative_errors(test[c], &oe.case_residuals(&layout, &fitted.theta, c)))
+        .collect();
+    (errors, fitted.theta)
+}
+
+/// Where the folds start: the least-squares fit of every run refined on their output error,
+/// at the command lag the fit asks for; `auto` searched as the fit would search it
+/// ([`super::lag::search`]). The lag, and the coefficients at it.
+fn start(full: &Full, runs: &[&Response], layout: &ParamLayout) -> (CommandLag, Vec<f64>) {
+    use super::Estimator as _;
+    let problem = super::Regression::build(full.vehicle, runs, full.skip_start_s);
+    let mut theta: Vec<f64> = match super::ols::Ols.fit(&problem, &Default::default()) {
+        Ok(f) => f.parameters.iter().map(|p| p.value).collect(),
+        Err(_) => Vec::new(),
+    };
+    theta.resize(layout.len(), 0.0);
+    let bounds = super::pem::plausible(layout, &full.rigid_mass, &full.added_mass_prior);
+    let at = |lag: f64, from: &[f64]| {
+        let oe = OutputError::with_lag(full.vehicle, runs, lag);
+        output_error_lm_within(&oe, layout, from, full.iterations, &bounds)
+    };
+    match full.command_lag {
+        CommandLag::Auto => {
+            let r0 = at(0.0, &theta);
+            let on = (layout, Default::default());
+            let c0 = r0.cost_after;
+            match super::lag::search(full.vehicle, runs, on, &r0.theta, c0, &bounds) {
+                Some((est, theta)) => {
+                    let value_s = est.value_s;
+                    let found = CommandLag::Found {
+                        value_s,
+                        cost_without: c0,
+                    };
+                    (found, theta[..layout.len()].to_vec())
+                }
+                None => (CommandLag::None, r0.theta),
+            }
+        }
+        CommandLag::Seconds(x) | CommandLag::Found { value_s: x, .. } => {
+            (full.command_lag, at(x, &theta).theta)
+        }
+        CommandLag::None => (CommandLag::None, at(0.0, &theta).theta),
+    }
+}
+
+/// `theta` of layout `from` on the terms of `to`; zero where `to` has a term `from` lacks
+/// (a restoring moment's offset that a constant moment stood in for).
+pub fn mapped(from: &ParamLayout, theta: &[f64], to: &ParamLayout) -> Vec<f64> {
+    (to.terms.iter())
+        .map(|t| {
+            (from.terms.iter().position(|u| u == t))
+                .and_then(|j| theta.get(j).copied())
+                .unwrap_or(0.0)
+        })
+        .collect()
+}
+/// Per DOF of `run`, its normalised mean absolute error (mean |error| over mean |velocity|,
+/// as the validation scores a run) from `residuals` as [`OutputError::case_residuals`]
+/// weights and orders them: each error times the square root of the run's mean square
+/// velocity in its DOF, DOF by DOF within each sample.
+fn relative_errors(run: &Response, residuals: &[f64]) -> BTreeMap<Dof, f64> {
+    let series: Vec<(Dof, &[f64])> = (run.dofs.iter())
+        .map(|(d, s)| (*d, s.velocity.as_slice()))
+        .collect();
+    let mut sum = vec![(0.0, 0usize); series.len()];
+    for (i, e) in residuals.iter().enumerate() {
+        let s = &mut sum[i % series.len()];
+        *s = (s.0 + e.abs(), s.1 + 1);
+    }
+    let mean =
+        |v: &[f64], f: fn(f64) -> f64| v.iter().map(|x| f(*x)).sum::<f64>() / v.len().max(1) as f64;
+    (series.into_iter().zip(sum))
+        .filter_map(|((d, v), (s, n))| {
+            let (rms, mean_abs) = (mean(v, |x| x * x).sqrt(), mean(v, f64::abs));
+            (n > 0 && mean_abs > 0.0).then(|| (d, s / n as f64 * rms / mean_abs))
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests;

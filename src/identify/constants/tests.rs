@@ -1,0 +1,95 @@
+use super::*;
+use crate::core::model::{Hydro, Plant};
+use crate::core::rng::Rng;
+use crate::identify::fit;
+use crate::identify::pem::tests::lagged_run;
+
+/// Runs of the reference vehicle under random steps of the command (0.1 s command lag),
+/// pushed by a constant force of `push` N in sway, their velocities noisy.
+fn runs_pushed_in_sway(push: f64, seed: u64) -> Vec<Response> {
+    let mut hydro = Hydro::reference();
+    hydro.constant[Dof::Sway.index()] = push;
+    let plant = Plant::new(&Vehicle::reference(), hydro);
+    let mut rng = Rng::derive(seed, "runs pushed in sway");
+    (0..8).map(|_| lagged_run(&plant, 0.1, &mut rng)).collect()
+}
+
+/// The default fit of `runs` with a candidate constant in every DOF, as a fit of recordings
+/// alone asks for it.
+fn fit_with_candidates(runs: &[Response]) -> fit::Identified {
+    let mut vehicle = Vehicle::reference();
+    vehicle.constant_force = vehicle.dofs.clone();
+    let method = crate::identify::Method::parse("pem", Default::default()).unwrap();
+    let data = fit::Data {
+        vehicle: &vehicle,
+        cases: Vec::new(),
+        pool: runs.iter().collect(),
+        skip_start_s: 0.0,
+    };
+    let optional = vehicle.dofs.clone();
+    let req = fit::Request {
+        method: &method,
+        objective: Default::default(),
+        added_mass_window_s: None,
+        thrust_gain: Default::default(),
+        progress: None,
+        optional_constants: &optional,
+    };
+    fit::identify(&data, &req).unwrap()
+}
+
+/// A constant force every run shares (a tether's pull in sway) predicts the runs left out
+/// better, so it is kept and found; those of the DOFs that have none predict nothing and are
+/// dropped, and the fit is made again without them.
+#[test]
+fn a_constant_the_runs_share_is_kept_and_those_they_lack_are_dropped() {
+    for (seed, push) in [(11, -3.0), (12, 4.0)] {
+        let id = fit_with_candidates(&runs_pushed_in_sway(push, seed));
+        let note = &id.notes[0];
+        assert!(note.contains("sway kept"), "seed {seed}: {note}");
+        for d in [Dof::Surge, Dof::Yaw] {
+            assert!(!id.constant_force.contains(&d), "seed {seed}: {note}");
+            assert!(
+                note.contains(&format!("{d} dropped")),
+                "seed {seed}: {note}"
+            );
+        }
+        assert!(id.constant_force.contains(&Dof::Sway), "seed {seed}");
+        let y0 = id.fit.parameters.iter().find(|p| p.name == "Y_0").unwrap();
+        assert!(
+            (y0.value - push).abs() < 0.1 * push.abs(),
+            "seed {seed}: Y_0 {} against {push}",
+            y0.value
+        );
+        assert!(id.fit.parameters.iter().all(|p| p.name != "X_0"));
+    }
+}
+
+/// Without a shared constant anywhere, none is kept: each candidate's left-out error is the
+/// same with it and without it, within the margin.
+#[test]
+fn no_constant_is_kept_where_no_run_has_one() {
+    let id = fit_with_candidates(&runs_pushed_in_sway(0.0, 13));
+    let note = &id.notes[0];
+    for d in [Dof::Surge, Dof::Sway, Dof::Yaw] {
+        assert!(!id.constant_force.contains(&d), "{note}");
+    }
+}
+
+/// Too few runs to leave one out and still fit: no choice, the candidates are kept.
+#[test]
+fn two_runs_are_too_few_to_choose_on() {
+    let runs = runs_pushed_in_sway(-3.0, 14);
+    let mut vehicle = Vehicle::reference();
+    vehicle.constant_force = vehicle.dofs.clone();
+    let full = Full {
+        vehicle: &vehicle,
+        skip_start_s: 0.0,
+        rigid_mass: [0.0; 6],
+        added_mass_prior: [2.0; 6],
+        command_lag: Default::default(),
+        iterations: 50,
+    };
+    let two: Vec<&Response> = runs.iter().take(2).collect();
+    assert!(choose(&full, &two, &[Dof::Sway]).is_none());
+}
