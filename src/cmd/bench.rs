@@ -425,17 +425,8 @@ fn pem() -> anyhow::Result<ExitCode> {
         pool: train.iter().collect(),
         skip_start_s: 0.0,
     };
-    let id = crate::identify::fit::identify(
-        &data,
-        &crate::identify::fit::Request {
-            method: &method,
-            objective: Default::default(),
-            added_mass_window_s: None,
-            thrust_gain: Default::default(),
-            progress: None,
-            optional_constants: &optional,
-        },
-    )?;
+    let req = crate::identify::fit::Request::plain(&method, &optional);
+    let id = crate::identify::fit::identify(&data, &req)?;
     let secs = start.elapsed().as_secs_f64();
     let (fit, r) = (&id.fit, id.fit.refinement.as_ref());
     println!(

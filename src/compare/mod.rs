@@ -99,12 +99,8 @@ fn identify(data: &Data, c: &Candidate) -> anyhow::Result<Identified> {
         skip_start_s: c.skip_start_s,
     };
     let req = fit::Request {
-        method: c.method,
         objective: c.objective,
-        added_mass_window_s: None,
-        thrust_gain: Default::default(),
-        progress: None,
-        optional_constants: &[],
+        ..fit::Request::plain(c.method, &[])
     };
     fit::identify(&d, &req)
 }

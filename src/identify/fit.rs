@@ -37,6 +37,24 @@ pub struct Request<'a> {
     pub optional_constants: &'a [crate::core::dof::Dof],
 }
 
+impl<'a> Request<'a> {
+    /// `method` on its default objective, with no added-mass window, the logged command as
+    /// the force and no progress, the constants of `optional_constants` chosen.
+    pub fn plain(
+        method: &'a Method,
+        optional_constants: &'a [crate::core::dof::Dof],
+    ) -> Request<'a> {
+        Request {
+            method,
+            objective: Objective::default(),
+            added_mass_window_s: None,
+            thrust_gain: ThrustGain::default(),
+            progress: None,
+            optional_constants,
+        }
+    }
+}
+
 /// The identified parameters and what the identification did besides.
 pub struct Identified {
     pub fit: Fit,

@@ -27,15 +27,7 @@ fn fit_with_candidates(runs: &[Response]) -> fit::Identified {
         skip_start_s: 0.0,
     };
     let optional = vehicle.dofs.clone();
-    let req = fit::Request {
-        method: &method,
-        objective: Default::default(),
-        added_mass_window_s: None,
-        thrust_gain: Default::default(),
-        progress: None,
-        optional_constants: &optional,
-    };
-    fit::identify(&data, &req).unwrap()
+    fit::identify(&data, &fit::Request::plain(&method, &optional)).unwrap()
 }
 
 /// A constant force every run shares (a tether's pull in sway) predicts the runs left out
