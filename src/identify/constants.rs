@@ -15,8 +15,9 @@
 //! candidate, and for each candidate the model without it, are refitted (Levenberg-Marquardt
 //! on the output error, from the least-squares start refined on every run) on all folds but
 //! one and simulated on the one left out. A DOF keeps its constant when the left-out runs'
-//! NMAE in that DOF is lower with it by more than [`MARGIN`]; otherwise the simpler model
-//! predicts them as well, and the fit is made without it.
+//! NMAE in that DOF is lower with it by more than [`MARGIN`] and by more than the standard
+//! error of the runs' differences; otherwise the simpler model predicts them as well, and the
+//! fit is made without it.
 //!
 //! The folds are fitted at the command lag the fit asks for; with `auto` (the default) the lag
 //! is searched once, on every run with every candidate, and the fit starts from the lag that
@@ -87,7 +88,7 @@ impl Choice {
             })
             .collect();
         let mut out = format!(
-            "constant forces chosen by {}-fold cross-validation across the training runs (each fold's runs predicted by the model refitted on the others; a constant is kept where it lowers its DOF's left-out NMAE by more than {:.0} %): {}",
+            "constant forces chosen by {}-fold cross-validation across the training runs (each fold's runs predicted by the model refitted on the others; a constant is kept where it lowers its DOF's left-out NMAE by more than {:.0} % and by more than the standard error of the runs' differences): {}",
             self.folds,
             100.0 * MARGIN,
             said.join(", ")
@@ -153,9 +154,14 @@ pub fn choose(full: &Full, runs: &[&Response], candidates: &[Dof]) -> Option<Cho
     let scores: BTreeMap<Dof, (f64, f64)> = (candidates.iter().enumerate())
         .map(|(i, (d, _))| (*d, (with(d), alone(i, d))))
         .collect();
-    let dropped: Vec<Dof> = (scores.iter())
-        .filter(|(_, (with, without))| !kept(*with, *without))
-        .map(|(d, _)| *d)
+    let pairs = |i: usize, d: &Dof| -> Vec<(f64, f64)> {
+        (per_fold.iter().flatten())
+            .filter_map(|s| Some((*s.with.get(d)?, *s.without[i].get(d)?)))
+            .collect()
+    };
+    let dropped: Vec<Dof> = (candidates.iter().enumerate())
+        .filter(|(i, (d, _))| !kept(&pairs(*i, d)))
+        .map(|(_, (d, _))| *d)
         .collect();
     let elsewhere = (candidates.iter().enumerate())
         .filter(|(_, (d, _))| dropped.contains(d))
@@ -175,10 +181,25 @@ pub fn choose(full: &Full, runs: &[&Response], candidates: &[Dof]) -> Option<Cho
     })
 }
 
-/// Whether a constant whose DOF's left-out error is `with` with it and `without` without it
-/// is kept (not when either is not a number).
-fn kept(with: f64, without: f64) -> bool {
-    with < (1.0 - MARGIN) * without
+/// Whether a constant is kept, from its DOF's left-out NMAE on each run with it and without
+/// it: lower with it on average by more than [`MARGIN`], and by more than the standard error
+/// of the runs' differences (a mean gain that one run makes and the others do not is not
+/// one a new run can count on). Not with fewer than two runs, nor where a value is not a
+/// number.
+fn kept(pairs: &[(f64, f64)]) -> bool {
+    let n = pairs.len() as f64;
+    if pairs.len() < 2 {
+        return false;
+    }
+    let with = pairs.iter().map(|p| p.0).sum::<f64>() / n;
+    let without = pairs.iter().map(|p| p.1).sum::<f64>() / n;
+    let gain = without - with;
+    let spread = pairs
+        .iter()
+        .map(|(a, b)| (b - a - gain).powi(2))
+        .sum::<f64>()
+        / (n - 1.0);
+    with < (1.0 - MARGIN) * without && gain > (spread / n).sqrt()
 }
 
 /// `vehicle` without the constant force of `dof`.
