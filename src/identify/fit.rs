@@ -181,7 +181,7 @@ fn identify_as_logged(data: &Data, req: &Request) -> anyhow::Result<Identified> 
         pool: data.pool.clone(),
         ..*data
     };
-    let all = crate::core::model::ParamLayout::of(data.vehicle);
+    let all = ParamLayout::of(data.vehicle);
     let start = super::constants::mapped(&all, &choice.theta, &ParamLayout::of(&vehicle));
     let mut id = identify_once(&chosen, req, Some((choice.command_lag, &start)))?;
     id.notes.insert(0, choice.sentence());

@@ -302,7 +302,7 @@ fn with_lag(
             value_s,
             cost_without,
         } => {
-            // From the least-squares start, as `auto` goes on from its fit without a lag.
+            // Fitted at the lag first, from `theta0`, as `auto` fits before its search.
             let r = fit(value_s, theta0);
             let from = [r.theta.as_slice(), &r.nuisance].concat();
             at_found(LagEstimate::found(value_s, cost_without), &from)
