@@ -158,11 +158,22 @@ impl ParamLayout {
         self.terms.len()
     }
 
-    /// Whether every model of this layout is the diagonal one (no coupling, no buoyancy), which
-    /// the diagonal simulators evaluate without a mass-matrix solve.
+    /// Whether every model of this layout has a diagonal mass and no buoyancy, with drag
+    /// diagonal but for at most one linear cross term per DOF (N_v, Y_r): what the lane
+    /// simulator ([`super::lanes`]) evaluates without a mass-matrix solve.
     pub fn is_diagonal_model(&self) -> bool {
-        self.structure == Structure::Diagonal
-            && !self.terms.iter().any(|t| t.group() == Group::Buoyancy)
+        let cross_in = |i: usize| {
+            (self.terms.iter())
+                .filter(|t| matches!(t, Term::Linear(r, c) if *r == i && r != c))
+                .count()
+        };
+        (0..6).all(|i| cross_in(i) <= 1)
+            && self.terms.iter().all(|t| match *t {
+                Term::Added(i, j) => i == j,
+                Term::Quadratic { .. } => t.is_diagonal(),
+                Term::Linear(..) | Term::Constant(_) => true,
+                Term::NetWeight | Term::Moment(_) => false,
+            })
     }
 
     pub fn is_empty(&self) -> bool {
