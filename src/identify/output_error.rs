@@ -220,7 +220,8 @@ impl<'a> OutputError<'a> {
         layout: &crate::core::model::ParamLayout,
         thetas: &[&[f64]],
     ) -> Vec<Vec<f64>> {
-        let mut out = vec![Vec::new(); thetas.len()];
+        let total = *self.case_starts().last().unwrap_or(&0);
+        let mut out: Vec<Vec<f64>> = (thetas.iter()).map(|_| Vec::with_capacity(total)).collect();
         self.errors(layout, thetas, None, &mut |e| {
             for (o, x) in out.iter_mut().zip(e) {
                 o.push(finite_or_diverged(*x));

@@ -219,12 +219,45 @@ impl Column {
         s
     }
 
+    /// The column's values, when it is one run of values as long as `like`'s and starting
+    /// where it does (the model's coefficients' columns; a per-run nuisance column is not).
+    fn dense_like(&self, like: &Column) -> Option<&[f64]> {
+        match (&self.0[..], &like.0[..]) {
+            ([(a0, a)], [(b0, b)]) if a0 == b0 && a.len() == b.len() => Some(a),
+            _ => None,
+        }
+    }
+
     fn dot_dense(&self, r: &[f64]) -> f64 {
         self.0
             .iter()
             .map(|(a0, a)| a.iter().zip(&r[*a0..]).map(|(x, y)| x * y).sum::<f64>())
             .sum()
     }
+}
+
+/// Columns of `J^T J` summed side by side.
+const BATCH: usize = 8;
+
+/// `a`'s dot product with each of `bs` (at most [`BATCH`], each as long as `a`), every sum in
+/// the order a single one takes (so the normal equations are the same to the last bit),
+/// several at once: one sum is a chain of dependent additions, and the Gram matrix of the
+/// Jacobian took a fifth of a fit's time so.
+fn dots(a: &[f64], bs: &[&[f64]]) -> Vec<f64> {
+    let n = a.len();
+    let mut b: [&[f64]; BATCH] = [a; BATCH];
+    for (k, x) in bs.iter().enumerate() {
+        b[k] = &x[..n];
+    }
+    let b = b.map(|x| &x[..n]);
+    let mut s = [-0.0f64; BATCH];
+    for i in 0..n {
+        let x = a[i];
+        for k in 0..BATCH {
+            s[k] += x * b[k][i];
+        }
+    }
+    s[..bs.len()].to_vec()
 }
 
 /// The coefficients of a refined fit with one more parameter beside them, which the fit held
@@ -282,9 +315,23 @@ fn normal_equations(jac: &[Column], r: &[f64]) -> (DMatrix<f64>, DVector<f64>) {
     let p = jac.len();
     let mut a = DMatrix::zeros(p, p);
     for i in 0..p {
-        for j in i..p {
-            let x = jac[i].dot(&jac[j]);
-            (a[(i, j)], a[(j, i)]) = (x, x);
+        let mut j = i;
+        while j < p {
+            // Dense columns side by side, BATCH at a time (see `dots`); the others one by one.
+            let batch: Vec<&[f64]> = (jac[j..].iter())
+                .map_while(|c| c.dense_like(&jac[i]))
+                .take(BATCH)
+                .collect();
+            if let (Some(own), true) = (jac[i].dense_like(&jac[i]), batch.len() > 1) {
+                for (k, x) in dots(own, &batch).into_iter().enumerate() {
+                    (a[(i, j + k)], a[(j + k, i)]) = (x, x);
+                }
+                j += batch.len();
+            } else {
+                let x = jac[i].dot(&jac[j]);
+                (a[(i, j)], a[(j, i)]) = (x, x);
+                j += 1;
+            }
         }
     }
     let g = DVector::from_fn(p, |i, _| jac[i].dot_dense(r));
