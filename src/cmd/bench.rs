@@ -403,19 +403,22 @@ fn training(
 }
 
 /// `--objective pem`: the default pool fit (least squares, then Levenberg-Marquardt on the
-/// output error of the training runs, the constants the user did not list chosen by
-/// cross-validation and the fit made again without those dropped) on the 16 field-twin
+/// output error of the training runs, the constants the user did not list and the sway-yaw
+/// coupling chosen by cross-validation and the fit made again without those dropped) on the
+/// 16 field-twin
 /// runs, against its 10 s target.
 fn pem() -> anyhow::Result<ExitCode> {
     use crate::core::dof::Dof;
     let (_tmp, fused, mut vehicle) = field_runs()?;
     vehicle.constant_force = vec![Dof::Heave];
     let train = training(&fused, &vehicle);
-    let optional: Vec<Dof> = (vehicle.dofs.iter())
+    use crate::identify::constants::{Candidate, with_couplings};
+    let mut optional: Vec<Candidate> = (vehicle.dofs.iter())
         .filter(|d| **d != Dof::Heave)
-        .copied()
+        .map(|d| Candidate::Constant(*d))
         .collect();
     vehicle.constant_force = vehicle.dofs.clone();
+    optional.extend(with_couplings(&mut vehicle));
     let method = crate::identify::Method::parse("pem", Default::default())
         .map_err(|e| anyhow::anyhow!(e))?;
     let start = std::time::Instant::now();

@@ -3,6 +3,7 @@
 //! residual level), the method with its settings, the objective, and the optional two-step
 //! added-mass window.
 
+use super::constants::Candidate;
 use super::gain::{self, ThrustGain};
 use super::result::Objective;
 use super::sources::combine;
@@ -31,26 +32,23 @@ pub struct Request<'a> {
     /// Whether the logged command's gain is identified against the CFD cases (see [`gain`]).
     pub thrust_gain: ThrustGain,
     pub progress: Option<&'a (dyn Fn(f64) + Sync)>,
-    /// The DOFs of `vehicle.constant_force` the user did not ask for: a prediction-error fit
-    /// of pool runs keeps each only where cross-validation across the runs says it predicts
-    /// them better (see [`super::constants`]).
-    pub optional_constants: &'a [crate::core::dof::Dof],
+    /// The terms of `vehicle` the user did not ask for (constant forces, sway-yaw couplings):
+    /// a prediction-error fit of pool runs keeps each only where cross-validation across the
+    /// runs says it predicts them better (see [`super::constants`]).
+    pub optional: &'a [Candidate],
 }
 
 impl<'a> Request<'a> {
     /// `method` on its default objective, with no added-mass window, the logged command as
-    /// the force and no progress, the constants of `optional_constants` chosen.
-    pub fn plain(
-        method: &'a Method,
-        optional_constants: &'a [crate::core::dof::Dof],
-    ) -> Request<'a> {
+    /// the force and no progress, the terms of `optional` chosen.
+    pub fn plain(method: &'a Method, optional: &'a [Candidate]) -> Request<'a> {
         Request {
             method,
             objective: Objective::default(),
             added_mass_window_s: None,
             thrust_gain: ThrustGain::default(),
             progress: None,
-            optional_constants,
+            optional,
         }
     }
 }
@@ -62,6 +60,8 @@ pub struct Identified {
     pub one_step: Option<Vec<Estimate>>,
     /// The problem's layout (which DOFs carry a constant force).
     pub constant_force: Vec<crate::core::dof::Dof>,
+    /// The vehicle as fitted: without the optional terms cross-validation dropped.
+    pub vehicle: Vehicle,
     pub rows: usize,
     pub notes: Vec<String>,
 }
@@ -157,24 +157,13 @@ pub fn identify(data: &Data, req: &Request) -> anyhow::Result<Identified> {
 }
 
 /// [`identify`] with the pool runs' command taken as the force, without the optional
-/// constants cross-validation drops.
+/// terms cross-validation drops.
 fn identify_as_logged(data: &Data, req: &Request) -> anyhow::Result<Identified> {
-    let Some(choice) = choose_constants(data, req) else {
-        let mut id = identify_once(data, req, None)?;
-        let n = data.pool.len();
-        if !req.optional_constants.is_empty() && n < super::constants::MIN_RUNS {
-            id.notes.insert(0, format!(
-                "{n} training run(s): too few to choose the constant forces by cross-validation (it needs {}), so every candidate is kept",
-                super::constants::MIN_RUNS
-            ));
-        }
-        return Ok(id);
+    let Some(choice) = choose_optional(data, req) else {
+        return identify_unchosen(data, req);
     };
     use crate::core::model::ParamLayout;
-    let mut vehicle = data.vehicle.clone();
-    vehicle
-        .constant_force
-        .retain(|d| !choice.dropped.contains(d));
+    let vehicle = choice.applied_to(data.vehicle);
     let chosen = Data {
         vehicle: &vehicle,
         cases: data.cases.clone(),
@@ -188,11 +177,36 @@ fn identify_as_logged(data: &Data, req: &Request) -> anyhow::Result<Identified> 
     Ok(id)
 }
 
-/// Which of the request's optional constants cross-validation keeps, for a prediction-error
-/// fit of pool runs alone (`None` for any other fit, or too few runs to choose on).
-fn choose_constants(data: &Data, req: &Request) -> Option<super::constants::Choice> {
+/// [`identify_as_logged`] where nothing was chosen: with too few runs to choose on, the
+/// optional constants kept and the couplings left out (the simpler model the user asked for).
+fn identify_unchosen(data: &Data, req: &Request) -> anyhow::Result<Identified> {
+    let couplings: Vec<Candidate> = (req.optional.iter())
+        .filter(|c| matches!(c, Candidate::Coupling(_)))
+        .copied()
+        .collect();
+    let vehicle = super::constants::without_all(data.vehicle, &couplings);
+    let data = Data {
+        vehicle: &vehicle,
+        cases: data.cases.clone(),
+        pool: data.pool.clone(),
+        ..*data
+    };
+    let mut id = identify_once(&data, req, None)?;
+    let n = data.pool.len();
+    if !req.optional.is_empty() && n < super::constants::MIN_RUNS {
+        id.notes.insert(0, format!(
+            "{n} training run(s): too few to choose the constant forces and couplings by cross-validation (it needs {}), so every candidate constant is kept and the couplings are left out",
+            super::constants::MIN_RUNS
+        ));
+    }
+    Ok(id)
+}
+
+/// Which of the request's optional terms cross-validation keeps, for a prediction-error fit
+/// of pool runs alone (`None` for any other fit, or too few runs to choose on).
+fn choose_optional(data: &Data, req: &Request) -> Option<super::constants::Choice> {
     let pem = req.method.estimator.minimises_output_error();
-    if !pem || !data.cases.is_empty() || req.optional_constants.is_empty() {
+    if !pem || !data.cases.is_empty() || req.optional.is_empty() {
         return None;
     }
     let opts = req.method.options(Options::default());
@@ -204,7 +218,7 @@ fn choose_constants(data: &Data, req: &Request) -> Option<super::constants::Choi
         command_lag: opts.command_lag,
         iterations: opts.iterations,
     };
-    super::constants::choose(&full, &data.pool, req.optional_constants)
+    super::constants::choose(&full, &data.pool, req.optional)
 }
 
 /// One identification of `data.vehicle` as `req` asks, with the constants the vehicle has;
@@ -274,6 +288,7 @@ fn identify_once(
         fit,
         one_step,
         constant_force: problem.layout.constant.clone(),
+        vehicle: data.vehicle.clone(),
         rows: problem.rows(),
         notes,
     })

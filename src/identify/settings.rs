@@ -65,6 +65,28 @@ pub struct Common {
     /// runs keeps them), `every_dof` (the listed and the others) or `listed` (only those).
     #[serde(skip_serializing_if = "is_chosen")]
     pub constants: Constants,
+    /// Whether a diagonal fit of recordings alone in sway and yaw may add the linear coupling
+    /// N_v (a yaw moment from the sway velocity): `chosen` (the default: where
+    /// cross-validation across the runs keeps it) or `none`.
+    #[serde(skip_serializing_if = "is_chosen_coupling")]
+    pub couplings: Couplings,
+}
+
+/// The sway-yaw coupling of a diagonal fit of recordings alone (`couplings` in a fit's
+/// settings).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Couplings {
+    /// N_v, where it predicts the runs left out of a cross-validation better (see
+    /// [`crate::identify::constants`]).
+    #[default]
+    Chosen,
+    /// The diagonal model as it is.
+    None,
+}
+
+fn is_chosen_coupling(c: &Couplings) -> bool {
+    *c == Couplings::Chosen
 }
 
 /// The constant forces of a fit of recordings alone (`constants` in a fit's settings).
@@ -172,6 +194,7 @@ impl Default for Common {
             median_filter: None,
             thrust_gain: Default::default(),
             constants: Default::default(),
+            couplings: Default::default(),
         }
     }
 }

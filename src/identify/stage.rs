@@ -1,6 +1,7 @@
 //! `kind: fit` — identifies the hydrodynamic parameters from every CFD response it reads.
 
 use crate::core::response;
+use crate::identify::constants::Candidate;
 use crate::identify::fit;
 use crate::identify::result::{CaseRef, FitResult, Objective, RESULT, RunRef};
 use crate::identify::settings::{Common, Settings};
@@ -98,14 +99,31 @@ impl Settings {
 }
 
 impl Settings {
+    /// Recordings alone, in sway and yaw, with a diagonal model: the linear coupling N_v is a
+    /// candidate too, kept where cross-validation says it predicts left-out runs better
+    /// ([`crate::identify::constants`]); `couplings: none` leaves it out.
+    fn couplings_for_recordings(
+        &self,
+        ctx: &RunCtx,
+        no_cfd: bool,
+        vehicle: &mut crate::core::model::Vehicle,
+    ) -> Vec<Candidate> {
+        let pool_only = no_cfd && ctx.upstream_of(Artifact::PoolRuns).next().is_some();
+        let on = self.common.couplings == super::settings::Couplings::Chosen;
+        match pool_only && on && self.method.estimator.minimises_output_error() {
+            true => super::constants::with_couplings(vehicle),
+            false => Vec::new(),
+        }
+    }
+
     /// What `fit::identify` is asked, with `progress` told the fraction done.
     fn request<'a>(
         &'a self,
         progress: &'a (dyn Fn(f64) + Sync),
-        optional_constants: &'a [crate::core::dof::Dof],
+        optional: &'a [Candidate],
     ) -> fit::Request<'a> {
         fit::Request {
-            optional_constants,
+            optional,
             method: &self.method,
             objective: self.common.objective,
             added_mass_window_s: self.common.added_mass_window_s,
@@ -140,7 +158,10 @@ impl StageImpl for Settings {
         let (note, optional) =
             (self.constants_for_recordings(ctx, cases.is_empty(), &mut vehicle)).unzip();
         notes.extend(note);
-        let optional = optional.unwrap_or_default();
+        let mut optional: Vec<Candidate> = (optional.unwrap_or_default().into_iter())
+            .map(Candidate::Constant)
+            .collect();
+        optional.extend(self.couplings_for_recordings(ctx, cases.is_empty(), &mut vehicle));
         notes.extend(net_weight_note(&vehicle));
         let vehicle = &vehicle;
         let (runs, pool_responses, run_notes) =
@@ -179,7 +200,7 @@ impl StageImpl for Settings {
             Some(_) => Objective::OutputError,
             None => self.common.objective,
         };
-        let mut fit = self.physical_mass(&data, (fit, &id.constant_force), &mut notes)?;
+        let mut fit = self.physical_mass(&data, (fit, &id.vehicle), &mut notes)?;
         if per_metre_of_span(&cases, runs.len())? {
             for p in &mut fit.parameters {
                 p.unit = crate::core::model::params::per_metre_of_span(&p.unit);
@@ -190,8 +211,8 @@ impl StageImpl for Settings {
             method: self.method.name().to_string(),
             objective,
             settings: self.settings(),
-            structure: vehicle.structure,
-            custom_terms: vehicle.custom_terms.clone(),
+            structure: id.vehicle.structure,
+            custom_terms: id.vehicle.custom_terms.clone(),
             dofs: vehicle.dofs.clone(),
             constant_force: id.constant_force,
             fit,
@@ -230,21 +251,17 @@ impl Settings {
     /// DOFs it left without a positive mass taken from ordinary least squares, where they stand
     /// alone ([`crate::identify::fallback`]); otherwise refused with the reason.
     ///
-    /// The fit is of `data.vehicle` with the constant forces it kept (cross-validation may
-    /// have dropped some).
+    /// The fit is of `as_fitted`: `data.vehicle` with the optional terms it kept
+    /// (cross-validation may have dropped some).
     fn physical_mass(
         &self,
         data: &fit::Data,
-        (fit, constant_force): (crate::identify::Fit, &[crate::core::dof::Dof]),
+        (fit, as_fitted): (crate::identify::Fit, &crate::core::model::Vehicle),
         notes: &mut Vec<String>,
     ) -> anyhow::Result<crate::identify::Fit> {
         use crate::identify::fallback;
-        let as_fitted = crate::core::model::Vehicle {
-            constant_force: constant_force.to_vec(),
-            ..data.vehicle.clone()
-        };
         let data = &fit::Data {
-            vehicle: &as_fitted,
+            vehicle: as_fitted,
             cases: data.cases.clone(),
             pool: data.pool.clone(),
             ..*data

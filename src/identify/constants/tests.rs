@@ -26,7 +26,11 @@ fn fit_with_candidates(runs: &[Response]) -> fit::Identified {
         pool: runs.iter().collect(),
         skip_start_s: 0.0,
     };
-    let optional = vehicle.dofs.clone();
+    let optional: Vec<Candidate> = vehicle
+        .dofs
+        .iter()
+        .map(|d| Candidate::Constant(*d))
+        .collect();
     fit::identify(&data, &fit::Request::plain(&method, &optional)).unwrap()
 }
 
@@ -83,5 +87,56 @@ fn two_runs_are_too_few_to_choose_on() {
         iterations: 50,
     };
     let two: Vec<&Response> = runs.iter().take(2).collect();
-    assert!(choose(&full, &two, &[Dof::Sway]).is_none());
+    assert!(choose(&full, &two, &[Candidate::Constant(Dof::Sway)]).is_none());
+}
+
+/// Runs of the reference vehicle (0.1 s command lag, noisy velocities) whose yaw moment
+/// follows the sway velocity by `n_v` N m s/m, as an open frame's offset centre of lateral
+/// resistance gives it.
+fn runs_with_n_v(n_v: f64, seed: u64) -> Vec<Response> {
+    let mut hydro = Hydro::reference();
+    hydro.lin[Dof::Yaw.index()][Dof::Sway.index()] = n_v;
+    let plant = Plant::new(&Vehicle::reference(), hydro);
+    let mut rng = Rng::derive(seed, "runs with N_v");
+    (0..8).map(|_| lagged_run(&plant, 0.1, &mut rng)).collect()
+}
+
+/// The default fit's choice of the sway-yaw coupling: on runs with N_v it is kept and found
+/// (within 15 %); on runs without it, it is dropped and the model is the diagonal one again.
+#[test]
+fn a_coupling_the_runs_have_is_kept_and_one_they_lack_is_dropped() {
+    let fit = |runs: &[Response]| {
+        let mut vehicle = Vehicle::reference();
+        let optional = with_couplings(&mut vehicle);
+        assert_eq!(optional, [Candidate::Coupling(Term::Linear(5, 1))]);
+        let method = crate::identify::Method::parse("pem", Default::default()).unwrap();
+        let data = fit::Data {
+            vehicle: &vehicle,
+            cases: Vec::new(),
+            pool: runs.iter().collect(),
+            skip_start_s: 0.0,
+        };
+        fit::identify(&data, &fit::Request::plain(&method, &optional)).unwrap()
+    };
+    for (seed, n_v) in [(15, 6.0), (16, -6.0)] {
+        let id = fit(&runs_with_n_v(n_v, seed));
+        let note = &id.notes[0];
+        assert!(note.contains("N_v kept"), "seed {seed}: {note}");
+        let got = id.fit.parameters.iter().find(|p| p.name == "N_v").unwrap();
+        assert!(
+            (got.value - n_v).abs() < 0.15 * n_v.abs(),
+            "seed {seed}: N_v {} against {n_v}",
+            got.value
+        );
+        assert_eq!(id.vehicle.structure, crate::core::model::Structure::Custom);
+    }
+    let id = fit(&runs_with_n_v(0.0, 17));
+    let note = &id.notes[0];
+    assert!(note.contains("N_v dropped"), "{note}");
+    assert!(id.fit.parameters.iter().all(|p| p.name != "N_v"));
+    assert_eq!(
+        id.vehicle.structure,
+        crate::core::model::Structure::Diagonal,
+        "{note}"
+    );
 }
