@@ -14,24 +14,27 @@ fn runs_pushed_in_sway(push: f64, seed: u64) -> Vec<Response> {
     (0..8).map(|_| lagged_run(&plant, 0.1, &mut rng)).collect()
 }
 
+/// The default fit of `runs` of `vehicle` with the candidates `optional`.
+fn default_fit(vehicle: &Vehicle, runs: &[Response], optional: &[Candidate]) -> fit::Identified {
+    let method = crate::identify::Method::parse("pem", Default::default()).unwrap();
+    let data = fit::Data {
+        vehicle,
+        cases: Vec::new(),
+        pool: runs.iter().collect(),
+        skip_start_s: 0.0,
+    };
+    fit::identify(&data, &fit::Request::plain(&method, optional)).unwrap()
+}
+
 /// The default fit of `runs` with a candidate constant in every DOF, as a fit of recordings
 /// alone asks for it.
 fn fit_with_candidates(runs: &[Response]) -> fit::Identified {
     let mut vehicle = Vehicle::reference();
     vehicle.constant_force = vehicle.dofs.clone();
-    let method = crate::identify::Method::parse("pem", Default::default()).unwrap();
-    let data = fit::Data {
-        vehicle: &vehicle,
-        cases: Vec::new(),
-        pool: runs.iter().collect(),
-        skip_start_s: 0.0,
-    };
-    let optional: Vec<Candidate> = vehicle
-        .dofs
-        .iter()
+    let optional: Vec<Candidate> = (vehicle.dofs.iter())
         .map(|d| Candidate::Constant(*d))
         .collect();
-    fit::identify(&data, &fit::Request::plain(&method, &optional)).unwrap()
+    default_fit(&vehicle, runs, &optional)
 }
 
 /// A constant force every run shares (a tether's pull in sway) predicts the runs left out
@@ -104,19 +107,12 @@ fn runs_with_n_v(n_v: f64, seed: u64) -> Vec<Response> {
 /// The default fit's choice of the sway-yaw coupling: on runs with N_v it is kept and found
 /// (within 15 %); on runs without it, it is dropped and the model is the diagonal one again.
 #[test]
-fn a_coupling_the_runs_have_is_kept_and_one_they_lack_is_dropped() {
+fn a_coupling_is_kept_where_the_runs_have_it_and_dropped_where_they_lack_it() {
     let fit = |runs: &[Response]| {
         let mut vehicle = Vehicle::reference();
         let optional = with_couplings(&mut vehicle);
         assert_eq!(optional, [Candidate::Coupling(Term::Linear(5, 1))]);
-        let method = crate::identify::Method::parse("pem", Default::default()).unwrap();
-        let data = fit::Data {
-            vehicle: &vehicle,
-            cases: Vec::new(),
-            pool: runs.iter().collect(),
-            skip_start_s: 0.0,
-        };
-        fit::identify(&data, &fit::Request::plain(&method, &optional)).unwrap()
+        default_fit(&vehicle, runs, &optional)
     };
     for (seed, n_v) in [(15, 6.0), (16, -6.0)] {
         let id = fit(&runs_with_n_v(n_v, seed));
