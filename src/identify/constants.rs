@@ -399,6 +399,7 @@ fn start(full: &Full, runs: &[&Response], layout: &ParamLayout) -> (CommandLag, 
                     let found = CommandLag::Found {
                         value_s,
                         cost_without: c0,
+                        cost_with: est.cost_with,
                     };
                     (found, theta[..layout.len()].to_vec())
                 }

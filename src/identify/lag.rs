@@ -18,12 +18,14 @@ pub enum CommandLag {
     Auto,
     None,
     Seconds(f64),
-    /// `auto` whose search is done: the lag it found, and the output error without a lag
-    /// ([`search`]'s `c0`). Not a setting: the constants' choice searches once for both of
-    /// its fits ([`super::constants`]).
+    /// `auto` whose search is done: the lag it found, and the output error of the model it
+    /// was searched on without a lag ([`search`]'s `c0`) and with it. Not a setting: the
+    /// constants' choice searches once, on the model with every candidate, for both of its
+    /// fits ([`super::constants`]).
     Found {
         value_s: f64,
         cost_without: f64,
+        cost_with: f64,
     },
 }
 
@@ -91,6 +93,11 @@ pub struct LagEstimate {
     pub cost_with: f64,
     /// Whether it was estimated (`auto`) or set.
     pub estimated: bool,
+    /// Where the lag was searched on another model than this one (the model with every
+    /// candidate constant and coupling, before the choice): its output error there without
+    /// the lag and with it. `cost_without` is then not known for this model (NaN).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub searched_on_candidates: Option<[f64; 2]>,
     /// The coefficients refitted with the lag held at the lags either side of it that the
     /// training runs cannot tell from it ([`profile`]); empty where none is.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -193,6 +200,7 @@ impl LagEstimate {
             cost_without,
             cost_with: f64::NAN,
             estimated: true,
+            searched_on_candidates: None,
             profile: Vec::new(),
         }
     }

@@ -285,6 +285,7 @@ fn with_lag(
                 cost_without: f64::NAN,
                 cost_with: r.cost_after,
                 estimated: false,
+                searched_on_candidates: None,
                 profile: Vec::new(),
             };
             (Some(set), r, None)
@@ -301,11 +302,16 @@ fn with_lag(
         CommandLag::Found {
             value_s,
             cost_without,
+            cost_with,
         } => {
             // Fitted at the lag first, from `theta0`, as `auto` fits before its search.
             let r = fit(value_s, theta0);
             let from = [r.theta.as_slice(), &r.nuisance].concat();
-            at_found(LagEstimate::found(value_s, cost_without), &from)
+            let found = LagEstimate {
+                searched_on_candidates: Some([cost_without, cost_with]),
+                ..LagEstimate::found(value_s, f64::NAN)
+            };
+            at_found(found, &from)
         }
     }
 }

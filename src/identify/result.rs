@@ -166,6 +166,7 @@ impl FitResult {
             cost_without: f64::NAN,
             cost_with: f64::NAN,
             estimated: false,
+            searched_on_candidates: None,
             profile: Vec::new(),
         });
         FitResult {

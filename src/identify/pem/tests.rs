@@ -131,6 +131,7 @@ fn a_coefficient_that_trades_with_the_lag_says_its_range() {
         cost_without: 0.6,
         cost_with: 0.5,
         estimated: true,
+        searched_on_candidates: None,
         profile: vec![point(0.1, -3.0), point(0.3, -0.5)],
     };
     let est = |value: f64, stderr: f64| Estimate {
