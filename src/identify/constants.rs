@@ -170,11 +170,6 @@ impl Choice {
         }
         out
     }
-
-    /// `vehicle` (the one with every candidate) without the dropped candidates.
-    pub fn applied_to(&self, vehicle: &Vehicle) -> Vehicle {
-        without_all(vehicle, &self.dropped)
-    }
 }
 
 /// `vehicle` without `dropped`; a diagonal model again where no coupling is left.

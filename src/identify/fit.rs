@@ -67,6 +67,16 @@ pub struct Identified {
 }
 
 impl Data<'_> {
+    /// The same responses, of `vehicle` (the data's vehicle with other terms).
+    pub fn of<'b>(&'b self, vehicle: &'b Vehicle) -> Data<'b> {
+        Data {
+            vehicle,
+            cases: self.cases.clone(),
+            pool: self.pool.clone(),
+            skip_start_s: self.skip_start_s,
+        }
+    }
+
     /// The vehicle with the body mass of case-stated masses, when they are one.
     fn with_mass(&self, mass: Option<f64>) -> Vehicle {
         let mut v = self.vehicle.clone();
@@ -163,13 +173,8 @@ fn identify_as_logged(data: &Data, req: &Request) -> anyhow::Result<Identified> 
         return identify_unchosen(data, req);
     };
     use crate::core::model::ParamLayout;
-    let vehicle = choice.applied_to(data.vehicle);
-    let chosen = Data {
-        vehicle: &vehicle,
-        cases: data.cases.clone(),
-        pool: data.pool.clone(),
-        ..*data
-    };
+    let vehicle = super::constants::without_all(data.vehicle, &choice.dropped);
+    let chosen = data.of(&vehicle);
     let all = ParamLayout::of(data.vehicle);
     let start = super::constants::mapped(&all, &choice.theta, &ParamLayout::of(&vehicle));
     let mut id = identify_once(&chosen, req, Some((choice.command_lag, &start)))?;
@@ -185,12 +190,7 @@ fn identify_unchosen(data: &Data, req: &Request) -> anyhow::Result<Identified> {
         .copied()
         .collect();
     let vehicle = super::constants::without_all(data.vehicle, &couplings);
-    let data = Data {
-        vehicle: &vehicle,
-        cases: data.cases.clone(),
-        pool: data.pool.clone(),
-        ..*data
-    };
+    let data = data.of(&vehicle);
     let mut id = identify_once(&data, req, None)?;
     let n = data.pool.len();
     if !req.optional.is_empty() && n < super::constants::MIN_RUNS {

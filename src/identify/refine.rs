@@ -315,6 +315,7 @@ fn normal_equations(jac: &[Column], r: &[f64]) -> (DMatrix<f64>, DVector<f64>) {
     let p = jac.len();
     let mut a = DMatrix::zeros(p, p);
     for i in 0..p {
+        let own = jac[i].dense_like(&jac[i]);
         let mut j = i;
         while j < p {
             // Dense columns side by side, BATCH at a time (see `dots`); the others one by one.
@@ -322,7 +323,7 @@ fn normal_equations(jac: &[Column], r: &[f64]) -> (DMatrix<f64>, DVector<f64>) {
                 .map_while(|c| c.dense_like(&jac[i]))
                 .take(BATCH)
                 .collect();
-            if let (Some(own), true) = (jac[i].dense_like(&jac[i]), batch.len() > 1) {
+            if let (Some(own), true) = (own, batch.len() > 1) {
                 for (k, x) in dots(own, &batch).into_iter().enumerate() {
                     (a[(i, j + k)], a[(j + k, i)]) = (x, x);
                 }

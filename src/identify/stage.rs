@@ -41,6 +41,14 @@ impl Settings {
 }
 
 impl Settings {
+    /// Whether this is a prediction-error fit of pool runs alone (no CFD case), the fit whose
+    /// optional terms cross-validation chooses.
+    fn recordings_alone(&self, ctx: &RunCtx, no_cfd: bool) -> bool {
+        no_cfd
+            && ctx.upstream_of(Artifact::PoolRuns).next().is_some()
+            && self.method.estimator.minimises_output_error()
+    }
+
     /// Recordings alone: every DOF is a candidate for a constant force, those the vehicle
     /// lists and the others. A real vehicle is never exactly neutral (buoyancy, a tether's
     /// pull, a thruster's offset, the controller's feed-forward in the command), and without
@@ -57,15 +65,13 @@ impl Settings {
         vehicle: &mut crate::core::model::Vehicle,
     ) -> Option<(String, Vec<crate::core::dof::Dof>)> {
         use super::settings::Constants;
-        let pool_only = no_cfd && ctx.upstream_of(Artifact::PoolRuns).next().is_some();
         let added: Vec<_> = (vehicle.dofs.iter())
             .filter(|d| !vehicle.constant_force.contains(d))
             .copied()
             .collect();
-        if !(pool_only
+        if !(self.recordings_alone(ctx, no_cfd)
             && self.common.constants != Constants::Listed
-            && !added.is_empty()
-            && self.method.estimator.minimises_output_error())
+            && !added.is_empty())
         {
             return None;
         }
@@ -108,9 +114,8 @@ impl Settings {
         no_cfd: bool,
         vehicle: &mut crate::core::model::Vehicle,
     ) -> Vec<Candidate> {
-        let pool_only = no_cfd && ctx.upstream_of(Artifact::PoolRuns).next().is_some();
         let on = self.common.couplings == super::settings::Couplings::Chosen;
-        match pool_only && on && self.method.estimator.minimises_output_error() {
+        match on && self.recordings_alone(ctx, no_cfd) {
             true => super::constants::with_couplings(vehicle),
             false => Vec::new(),
         }
@@ -260,12 +265,7 @@ impl Settings {
         notes: &mut Vec<String>,
     ) -> anyhow::Result<crate::identify::Fit> {
         use crate::identify::fallback;
-        let data = &fit::Data {
-            vehicle: as_fitted,
-            cases: data.cases.clone(),
-            pool: data.pool.clone(),
-            ..*data
-        };
+        let data = &data.of(as_fitted);
         let layout = crate::core::model::ParamLayout::of(data.vehicle);
         let bad = fallback::unphysical_dofs(data.vehicle, &layout, &fit).unwrap_or_default();
         let fit = if self.method.estimator.name() == "tls" && !bad.is_empty() {
