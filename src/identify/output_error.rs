@@ -7,6 +7,7 @@
 
 use super::per_run::{self, Nuisance, Offsets};
 use crate::core::model::lanes::{LANES, LanePlants};
+use crate::core::model::lanes_coupled::CoupledLanes;
 use crate::core::model::{Plant, Vec6};
 
 /// The cases an output-error objective simulates, and the plant's rigid-body side.
@@ -130,12 +131,20 @@ impl<'a> OutputError<'a> {
         crate::core::model::lanes::needs_six_dof(&self.vehicle.active())
     }
 
-    fn plants(&self, layout: &crate::core::model::ParamLayout, thetas: &[&[f64]]) -> LanePlants {
+    /// The kernel that simulates up to [`LANES`] models of `layout` at once: the lane kernel
+    /// for a diagonal model, else the coupled one (full mass matrix, cross drag, buoyancy that
+    /// turns with the attitude, [`crate::core::model::lanes_coupled`]), which gives the same
+    /// errors in the same order.
+    fn kernel(&self, layout: &crate::core::model::ParamLayout, thetas: &[&[f64]]) -> Kernel {
         let plants: Vec<Plant> = thetas
             .iter()
             .map(|t| Plant::new(self.vehicle, layout.to_hydro(&t[..layout.len()])))
             .collect();
-        LanePlants::new(&plants)
+        if layout.is_diagonal_model() {
+            Kernel::Diagonal(Box::new(LanePlants::new(&plants)))
+        } else {
+            Kernel::Coupled(Box::new(CoupledLanes::new(&plants)))
+        }
     }
 
     /// Every case (or case `only`) simulated for up to [`LANES`] models at once; `visit` gets
@@ -148,63 +157,40 @@ impl<'a> OutputError<'a> {
         only: Option<usize>,
         visit: &mut dyn FnMut(&[f64; LANES]),
     ) {
-        if !layout.is_diagonal_model() {
-            return self.errors_coupled(layout, thetas, only, visit);
-        }
-        let lp = self.plants(layout, thetas);
+        let kernel = self.kernel(layout, thetas);
         let offsets = self.offsets(layout, thetas[0]);
-        for (c, (r, w)) in self.responses.iter().zip(&self.weight).enumerate() {
-            if only.is_some_and(|o| o != c) {
-                continue;
+        for (c, o) in offsets.iter().enumerate() {
+            if only.is_none_or(|x| x == c) {
+                self.case_errors(&kernel, o, c, visit);
             }
-            let (cols, o) = (columns(r, w), &offsets[c]);
-            let taus = forced(&self.taus[c], o);
-            lp.simulate(
-                &r.t,
-                &taus,
-                plus(r.nu(0), o.start),
-                MAX_STEP,
-                &mut |k, nu| {
-                    for (i, sw, v) in &cols {
-                        let e: [f64; LANES] =
-                            std::array::from_fn(|l| sw * (nu[*i][l] + o.bias[*i] - v[k]));
-                        visit(&e);
-                    }
-                },
-            );
         }
     }
 
-    /// [`OutputError::errors`] for coupled models (full mass matrix, cross drag, buoyancy that
-    /// turns with the attitude), up to [`LANES`] at once with their own kernel
-    /// ([`crate::core::model::lanes_coupled`]): the same errors in the same order.
-    fn errors_coupled(
+    /// [`OutputError::errors`] of case `c` with its offsets `o`.
+    fn case_errors(
         &self,
-        layout: &crate::core::model::ParamLayout,
-        thetas: &[&[f64]],
-        only: Option<usize>,
+        kernel: &Kernel,
+        o: &Offsets,
+        c: usize,
         visit: &mut dyn FnMut(&[f64; LANES]),
     ) {
-        let plants: Vec<Plant> = thetas
-            .iter()
-            .map(|t| Plant::new(self.vehicle, layout.to_hydro(&t[..layout.len()])))
-            .collect();
-        let lp = crate::core::model::lanes_coupled::CoupledLanes::new(&plants);
-        let offsets = self.offsets(layout, thetas[0]);
-        for (c, (r, w)) in self.responses.iter().zip(&self.weight).enumerate() {
-            if only.is_some_and(|o| o != c) {
-                continue;
+        let (r, cols) = (
+            self.responses[c],
+            columns(self.responses[c], &self.weight[c]),
+        );
+        let taus = forced(&self.taus[c], o);
+        let mut seen = |k: usize, nu: &[[f64; LANES]; 6]| {
+            for (i, sw, v) in &cols {
+                let e: [f64; LANES] = std::array::from_fn(|l| sw * (nu[*i][l] + o.bias[*i] - v[k]));
+                visit(&e);
             }
-            let (cols, o) = (columns(r, w), &offsets[c]);
-            let taus = forced(&self.taus[c], o);
-            let start = (plus(r.nu(0), o.start), r.attitude(0));
-            lp.simulate(&r.t, &taus, start, MAX_STEP, &mut |k, nu| {
-                for (i, sw, v) in &cols {
-                    let e: [f64; LANES] =
-                        std::array::from_fn(|l| sw * (nu[*i][l] + o.bias[*i] - v[k]));
-                    visit(&e);
-                }
-            });
+        };
+        let nu0 = plus(r.nu(0), o.start);
+        match kernel {
+            Kernel::Diagonal(lp) => lp.simulate(&r.t, &taus, nu0, MAX_STEP, &mut seen),
+            Kernel::Coupled(lp) => {
+                lp.simulate(&r.t, &taus, (nu0, r.attitude(0)), MAX_STEP, &mut seen)
+            }
         }
     }
 
@@ -220,14 +206,32 @@ impl<'a> OutputError<'a> {
         layout: &crate::core::model::ParamLayout,
         thetas: &[&[f64]],
     ) -> Vec<Vec<f64>> {
-        let total = *self.case_starts().last().unwrap_or(&0);
-        let mut out: Vec<Vec<f64>> = (thetas.iter()).map(|_| Vec::with_capacity(total)).collect();
-        self.errors(layout, thetas, None, &mut |e| {
-            for (o, x) in out.iter_mut().zip(e) {
-                o.push(finite_or_diverged(*x));
-            }
-        });
-        out
+        use rayon::prelude::*;
+        let kernel = self.kernel(layout, thetas);
+        let offsets = self.offsets(layout, thetas[0]);
+        let starts = self.case_starts();
+        // The cases simulated side by side, each into its own segment, joined in order.
+        let per_case: Vec<Vec<Vec<f64>>> = (offsets.par_iter().enumerate())
+            .map(|(c, o)| {
+                let n = starts[c + 1] - starts[c];
+                let mut out: Vec<Vec<f64>> = thetas.iter().map(|_| Vec::with_capacity(n)).collect();
+                self.case_errors(&kernel, o, c, &mut |e| {
+                    for (o, x) in out.iter_mut().zip(e) {
+                        o.push(finite_or_diverged(*x));
+                    }
+                });
+                out
+            })
+            .collect();
+        (0..thetas.len())
+            .map(|l| {
+                per_case
+                    .iter()
+                    .map(|c| c[l].as_slice())
+                    .collect::<Vec<_>>()
+                    .concat()
+            })
+            .collect()
     }
 
     /// Mean weighted squared velocity error of the model `theta` over every case.
@@ -251,6 +255,12 @@ impl<'a> OutputError<'a> {
         });
         (0..thetas.len()).map(|l| s[l] / n.max(1) as f64).collect()
     }
+}
+
+/// The simulation kernel of a population of models.
+enum Kernel {
+    Diagonal(Box<LanePlants>),
+    Coupled(Box<CoupledLanes>),
 }
 
 /// A residual, or a large error where the simulation diverged.

@@ -311,32 +311,40 @@ pub fn errors_with(
 }
 
 /// The Gauss-Newton normal equations from the Jacobian's columns `jac`: `J^T J` and `J^T r`.
+/// The rows are summed side by side, each entry in its own fixed order.
 fn normal_equations(jac: &[Column], r: &[f64]) -> (DMatrix<f64>, DVector<f64>) {
+    use rayon::prelude::*;
     let p = jac.len();
+    let rows: Vec<Vec<f64>> = (0..p).into_par_iter().map(|i| gram_row(jac, i)).collect();
     let mut a = DMatrix::zeros(p, p);
-    for i in 0..p {
-        let own = jac[i].dense_like(&jac[i]);
-        let mut j = i;
-        while j < p {
-            // Dense columns side by side, BATCH at a time (see `dots`); the others one by one.
-            let batch: Vec<&[f64]> = (jac[j..].iter())
-                .map_while(|c| c.dense_like(&jac[i]))
-                .take(BATCH)
-                .collect();
-            if let (Some(own), true) = (own, batch.len() > 1) {
-                for (k, x) in dots(own, &batch).into_iter().enumerate() {
-                    (a[(i, j + k)], a[(j + k, i)]) = (x, x);
-                }
-                j += batch.len();
-            } else {
-                let x = jac[i].dot(&jac[j]);
-                (a[(i, j)], a[(j, i)]) = (x, x);
-                j += 1;
-            }
+    for (i, row) in rows.iter().enumerate() {
+        for (j, x) in (i..p).zip(row) {
+            (a[(i, j)], a[(j, i)]) = (*x, *x);
         }
     }
     let g = DVector::from_fn(p, |i, _| jac[i].dot_dense(r));
     (a, g)
+}
+
+/// Row `i` of `J^T J` from its diagonal on: column `i`'s dot product with each later one.
+fn gram_row(jac: &[Column], i: usize) -> Vec<f64> {
+    let p = jac.len();
+    let own = jac[i].dense_like(&jac[i]);
+    let mut out = Vec::with_capacity(p - i);
+    while i + out.len() < p {
+        let j = i + out.len();
+        // Dense columns side by side, BATCH at a time (see `dots`); the others one by one.
+        let batch: Vec<&[f64]> = (jac[j..].iter())
+            .map_while(|c| c.dense_like(&jac[i]))
+            .take(BATCH)
+            .collect();
+        if let (Some(own), true) = (own, batch.len() > 1) {
+            out.extend(dots(own, &batch));
+        } else {
+            out.push(jac[i].dot(&jac[j]));
+        }
+    }
+    out
 }
 
 /// Standard errors from `J^T J` (`a`) and the residuals `r` whose sum of squares is `cost`.

@@ -54,6 +54,9 @@ pub struct LanePlants {
     any_cross: bool,
     /// Whether roll or pitch is free (else the 4-DOF kernel runs).
     six: bool,
+    /// Plants in the population: one runs a one-lane kernel, whose lanes past the first hold
+    /// no meaning (a single model simulated in every lane would cost a whole population).
+    size: usize,
 }
 
 /// Floating-point operations of one RK4 step of one candidate, as the kernel executes them (a
@@ -111,6 +114,7 @@ impl LanePlants {
             quad: by(&|p, i| p.hydro.quad[i][i][i]),
             constant: by(&|p, i| p.hydro.constant[i]),
             six: needs_six_dof(&plants[0].active),
+            size: plants.len(),
         }
     }
 
@@ -119,7 +123,8 @@ impl LanePlants {
     }
 
     /// Velocities at the sample times `t` for every lane, from `nu0` at `t[0]`, with `tau[k]`
-    /// held from `t[k]` to `t[k+1]`: `on_sample(k, nu)` sees each sample's state.
+    /// held from `t[k]` to `t[k+1]`: `on_sample(k, nu)` sees each sample's state. Lanes past
+    /// the population's size hold no meaning.
     pub fn simulate(
         &self,
         t: &[f64],
@@ -185,15 +190,16 @@ impl LanePlants {
         // model without cross drag runs the loop without it.
         let six = self.six || nu0[3] != 0.0 || nu0[4] != 0.0;
         match (six, self.any_cross) {
-            (true, false) => self.run::<true, false>(t, tau, nu0, max_step, on_sample),
-            (true, true) => self.run::<true, true>(t, tau, nu0, max_step, on_sample),
-            (false, false) => self.run::<false, false>(t, tau, nu0, max_step, on_sample),
-            (false, true) => self.run::<false, true>(t, tau, nu0, max_step, on_sample),
+            (true, false) => self.width::<true, false>(t, tau, nu0, max_step, on_sample),
+            (true, true) => self.width::<true, true>(t, tau, nu0, max_step, on_sample),
+            (false, false) => self.width::<false, false>(t, tau, nu0, max_step, on_sample),
+            (false, true) => self.width::<false, true>(t, tau, nu0, max_step, on_sample),
         }
     }
 
+    /// [`LanePlants::run`] one lane wide for a single plant, else [`LANES`] wide.
     #[inline(always)]
-    fn run<const SIX: bool, const CROSS: bool>(
+    fn width<const SIX: bool, const CROSS: bool>(
         &self,
         t: &[f64],
         tau: &[Vec6],
@@ -201,9 +207,28 @@ impl LanePlants {
         max_step: f64,
         on_sample: &mut dyn FnMut(usize, &[Lanes; 6]),
     ) {
-        let mut nu: [Lanes; 6] = std::array::from_fn(|i| [nu0[i]; LANES]);
+        match self.size {
+            1 => self.run::<SIX, CROSS, 1>(t, tau, nu0, max_step, on_sample),
+            _ => self.run::<SIX, CROSS, LANES>(t, tau, nu0, max_step, on_sample),
+        }
+    }
+
+    #[inline(always)]
+    fn run<const SIX: bool, const CROSS: bool, const L: usize>(
+        &self,
+        t: &[f64],
+        tau: &[Vec6],
+        nu0: Vec6,
+        max_step: f64,
+        on_sample: &mut dyn FnMut(usize, &[Lanes; 6]),
+    ) {
+        let mut nu: [[f64; L]; 6] = std::array::from_fn(|i| [nu0[i]; L]);
+        let mut seen: [Lanes; 6] = std::array::from_fn(|i| [nu0[i]; LANES]);
         for k in 0..t.len() {
-            on_sample(k, &nu);
+            for i in 0..6 {
+                seen[i][..L].copy_from_slice(&nu[i]);
+            }
+            on_sample(k, &seen);
             if k + 1 == t.len() {
                 break;
             }
@@ -211,38 +236,38 @@ impl LanePlants {
             let n = super::dynamics::substeps(span, max_step);
             let h = span / n as f64;
             // The force and constant term are held over the sample: summed once.
-            let push: [Lanes; 6] =
+            let push: [[f64; L]; 6] =
                 std::array::from_fn(|i| std::array::from_fn(|l| tau[k][i] + self.constant[i][l]));
             for _ in 0..n {
-                nu = self.rk4::<SIX, CROSS>(&nu, &push, h);
+                nu = self.rk4::<SIX, CROSS, L>(&nu, &push, h);
             }
         }
     }
 
     #[inline(always)]
-    fn rk4<const SIX: bool, const CROSS: bool>(
+    fn rk4<const SIX: bool, const CROSS: bool, const L: usize>(
         &self,
-        nu: &[Lanes; 6],
-        push: &[Lanes; 6],
+        nu: &[[f64; L]; 6],
+        push: &[[f64; L]; 6],
         h: f64,
-    ) -> [Lanes; 6] {
-        let stage = |k: &[Lanes; 6], s: f64| -> [Lanes; 6] {
+    ) -> [[f64; L]; 6] {
+        let stage = |k: &[[f64; L]; 6], s: f64| -> [[f64; L]; 6] {
             let mut x = *nu;
             for &i in dofs::<SIX>() {
-                for l in 0..LANES {
+                for l in 0..L {
                     x[i][l] = k[i][l].mul_add(s, nu[i][l]);
                 }
             }
             x
         };
-        let k1 = self.accel::<SIX, CROSS>(nu, push);
-        let k2 = self.accel::<SIX, CROSS>(&stage(&k1, 0.5 * h), push);
-        let k3 = self.accel::<SIX, CROSS>(&stage(&k2, 0.5 * h), push);
-        let k4 = self.accel::<SIX, CROSS>(&stage(&k3, h), push);
+        let k1 = self.accel::<SIX, CROSS, L>(nu, push);
+        let k2 = self.accel::<SIX, CROSS, L>(&stage(&k1, 0.5 * h), push);
+        let k3 = self.accel::<SIX, CROSS, L>(&stage(&k2, 0.5 * h), push);
+        let k4 = self.accel::<SIX, CROSS, L>(&stage(&k3, h), push);
         let w = h / 6.0;
         let mut out = *nu;
         for &i in dofs::<SIX>() {
-            for l in 0..LANES {
+            for l in 0..L {
                 let sum = 2.0f64.mul_add(k2[i][l] + k3[i][l], k1[i][l] + k4[i][l]);
                 out[i][l] = sum.mul_add(w, nu[i][l]);
             }
@@ -253,20 +278,20 @@ impl LanePlants {
     /// nu_dot of eq. 2 for every lane: (tau + constant - C(nu) nu + D(nu) nu) / m, D's cross
     /// terms linear (read only when `CROSS`).
     #[inline(always)]
-    fn accel<const SIX: bool, const CROSS: bool>(
+    fn accel<const SIX: bool, const CROSS: bool, const L: usize>(
         &self,
-        nu: &[Lanes; 6],
-        push: &[Lanes; 6],
-    ) -> [Lanes; 6] {
+        nu: &[[f64; L]; 6],
+        push: &[[f64; L]; 6],
+    ) -> [[f64; L]; 6] {
         let c = if SIX {
             self.coriolis6(nu)
         } else {
             self.coriolis4(nu)
         };
-        let mut a = [[0.0; LANES]; 6];
+        let mut a = [[0.0; L]; 6];
         for &i in dofs::<SIX>() {
             let from = &nu[self.cross_from[i]];
-            for l in 0..LANES {
+            for l in 0..L {
                 let x = nu[i][l];
                 let drag = self.quad[i][l].mul_add(x.abs(), self.lin[i][l]);
                 let f = match CROSS {
@@ -282,10 +307,10 @@ impl LanePlants {
     /// C(nu) nu of [`super::dynamics::coriolis`] with roll and pitch at rest: X -m_v v r,
     /// Y m_u u r, Z 0, N (m_v - m_u) u v.
     #[inline(always)]
-    fn coriolis4(&self, nu: &[Lanes; 6]) -> [Lanes; 6] {
+    fn coriolis4<const L: usize>(&self, nu: &[[f64; L]; 6]) -> [[f64; L]; 6] {
         let m = &self.mass;
-        let mut c = [[0.0; LANES]; 6];
-        for l in 0..LANES {
+        let mut c = [[0.0; L]; 6];
+        for l in 0..L {
             let (u, v, r) = (nu[0][l], nu[1][l], nu[5][l]);
             c[0][l] = -(r * m[1][l] * v);
             c[1][l] = r * m[0][l] * u;
@@ -296,10 +321,10 @@ impl LanePlants {
 
     /// C(nu) nu of [`super::dynamics::coriolis`] (Kirchhoff form) in all six DOFs.
     #[inline(always)]
-    fn coriolis6(&self, nu: &[Lanes; 6]) -> [Lanes; 6] {
+    fn coriolis6<const L: usize>(&self, nu: &[[f64; L]; 6]) -> [[f64; L]; 6] {
         let m = &self.mass;
-        let mut c = [[0.0; LANES]; 6];
-        for l in 0..LANES {
+        let mut c = [[0.0; L]; 6];
+        for l in 0..L {
             let v1 = [nu[0][l], nu[1][l], nu[2][l]];
             let v2 = [nu[3][l], nu[4][l], nu[5][l]];
             let p1 = [m[0][l] * v1[0], m[1][l] * v1[1], m[2][l] * v1[2]];
@@ -395,6 +420,42 @@ mod tests {
     fn every_lane_follows_its_own_plant_in_four_dof() {
         check(&Vehicle::reference(), LANES);
         check(&Vehicle::reference(), 3);
+    }
+
+    /// A single plant runs one lane wide, to the bit what it gives beside seven others.
+    #[test]
+    fn a_single_plant_runs_alone_as_it_runs_in_a_population() {
+        let v = Vehicle::reference();
+        let plants = population(&v, LANES);
+        check_plants(&plants[..1]);
+        let t: Vec<f64> = (0..300).map(|k| k as f64 * 0.05).collect();
+        let tau: Vec<Vec6> = (t.iter())
+            .map(|&x| {
+                [
+                    40.0 * x.sin(),
+                    20.0,
+                    -10.0 * x.cos(),
+                    0.0,
+                    0.0,
+                    6.0 * x.sin(),
+                ]
+            })
+            .collect();
+        let run = |lp: &LanePlants| {
+            let mut out = Vec::new();
+            lp.simulate(
+                &t,
+                &tau,
+                [0.1, 0.0, 0.0, 0.0, 0.0, 0.0],
+                0.02,
+                &mut |_, nu| out.push(std::array::from_fn::<f64, 6, _>(|i| nu[i][0])),
+            );
+            out
+        };
+        assert_eq!(
+            run(&LanePlants::new(&plants[..1])),
+            run(&LanePlants::new(&plants))
+        );
     }
 
     /// A sway-yaw linear coupling (N_v, Y_r) runs in the lane kernel as the plant's own
