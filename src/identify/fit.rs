@@ -32,7 +32,7 @@ pub struct Request<'a> {
     /// Whether the logged command's gain is identified against the CFD cases (see [`gain`]).
     pub thrust_gain: ThrustGain,
     pub progress: Option<&'a (dyn Fn(f64) + Sync)>,
-    /// The terms of `vehicle` the user did not ask for (constant forces, sway-yaw couplings):
+    /// The terms of `vehicle` the user did not ask for (constant forces, couplings):
     /// a prediction-error fit of pool runs keeps each only where cross-validation across the
     /// runs says it predicts them better (see [`super::constants`]).
     pub optional: &'a [Candidate],

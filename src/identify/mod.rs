@@ -1,5 +1,6 @@
 //! Estimators of the hydrodynamic parameters, behind one registry so `pipeline.yaml` can name them.
 
+pub mod attitude_rows;
 pub mod constants;
 pub mod fallback;
 pub mod fit;

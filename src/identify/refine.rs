@@ -8,6 +8,7 @@
 //! `s^2 (J^T J)^-1` with `s^2` the residual variance: conditional on the model being right,
 //! as for the equation error.
 
+use super::attitude_rows::{in_attitude_rows, is_attitude_coupling};
 use super::output_error::OutputError;
 use crate::core::model::ParamLayout;
 use crate::core::model::lanes::LANES;
@@ -70,6 +71,11 @@ impl Bounds {
         }
     }
 
+    /// Whether coefficient `j` is held: its two bounds meet.
+    pub fn held(&self, j: usize) -> bool {
+        j < self.lo.len() && self.lo[j] == self.hi[j]
+    }
+
     /// Whether coefficient `j` at `x` sits on a finite, non-zero end of its range (zero is a
     /// sign's end, said apart).
     pub fn at_prior(&self, j: usize, x: f64) -> bool {
@@ -78,11 +84,54 @@ impl Bounds {
     }
 }
 
-/// [`output_error_lm`] with every coefficient kept within `bounds`. `theta0` may carry the
-/// objective's nuisance values after the coefficients; without them they start at zero.
-/// Standard errors and correlations are the coefficients' (the nuisance parameters', estimated
-/// alongside, are marginalised out).
+/// [`output_error_lm`] with every coefficient kept within `bounds` (one whose two bounds meet
+/// is held). `theta0` may carry the objective's nuisance values after the coefficients;
+/// without them they start at zero. Standard errors and correlations are the coefficients'
+/// (the nuisance parameters', estimated alongside, are marginalised out). A model with a
+/// translational velocity's drag in roll or pitch is fitted in two stages
+/// ([`super::attitude_rows`]): first with the couplings held at zero, then roll's and pitch's
+/// own coefficients and the couplings with every other coefficient held.
 pub fn output_error_lm_within(
+    oe: &OutputError,
+    layout: &ParamLayout,
+    theta0: &[f64],
+    iterations: usize,
+    bounds: &Bounds,
+) -> Refined {
+    let couplings: Vec<usize> = (0..layout.len())
+        .filter(|&j| is_attitude_coupling(layout.terms[j]) && !bounds.held(j))
+        .collect();
+    if couplings.is_empty() {
+        return lm_within(oe, layout, theta0, iterations, bounds);
+    }
+    let mut first_bounds = bounds.clone();
+    for &j in &couplings {
+        (first_bounds.lo[j], first_bounds.hi[j]) = (0.0, 0.0);
+    }
+    let first = lm_within(oe, layout, theta0, iterations, &first_bounds);
+    let mut rows = bounds.clone();
+    for j in (0..layout.len()).filter(|&j| !in_attitude_rows(layout.terms[j])) {
+        (rows.lo[j], rows.hi[j]) = (first.theta[j], first.theta[j]);
+    }
+    let from = [first.theta.as_slice(), &first.nuisance].concat();
+    let second = lm_within(oe, layout, &from, iterations, &rows);
+    // A second stage that did not lower the error (or diverged) is not taken.
+    let lower = second.cost_after.partial_cmp(&first.cost_after);
+    if !matches!(
+        lower,
+        Some(std::cmp::Ordering::Less | std::cmp::Ordering::Equal)
+    ) {
+        return first;
+    }
+    Refined {
+        steps: first.steps + second.steps,
+        cost_before: first.cost_before,
+        ..second
+    }
+}
+
+/// [`output_error_lm_within`] in one stage.
+fn lm_within(
     oe: &OutputError,
     layout: &ParamLayout,
     theta0: &[f64],
@@ -112,13 +161,18 @@ pub fn output_error_lm_within(
         if crate::core::interrupt::requested() {
             break;
         }
-        let jac = jacobian(oe, layout, &lm.theta, &lm.r);
+        // A held coefficient's column is not needed for the step.
+        let jac = jacobian(oe, layout, &lm.theta, &lm.r, &|j| bounds.held(j));
         let g;
         (a, g) = normal_equations(&jac, &lm.r);
         if !lm.step(&a, &g) {
             break;
         }
         steps += 1;
+    }
+    if (0..m).any(|j| bounds.held(j)) {
+        // The errors are every coefficient's, held or not, as if all were fitted here.
+        a = normal_equations(&jacobian(oe, layout, &lm.theta, &lm.r, &|_| false), &lm.r).0;
     }
     let n = lm.r.len();
     let (mut stderr, mut correlation) = standard_errors(&lm.r, lm.cost, a);
@@ -159,12 +213,19 @@ impl Lm<'_, '_> {
     /// step was taken and lowered the cost by more than a relative 1e-7.
     fn step(&mut self, a: &DMatrix<f64>, g: &DVector<f64>) -> bool {
         let p = self.theta.len();
+        let mut g = g.clone();
         for _ in 0..8 {
             let mut damped = a.clone();
             for i in 0..p {
                 damped[(i, i)] += self.lambda * a[(i, i)].max(1e-12);
             }
-            let Some(step) = damped.lu().solve(&(-g)) else {
+            // A held coefficient takes no step, and the others' step is taken without it.
+            for j in (0..p).filter(|&j| self.bounds.held(j)) {
+                damped.row_mut(j).fill(0.0);
+                damped.column_mut(j).fill(0.0);
+                (damped[(j, j)], g[j]) = (1.0, 0.0);
+            }
+            let Some(step) = damped.lu().solve(&(-&g)) else {
                 return false;
             };
             let mut next: Vec<f64> = self
@@ -286,7 +347,7 @@ pub fn errors_with(
     let m = layout.len();
     let theta = [refined.theta.as_slice(), &refined.nuisance].concat();
     let r = oe.residuals(layout, &theta);
-    let mut jac = jacobian(oe, layout, &theta, &r);
+    let mut jac = jacobian(oe, layout, &theta, &r, &|_| false);
     jac.push(Column::dense(extra));
     let (a, g) = normal_equations(&jac, &r);
     let last = jac.len() - 1;
@@ -391,8 +452,15 @@ fn standard_errors(r: &[f64], cost: f64, a: DMatrix<f64>) -> (Vec<f64>, Vec<Vec<
 
 /// Columns of d(residual)/d(theta_j) by forward differences, the perturbed models simulated
 /// [`LANES`] at a time; then the nuisance parameters', each over the runs it moves.
-fn jacobian(oe: &OutputError, layout: &ParamLayout, theta: &[f64], r0: &[f64]) -> Vec<Column> {
-    let mut cols = model_columns(oe, layout, theta, r0);
+/// The coefficients `skip` names get an empty column (zero).
+fn jacobian(
+    oe: &OutputError,
+    layout: &ParamLayout,
+    theta: &[f64],
+    r0: &[f64],
+    skip: &dyn Fn(usize) -> bool,
+) -> Vec<Column> {
+    let mut cols = model_columns(oe, layout, theta, r0, skip);
     cols.extend(nuisance_columns(oe, layout, theta, r0));
     cols
 }
@@ -444,21 +512,27 @@ fn nuisance_columns(
 }
 
 /// The model coefficients' columns of the Jacobian.
-fn model_columns(oe: &OutputError, layout: &ParamLayout, theta: &[f64], r0: &[f64]) -> Vec<Column> {
+fn model_columns(
+    oe: &OutputError,
+    layout: &ParamLayout,
+    theta: &[f64],
+    r0: &[f64],
+    skip: &dyn Fn(usize) -> bool,
+) -> Vec<Column> {
     use rayon::prelude::*;
     let m = layout.len();
-    let steps: Vec<f64> = theta[..m]
-        .iter()
-        .map(|x| 1e-4 * x.abs().max(1e-2))
+    let moved: Vec<usize> = (0..m).filter(|&j| !skip(j)).collect();
+    let steps: Vec<f64> = (moved.iter())
+        .map(|&j| 1e-4 * theta[j].abs().max(1e-2))
         .collect();
-    let perturbed: Vec<Vec<f64>> = (0..m)
-        .map(|j| {
+    let perturbed: Vec<Vec<f64>> = (moved.iter().zip(&steps))
+        .map(|(&j, h)| {
             let mut t = theta.to_vec();
-            t[j] += steps[j];
+            t[j] += h;
             t
         })
         .collect();
-    perturbed
+    let mut columns: Vec<Option<Column>> = perturbed
         .par_chunks(LANES)
         .enumerate()
         .flat_map_iter(|(c, chunk)| {
@@ -469,8 +543,15 @@ fn model_columns(oe: &OutputError, layout: &ParamLayout, theta: &[f64], r0: &[f6
                 .enumerate()
                 .map(move |(q, rj)| {
                     let h = steps[c * LANES + q];
-                    Column::dense(rj.iter().zip(r0).map(|(a, b)| (a - b) / h).collect())
+                    Some(Column::dense(
+                        rj.iter().zip(r0).map(|(a, b)| (a - b) / h).collect(),
+                    ))
                 })
         })
-        .collect()
+        .collect();
+    let mut out: Vec<Column> = (0..m).map(|_| Column(Vec::new())).collect();
+    for (&j, c) in moved.iter().zip(&mut columns) {
+        out[j] = c.take().unwrap_or(Column(Vec::new()));
+    }
+    out
 }

@@ -72,12 +72,12 @@ pub struct Common {
     pub couplings: Couplings,
 }
 
-/// The sway-yaw coupling of a diagonal fit of recordings alone (`couplings` in a fit's
-/// settings).
+/// The couplings of a diagonal fit of recordings alone (`couplings` in a fit's settings): N_v,
+/// and in six DOF K_v and M_u.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Couplings {
-    /// N_v, where it predicts the runs left out of a cross-validation better (see
+    /// Each where it predicts the runs left out of a cross-validation better (see
     /// [`crate::identify::constants`]).
     #[default]
     Chosen,

@@ -376,3 +376,43 @@ fn a_restoring_moments_bound_follows_the_rotations_it_rights() {
         None
     );
 }
+
+/// A roll moment from the sway velocity (K_v: the sway drag's centre below the centre of
+/// gravity) is fitted after the translations (see `identify::attitude_rows`): it is found,
+/// and the sway coefficients are those a model without it finds, which the roll errors do
+/// not pull.
+#[test]
+fn a_roll_moment_from_sway_is_found_after_the_sway_drag() {
+    use crate::core::dof::Dof;
+    use crate::core::model::{CustomTerms, Structure};
+    let (mut vehicle, plant) = buoyant_six_dof();
+    let (roll, sway) = (Dof::Roll.index(), Dof::Sway.index());
+    let mut hydro = plant.hydro;
+    hydro.lin[roll][sway] = 1.0;
+    let plant = Plant::new(&vehicle, hydro);
+    let mut rng = Rng::derive(6, "tilting runs with K_v");
+    let responses: Vec<_> = (0..4)
+        .map(|_| tilting_run(&plant, &vehicle, &mut rng))
+        .collect();
+    let without = default_fit(&vehicle, &responses, |_| {});
+    vehicle.structure = Structure::Custom;
+    vehicle.custom_terms = Some(CustomTerms {
+        base: Structure::Diagonal,
+        add: vec!["K_v".into()],
+        remove: Vec::new(),
+    });
+    let with = default_fit(&vehicle, &responses, |_| {});
+    let value = |fit: &Fit, name: &str| {
+        let p = fit.parameters.iter().find(|p| p.name == name);
+        p.unwrap_or_else(|| panic!("no {name}")).value
+    };
+    let kv = value(&with, "K_v");
+    assert!((kv - 1.0).abs() < 0.15, "K_v {kv} for 1.0");
+    for name in ["Y_vdot", "Y_v", "Y_vv", "X_u", "Z_w"] {
+        let (a, b) = (value(&with, name), value(&without, name));
+        assert!(
+            (a - b).abs() < 0.01 * b.abs(),
+            "{name} {a} with K_v, {b} without"
+        );
+    }
+}
