@@ -115,6 +115,14 @@ pub struct LagPoint {
 }
 
 impl LagEstimate {
+    /// Whether an estimated lag sits at the top of the searched range (within the line
+    /// search's resolution of [`MAX_LAG_S`]): the runs ask for more lag than a thruster's
+    /// command path has, so it stands in for something else (a delay in the log, a slower
+    /// dynamic the model lacks) and is not a finding.
+    pub fn at_search_end(&self) -> bool {
+        self.estimated && self.value_s >= MAX_LAG_S - RESOLUTION_S
+    }
+
     /// The range of coefficient `j` over the fit (`value`) and its profile: `None` without a
     /// profile.
     pub fn range_of(&self, j: usize, value: f64) -> Option<[f64; 2]> {

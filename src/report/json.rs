@@ -83,7 +83,8 @@ pub fn parameters(fits: &[FitResult]) -> Parameters {
             let sure = l.estimated
                 && stderr.is_finite()
                 && stderr < 0.5 * l.value_s
-                && spread <= l.value_s;
+                && spread <= l.value_s
+                && !l.at_search_end();
             extra("T_cmd", l.value_s, "s", stderr, range, sure, note);
         }
         if let Some(g) = &f.fit.thrust_gain {
@@ -121,6 +122,12 @@ fn lag_note(l: &crate::identify::lag::LagEstimate) -> (f64, String) {
         note.push_str(&format!(
             "; refitted with the lag held from {a:.2} to {b:.2} s the output error stays within {:.0} % of this fit's, so the runs do not tell those lags apart (the interval; the coefficients' intervals are their values over those lags)",
             100.0 * crate::identify::lag::DEMAND
+        ));
+    }
+    if l.at_search_end() {
+        note.push_str(&format!(
+            "; it sits at the end of the searched range ({} s), so the runs ask for more lag than a thruster's command path has: it stands in for something else (a delay in the velocity log, such as a navigation filter's latency, or a slower dynamic the model lacks), and is not identifiable",
+            crate::identify::lag::MAX_LAG_S
         ));
     }
     (stderr, note)
@@ -227,5 +234,25 @@ mod tests {
         };
         let (_, note) = super::lag_note(&own);
         assert!(note.contains("from 0.6000 to 0.5000"), "{note}");
+        assert!(!note.contains("end of the searched range"), "{note}");
+    }
+
+    /// A lag at the top of the searched range (0.49 s on the TAUV's runs, polished up against
+    /// 0.5 s) is not a finding: flagged with the reason.
+    #[test]
+    fn a_lag_at_the_end_of_its_search_is_not_identifiable() {
+        let top = LagEstimate {
+            cost_with: 0.52,
+            stderr_s: 0.012,
+            ..LagEstimate::found(0.493, 0.69)
+        };
+        assert!(top.at_search_end());
+        let (_, note) = super::lag_note(&top);
+        assert!(note.contains("end of the searched range (0.5 s)"), "{note}");
+        let inside = LagEstimate {
+            stderr_s: 0.012,
+            ..LagEstimate::found(0.45, 0.69)
+        };
+        assert!(!inside.at_search_end());
     }
 }
