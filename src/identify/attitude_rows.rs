@@ -28,13 +28,13 @@ use crate::core::dof::Dof;
 use crate::core::model::Term;
 
 /// Whether `t` is a coupling into roll or pitch from a translational velocity.
-pub fn is_attitude_coupling(t: Term) -> bool {
+pub(super) fn is_attitude_coupling(t: Term) -> bool {
     matches!(t, Term::Linear(i, j) if (3..5).contains(&i) && j < 3)
 }
 
 /// Whether `t` acts in roll or pitch alone (their added inertia, drag, constant and
 /// couplings, and the restoring moment eta_z that rights both).
-pub fn in_attitude_rows(t: Term) -> bool {
+pub(super) fn in_attitude_rows(t: Term) -> bool {
     (t.equations().iter()).all(|d| matches!(d, Dof::Roll | Dof::Pitch))
 }
 

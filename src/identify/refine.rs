@@ -213,17 +213,19 @@ impl Lm<'_, '_> {
     /// step was taken and lowered the cost by more than a relative 1e-7.
     fn step(&mut self, a: &DMatrix<f64>, g: &DVector<f64>) -> bool {
         let p = self.theta.len();
+        // A held coefficient takes no step, and the others' step is taken without it.
+        let held: Vec<usize> = (0..p).filter(|&j| self.bounds.held(j)).collect();
         let mut g = g.clone();
+        held.iter().for_each(|&j| g[j] = 0.0);
         for _ in 0..8 {
             let mut damped = a.clone();
             for i in 0..p {
                 damped[(i, i)] += self.lambda * a[(i, i)].max(1e-12);
             }
-            // A held coefficient takes no step, and the others' step is taken without it.
-            for j in (0..p).filter(|&j| self.bounds.held(j)) {
+            for &j in &held {
                 damped.row_mut(j).fill(0.0);
                 damped.column_mut(j).fill(0.0);
-                (damped[(j, j)], g[j]) = (1.0, 0.0);
+                damped[(j, j)] = 1.0;
             }
             let Some(step) = damped.lu().solve(&(-&g)) else {
                 return false;
@@ -532,7 +534,7 @@ fn model_columns(
             t
         })
         .collect();
-    let mut columns: Vec<Option<Column>> = perturbed
+    let columns: Vec<Column> = perturbed
         .par_chunks(LANES)
         .enumerate()
         .flat_map_iter(|(c, chunk)| {
@@ -543,15 +545,13 @@ fn model_columns(
                 .enumerate()
                 .map(move |(q, rj)| {
                     let h = steps[c * LANES + q];
-                    Some(Column::dense(
-                        rj.iter().zip(r0).map(|(a, b)| (a - b) / h).collect(),
-                    ))
+                    Column::dense(rj.iter().zip(r0).map(|(a, b)| (a - b) / h).collect())
                 })
         })
         .collect();
     let mut out: Vec<Column> = (0..m).map(|_| Column(Vec::new())).collect();
-    for (&j, c) in moved.iter().zip(&mut columns) {
-        out[j] = c.take().unwrap_or(Column(Vec::new()));
+    for (&j, c) in moved.iter().zip(columns) {
+        out[j] = c;
     }
     out
 }
