@@ -108,14 +108,20 @@ fn simulation_step(v: &crate::core::model::Vehicle, resp: &Response) {
         1e9 * per,
         flops / per / 1e9
     );
-    let diagonal = crate::core::model::lanes::LanePlants::new(&vec![Plant::new(v, diag); lanes]);
-    let s = median_time(5, || {
-        diagonal.simulate(&resp.t, &tau, resp.nu(0), 0.01, &mut |_, nu| {
-            std::hint::black_box(nu);
-        })
-    });
-    println!(
-        "  simulation, diagonal, {lanes} per SIMD lane {:6.1} ns per RK4 step per candidate",
-        1e9 * s / (steps * lanes) as f64
-    );
+    // The diagonal model, and with the truth's weight and buoyancy (the default pool fit of a
+    // vehicle that rolls and pitches), in the lane kernel.
+    let mut restoring = diag;
+    (restoring.net_weight, restoring.moment) = (h.net_weight, h.moment);
+    for (name, hydro) in [("diagonal", diag), ("diagonal, buoyancy", restoring)] {
+        let lp = crate::core::model::lanes::LanePlants::new(&vec![Plant::new(v, hydro); lanes]);
+        let s = median_time(5, || {
+            lp.simulate(&resp.t, &tau, start, 0.01, &mut |_, nu| {
+                std::hint::black_box(nu);
+            })
+        });
+        println!(
+            "  simulation, {name}, {lanes} per SIMD lane {:6.1} ns per RK4 step per candidate",
+            1e9 * s / (steps * lanes) as f64
+        );
+    }
 }

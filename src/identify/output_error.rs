@@ -132,8 +132,8 @@ impl<'a> OutputError<'a> {
     }
 
     /// The kernel that simulates up to [`LANES`] models of `layout` at once: the lane kernel
-    /// for a diagonal model, else the coupled one (full mass matrix, cross drag, buoyancy that
-    /// turns with the attitude, [`crate::core::model::lanes_coupled`]), which gives the same
+    /// for a diagonal model (weight and buoyancy included), else the coupled one (full mass
+    /// matrix, any cross drag, [`crate::core::model::lanes_coupled`]), which gives the same
     /// errors in the same order.
     fn kernel(&self, layout: &crate::core::model::ParamLayout, thetas: &[&[f64]]) -> Kernel {
         let plants: Vec<Plant> = thetas
@@ -187,7 +187,9 @@ impl<'a> OutputError<'a> {
         };
         let nu0 = plus(r.nu(0), o.start);
         match kernel {
-            Kernel::Diagonal(lp) => lp.simulate(&r.t, &taus, nu0, MAX_STEP, &mut seen),
+            Kernel::Diagonal(lp) => {
+                lp.simulate(&r.t, &taus, (nu0, r.attitude(0)), MAX_STEP, &mut seen)
+            }
             Kernel::Coupled(lp) => {
                 lp.simulate(&r.t, &taus, (nu0, r.attitude(0)), MAX_STEP, &mut seen)
             }

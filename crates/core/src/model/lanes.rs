@@ -14,6 +14,12 @@
 //! moment from the sway velocity, N_v; a sway force from the yaw rate, Y_r): so a model with
 //! the sway-yaw couplings runs here rather than through the coupled kernel's mass-matrix
 //! solve (nine times slower on 16 four-DOF runs).
+//!
+//! Weight and buoyancy (the net weight and the moment of buoyancy about the centre of gravity,
+//! seed 003 eq. 8) run here too: the gravity direction in the body frame is carried as three
+//! more states, integrated as g' = g x omega as [`super::lanes_coupled`] does. A six-DOF model
+//! of a vehicle that rolls and pitches thus runs here, not through the coupled kernel's
+//! full matrices (eight times slower per step).
 
 // Numeric kernels index several arrays with one loop variable; iterators would hide that.
 #![allow(clippy::needless_range_loop)]
@@ -26,13 +32,32 @@ pub const LANES: usize = 8;
 
 type Lanes = [f64; LANES];
 
-/// The DOFs a kernel integrates: all six, or surge, sway, heave and yaw.
+/// A simulation's inputs: sample times, forces, start (velocities, roll and pitch), longest
+/// step and the callback of each sample.
+type Go<'a, 'b> = (
+    &'a [f64],
+    &'a [Vec6],
+    (Vec6, [f64; 2]),
+    f64,
+    &'b mut dyn FnMut(usize, &[Lanes; 6]),
+);
+
+/// A kernel's state per lane: the six body velocities, then, where the model has weight and
+/// buoyancy (`N` = [`WITH_ATTITUDE`]), the gravity direction in the body frame. A model
+/// without them carries six states, so its loop is the same as before they were added.
+type State<const L: usize, const N: usize> = [[f64; L]; N];
+
+/// The number of states with the gravity direction.
+const WITH_ATTITUDE: usize = 9;
+
+/// The states a kernel integrates: all six DOFs, or surge, sway, heave and yaw; with the
+/// attitude (always six DOFs) the gravity direction as well.
 #[inline(always)]
-fn dofs<const SIX: bool>() -> &'static [usize] {
-    if SIX {
-        &[0, 1, 2, 3, 4, 5]
-    } else {
-        &[0, 1, 2, 5]
+fn states<const SIX: bool, const N: usize>() -> &'static [usize] {
+    match (SIX, N == WITH_ATTITUDE) {
+        (_, true) => &[0, 1, 2, 3, 4, 5, 6, 7, 8],
+        (true, false) => &[0, 1, 2, 3, 4, 5],
+        (false, false) => &[0, 1, 2, 5],
     }
 }
 
@@ -52,6 +77,12 @@ pub struct LanePlants {
     cross_from: [usize; 6],
     /// Whether any lane has a cross term.
     any_cross: bool,
+    /// The net weight W - B along the gravity direction, and the moment of buoyancy r_B B
+    /// (crossed with it), as in [`super::dynamics`].
+    net_weight: Lanes,
+    moment: [Lanes; 3],
+    /// Whether any lane has weight and buoyancy.
+    att: bool,
     /// Whether roll or pitch is free (else the 4-DOF kernel runs).
     six: bool,
     /// Plants in the population: one runs a one-lane kernel, whose lanes past the first hold
@@ -113,6 +144,11 @@ impl LanePlants {
             lin: by(&|p, i| p.hydro.lin[i][i]),
             quad: by(&|p, i| p.hydro.quad[i][i][i]),
             constant: by(&|p, i| p.hydro.constant[i]),
+            net_weight: std::array::from_fn(|l| at(l).hydro.net_weight),
+            moment: std::array::from_fn(|a| std::array::from_fn(|l| at(l).hydro.moment[a])),
+            att: plants
+                .iter()
+                .any(|p| p.hydro.net_weight != 0.0 || p.hydro.moment != [0.0; 3]),
             six: needs_six_dof(&plants[0].active),
             size: plants.len(),
         }
@@ -122,14 +158,15 @@ impl LanePlants {
         self.six
     }
 
-    /// Velocities at the sample times `t` for every lane, from `nu0` at `t[0]`, with `tau[k]`
-    /// held from `t[k]` to `t[k+1]`: `on_sample(k, nu)` sees each sample's state. Lanes past
-    /// the population's size hold no meaning.
+    /// Velocities at the sample times `t` for every lane, from `nu0` and roll and pitch `att0`
+    /// at `t[0]` (the attitude matters only with weight and buoyancy), with `tau[k]` held from
+    /// `t[k]` to `t[k+1]`: `on_sample(k, nu)` sees each sample's state. Lanes past the
+    /// population's size hold no meaning.
     pub fn simulate(
         &self,
         t: &[f64],
         tau: &[Vec6],
-        nu0: Vec6,
+        start: (Vec6, [f64; 2]),
         max_step: f64,
         on_sample: &mut dyn FnMut(usize, &[Lanes; 6]),
     ) {
@@ -139,16 +176,16 @@ impl LanePlants {
                 && std::arch::is_x86_feature_detected!("fma")
             {
                 // SAFETY: the CPU has just been checked for the features the function uses.
-                return unsafe { self.simulate_avx512(t, tau, nu0, max_step, on_sample) };
+                return unsafe { self.simulate_avx512(t, tau, start, max_step, on_sample) };
             }
             if std::arch::is_x86_feature_detected!("avx2")
                 && std::arch::is_x86_feature_detected!("fma")
             {
                 // SAFETY: as above.
-                return unsafe { self.simulate_avx2(t, tau, nu0, max_step, on_sample) };
+                return unsafe { self.simulate_avx2(t, tau, start, max_step, on_sample) };
             }
         }
-        self.simulate_generic(t, tau, nu0, max_step, on_sample)
+        self.simulate_generic(t, tau, start, max_step, on_sample)
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -157,11 +194,11 @@ impl LanePlants {
         &self,
         t: &[f64],
         tau: &[Vec6],
-        nu0: Vec6,
+        start: (Vec6, [f64; 2]),
         max_step: f64,
         on_sample: &mut dyn FnMut(usize, &[Lanes; 6]),
     ) {
-        self.simulate_generic(t, tau, nu0, max_step, on_sample)
+        self.simulate_generic(t, tau, start, max_step, on_sample)
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -170,11 +207,11 @@ impl LanePlants {
         &self,
         t: &[f64],
         tau: &[Vec6],
-        nu0: Vec6,
+        start: (Vec6, [f64; 2]),
         max_step: f64,
         on_sample: &mut dyn FnMut(usize, &[Lanes; 6]),
     ) {
-        self.simulate_generic(t, tau, nu0, max_step, on_sample)
+        self.simulate_generic(t, tau, start, max_step, on_sample)
     }
 
     #[inline(always)]
@@ -182,51 +219,49 @@ impl LanePlants {
         &self,
         t: &[f64],
         tau: &[Vec6],
-        nu0: Vec6,
+        start: (Vec6, [f64; 2]),
         max_step: f64,
         on_sample: &mut dyn FnMut(usize, &[Lanes; 6]),
     ) {
         // Roll and pitch at rest (neither free, neither moving at the start) add nothing; a
-        // model without cross drag runs the loop without it.
+        // model without cross drag runs the loop without it, one without weight and buoyancy
+        // without the attitude (which, with them, needs all six DOFs).
+        let nu0 = start.0;
         let six = self.six || nu0[3] != 0.0 || nu0[4] != 0.0;
-        match (six, self.any_cross) {
-            (true, false) => self.width::<true, false>(t, tau, nu0, max_step, on_sample),
-            (true, true) => self.width::<true, true>(t, tau, nu0, max_step, on_sample),
-            (false, false) => self.width::<false, false>(t, tau, nu0, max_step, on_sample),
-            (false, true) => self.width::<false, true>(t, tau, nu0, max_step, on_sample),
+        let go = (t, tau, start, max_step, on_sample);
+        match (six || self.att, self.any_cross, self.att) {
+            (true, false, false) => self.width::<true, false, 6>(go),
+            (true, true, false) => self.width::<true, true, 6>(go),
+            (false, false, _) => self.width::<false, false, 6>(go),
+            (false, true, _) => self.width::<false, true, 6>(go),
+            (true, false, true) => self.width::<true, false, WITH_ATTITUDE>(go),
+            (true, true, true) => self.width::<true, true, WITH_ATTITUDE>(go),
         }
     }
 
     /// [`LanePlants::run`] one lane wide for a single plant, else [`LANES`] wide.
     #[inline(always)]
-    fn width<const SIX: bool, const CROSS: bool>(
-        &self,
-        t: &[f64],
-        tau: &[Vec6],
-        nu0: Vec6,
-        max_step: f64,
-        on_sample: &mut dyn FnMut(usize, &[Lanes; 6]),
-    ) {
+    fn width<const SIX: bool, const CROSS: bool, const N: usize>(&self, go: Go<'_, '_>) {
         match self.size {
-            1 => self.run::<SIX, CROSS, 1>(t, tau, nu0, max_step, on_sample),
-            _ => self.run::<SIX, CROSS, LANES>(t, tau, nu0, max_step, on_sample),
+            1 => self.run::<SIX, CROSS, N, 1>(go),
+            _ => self.run::<SIX, CROSS, N, LANES>(go),
         }
     }
 
     #[inline(always)]
-    fn run<const SIX: bool, const CROSS: bool, const L: usize>(
+    fn run<const SIX: bool, const CROSS: bool, const N: usize, const L: usize>(
         &self,
-        t: &[f64],
-        tau: &[Vec6],
-        nu0: Vec6,
-        max_step: f64,
-        on_sample: &mut dyn FnMut(usize, &[Lanes; 6]),
+        (t, tau, (nu0, att0), max_step, on_sample): Go<'_, '_>,
     ) {
-        let mut nu: [[f64; L]; 6] = std::array::from_fn(|i| [nu0[i]; L]);
+        let g0 = super::dynamics::gravity_body(att0[0], att0[1]);
+        let mut x: State<L, N> = std::array::from_fn(|i| match i {
+            0..6 => [nu0[i]; L],
+            _ => [g0[i - 6]; L],
+        });
         let mut seen: [Lanes; 6] = std::array::from_fn(|i| [nu0[i]; LANES]);
         for k in 0..t.len() {
             for i in 0..6 {
-                seen[i][..L].copy_from_slice(&nu[i]);
+                seen[i][..L].copy_from_slice(&x[i]);
             }
             on_sample(k, &seen);
             if k + 1 == t.len() {
@@ -239,75 +274,112 @@ impl LanePlants {
             let push: [[f64; L]; 6] =
                 std::array::from_fn(|i| std::array::from_fn(|l| tau[k][i] + self.constant[i][l]));
             for _ in 0..n {
-                nu = self.rk4::<SIX, CROSS, L>(&nu, &push, h);
+                x = self.rk4::<SIX, CROSS, N, L>(&x, &push, h);
             }
         }
     }
 
     #[inline(always)]
-    fn rk4<const SIX: bool, const CROSS: bool, const L: usize>(
+    fn rk4<const SIX: bool, const CROSS: bool, const N: usize, const L: usize>(
         &self,
-        nu: &[[f64; L]; 6],
+        x0: &State<L, N>,
         push: &[[f64; L]; 6],
         h: f64,
-    ) -> [[f64; L]; 6] {
-        let stage = |k: &[[f64; L]; 6], s: f64| -> [[f64; L]; 6] {
-            let mut x = *nu;
-            for &i in dofs::<SIX>() {
+    ) -> State<L, N> {
+        let stage = |k: &State<L, N>, s: f64| -> State<L, N> {
+            let mut x = *x0;
+            for &i in states::<SIX, N>() {
                 for l in 0..L {
-                    x[i][l] = k[i][l].mul_add(s, nu[i][l]);
+                    x[i][l] = k[i][l].mul_add(s, x0[i][l]);
                 }
             }
             x
         };
-        let k1 = self.accel::<SIX, CROSS, L>(nu, push);
-        let k2 = self.accel::<SIX, CROSS, L>(&stage(&k1, 0.5 * h), push);
-        let k3 = self.accel::<SIX, CROSS, L>(&stage(&k2, 0.5 * h), push);
-        let k4 = self.accel::<SIX, CROSS, L>(&stage(&k3, h), push);
+        let k1 = self.accel::<SIX, CROSS, N, L>(x0, push);
+        let k2 = self.accel::<SIX, CROSS, N, L>(&stage(&k1, 0.5 * h), push);
+        let k3 = self.accel::<SIX, CROSS, N, L>(&stage(&k2, 0.5 * h), push);
+        let k4 = self.accel::<SIX, CROSS, N, L>(&stage(&k3, h), push);
         let w = h / 6.0;
-        let mut out = *nu;
-        for &i in dofs::<SIX>() {
+        let mut out = *x0;
+        for &i in states::<SIX, N>() {
             for l in 0..L {
                 let sum = 2.0f64.mul_add(k2[i][l] + k3[i][l], k1[i][l] + k4[i][l]);
-                out[i][l] = sum.mul_add(w, nu[i][l]);
+                out[i][l] = sum.mul_add(w, x0[i][l]);
             }
         }
         out
     }
 
-    /// nu_dot of eq. 2 for every lane: (tau + constant - C(nu) nu + D(nu) nu) / m, D's cross
-    /// terms linear (read only when `CROSS`).
+    /// nu_dot of eq. 2 for every lane: (tau + constant - C(nu) nu + D(nu) nu + g(eta)) / m,
+    /// D's cross terms linear (read only when `CROSS`), the weight and buoyancy g(eta) and
+    /// the gravity direction's rate only with the attitude.
     #[inline(always)]
-    fn accel<const SIX: bool, const CROSS: bool, const L: usize>(
+    fn accel<const SIX: bool, const CROSS: bool, const N: usize, const L: usize>(
         &self,
-        nu: &[[f64; L]; 6],
+        x: &State<L, N>,
         push: &[[f64; L]; 6],
-    ) -> [[f64; L]; 6] {
+    ) -> State<L, N> {
         let c = if SIX {
-            self.coriolis6(nu)
+            self.coriolis6(x)
         } else {
-            self.coriolis4(nu)
+            self.coriolis4(x)
         };
-        let mut a = [[0.0; L]; 6];
-        for &i in dofs::<SIX>() {
-            let from = &nu[self.cross_from[i]];
+        let att = N == WITH_ATTITUDE;
+        let mut a = [[0.0; L]; N];
+        let w = if att {
+            self.restoring(x, &mut a)
+        } else {
+            [[0.0; L]; 6]
+        };
+        for &i in states::<SIX, 6>() {
+            let from = &x[self.cross_from[i]];
             for l in 0..L {
-                let x = nu[i][l];
-                let drag = self.quad[i][l].mul_add(x.abs(), self.lin[i][l]);
+                let v = x[i][l];
+                let drag = self.quad[i][l].mul_add(v.abs(), self.lin[i][l]);
+                let f = push[i][l] - c[i][l];
+                let f = if att { f + w[i][l] } else { f };
                 let f = match CROSS {
-                    true => self.cross[i][l].mul_add(from[l], push[i][l] - c[i][l]),
-                    false => push[i][l] - c[i][l],
+                    true => self.cross[i][l].mul_add(from[l], f),
+                    false => f,
                 };
-                a[i][l] = drag.mul_add(x, f) * self.inv_mass[i][l];
+                a[i][l] = drag.mul_add(v, f) * self.inv_mass[i][l];
             }
         }
         a
     }
 
+    /// The weight and buoyancy in each DOF at the gravity direction of `x` (W - B along it,
+    /// r_B B crossed with it), and that direction's rate g x omega written into `rate`.
+    #[inline(always)]
+    fn restoring<const L: usize, const N: usize>(
+        &self,
+        x: &State<L, N>,
+        rate: &mut State<L, N>,
+    ) -> [[f64; L]; 6] {
+        let mut w = [[0.0; L]; 6];
+        let cross = |a: [f64; 3], b: [f64; 3]| {
+            [
+                a[1] * b[2] - a[2] * b[1],
+                a[2] * b[0] - a[0] * b[2],
+                a[0] * b[1] - a[1] * b[0],
+            ]
+        };
+        for l in 0..L {
+            let g = [x[6][l], x[7][l], x[8][l]];
+            let m = cross([self.moment[0][l], self.moment[1][l], self.moment[2][l]], g);
+            let dg = cross(g, [x[3][l], x[4][l], x[5][l]]);
+            for i in 0..3 {
+                w[i][l] = self.net_weight[l] * g[i];
+                w[3 + i][l] = m[i];
+                rate[6 + i][l] = dg[i];
+            }
+        }
+        w
+    }
     /// C(nu) nu of [`super::dynamics::coriolis`] with roll and pitch at rest: X -m_v v r,
     /// Y m_u u r, Z 0, N (m_v - m_u) u v.
     #[inline(always)]
-    fn coriolis4<const L: usize>(&self, nu: &[[f64; L]; 6]) -> [[f64; L]; 6] {
+    fn coriolis4<const L: usize, const N: usize>(&self, nu: &State<L, N>) -> [[f64; L]; 6] {
         let m = &self.mass;
         let mut c = [[0.0; L]; 6];
         for l in 0..L {
@@ -321,7 +393,7 @@ impl LanePlants {
 
     /// C(nu) nu of [`super::dynamics::coriolis`] (Kirchhoff form) in all six DOFs.
     #[inline(always)]
-    fn coriolis6<const L: usize>(&self, nu: &[[f64; L]; 6]) -> [[f64; L]; 6] {
+    fn coriolis6<const L: usize, const N: usize>(&self, nu: &State<L, N>) -> [[f64; L]; 6] {
         let m = &self.mass;
         let mut c = [[0.0; L]; 6];
         for l in 0..L {
@@ -349,140 +421,4 @@ impl LanePlants {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::model::{Hydro, Vehicle};
-
-    /// Plants around the reference vehicle, each coefficient moved by up to +-40 %.
-    fn population(vehicle: &Vehicle, n: usize) -> Vec<Plant> {
-        let h0 = Hydro::reference();
-        (0..n)
-            .map(|j| {
-                let f = |i: usize, g: usize| {
-                    1.0 + 0.4 * (((j * 7 + i * 3 + g) % 11) as f64 / 5.0 - 1.0)
-                };
-                let mut h = h0;
-                for i in 0..6 {
-                    h.added[i][i] *= f(i, 0);
-                    h.lin[i][i] *= f(i, 1);
-                    h.quad[i][i][i] *= f(i, 2);
-                    h.constant[i] = 3.0 * (f(i, 3) - 1.0);
-                }
-                Plant::new(vehicle, h)
-            })
-            .collect()
-    }
-
-    fn check(vehicle: &Vehicle, lanes: usize) {
-        check_plants(&population(vehicle, lanes));
-    }
-
-    /// Each lane of `plants`, simulated together, against the plant's own simulation.
-    fn check_plants(plants: &[Plant]) {
-        let t: Vec<f64> = (0..400).map(|k| k as f64 * 0.025).collect();
-        let tau: Vec<Vec6> = t
-            .iter()
-            .map(|&x| {
-                let s = (0.7 * x).sin();
-                [
-                    60.0 * s,
-                    25.0 * (1.3 * x).cos(),
-                    -30.0 * s,
-                    4.0 * s,
-                    -3.0 * s,
-                    8.0 * (0.9 * x).sin(),
-                ]
-            })
-            .collect();
-        let nu0 = [0.2, -0.1, 0.05, 0.0, 0.0, 0.1];
-        let lp = LanePlants::new(plants);
-        let mut got = vec![[[0.0; LANES]; 6]; t.len()];
-        lp.simulate(&t, &tau, nu0, 0.01, &mut |k, nu| got[k] = *nu);
-        for (l, p) in plants.iter().enumerate() {
-            let want = p.simulate(&t, &tau, nu0, 0.01);
-            for k in 0..t.len() {
-                for i in 0..6 {
-                    let (a, b) = (got[k][i][l], want[k][i]);
-                    assert!(
-                        (a - b).abs() <= 1e-11 * (1.0 + b.abs()),
-                        "lane {l}, sample {k}, DOF {i}: {a} vs {b}"
-                    );
-                }
-            }
-            assert!(
-                want.last().unwrap().iter().any(|x| x.abs() > 0.05),
-                "the plant moves"
-            );
-        }
-    }
-
-    #[test]
-    fn every_lane_follows_its_own_plant_in_four_dof() {
-        check(&Vehicle::reference(), LANES);
-        check(&Vehicle::reference(), 3);
-    }
-
-    /// A single plant runs one lane wide, to the bit what it gives beside seven others.
-    #[test]
-    fn a_single_plant_runs_alone_as_it_runs_in_a_population() {
-        let v = Vehicle::reference();
-        let plants = population(&v, LANES);
-        check_plants(&plants[..1]);
-        let t: Vec<f64> = (0..300).map(|k| k as f64 * 0.05).collect();
-        let tau: Vec<Vec6> = (t.iter())
-            .map(|&x| {
-                [
-                    40.0 * x.sin(),
-                    20.0,
-                    -10.0 * x.cos(),
-                    0.0,
-                    0.0,
-                    6.0 * x.sin(),
-                ]
-            })
-            .collect();
-        let run = |lp: &LanePlants| {
-            let mut out = Vec::new();
-            lp.simulate(
-                &t,
-                &tau,
-                [0.1, 0.0, 0.0, 0.0, 0.0, 0.0],
-                0.02,
-                &mut |_, nu| out.push(std::array::from_fn::<f64, 6, _>(|i| nu[i][0])),
-            );
-            out
-        };
-        assert_eq!(
-            run(&LanePlants::new(&plants[..1])),
-            run(&LanePlants::new(&plants))
-        );
-    }
-
-    /// A sway-yaw linear coupling (N_v, Y_r) runs in the lane kernel as the plant's own
-    /// coupled solve runs it.
-    #[test]
-    fn every_lane_follows_its_own_plant_with_cross_drag() {
-        let v = Vehicle::reference();
-        let plants: Vec<Plant> = (population(&v, LANES).into_iter().enumerate())
-            .map(|(l, p)| {
-                let mut h = p.hydro;
-                h.lin[5][1] = 0.5 + 0.3 * l as f64;
-                h.lin[1][5] = if l % 2 == 0 { -2.0 } else { 0.0 };
-                Plant::new(&v, h)
-            })
-            .collect();
-        assert!(plants[0].is_coupled(), "the reference simulates it coupled");
-        assert!(LanePlants::new(&plants).any_cross);
-        check_plants(&plants);
-    }
-
-    #[test]
-    fn every_lane_follows_its_own_plant_in_six_dof() {
-        let mut v = Vehicle::reference();
-        v.dofs = crate::dof::Dof::ALL.to_vec();
-        v.inertia_kg_m2.xx = 1.2;
-        v.inertia_kg_m2.yy = 1.5;
-        assert!(LanePlants::new(&population(&v, 1)).six_dof());
-        check(&v, LANES);
-    }
-}
+mod tests;

@@ -158,9 +158,9 @@ impl ParamLayout {
         self.terms.len()
     }
 
-    /// Whether every model of this layout has a diagonal mass and no buoyancy, with drag
-    /// diagonal but for at most one linear cross term per DOF (N_v, Y_r): what the lane
-    /// simulator ([`super::lanes`]) evaluates without a mass-matrix solve.
+    /// Whether every model of this layout has a diagonal mass, with drag diagonal but for at
+    /// most one linear cross term per DOF (N_v, Y_r), weight and buoyancy allowed: what the
+    /// lane simulator ([`super::lanes`]) evaluates without a mass-matrix solve.
     pub fn is_diagonal_model(&self) -> bool {
         let cross_in = |i: usize| {
             (self.terms.iter())
@@ -171,8 +171,7 @@ impl ParamLayout {
             && self.terms.iter().all(|t| match *t {
                 Term::Added(i, j) => i == j,
                 Term::Quadratic { .. } => t.is_diagonal(),
-                Term::Linear(..) | Term::Constant(_) => true,
-                Term::NetWeight | Term::Moment(_) => false,
+                Term::Linear(..) | Term::Constant(_) | Term::NetWeight | Term::Moment(_) => true,
             })
     }
 
