@@ -10,10 +10,11 @@
 //! into multiply-adds. Roll and pitch are skipped when neither is free (a 4-DOF vehicle): they
 //! stay at rest, and every term they enter is zero.
 //!
-//! The mass stays diagonal, but a linear drag may couple two DOFs, one term per DOF (a yaw
-//! moment from the sway velocity, N_v; a sway force from the yaw rate, Y_r): so a model with
-//! the sway-yaw couplings runs here rather than through the coupled kernel's mass-matrix
-//! solve (nine times slower on 16 four-DOF runs).
+//! The mass stays diagonal, but a linear drag may couple two DOFs, up to two terms per DOF
+//! (a yaw moment from the sway velocity, N_v; a sway force from the yaw rate, Y_r; a pitch
+//! moment from surge and from heave, M_u and M_w): so a model with such couplings runs here
+//! rather than through the coupled kernel's mass-matrix solve (nine times slower on 16
+//! four-DOF runs; a six-DOF BlueROV2 Heavy fit with M_u and M_w took 62 s there, 16 s here).
 //!
 //! Weight and buoyancy (the net weight and the moment of buoyancy about the centre of gravity,
 //! seed 003 eq. 8) run here too: the gravity direction in the body frame is carried as three
@@ -24,6 +25,7 @@
 // Numeric kernels index several arrays with one loop variable; iterators would hide that.
 #![allow(clippy::needless_range_loop)]
 
+use super::params::MAX_CROSS;
 use super::{Plant, Vec6};
 
 /// Candidates per pass: eight doubles fill an AVX-512 register, or two AVX2 registers (two
@@ -71,12 +73,13 @@ pub struct LanePlants {
     lin: [Lanes; 6],
     quad: [Lanes; 6],
     constant: [Lanes; 6],
-    /// Linear drag across DOFs, at most one term per DOF: the force in DOF `i` is
-    /// `cross[i]` times the velocity in DOF `cross_from[i]` (zero and itself where none).
-    cross: [Lanes; 6],
-    cross_from: [usize; 6],
-    /// Whether any lane has a cross term.
-    any_cross: bool,
+    /// Linear drag across DOFs, at most [`MAX_CROSS`] terms per DOF: the force in DOF `i`
+    /// is `cross[i][c]` times the velocity in DOF `cross_from[i][c]` (zero and itself where
+    /// none).
+    cross: [[Lanes; MAX_CROSS]; 6],
+    cross_from: [[usize; MAX_CROSS]; 6],
+    /// The most cross terms of any DOF (the kernel reads that many per DOF).
+    crosses: usize,
     /// The net weight W - B along the gravity direction, and the moment of buoyancy r_B B
     /// (crossed with it), as in [`super::dynamics`].
     net_weight: Lanes,
@@ -122,24 +125,28 @@ impl LanePlants {
             let m = p.mass()[i];
             if p.active[i] && m > 0.0 { 1.0 / m } else { 0.0 }
         });
-        let cross_from: [usize; 6] = std::array::from_fn(|i| {
+        let from: [Vec<usize>; 6] = std::array::from_fn(|i| {
             let from =
                 (0..6).filter(|&j| j != i && plants.iter().any(|p| p.hydro.lin[i][j] != 0.0));
             let from: Vec<usize> = from.collect();
             assert!(
-                from.len() <= 1,
-                "the lane kernel takes one cross drag term per DOF"
+                from.len() <= MAX_CROSS,
+                "the lane kernel takes {MAX_CROSS} cross drag terms per DOF"
             );
-            from.first().copied().unwrap_or(i)
+            from
         });
+        let cross_from: [[usize; MAX_CROSS]; 6] =
+            std::array::from_fn(|i| std::array::from_fn(|c| from[i].get(c).copied().unwrap_or(i)));
         LanePlants {
             mass,
             inv_mass,
-            cross: by(&|p, i| match cross_from[i] {
-                j if j != i => p.hydro.lin[i][j],
-                _ => 0.0,
+            cross: std::array::from_fn(|i| {
+                std::array::from_fn(|c| match cross_from[i][c] {
+                    j if j != i => std::array::from_fn(|l| at(l).hydro.lin[i][j]),
+                    _ => [0.0; LANES],
+                })
             }),
-            any_cross: (0..6).any(|i| cross_from[i] != i),
+            crosses: from.iter().map(Vec::len).max().unwrap_or(0),
             cross_from,
             lin: by(&|p, i| p.hydro.lin[i][i]),
             quad: by(&|p, i| p.hydro.quad[i][i][i]),
@@ -224,24 +231,31 @@ impl LanePlants {
         on_sample: &mut dyn FnMut(usize, &[Lanes; 6]),
     ) {
         // Roll and pitch at rest (neither free, neither moving at the start) add nothing; a
-        // model without cross drag runs the loop without it, one without weight and buoyancy
-        // without the attitude (which, with them, needs all six DOFs).
+        // model runs the loop with as many cross drag terms as its DOFs have, and without the
+        // attitude where it has no weight and buoyancy (with them, it needs all six DOFs).
         let nu0 = start.0;
-        let six = self.six || nu0[3] != 0.0 || nu0[4] != 0.0;
+        let six = self.six || nu0[3] != 0.0 || nu0[4] != 0.0 || self.att;
         let go = (t, tau, start, max_step, on_sample);
-        match (six || self.att, self.any_cross, self.att) {
-            (true, false, false) => self.width::<true, false, 6>(go),
-            (true, true, false) => self.width::<true, true, 6>(go),
-            (false, false, _) => self.width::<false, false, 6>(go),
-            (false, true, _) => self.width::<false, true, 6>(go),
-            (true, false, true) => self.width::<true, false, WITH_ATTITUDE>(go),
-            (true, true, true) => self.width::<true, true, WITH_ATTITUDE>(go),
+        match (six, self.att) {
+            (false, _) => self.crossed::<false, 6>(go),
+            (true, false) => self.crossed::<true, 6>(go),
+            (true, true) => self.crossed::<true, WITH_ATTITUDE>(go),
+        }
+    }
+
+    /// [`LanePlants::width`] with the model's number of cross drag terms per DOF.
+    #[inline(always)]
+    fn crossed<const SIX: bool, const N: usize>(&self, go: Go<'_, '_>) {
+        match self.crosses {
+            0 => self.width::<SIX, 0, N>(go),
+            1 => self.width::<SIX, 1, N>(go),
+            _ => self.width::<SIX, MAX_CROSS, N>(go),
         }
     }
 
     /// [`LanePlants::run`] one lane wide for a single plant, else [`LANES`] wide.
     #[inline(always)]
-    fn width<const SIX: bool, const CROSS: bool, const N: usize>(&self, go: Go<'_, '_>) {
+    fn width<const SIX: bool, const CROSS: usize, const N: usize>(&self, go: Go<'_, '_>) {
         match self.size {
             1 => self.run::<SIX, CROSS, N, 1>(go),
             _ => self.run::<SIX, CROSS, N, LANES>(go),
@@ -249,7 +263,7 @@ impl LanePlants {
     }
 
     #[inline(always)]
-    fn run<const SIX: bool, const CROSS: bool, const N: usize, const L: usize>(
+    fn run<const SIX: bool, const CROSS: usize, const N: usize, const L: usize>(
         &self,
         (t, tau, (nu0, att0), max_step, on_sample): Go<'_, '_>,
     ) {
@@ -280,7 +294,7 @@ impl LanePlants {
     }
 
     #[inline(always)]
-    fn rk4<const SIX: bool, const CROSS: bool, const N: usize, const L: usize>(
+    fn rk4<const SIX: bool, const CROSS: usize, const N: usize, const L: usize>(
         &self,
         x0: &State<L, N>,
         push: &[[f64; L]; 6],
@@ -311,10 +325,10 @@ impl LanePlants {
     }
 
     /// nu_dot of eq. 2 for every lane: (tau + constant - C(nu) nu + D(nu) nu + g(eta)) / m,
-    /// D's cross terms linear (read only when `CROSS`), the weight and buoyancy g(eta) and
+    /// D's cross terms linear (`CROSS` of them per DOF), the weight and buoyancy g(eta) and
     /// the gravity direction's rate only with the attitude.
     #[inline(always)]
-    fn accel<const SIX: bool, const CROSS: bool, const N: usize, const L: usize>(
+    fn accel<const SIX: bool, const CROSS: usize, const N: usize, const L: usize>(
         &self,
         x: &State<L, N>,
         push: &[[f64; L]; 6],
@@ -332,16 +346,17 @@ impl LanePlants {
             [[0.0; L]; 6]
         };
         for &i in states::<SIX, 6>() {
-            let from = &x[self.cross_from[i]];
+            let from = self.cross_from[i].map(|j| &x[j]);
             for l in 0..L {
                 let v = x[i][l];
                 let drag = self.quad[i][l].mul_add(v.abs(), self.lin[i][l]);
-                let f = push[i][l] - c[i][l];
-                let f = if att { f + w[i][l] } else { f };
-                let f = match CROSS {
-                    true => self.cross[i][l].mul_add(from[l], f),
-                    false => f,
-                };
+                let mut f = push[i][l] - c[i][l];
+                if att {
+                    f += w[i][l];
+                }
+                for k in 0..CROSS {
+                    f = self.cross[i][k][l].mul_add(from[k][l], f);
+                }
                 a[i][l] = drag.mul_add(v, f) * self.inv_mass[i][l];
             }
         }

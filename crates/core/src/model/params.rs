@@ -113,6 +113,10 @@ pub struct ParamLayout {
     pub terms: Vec<Term>,
 }
 
+/// The most linear cross drag terms per DOF the lane simulator ([`super::lanes`]) takes
+/// (N_v and N_u in yaw, M_u and M_w in pitch).
+pub const MAX_CROSS: usize = 2;
+
 impl ParamLayout {
     /// The diagonal structure over `dofs`.
     pub fn new(dofs: &[Dof]) -> ParamLayout {
@@ -159,15 +163,16 @@ impl ParamLayout {
     }
 
     /// Whether every model of this layout has a diagonal mass, with drag diagonal but for at
-    /// most one linear cross term per DOF (N_v, Y_r), weight and buoyancy allowed: what the
-    /// lane simulator ([`super::lanes`]) evaluates without a mass-matrix solve.
+    /// most [`MAX_CROSS`] linear cross terms per DOF (N_v, Y_r, K_v, M_u, M_w),
+    /// weight and buoyancy allowed: what the lane simulator ([`super::lanes`]) evaluates
+    /// without a mass-matrix solve.
     pub fn is_diagonal_model(&self) -> bool {
         let cross_in = |i: usize| {
             (self.terms.iter())
                 .filter(|t| matches!(t, Term::Linear(r, c) if *r == i && r != c))
                 .count()
         };
-        (0..6).all(|i| cross_in(i) <= 1)
+        (0..6).all(|i| cross_in(i) <= MAX_CROSS)
             && self.terms.iter().all(|t| match *t {
                 Term::Added(i, j) => i == j,
                 Term::Quadratic { .. } => t.is_diagonal(),

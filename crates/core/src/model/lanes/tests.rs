@@ -119,7 +119,28 @@ fn every_lane_follows_its_own_plant_with_cross_drag() {
         })
         .collect();
     assert!(plants[0].is_coupled(), "the reference simulates it coupled");
-    assert!(LanePlants::new(&plants).any_cross);
+    assert_eq!(LanePlants::new(&plants).crosses, 1);
+    check_plants(&plants);
+}
+
+/// Two linear couplings into one DOF (N_v and N_u in yaw), in some lanes one or none.
+#[test]
+fn every_lane_follows_its_own_plant_with_two_cross_terms() {
+    let v = Vehicle::reference();
+    let plants: Vec<Plant> = (population(&v, LANES).into_iter().enumerate())
+        .map(|(l, p)| {
+            let mut h = p.hydro;
+            h.lin[5][1] = if l % 3 == 0 {
+                0.0
+            } else {
+                0.5 + 0.3 * l as f64
+            };
+            h.lin[5][0] = if l % 2 == 0 { -0.4 * l as f64 } else { 0.0 };
+            h.lin[1][5] = -1.0;
+            Plant::new(&v, h)
+        })
+        .collect();
+    assert_eq!(LanePlants::new(&plants).crosses, 2);
     check_plants(&plants);
 }
 
@@ -159,7 +180,7 @@ fn every_lane_follows_its_own_plant_with_weight_and_buoyancy() {
         })
         .collect();
     let lp = LanePlants::new(&plants);
-    assert!(lp.att && lp.any_cross);
+    assert!(lp.att && lp.crosses == 1);
     let t: Vec<f64> = (0..400).map(|k| k as f64 * 0.025).collect();
     let tau: Vec<Vec6> = (t.iter())
         .map(|&x| {
