@@ -14,8 +14,9 @@
 //! So the model is first fitted with the couplings held at zero (the translations fitted as
 //! without them), then roll's and pitch's own coefficients and the couplings are refitted
 //! with every other coefficient held: a cascade, as an engineer fits the attitude's response
-//! to a translation already fitted ([`super::refine::output_error_lm_within`]). Held-out, on those runs with both couplings kept: roll
-//! 0.88 and sway 0.30 (1.00 and 0.30 without the couplings).
+//! to a translation already fitted ([`super::refine::output_error_lm_within`]). Held out, on
+//! those runs with both couplings kept: roll 0.88 and sway 0.30 (1.00 and 0.30 without the
+//! couplings).
 //!
 //! The price is paid where the model is right. On a twin whose truth has K_v = 1 and a net
 //! buoyancy that the roll tilts into sway, the joint fit finds Y_v exactly (-6.23 for -6.22)

@@ -116,11 +116,8 @@ pub fn output_error_lm_within(
     let from = [first.theta.as_slice(), &first.nuisance].concat();
     let second = lm_within(oe, layout, &from, iterations, &rows);
     // A second stage that did not lower the error (or diverged) is not taken.
-    let lower = second.cost_after.partial_cmp(&first.cost_after);
-    if !matches!(
-        lower,
-        Some(std::cmp::Ordering::Less | std::cmp::Ordering::Equal)
-    ) {
+    let order = second.cost_after.partial_cmp(&first.cost_after);
+    if order.is_none_or(std::cmp::Ordering::is_gt) {
         return first;
     }
     Refined {
