@@ -341,15 +341,20 @@ impl Setup {
             name: "designed".into(),
             validate: true,
             slots: crate::diagnose::Slots::POOL,
-            cmd: lagged.iter().map(|c| [c[0], c[1], c[2], c[5]]).collect(),
+            cmd: lagged
+                .iter()
+                .map(|c| [c[0], c[1], c[2], 0.0, 0.0, c[5]])
+                .collect(),
             vel: [
                 col(&|s| s.nu[0]),
                 col(&|s| s.nu[1]),
                 col(&|s| s.nu[2]),
+                vec![0.0; t.len()],
+                vec![0.0; t.len()],
                 col(&|s| s.nu[5]),
             ],
             std: std::array::from_fn(|_| vec![0.0; t.len()]),
-            noise_share: [1.0; 4],
+            noise_share: [1.0; crate::diagnose::SLOTS],
             pos: [col(&|s| s.pos[0]), col(&|s| s.pos[1]), col(&|s| s.pos[2])],
             psi: col(&|s| s.psi),
             t,
@@ -358,7 +363,6 @@ impl Setup {
             dead_reckoned: false,
             att: Default::default(),
             anchors_s: Vec::new(),
-            tilt: None,
         }
     }
 }

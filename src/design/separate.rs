@@ -8,7 +8,7 @@
 
 use crate::core::model::Plant;
 use crate::diagnose::result::Diagnosis;
-use crate::diagnose::{self, Run, Selection};
+use crate::diagnose::{self, Run, SLOTS, Selection};
 
 /// Two effects the diagnosis could not tell apart, each with the other effects it kept.
 pub struct Pair {
@@ -22,8 +22,8 @@ pub struct Pair {
 /// the fused velocity), as the diagnosis normalises its costs.
 #[derive(Debug, Clone, Copy)]
 pub struct Noise {
-    pub scale: [f64; 4],
-    pub variance: [f64; 4],
+    pub scale: [f64; SLOTS],
+    pub variance: [f64; SLOTS],
 }
 
 impl Noise {
@@ -37,13 +37,13 @@ impl Noise {
         };
         Noise {
             scale: std::array::from_fn(|j| mean(&|r: &Run| &r.vel[j]).max(1e-12)),
-            variance: diagnose::noise_per_dof(runs, &[1.0; 4]),
+            variance: diagnose::noise_per_dof(runs, &[1.0; SLOTS]),
         }
     }
 
     /// The noise floor of the normalised cost.
     pub fn floor(&self) -> f64 {
-        (0..4).map(|j| self.variance[j] / self.scale[j]).sum()
+        (0..SLOTS).map(|j| self.variance[j] / self.scale[j]).sum()
     }
 }
 
@@ -111,7 +111,7 @@ impl Pair {
             diagnose::residual(&diagnose::simulate(plant, &aug, run), run, aug.delay_s)
         };
         let (a, b) = (predict(&self.with_kept), predict(&self.with_alike));
-        let cost: f64 = (0..4)
+        let cost: f64 = (0..SLOTS)
             .map(|j| {
                 let (s, n) = a[j]
                     .iter()
@@ -146,10 +146,10 @@ mod tests {
             name: "r".into(),
             validate: true,
             slots: diagnose::Slots::POOL,
-            cmd: c,
-            vel: [col(0), col(1), col(2), col(5)],
+            cmd: tau,
+            vel: std::array::from_fn(col),
             std: std::array::from_fn(|_| vec![0.01; t.len()]),
-            noise_share: [1.0; 4],
+            noise_share: [1.0; SLOTS],
             pos: std::array::from_fn(|_| vec![1.0; t.len()]),
             psi: vec![0.0; t.len()],
             t,
@@ -158,7 +158,6 @@ mod tests {
             dead_reckoned: false,
             att: Default::default(),
             anchors_s: Vec::new(),
-            tilt: None,
         }
     }
 

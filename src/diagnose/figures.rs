@@ -6,11 +6,12 @@ use super::result::{Figure, pct};
 use super::{self as dx, Augmentation, Data, Mismatch};
 use crate::core::dof::Dof;
 use crate::core::model::Plant;
+use crate::diagnose::SLOTS;
 
 /// The CFD model's residual on the held-out run that carries most of it, every DOF.
 pub(super) fn residual_overview(
     data: &Data,
-    res: &[[Vec<f64>; 4]],
+    res: &[[Vec<f64>; SLOTS]],
     mismatch: &[Mismatch],
 ) -> anyhow::Result<Option<Figure>> {
     let Some(m) = mismatch.first() else {
@@ -115,12 +116,12 @@ fn worst_run_figure(
     data: &Data,
     h: &dx::Hypothesis,
     j: usize,
-    rb: &[[Vec<f64>; 4]],
-    ra: &[[Vec<f64>; 4]],
+    rb: &[[Vec<f64>; SLOTS]],
+    ra: &[[Vec<f64>; SLOTS]],
 ) -> anyhow::Result<Option<Figure>> {
     use crate::core::plot::{Trace, curves};
     let worst = (0..data.validate.len()).max_by(|&a, &b| {
-        let e = |r: &[Vec<f64>; 4]| {
+        let e = |r: &[Vec<f64>; SLOTS]| {
             r[j].iter()
                 .filter(|x| x.is_finite())
                 .map(|x| x * x)
@@ -181,7 +182,7 @@ pub(super) fn evidence_figures(
         out.push(fig);
     }
     let (label, x) = evidence_axis(h, data, j);
-    let bin = |res: &[[Vec<f64>; 4]]| binned(&x, res, j);
+    let bin = |res: &[[Vec<f64>; SLOTS]]| binned(&x, res, j);
     let (cx, yb) = bin(&rb);
     let (_, ya) = bin(&ra);
     if cx.len() >= 3 {
@@ -264,7 +265,7 @@ fn binned_caption(name: &str, label: &str, yb: &[f64], ya: &[f64]) -> String {
 }
 
 /// RMS residual of DOF j in 12 bins of x between its 2nd and 98th percentiles.
-fn binned(x: &[Vec<f64>], res: &[[Vec<f64>; 4]], j: usize) -> (Vec<f64>, Vec<f64>) {
+fn binned(x: &[Vec<f64>], res: &[[Vec<f64>; SLOTS]], j: usize) -> (Vec<f64>, Vec<f64>) {
     let mut all: Vec<f64> = x
         .iter()
         .flatten()

@@ -3,6 +3,7 @@
 
 use super::Run;
 use crate::core::dof::Dof;
+use crate::diagnose::SLOTS;
 use serde::{Deserialize, Serialize};
 
 /// A regime of the runs: a condition per sample and DOF.
@@ -63,7 +64,7 @@ fn in_regime(name: &str, run: &Run, k: usize, j: usize, med: &RunMedians) -> Opt
             let mut i = k;
             let mut hit = false;
             while i > 0 && run.t[i - 1] >= lo {
-                if (0..4).any(|q| (c[i][q] - c[i - 1][q]).abs() > 0.15 * med.cmd_max[q]) {
+                if (0..SLOTS).any(|q| (c[i][q] - c[i - 1][q]).abs() > 0.15 * med.cmd_max[q]) {
                     hit = true;
                     break;
                 }
@@ -93,7 +94,7 @@ fn in_regime(name: &str, run: &Run, k: usize, j: usize, med: &RunMedians) -> Opt
 const NEAR_SURFACE_M: f64 = 0.5;
 
 struct RunMedians {
-    cmd_max: [f64; 4],
+    cmd_max: [f64; SLOTS],
     tether: Option<f64>,
     depth: f64,
     /// Whether the run's depth was measured (a dead-reckoned track without a depth sensor
@@ -141,8 +142,8 @@ pub struct RegimeShare {
 /// Share of the normalised squared residual, and of the samples, in each regime (over DOFs).
 pub fn regime_shares(
     runs: &[Run],
-    residuals: &[[Vec<f64>; 4]],
-    scale: &[f64; 4],
+    residuals: &[[Vec<f64>; SLOTS]],
+    scale: &[f64; SLOTS],
 ) -> Vec<RegimeShare> {
     REGIMES
         .iter()
@@ -150,7 +151,7 @@ pub fn regime_shares(
             let (mut err_in, mut err_all, mut n_in, mut n_all) = (0.0, 0.0, 0.0, 0.0);
             for (run, e) in runs.iter().zip(residuals) {
                 let med = medians(run);
-                for j in 0..4 {
+                for j in 0..SLOTS {
                     for (k, x) in e[j].iter().enumerate() {
                         if !x.is_finite() {
                             continue;
@@ -187,7 +188,11 @@ pub struct Mismatch {
 
 /// Windows where the 1-s moving mean of the squared residual exceeds twice its run mean (and
 /// the noise), merged across gaps under 1 s, the five with the most error.
-pub fn locate(runs: &[Run], residuals: &[[Vec<f64>; 4]], scale: &[f64; 4]) -> Vec<Mismatch> {
+pub fn locate(
+    runs: &[Run],
+    residuals: &[[Vec<f64>; SLOTS]],
+    scale: &[f64; SLOTS],
+) -> Vec<Mismatch> {
     let mut total = 0.0;
     let mut parts = Vec::new();
     for (run, e) in runs.iter().zip(residuals) {
@@ -284,10 +289,10 @@ mod tests {
             validate: true,
             t: (0..n).map(|k| k as f64 * 0.1).collect(),
             slots,
-            cmd: vec![[0.0, 0.0, 10.0, 0.0]; n],
+            cmd: vec![[0.0, 0.0, 10.0, 0.0, 0.0, 0.0]; n],
             vel: std::array::from_fn(|_| zeros.clone()),
             std: std::array::from_fn(|_| vec![0.01; n]),
-            noise_share: [1.0; 4],
+            noise_share: [1.0; SLOTS],
             pos: [zeros.clone(), zeros.clone(), (0..n).map(depth).collect()],
             psi: zeros.clone(),
             pool: None,
@@ -295,7 +300,6 @@ mod tests {
             dead_reckoned: false,
             att: Default::default(),
             anchors_s: Vec::new(),
-            tilt: None,
         }
     }
 
@@ -307,18 +311,18 @@ mod tests {
         let n = 200;
         let r = run(n, |k| (2.0 - 0.01 * k as f64).max(0.1));
         let heave = r.slots.slot(Dof::Heave).unwrap();
-        let mut e: [Vec<f64>; 4] = std::array::from_fn(|_| vec![0.0; n]);
+        let mut e: [Vec<f64>; SLOTS] = std::array::from_fn(|_| vec![0.0; n]);
         for (k, x) in e[heave].iter_mut().enumerate() {
             *x = if r.pos[2][k] < 0.3 { 0.2 } else { 0.01 };
         }
-        let shares = regime_shares(std::slice::from_ref(&r), &[e.clone()], &[1.0; 4]);
+        let shares = regime_shares(std::slice::from_ref(&r), &[e.clone()], &[1.0; SLOTS]);
         let s = shares.iter().find(|s| s.regime == "near_surface").unwrap();
         assert!(
             s.share_of_error > 0.9 && s.share_of_time < 0.25 * 1.1,
             "{s:?}"
         );
         let unknown = run(n, |_| 0.0);
-        let shares = regime_shares(&[unknown], &[e], &[1.0; 4]);
+        let shares = regime_shares(&[unknown], &[e], &[1.0; SLOTS]);
         assert!(shares.iter().all(|s| s.regime != "near_surface"));
     }
 }

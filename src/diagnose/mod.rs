@@ -53,7 +53,7 @@ pub use effects::{Hypothesis, REGISTRY, hypothesis};
 pub use locate::{Mismatch, REGIMES, Regime, RegimeShare, locate, regime_shares};
 pub use result::{Diagnosis, Figure};
 pub use select::{Criteria, Search, Tested, Untested, params_map, select, untested};
-pub use slots::Slots;
+pub use slots::{SLOTS, Slots};
 pub use sums::{Sums, noise_per_dof, residual, sums};
 pub use verdict::diagnose;
 
@@ -71,13 +71,14 @@ pub struct Run {
     pub t: Vec<f64>,
     /// The DOFs of the per-DOF arrays below ([`Slots`]).
     pub slots: Slots,
-    /// Logged command in the slots' DOFs ([X, Y, Z, N] in the pool's).
-    pub cmd: Vec<[f64; 4]>,
-    pub vel: [Vec<f64>; 4],
-    pub std: [Vec<f64>; 4],
+    /// Logged command in the slots' DOFs ([X, Y, Z, N, K, M]), zero in a slot the model
+    /// leaves out.
+    pub cmd: Vec<[f64; SLOTS]>,
+    pub vel: [Vec<f64>; SLOTS],
+    pub std: [Vec<f64>; SLOTS],
     /// Per DOF, the share of `std` that is the sensor's own noise (below 1 for a navigation
     /// log's velocities, whose smoother assumes more): the noise floor counts only that.
-    pub noise_share: [f64; 4],
+    pub noise_share: [f64; SLOTS],
     pub pos: [Vec<f64>; 3],
     pub psi: Vec<f64>,
     pub pool: Option<Pool>,
@@ -91,8 +92,6 @@ pub struct Run {
     /// Times at which simulations of this run are re-anchored to the fused velocity (multiple
     /// shooting, where the model is locally unstable along it); empty: the whole run.
     pub anchors_s: Vec<f64>,
-    /// A six-DOF model's roll and pitch, simulated but not scored ([`slots::Tilt`]).
-    pub tilt: Option<Box<slots::Tilt>>,
 }
 
 impl Run {
@@ -107,13 +106,15 @@ impl Run {
     pub fn from_fused(r: &FusedRun, slots: Slots) -> Option<Run> {
         let validate = r.meta.role == crate::pool::import::Role::Validate;
         let cmd = (0..r.thrust.len())
-            .map(|k| slots.of_nu(&r.tau(k)))
+            .map(|k| {
+                let c = slots.of_nu(&r.tau(k));
+                std::array::from_fn(|j| if slots.active[j] { c[j] } else { 0.0 })
+            })
             .collect();
         Run::from_parts(&r.meta.run, validate, cmd, &r.fused, slots)
             .map(|run| Run {
                 pool: r.meta.pool,
                 anchor: r.meta.tether_anchor_m,
-                tilt: slots.tilts.then(|| Box::new(slots::Tilt::of(r))),
                 ..run
             })
             .map(|run| run.reckoned_from(r.meta.start_m))
@@ -143,15 +144,15 @@ impl Run {
     pub fn from_parts(
         name: &str,
         validate: bool,
-        cmd: Vec<[f64; 4]>,
+        cmd: Vec<[f64; SLOTS]>,
         f: &crate::pool::fusion::Fused,
         slots: Slots,
     ) -> Option<Run> {
         let n = f.t.len();
-        let mut vel: [Vec<f64>; 4] = Default::default();
-        let mut std: [Vec<f64>; 4] = Default::default();
-        let mut noise_share = [1.0; 4];
-        for j in 0..4 {
+        let mut vel: [Vec<f64>; SLOTS] = Default::default();
+        let mut std: [Vec<f64>; SLOTS] = Default::default();
+        let mut noise_share = [1.0; SLOTS];
+        for j in 0..SLOTS {
             if !slots.active[j] {
                 // Held at rest and never scored.
                 (vel[j], std[j]) = (vec![0.0; n], vec![0.0; n]);
@@ -161,8 +162,7 @@ impl Run {
             (vel[j], std[j], noise_share[j]) = (v.to_vec(), s.to_vec(), share);
         }
         let rp = &f.roll_pitch;
-        let rotation =
-            slots.tilts || slots.slot(Dof::Roll).is_some() || slots.slot(Dof::Pitch).is_some();
+        let rotation = slots.slot(Dof::Roll).is_some() || slots.slot(Dof::Pitch).is_some();
         let att = match rotation && rp.roll.len() == n && rp.pitch.len() == n {
             true => [rp.roll.clone(), rp.pitch.clone()],
             false => Default::default(),
@@ -183,19 +183,14 @@ impl Run {
             dead_reckoned: false,
             att,
             anchors_s: Vec::new(),
-            tilt: None,
         })
     }
 
-    /// The command at sample k as a generalised force (zero outside the slots and a six-DOF
-    /// model's roll and pitch).
+    /// The command at sample k as a generalised force (zero outside the slots).
     pub fn cmd6(&self, k: usize) -> Vec6 {
         let mut c = [0.0; 6];
-        for j in 0..4 {
+        for j in 0..SLOTS {
             c[self.slots.nu(j)] = self.cmd[k][j];
-        }
-        if let Some(m) = self.tilt.as_ref().and_then(|t| t.cmd.get(k)) {
-            (c[3], c[4]) = (m[0], m[1]);
         }
         c
     }
@@ -213,7 +208,7 @@ impl Run {
 
     /// Sets the slots' velocities of `s` to the recording's at sample k.
     pub fn set_velocity(&self, k: usize, s: &mut State) {
-        for j in 0..4 {
+        for j in 0..SLOTS {
             s.nu[self.slots.nu(j)] = self.vel[j][k];
         }
     }
@@ -254,12 +249,12 @@ pub fn augmentation(sel: &[(&'static Hypothesis, Vec<f64>)]) -> Augmentation {
     a
 }
 
-/// The model's velocities [u, v, w, r] at the run's sample times, driven by the logged command,
+/// The model's velocities per slot at the run's sample times, driven by the logged command,
 /// from the run's first fused velocity. Position and heading are taken from the fused track
 /// at each sample (they are measured to centimetres; integrating them would let a small
 /// velocity error move the vehicle to the wrong tether length or wall distance). With a sensor
 /// delay d, the recording at t + d is what the vehicle did at t.
-pub fn simulate(plant: &Plant, aug: &Augmentation, run: &Run) -> Vec<[f64; 4]> {
+pub fn simulate(plant: &Plant, aug: &Augmentation, run: &Run) -> Vec<[f64; SLOTS]> {
     simulate_checked(plant, aug, run).0
 }
 
@@ -318,19 +313,8 @@ fn anchor_velocity(run: &Run, rec: &Shifted, k: usize, s: &mut State) {
     let n = run.t.len();
     let (a, b) = (k.saturating_sub(2), (k + 2).min(n - 1));
     let mean = |v: &[f64]| (a..=b).map(|q| rec.at(v, q)).sum::<f64>() / (b - a + 1) as f64;
-    for j in 0..4 {
+    for j in 0..SLOTS {
         s.nu[run.slots.nu(j)] = mean(&run.vel[j]);
-    }
-    tilt_rates(run, s, mean);
-}
-
-/// A six-DOF model's roll and pitch rates set from the run's logged ones, by `value` of each
-/// series (where it is logged).
-fn tilt_rates(run: &Run, s: &mut State, value: impl Fn(&[f64]) -> f64) {
-    for (i, rate) in run.tilt.iter().flat_map(|t| t.rate.iter().enumerate()) {
-        if rate.len() == run.t.len() {
-            s.nu[3 + i] = value(rate);
-        }
     }
 }
 
@@ -371,15 +355,14 @@ fn simulate_checked(
     plant: &Plant,
     aug: &Augmentation,
     run: &Run,
-) -> (Vec<[f64; 4]>, Option<usize>) {
+) -> (Vec<[f64; SLOTS]>, Option<usize>) {
     let mut w = world_for(plant, aug, run);
     let n = run.t.len();
     let rec = Shifted::new(&run.t, aug.delay_s);
     let mut s = State::default();
-    for j in 0..4 {
+    for j in 0..SLOTS {
         s.nu[run.slots.nu(j)] = rec.at(&run.vel[j], 0);
     }
-    tilt_rates(run, &mut s, |rate| rec.at(rate, 0));
     s.thrust = w.shape_command(&run.cmd6(0));
     let mut att = recorded_attitude(run, &rec, 0);
     let step = att.map_or(STEP, |_| attitude_step(plant));
@@ -445,10 +428,10 @@ pub struct Data {
     pub slots: Slots,
     pub train: Vec<Run>,
     pub validate: Vec<Run>,
-    pub scale: [f64; 4],
+    pub scale: [f64; SLOTS],
     /// Huber thresholds per DOF: a quarter of the RMS velocity, and at least three times the
     /// fused velocity's mean standard deviation (noise is never down-weighted).
-    pub delta: [f64; 4],
+    pub delta: [f64; SLOTS],
     /// Noise floor of the normalised cost on the held-out runs (fused variances, the sensors'
     /// own share: [`Run::noise_share`]).
     pub noise_cost: f64,
@@ -468,7 +451,7 @@ impl Data {
         }
         let slots = train[0].slots;
         let all = || train.iter().chain(&validate);
-        let scale: [f64; 4] = std::array::from_fn(|j| {
+        let scale: [f64; SLOTS] = std::array::from_fn(|j| {
             let (s, n) = all().fold((0.0, 0.0), |(s, n), r| {
                 (
                     s + r.vel[j].iter().map(|v| v * v).sum::<f64>(),
@@ -478,7 +461,7 @@ impl Data {
             (s / n.max(1.0)).max(1e-12)
         });
         let noise_cost = noise_per_dof(&validate, &scale).iter().sum();
-        let delta: [f64; 4] = std::array::from_fn(|j| {
+        let delta: [f64; SLOTS] = std::array::from_fn(|j| {
             let (s, n) = all().fold((0.0, 0.0), |(s, n), r| {
                 (s + r.std[j].iter().sum::<f64>(), n + r.std[j].len() as f64)
             });
@@ -526,7 +509,7 @@ impl Data {
     /// too (sums of non-negative terms and divisions by larger numbers round monotonically),
     /// so a finite answer is `cost(.., false)` to the bit.
     pub fn train_cost_below(&self, plant: &Plant, aug: &Augmentation, bound: f64) -> f64 {
-        let samples: [f64; 4] =
+        let samples: [f64; SLOTS] =
             std::array::from_fn(|j| self.train.iter().map(|r| r.vel[j].len() as f64).sum());
         let mut total = Sums::default();
         // As many runs at once as there are threads, added in the runs' order.
@@ -536,7 +519,7 @@ impl Data {
                 .map(|r| self.run_sums(plant, aug, r))
                 .collect();
             part.iter().for_each(|p| total.add(p));
-            let lower: f64 = (0..4)
+            let lower: f64 = (0..SLOTS)
                 .map(|j| {
                     if samples[j] > 0.0 {
                         total.huber[j] / samples[j] / self.scale[j]
@@ -566,7 +549,7 @@ pub fn nmae_map(s: &Sums, slots: &Slots) -> BTreeMap<Dof, f64> {
 }
 
 /// Runs the residual of a model over a set of runs.
-pub fn residuals(plant: &Plant, aug: &Augmentation, runs: &[Run]) -> Vec<[Vec<f64>; 4]> {
+pub fn residuals(plant: &Plant, aug: &Augmentation, runs: &[Run]) -> Vec<[Vec<f64>; SLOTS]> {
     runs.par_iter()
         .map(|r| residual(&simulate(plant, aug, r), r, aug.delay_s))
         .collect()

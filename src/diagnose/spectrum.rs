@@ -3,6 +3,7 @@
 //! "within noise", [`super::verdict`]).
 
 use super::Run;
+use crate::diagnose::SLOTS;
 use std::cell::OnceCell;
 
 /// A periodogram value this many times its neighbours' median is a line (the discovery's
@@ -62,14 +63,14 @@ impl<'a> Lines<'a> {
     /// neighbours' median ([`local_ratio`]), at a frequency where no command's periodogram
     /// stands out the same way (a manoeuvre repeated at a frequency leaves the model's error
     /// at that frequency: that is the model's response, not a force of its own).
-    pub fn uncommanded(&self, res: &[[Vec<f64>; 4]], j: usize) -> Option<f64> {
+    pub fn uncommanded(&self, res: &[[Vec<f64>; SLOTS]], j: usize) -> Option<f64> {
         let p = self.periodogram(|r, k| res[r][j].get(k).copied().unwrap_or(f64::NAN));
         let peak = argmax(&p)?;
         if local_ratio(&p, peak, self.df) <= LINE_RATIO {
             return None;
         }
         let commands = self.commands.get_or_init(|| {
-            (0..4)
+            (0..SLOTS)
                 .map(|q| self.periodogram(|r, k| self.runs[r].cmd[k][q]))
                 .collect()
         });

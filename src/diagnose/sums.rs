@@ -2,21 +2,22 @@
 //! robust cost, NMAE and the noise floor.
 
 use super::Run;
+use crate::diagnose::SLOTS;
 
 /// Per-DOF sums of a simulation against a run's recording.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Sums {
-    pub sse: [f64; 4],
+    pub sse: [f64; SLOTS],
     /// Huber loss: squared error up to the DOF's threshold, linear beyond it.
-    pub huber: [f64; 4],
-    pub sae: [f64; 4],
-    pub sam: [f64; 4],
-    pub n: [f64; 4],
+    pub huber: [f64; SLOTS],
+    pub sae: [f64; SLOTS],
+    pub sam: [f64; SLOTS],
+    pub n: [f64; SLOTS],
 }
 
 impl Sums {
     pub(super) fn add(&mut self, o: &Sums) {
-        for j in 0..4 {
+        for j in 0..SLOTS {
             self.sse[j] += o.sse[j];
             self.huber[j] += o.huber[j];
             self.sae[j] += o.sae[j];
@@ -28,8 +29,8 @@ impl Sums {
     /// Normalised robust cost: sum over DOFs of the mean Huber loss / mean square velocity.
     /// Below the threshold it is the mean squared error; a short burst far beyond it (a sensor
     /// glitch, a bump against the wall) counts linearly and cannot decide the ranking.
-    pub fn cost(&self, scale: &[f64; 4]) -> f64 {
-        (0..4)
+    pub fn cost(&self, scale: &[f64; SLOTS]) -> f64 {
+        (0..SLOTS)
             .map(|j| {
                 if self.n[j] > 0.0 {
                     self.huber[j] / self.n[j] / scale[j]
@@ -41,8 +42,8 @@ impl Sums {
     }
 
     /// The plain mean-square cost (what the noise floor is compared with).
-    pub fn mse_cost(&self, scale: &[f64; 4]) -> f64 {
-        (0..4)
+    pub fn mse_cost(&self, scale: &[f64; SLOTS]) -> f64 {
+        (0..SLOTS)
             .map(|j| {
                 if self.n[j] > 0.0 {
                     self.sse[j] / self.n[j] / scale[j]
@@ -54,7 +55,7 @@ impl Sums {
     }
 
     /// Normalised MAE per DOF (seed 003): mean |error| / mean |measured|.
-    pub fn nmae(&self) -> [f64; 4] {
+    pub fn nmae(&self) -> [f64; SLOTS] {
         std::array::from_fn(|j| {
             if self.sam[j] > 0.0 {
                 self.sae[j] / self.sam[j]
@@ -70,7 +71,7 @@ impl Sums {
 /// never the recording between its samples (interpolating a noisy recording would lower its
 /// noise and pass for an improvement). Samples before the simulation starts, and every sample
 /// of a slot the model leaves out, are NaN.
-pub fn residual(sim: &[[f64; 4]], run: &Run, delay: f64) -> [Vec<f64>; 4] {
+pub fn residual(sim: &[[f64; SLOTS]], run: &Run, delay: f64) -> [Vec<f64>; SLOTS] {
     let start = *run.t.first().unwrap_or(&0.0);
     let loc: Vec<(usize, Option<f64>)> = if delay == 0.0 {
         Vec::new()
@@ -98,10 +99,10 @@ pub fn residual(sim: &[[f64; 4]], run: &Run, delay: f64) -> [Vec<f64>; 4] {
 }
 
 /// Per-DOF sums of a simulation against a run, with the Huber thresholds `delta` (per DOF).
-pub fn sums(sim: &[[f64; 4]], run: &Run, delay: f64, delta: &[f64; 4]) -> Sums {
+pub fn sums(sim: &[[f64; SLOTS]], run: &Run, delay: f64, delta: &[f64; SLOTS]) -> Sums {
     let e = residual(sim, run, delay);
     let mut s = Sums::default();
-    for j in 0..4 {
+    for j in 0..SLOTS {
         for (k, x) in e[j].iter().enumerate() {
             if x.is_finite() {
                 s.sse[j] += x * x;
@@ -122,7 +123,7 @@ pub fn sums(sim: &[[f64; 4]], run: &Run, delay: f64, delta: &[f64; 4]) -> Sums {
 
 /// Per DOF, the noise floor of the normalised cost on `runs`: their mean noise variance
 /// ([`Run::noise_sum`]) over the DOF's scale. The diagnosis's floor is the sum over DOFs.
-pub fn noise_per_dof(runs: &[Run], scale: &[f64; 4]) -> [f64; 4] {
+pub fn noise_per_dof(runs: &[Run], scale: &[f64; SLOTS]) -> [f64; SLOTS] {
     std::array::from_fn(|j| {
         let n: usize = runs.iter().map(|r| r.std[j].len()).sum();
         runs.iter().map(|r| r.noise_sum(j)).sum::<f64>() / n.max(1) as f64 / scale[j]

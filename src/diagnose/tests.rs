@@ -425,7 +425,7 @@ fn experiment() {
             );
             for r in data.train.iter().chain(&data.validate) {
                 let sim = simulate(&plant, &aug, r);
-                let sm = sums(&sim, r, 0.0, &[f64::INFINITY; 4]);
+                let sm = sums(&sim, r, 0.0, &[f64::INFINITY; SLOTS]);
                 eprintln!(
                     "  run {:12} validate {} cost {:.5} nmae {:?}",
                     r.name,
@@ -449,9 +449,8 @@ fn experiment() {
     }
 }
 
-/// The DOFs a diagnosis compares: the pool's four for a model in surge or sway (six-DOF too),
-/// heave, roll, pitch and yaw for one in roll or pitch without them, each slot on only where
-/// the model moves.
+/// The DOFs a diagnosis compares: the six slots, each on only where the model moves (a
+/// six-DOF model in all six, its roll and pitch rates scored).
 #[test]
 fn a_model_is_compared_in_the_dofs_it_moves_in() {
     use crate::core::dof::Dof::*;
@@ -460,21 +459,24 @@ fn a_model_is_compared_in_the_dofs_it_moves_in() {
         v.dofs = dofs.to_vec();
         Slots::of(&Plant::new(&v, crate::core::model::Hydro::reference()))
     };
-    // Six DOF: compared in the pool's four, its roll and pitch simulated under their moments.
+    // Six DOF: compared in all six, roll and pitch too.
     let all = slots(&[Surge, Sway, Heave, Roll, Pitch, Yaw]).unwrap();
-    assert_eq!((all.dofs, all.active, all.tilts), (DOFS, [true; 4], true));
-    assert!(!slots(&[Surge, Sway, Heave, Yaw]).unwrap().tilts);
+    assert_eq!((all.dofs, all.active), (super::slots::ORDER, [true; SLOTS]));
+    assert_eq!(all.slot(Roll), Some(3));
+    let pool = slots(&[Surge, Sway, Heave, Yaw]).unwrap();
+    assert_eq!(pool, Slots::POOL);
+    assert_eq!(pool.slot(Roll), None);
     let rot = slots(&[Roll, Pitch, Yaw]).unwrap();
-    assert_eq!(rot.dofs, [Heave, Roll, Pitch, Yaw]);
-    assert_eq!(rot.active, [false, true, true, true]);
+    assert_eq!(rot.dofs, super::slots::ORDER);
+    assert_eq!(rot.active, [false, false, false, true, true, true]);
     assert_eq!(rot.slot(Heave), None);
-    assert_eq!(rot.slot(Pitch), Some(2));
-    assert_eq!(rot.nu_all(), [2, 3, 4, 5]);
+    assert_eq!(rot.slot(Pitch), Some(4));
+    assert_eq!(rot.nu_all(), [0, 1, 2, 3, 4, 5]);
     let with_heave = slots(&[Heave, Roll, Pitch, Yaw]).unwrap();
-    assert_eq!(with_heave.active, [true; 4]);
+    assert_eq!(with_heave.active, [false, false, true, true, true, true]);
     let surge_yaw = slots(&[Surge, Yaw]).unwrap();
-    assert_eq!(surge_yaw.dofs, DOFS);
-    assert_eq!(surge_yaw.active, [true, false, false, true]);
+    assert_eq!(surge_yaw.dofs, super::slots::ORDER);
+    assert_eq!(surge_yaw.active, [true, false, false, false, false, true]);
     // A run with u, w and r fused but no body rates lacks roll and pitch for the rotational
     // model, nothing for the one in surge and yaw.
     let n = 10;
@@ -493,6 +495,7 @@ fn a_model_is_compared_in_the_dofs_it_moves_in() {
     };
     assert_eq!(rot.missing(&fused), [Roll, Pitch]);
     assert!(surge_yaw.missing(&fused).is_empty());
-    assert!(Run::from_parts("r", false, vec![[0.0; 4]; n], &fused, rot).is_none());
-    assert!(Run::from_parts("r", false, vec![[0.0; 4]; n], &fused, surge_yaw).is_some());
+    assert!(all.missing(&fused).contains(&Roll));
+    assert!(Run::from_parts("r", false, vec![[0.0; SLOTS]; n], &fused, rot).is_none());
+    assert!(Run::from_parts("r", false, vec![[0.0; SLOTS]; n], &fused, surge_yaw).is_some());
 }

@@ -5,6 +5,7 @@ use super::result::{Found, pct};
 use super::{self as dx, Augmentation, Criteria, Data, Mismatch};
 use crate::core::dof::Dof;
 use crate::core::model::Plant;
+use crate::diagnose::SLOTS;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
@@ -51,11 +52,11 @@ pub(super) fn unexplained_residual(
 /// The DOFs whose held-out residual after the effects is above the noise, and those found
 /// structured (`left`).
 fn unexplained_dofs(data: &Data, s: &dx::Sums, left: &[Structured], crit: &Criteria) -> Vec<Dof> {
-    let per_dof: Vec<f64> = (0..4)
+    let per_dof: Vec<f64> = (0..SLOTS)
         .map(|j| s.sse[j] / s.n[j].max(1.0) / data.scale[j])
         .collect();
     let noise_dof = dx::noise_per_dof(&data.validate, &data.scale);
-    let mut dofs: Vec<Dof> = (0..4)
+    let mut dofs: Vec<Dof> = (0..SLOTS)
         .filter(|&j| per_dof[j] > crit.within_noise * noise_dof[j])
         .map(|j| data.slots.dofs[j])
         .collect();
@@ -164,7 +165,7 @@ pub(super) fn structured_left(
 ) -> Vec<Structured> {
     let res = dx::residuals(plant, aug, &data.validate);
     let lines = super::spectrum::Lines::new(&data.validate);
-    (0..4)
+    (0..SLOTS)
         .filter_map(|j| {
             let (mut sse, mut var, mut outside, mut runs) = (0.0, 0.0, 0.0, 0.0);
             for (r, e) in data.validate.iter().zip(&res) {

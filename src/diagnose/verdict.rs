@@ -10,6 +10,7 @@ use super::unexplained::{Structured, structured_left, unexplained_residual};
 use super::{self as dx, Augmentation, Criteria, Data, Mismatch, Run, Slots};
 use crate::core::dof::Dof;
 use crate::core::model::Plant;
+use crate::diagnose::SLOTS;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
@@ -145,7 +146,7 @@ pub(super) fn diverged_runs(plant: &Plant, data: &Data) -> Vec<String> {
 
 /// Where the model's held-out residual is: the (at most eight) runs and DOFs holding at least
 /// 2 % of it, largest first.
-fn main_mismatches(data: &Data, residuals: &[[Vec<f64>; 4]]) -> Vec<Mismatch> {
+fn main_mismatches(data: &Data, residuals: &[[Vec<f64>; SLOTS]]) -> Vec<Mismatch> {
     let mut mismatch = dx::locate(&data.validate, residuals, &data.scale);
     mismatch.retain(|m| m.share_of_error >= 0.02);
     mismatch.truncate(8);
@@ -405,7 +406,7 @@ pub(super) fn prepare_runs(
     let mut runs = runs;
     let mut stability = BTreeMap::new();
     for r in &mut runs {
-        let vel: Vec<[f64; 4]> = (0..r.t.len())
+        let vel: Vec<[f64; SLOTS]> = (0..r.t.len())
             .map(|k| std::array::from_fn(|j| r.vel[j][k]))
             .collect();
         let s = crate::core::model::stability::along_in(
@@ -475,7 +476,7 @@ fn named_effects(
 
 /// The DOFs whose held-out NMAE an effect lowers by over a tenth (and by over 0.003).
 fn improved_dofs(slots: &Slots, before: &[f64], after: &[f64]) -> Vec<Dof> {
-    (0..4)
+    (0..SLOTS)
         .filter(|&j| before[j] - after[j] > 0.1 * before[j] && before[j] - after[j] > 0.003)
         .map(|j| slots.dofs[j])
         .collect()

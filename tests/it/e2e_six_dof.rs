@@ -200,12 +200,13 @@ fn a_yaw_only_model_of_a_rolling_vehicle_reads_the_gyros_yaw_rate() {
     }
 }
 
-/// A six-DOF model is diagnosed as the validation scores it: its roll and pitch simulated
-/// under their logged moments from the recorded rates and attitude, compared in surge, sway,
-/// heave and yaw. The diagnosis simulated them from rest under no moment, level, and scored
-/// the six-DOF twin's held-out surge, sway and heave at 0.50, 0.47 and 0.70 where the
-/// validation had 0.28, 0.16 and 0.32 (on a simulated BlueROV2 Heavy pitched to 40 deg, 0.84
-/// and 1.04 in surge and sway for 0.063 and 0.076, and a thruster deadband named for it).
+/// A six-DOF model is diagnosed as the validation scores it, in all six DOFs: its roll and
+/// pitch simulated under their logged moments from the recorded rates and attitude, and
+/// compared with the fused rates. The diagnosis once simulated them from rest under no
+/// moment, level, and scored the six-DOF twin's held-out surge, sway and heave at 0.50, 0.47
+/// and 0.70 where the validation had 0.28, 0.16 and 0.32 (on a simulated BlueROV2 Heavy
+/// pitched to 40 deg, 0.84 and 1.04 in surge and sway for 0.063 and 0.076, and a thruster
+/// deadband named for it); later it simulated them but scored only the other four.
 #[test]
 fn a_six_dof_model_is_diagnosed_as_it_is_validated() {
     let p = six_dof_project(
@@ -217,7 +218,7 @@ fn a_six_dof_model_is_diagnosed_as_it_is_validated() {
     let validated = &held_out(&json(dir, "reports/validation.json"))["fit"];
     let d = json(dir, "reports/diagnosis.json");
     let diagnosed = d["baseline"]["validation_nmae"].as_object().unwrap();
-    assert_eq!(diagnosed.len(), 4, "{diagnosed:?}");
+    assert_eq!(diagnosed.len(), 6, "{diagnosed:?}");
     for (dof, x) in diagnosed {
         let (x, v) = (x.as_f64().unwrap(), validated[dof]);
         assert!(

@@ -3,6 +3,7 @@
 
 use super::super::{Data, Run, Slots};
 use crate::core::dof::Dof;
+use crate::diagnose::SLOTS;
 use std::f64::consts::TAU;
 
 /// First-order lags tried on the commands, s.
@@ -106,13 +107,13 @@ impl Feature {
         }
     }
 
-    /// Column values at sample `k` of `run` with velocity `vel` [u, v, w, r].
+    /// Column values at sample `k` of `run` with velocity `vel` (per slot).
     pub(super) fn eval(
         self,
         run: &Run,
         pre: &Prepared,
         k: usize,
-        vel: &[f64; 4],
+        vel: &[f64; SLOTS],
         out: &mut Vec<f64>,
     ) {
         let cmd = run.cmd[k];
@@ -163,7 +164,7 @@ impl Feature {
 /// heading made continuous.
 #[derive(Debug, Clone)]
 pub struct Prepared {
-    lagged: Vec<Vec<[f64; 4]>>,
+    lagged: Vec<Vec<[f64; SLOTS]>>,
     heading: Vec<f64>,
 }
 
@@ -171,7 +172,7 @@ pub(super) fn prepare(run: &Run) -> Prepared {
     let lagged = LAGS_S
         .iter()
         .map(|&tau| {
-            let mut y = run.cmd.first().copied().unwrap_or([0.0; 4]);
+            let mut y = run.cmd.first().copied().unwrap_or([0.0; SLOTS]);
             let mut out = Vec::with_capacity(run.t.len());
             for k in 0..run.t.len() {
                 if k > 0 {
@@ -210,12 +211,13 @@ pub(super) fn library(j: usize, peaks: &[f64], data: &Data) -> Vec<Feature> {
             }
         }
     }
-    for q in 0..4 {
+    // The commands of the slots the model moves in (the others are zero in the runs).
+    for &q in &on {
         f.push(Feature::Command(q));
         for tau in LAGS_S {
             f.push(Feature::LagDeficit(q, tau));
         }
-        for b in q + 1..4 {
+        for &b in on.iter().filter(|&&b| b > q) {
             f.push(Feature::CommandProduct(q, b));
         }
     }

@@ -5,6 +5,7 @@ use super::super::effects::State;
 use super::super::{Augmentation, Data, Slots, spectrum};
 use super::library::{Feature, Prepared};
 use crate::core::model::{Plant, Vec6};
+use crate::diagnose::SLOTS;
 
 /// Sampling of the regression, s (the residual is smooth at this scale).
 pub(super) const EVERY_S: f64 = 0.1;
@@ -25,10 +26,10 @@ pub(super) struct Rows {
     /// (run index, first sample, last sample) of each row's window.
     pub at: Vec<(usize, usize, usize)>,
     /// Residual force per DOF, averaged over the window.
-    pub y: [Vec<f64>; 4],
+    pub y: [Vec<f64>; SLOTS],
     /// Its standard deviation from the fusion: the fused velocities' at the window's ends,
     /// through the difference quotient and the mass.
-    pub sigma: [Vec<f64>; 4],
+    pub sigma: [Vec<f64>; SLOTS],
 }
 
 /// Length of a row's window, s.
@@ -198,7 +199,7 @@ pub(super) fn design(
         // Trapezoids, as `window_mean` for each column at once.
         for k in a..=b {
             buf.clear();
-            let vel = [run.vel[0][k], run.vel[1][k], run.vel[2][k], run.vel[3][k]];
+            let vel: [f64; SLOTS] = std::array::from_fn(|j| run.vel[j][k]);
             for f in features {
                 f.eval(run, &pre[ri], k, &vel, &mut buf);
             }

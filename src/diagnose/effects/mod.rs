@@ -22,6 +22,7 @@ use super::Run;
 use crate::core::dof::Dof;
 pub use crate::core::model::motion::State;
 use crate::core::model::{Plant, Vec6};
+use crate::diagnose::SLOTS;
 use std::sync::Arc;
 
 /// A list of effects to test.
@@ -203,11 +204,11 @@ pub trait Term: std::fmt::Debug + Send + Sync {
 
 /// Time since the last step of any command (a change over 15 % of its largest), s.
 pub fn since_step(r: &Run, k: usize) -> f64 {
-    let scale: [f64; 4] =
+    let scale: [f64; SLOTS] =
         std::array::from_fn(|q| r.cmd.iter().fold(1e-9f64, |a, c| a.max(c[q].abs())));
     let mut i = k;
     while i > 0 {
-        if (0..4).any(|q| (r.cmd[i][q] - r.cmd[i - 1][q]).abs() > 0.15 * scale[q]) {
+        if (0..SLOTS).any(|q| (r.cmd[i][q] - r.cmd[i - 1][q]).abs() > 0.15 * scale[q]) {
             return r.t[k] - r.t[i];
         }
         i -= 1;

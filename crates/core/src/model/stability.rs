@@ -87,10 +87,14 @@ impl<'de> Deserialize<'de> for Horizon {
 }
 
 /// The Jacobian of the model's acceleration with respect to the velocities of the DOFs among
-/// the four `slots` (indices into nu; u, v, w, r for [`along`]) that the model moves in, at
+/// the `slots` (indices into nu; u, v, w, r for [`along`]) that the model moves in, at
 /// `nu`, the other DOFs at rest (central differences; the thrust adds a constant and drops
 /// out). A DOF the model leaves out has no dynamics to grow or decay, and is not in it.
-pub fn jacobian(plant: &Plant, nu: &[f64; 4], slots: &[usize; 4]) -> nalgebra::DMatrix<f64> {
+pub fn jacobian<const S: usize>(
+    plant: &Plant,
+    nu: &[f64; S],
+    slots: &[usize; S],
+) -> nalgebra::DMatrix<f64> {
     let mut base: Vec6 = [0.0; 6];
     for (c, &i) in slots.iter().enumerate() {
         base[i] = nu[c];
@@ -120,7 +124,7 @@ pub fn jacobian(plant: &Plant, nu: &[f64; 4], slots: &[usize; 4]) -> nalgebra::D
 
 /// The largest real part of the linearised model's eigenvalues at `nu` (velocities of the DOFs
 /// `slots`), 1/s; 0 for a model that moves in none of them.
-pub fn growth_rate(plant: &Plant, nu: &[f64; 4], slots: &[usize; 4]) -> f64 {
+pub fn growth_rate<const S: usize>(plant: &Plant, nu: &[f64; S], slots: &[usize; S]) -> f64 {
     let jac = jacobian(plant, nu, slots);
     if jac.iter().any(|x| !x.is_finite()) {
         return f64::INFINITY;
@@ -141,11 +145,11 @@ pub fn along(plant: &Plant, t: &[f64], vel: &[[f64; 4]], setting: Horizon) -> St
 
 /// [`along`] with `vel` the velocities of the DOFs `slots` (indices into nu): a model in
 /// heave, roll, pitch and yaw is judged on its own motion.
-pub fn along_in(
+pub fn along_in<const S: usize>(
     plant: &Plant,
     t: &[f64],
-    vel: &[[f64; 4]],
-    slots: &[usize; 4],
+    vel: &[[f64; S]],
+    slots: &[usize; S],
     setting: Horizon,
 ) -> Stability {
     let n = t.len().min(vel.len());
