@@ -110,3 +110,69 @@ fn a_concealed_lag_is_the_fits_and_the_diagnosis_does_not_name_it_twice() {
         d["verdict"]
     );
 }
+
+/// A six-DOF model is diagnosed in roll and pitch too. The twin's trials (translations flown
+/// closed-loop, open-loop moments) with a roll moment concealed that grows with the square of
+/// the surge speed (`K += c |u| u`, c = 600 N m s^2/m^2; no coupling the fit has): discovery
+/// proposes it in roll, named `coupled_drag` (off-diagonal drag), with its coefficient within
+/// 15 % (measured: 575 on seed 3), and it lowers the held-out roll NMAE by a third or more
+/// (0.50 to 0.25 on seed 3). Scored in surge, sway, heave and yaw alone, as the diagnosis once
+/// scored a six-DOF model, roll was never compared: the verdict on these runs was
+/// `unexplained` with no closed form.
+#[test]
+fn a_roll_moment_a_six_dof_model_lacks_is_found_in_roll() {
+    for seed in [3, 4] {
+        let c = 600.0;
+        let d = six_dof_diagnosed(c, seed);
+        let effect = d["effects"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|e| e["candidate"]["dof"] == "roll")
+            .unwrap_or_else(|| panic!("seed {seed}: nothing proposed in roll: {}", d["verdict"]));
+        assert_eq!(effect["name"], "coupled_drag", "{effect}");
+        let terms = effect["candidate"]["terms"].as_array().unwrap();
+        let k = terms
+            .iter()
+            .find(|t| t["term"] == "|u| u")
+            .and_then(|t| t["coefficient"].as_f64())
+            .unwrap_or_else(|| panic!("seed {seed}: {}", effect["candidate"]["expression"]));
+        assert!(
+            (k / c - 1.0).abs() < 0.15,
+            "seed {seed}: K_|u|u {k}, hidden {c}"
+        );
+        let nmae = |w: &str| effect[w]["roll"].as_f64().unwrap();
+        let (before, after) = (
+            nmae("validation_nmae_before"),
+            nmae("validation_nmae_after"),
+        );
+        assert!(
+            after < 0.67 * before,
+            "seed {seed}: roll NMAE {before} -> {after}"
+        );
+    }
+}
+
+/// The diagnosis of a diagonal six-DOF model on the twin's default trials (two minutes each)
+/// with `roll_from_surge` concealed.
+fn six_dof_diagnosed(roll_from_surge: f64, seed: u64) -> serde_json::Value {
+    use hydrofit::twin::six;
+    let p = crate::e2e_six_dof::six_dof_project(
+        "[surge, sway, heave, roll, pitch, yaw]",
+        "  fit: {kind: fit, from: [pool]}\n  diagnose: {kind: diagnose, from: [fit, pool]}\n  report: {kind: report, from: [fit, pool, diagnose]}\n",
+    );
+    let dir = p.path();
+    let cases = dir.join("cases/pool");
+    std::fs::remove_dir_all(&cases).unwrap();
+    let trials: Vec<six::Trial> = six::default_trials()
+        .into_iter()
+        .map(|mut t| {
+            t.duration_s = t.duration_s.min(120.0);
+            t.roll_from_surge = roll_from_surge;
+            t
+        })
+        .collect();
+    six::render::write_trials(&cases, &dir.join("truth/rolled"), &trials, seed).unwrap();
+    ok(dir, &["build"]);
+    json(dir, "reports/diagnosis.json")
+}

@@ -230,6 +230,11 @@ pub struct Trial {
     /// the body feels (thrusters that spin up); 0: none. The log records the command.
     #[serde(skip_serializing_if = "is_zero")]
     pub lag_s: f64,
+    /// A concealed roll moment that grows with the square of the surge speed, N m s^2/m^2
+    /// (`K += c |u| u`: a frame whose float sits to one side, so the flow past it as the
+    /// vehicle surges rolls it); 0: none. No coupling of the product's models has this form.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub roll_from_surge: f64,
 }
 
 fn is_zero(x: &f64) -> bool {
@@ -261,6 +266,7 @@ pub fn default_trials() -> Vec<Trial> {
             Sines::one(0.35, 70.0),
         ],
         lag_s: 0.0,
+        roll_from_surge: 0.0,
     };
     let cross_a = Trial {
         name: "cross_slow".into(),
@@ -280,6 +286,7 @@ pub fn default_trials() -> Vec<Trial> {
             },
         ],
         lag_s: 0.0,
+        roll_from_surge: 0.0,
     };
     let cross_b = Trial {
         name: "cross_fast".into(),
@@ -299,6 +306,7 @@ pub fn default_trials() -> Vec<Trial> {
             Sines::one(0.45, 90.0),
         ],
         lag_s: 0.0,
+        roll_from_surge: 0.0,
     };
     vec![table_ii, cross_a, cross_b]
 }
@@ -378,9 +386,13 @@ pub fn fly(body: &Body, v: &Vehicle, trial: &Trial) -> Record {
             true => felt + (tau - felt) * follow,
             false => tau,
         };
-        rec.nu_dot.push(arr(&body.accel(&x.nu, &felt, phi, theta)));
+        // The concealed roll moment, held through the step as the command is.
+        let mut acting = felt;
+        acting[3] += trial.roll_from_surge * x.nu[0].abs() * x.nu[0];
+        rec.nu_dot
+            .push(arr(&body.accel(&x.nu, &acting, phi, theta)));
         rec.eta.push(arr(&x.eta));
-        x = step(body, &x, &felt, STEP);
+        x = step(body, &x, &acting, STEP);
     }
     rec
 }
