@@ -188,11 +188,8 @@ impl Run {
 
     /// The command at sample k as a generalised force (zero outside the slots).
     pub fn cmd6(&self, k: usize) -> Vec6 {
-        let mut c = [0.0; 6];
-        for j in 0..SLOTS {
-            c[self.slots.nu(j)] = self.cmd[k][j];
-        }
-        c
+        // Slot j is the DOF of index j in nu.
+        self.cmd[k]
     }
 
     /// Gravity's direction in the body frame at sample k: from the recorded roll and pitch,

@@ -40,7 +40,8 @@ impl Slots {
 
     /// Index into nu of slot `j`.
     pub fn nu(&self, j: usize) -> usize {
-        self.dofs[j].index()
+        // Slot j is the DOF of index j ([`ORDER`]).
+        j
     }
 
     /// The indices into nu of the slots.
@@ -75,7 +76,7 @@ impl Slots {
 
     /// The slot velocities of a body-velocity vector.
     pub fn of_nu(&self, nu: &Vec6) -> [f64; SLOTS] {
-        std::array::from_fn(|j| nu[self.nu(j)])
+        *nu
     }
 }
 

@@ -462,6 +462,8 @@ fn a_model_is_compared_in_the_dofs_it_moves_in() {
     // Six DOF: compared in all six, roll and pitch too.
     let all = slots(&[Surge, Sway, Heave, Roll, Pitch, Yaw]).unwrap();
     assert_eq!((all.dofs, all.active), (super::slots::ORDER, [true; SLOTS]));
+    // Slot j is the DOF of index j: per-slot arrays and body vectors are the same.
+    assert!((0..SLOTS).all(|j| all.dofs[j].index() == j && all.nu(j) == j));
     assert_eq!(all.slot(Roll), Some(3));
     let pool = slots(&[Surge, Sway, Heave, Yaw]).unwrap();
     assert_eq!(pool, Slots::POOL);
