@@ -41,7 +41,9 @@ pub enum Effect {
     /// in N s^2/m^3.
     TetherDrag { coefficient: f64, slack_m: f64 },
     /// A current in the pool frame, m/s, at the pool's middle; it varies by +-30 % along the
-    /// pool's length (one sine over the length). Drag acts on the velocity relative to it.
+    /// pool's length (one sine over the length). Drag and added mass act on the velocity
+    /// relative to it (Fossen 2011 sect. 10.3), the water's velocity changing along the pool
+    /// as the vehicle crosses it.
     WaterCurrent { velocity_m_s: [f64; 2] },
     /// Extra drag near the side walls: -c |v| v / (1 + (d / decay)^2), d the distance to the
     /// nearest wall (an image flow's algebraic fall-off).
@@ -314,14 +316,31 @@ impl WorldPlant {
                     f[1] += by;
                 }
                 Effect::WaterCurrent { velocity_m_s: cw } => {
-                    let scale = self.pool.map_or(1.0, |pool| {
+                    let tau = std::f64::consts::TAU;
+                    // The current's scale at the vehicle and its rate of change along x.
+                    let (scale, slope) = self.pool.map_or((1.0, 0.0), |pool| {
                         let along = (s.pos[0] - pool.length_m / 2.0) / pool.length_m;
-                        1.0 + CURRENT_VARIATION * (std::f64::consts::TAU * along).sin()
+                        (
+                            1.0 + CURRENT_VARIATION * (tau * along).sin(),
+                            CURRENT_VARIATION * tau / pool.length_m * (tau * along).cos(),
+                        )
                     });
                     let (cu, cv) = to_body(scale * cw[0], scale * cw[1]);
                     let p = &self.plant;
                     f[0] += drag(p, 0, s.nu[0] - cu) - drag(p, 0, s.nu[0]);
                     f[1] += drag(p, 1, s.nu[1] - cv) - drag(p, 1, s.nu[1]);
+                    // The added mass moves with the water too (relative-velocity form):
+                    // its centripetal forces and Munk moment on the relative velocity, and
+                    // the force to follow the water's velocity as seen from the body, which
+                    // turns with the yaw rate and changes as the vehicle crosses the pool.
+                    let (au, av) = (-p.hydro.added[0][0], -p.hydro.added[1][1]);
+                    let (u, v, r) = (s.nu[0], s.nu[1], s.nu[5]);
+                    let x_rate = c * u - sn * v;
+                    let (gu, gv) = to_body(slope * x_rate * cw[0], slope * x_rate * cw[1]);
+                    let (water_u, water_v) = (r * cv + gu, -r * cu + gv);
+                    f[0] += -av * r * cv + au * water_u;
+                    f[1] += au * r * cu + av * water_v;
+                    f[5] += (av - au) * (u * v - (u - cu) * (v - cv));
                 }
                 Effect::WallEffect {
                     coefficient,

@@ -1,9 +1,16 @@
-//! `water_current`: a uniform, steady horizontal current in the pool frame; the base plant's
-//! drag acts on the velocity relative to the water.
+//! `water_current`: a uniform, steady horizontal current in the pool frame. The base plant's
+//! drag acts on the velocity relative to the water, and so does the added mass (Fossen 2011
+//! sect. 10.3: M_RB nu' + C_RB(nu) nu + M_A nu_r' + C_A(nu_r) nu_r + D(nu_r) nu_r = tau, with
+//! nu_r = nu - nu_c): its Coriolis and centripetal force (the Munk moment
+//! (Y_vdot - X_udot) u_r v_r in yaw) on the relative velocity, and the force it takes to follow
+//! the water's velocity as it turns in the body frame while the vehicle yaws
+//! (nu_c' = [r v_c, -r u_c, 0]). With the drag alone, a current beside the added mass left a
+//! yaw moment no effect explained.
 
 use super::{Axis, Env, Hypothesis, Limits, Needs, Param, State, Term, drag};
 use crate::core::dof::Dof;
-use crate::core::model::Vec6;
+use crate::core::model::dynamics::coriolis_full;
+use crate::core::model::{Mat6, Vec6};
 use std::sync::Arc;
 
 pub static EFFECT: Hypothesis = Hypothesis {
@@ -54,5 +61,20 @@ impl Term for WaterCurrent {
         let p = env.plant;
         f[0] += drag(p, 0, s.nu[0] - cu) - drag(p, 0, s.nu[0]);
         f[1] += drag(p, 1, s.nu[1] - cv) - drag(p, 1, s.nu[1]);
+        // M_A = -added (the added mass's coefficients are negative).
+        let ma: Mat6 = p.hydro.added.map(|row| row.map(|x| -x));
+        let mut rel = s.nu;
+        rel[0] -= cu;
+        rel[1] -= cv;
+        let (absolute, relative) = (coriolis_full(&ma, &s.nu), coriolis_full(&ma, &rel));
+        let r = s.nu[5];
+        // The water's velocity in the body frame turns as the vehicle yaws.
+        let water_rate: Vec6 = [r * cv, -r * cu, 0.0, 0.0, 0.0, 0.0];
+        for (i, fi) in f.iter_mut().enumerate() {
+            if p.active[i] {
+                let follow: f64 = (0..6).map(|j| ma[i][j] * water_rate[j]).sum();
+                *fi += absolute[i] - relative[i] + follow;
+            }
+        }
     }
 }
