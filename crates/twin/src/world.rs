@@ -316,31 +316,7 @@ impl WorldPlant {
                     f[1] += by;
                 }
                 Effect::WaterCurrent { velocity_m_s: cw } => {
-                    let tau = std::f64::consts::TAU;
-                    // The current's scale at the vehicle and its rate of change along x.
-                    let (scale, slope) = self.pool.map_or((1.0, 0.0), |pool| {
-                        let along = (s.pos[0] - pool.length_m / 2.0) / pool.length_m;
-                        (
-                            1.0 + CURRENT_VARIATION * (tau * along).sin(),
-                            CURRENT_VARIATION * tau / pool.length_m * (tau * along).cos(),
-                        )
-                    });
-                    let (cu, cv) = to_body(scale * cw[0], scale * cw[1]);
-                    let p = &self.plant;
-                    f[0] += drag(p, 0, s.nu[0] - cu) - drag(p, 0, s.nu[0]);
-                    f[1] += drag(p, 1, s.nu[1] - cv) - drag(p, 1, s.nu[1]);
-                    // The added mass moves with the water too (relative-velocity form):
-                    // its centripetal forces and Munk moment on the relative velocity, and
-                    // the force to follow the water's velocity as seen from the body, which
-                    // turns with the yaw rate and changes as the vehicle crosses the pool.
-                    let (au, av) = (-p.hydro.added[0][0], -p.hydro.added[1][1]);
-                    let (u, v, r) = (s.nu[0], s.nu[1], s.nu[5]);
-                    let x_rate = c * u - sn * v;
-                    let (gu, gv) = to_body(slope * x_rate * cw[0], slope * x_rate * cw[1]);
-                    let (water_u, water_v) = (r * cv + gu, -r * cu + gv);
-                    f[0] += -av * r * cv + au * water_u;
-                    f[1] += au * r * cu + av * water_v;
-                    f[5] += (av - au) * (u * v - (u - cu) * (v - cv));
+                    self.add_current(s, (c, sn), cw, &mut f)
                 }
                 Effect::WallEffect {
                     coefficient,
@@ -382,6 +358,37 @@ impl WorldPlant {
             }
         }
         f
+    }
+
+    /// The force of the current `cw` (pool frame, m/s at the pool's middle) on the vehicle in
+    /// state `s` heading at (cos, sin) `(c, sn)`, added to `f` (body frame).
+    fn add_current(&self, s: &State, (c, sn): (f64, f64), cw: &[f64; 2], f: &mut Vec6) {
+        let to_body = |fx: f64, fy: f64| (c * fx + sn * fy, -sn * fx + c * fy);
+        let tau = std::f64::consts::TAU;
+        // The current's scale at the vehicle and its rate of change along x.
+        let (scale, slope) = self.pool.map_or((1.0, 0.0), |pool| {
+            let along = (s.pos[0] - pool.length_m / 2.0) / pool.length_m;
+            (
+                1.0 + CURRENT_VARIATION * (tau * along).sin(),
+                CURRENT_VARIATION * tau / pool.length_m * (tau * along).cos(),
+            )
+        });
+        let (cu, cv) = to_body(scale * cw[0], scale * cw[1]);
+        let p = &self.plant;
+        f[0] += drag(p, 0, s.nu[0] - cu) - drag(p, 0, s.nu[0]);
+        f[1] += drag(p, 1, s.nu[1] - cv) - drag(p, 1, s.nu[1]);
+        // The added mass moves with the water too (relative-velocity form):
+        // its centripetal forces and Munk moment on the relative velocity, and
+        // the force to follow the water's velocity as seen from the body, which
+        // turns with the yaw rate and changes as the vehicle crosses the pool.
+        let (au, av) = (-p.hydro.added[0][0], -p.hydro.added[1][1]);
+        let (u, v, r) = (s.nu[0], s.nu[1], s.nu[5]);
+        let x_rate = c * u - sn * v;
+        let (gu, gv) = to_body(slope * x_rate * cw[0], slope * x_rate * cw[1]);
+        let (water_u, water_v) = (r * cv + gu, -r * cu + gv);
+        f[0] += -av * r * cv + au * water_u;
+        f[1] += au * r * cu + av * water_v;
+        f[5] += (av - au) * (u * v - (u - cu) * (v - cv));
     }
 
     /// The askew surge thruster's yaw moment for the surge thrust delivered.
