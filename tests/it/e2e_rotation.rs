@@ -1,8 +1,8 @@
-//! The diagnosis of a model in roll, pitch and yaw alone (a vehicle whose logs have attitude,
-//! rates and depth but whose model leaves the translations out), on the six-DOF twin's trials
-//! (crates/twin/src/six.rs, a simulator written apart from the product's): position held,
-//! open-loop moments in roll, pitch and yaw, and a thruster lag concealed between the logged
-//! command and the moment the body feels.
+//! The diagnosis in roll and pitch, on the six-DOF twin's trials (crates/twin/src/six.rs, a
+//! simulator written apart from the product's): a model in roll, pitch and yaw alone (a
+//! vehicle whose logs have attitude, rates and depth but whose model leaves the translations
+//! out) with position held, open-loop moments and a thruster lag concealed between the logged
+//! command and the moment the body feels; and a six-DOF model with a roll moment concealed.
 
 use crate::common::*;
 
@@ -10,30 +10,44 @@ use crate::common::*;
 /// `[roll, pitch, yaw]` model, its default fit with `fit` settings, validation and diagnosis;
 /// the diagnosis.
 fn diagnosed(lag_s: f64, fit: &str, seed: u64) -> serde_json::Value {
-    use hydrofit::twin::six;
-    let p = crate::e2e_six_dof::six_dof_project(
-        "[roll, pitch, yaw]",
-        &format!(
-            "  fit: {{kind: fit, from: [pool], settings: {fit}}}\n  validate: {{kind: validate, from: [fit, pool]}}\n  diagnose: {{kind: diagnose, from: [fit, pool]}}\n  report: {{kind: report, from: [fit, pool, validate, diagnose]}}\n"
-        ),
+    let stages = format!(
+        "  fit: {{kind: fit, from: [pool], settings: {fit}}}\n  validate: {{kind: validate, from: [fit, pool]}}\n  diagnose: {{kind: diagnose, from: [fit, pool]}}\n  report: {{kind: report, from: [fit, pool, validate, diagnose]}}\n"
     );
+    let p = built("[roll, pitch, yaw]", &stages, seed, |t| {
+        t.position = t
+            .position
+            .map(|s| hydrofit::twin::six::Sines { mag: [0.0; 2], ..s });
+        t.lag_s = lag_s;
+    });
+    let mut d = json(p.path(), "reports/diagnosis.json");
+    d["_parameters"] = json(p.path(), "reports/parameters.json");
+    d
+}
+
+/// A six-DOF twin project with the vehicle in `dofs` and `stages`, its cases the twin's default
+/// trials (two minutes each) of `seed` changed by `trial`, built.
+fn built(
+    dofs: &str,
+    stages: &str,
+    seed: u64,
+    trial: impl Fn(&mut hydrofit::twin::six::Trial),
+) -> tempfile::TempDir {
+    use hydrofit::twin::six;
+    let p = crate::e2e_six_dof::six_dof_project(dofs, stages);
     let dir = p.path();
     let cases = dir.join("cases/pool");
     std::fs::remove_dir_all(&cases).unwrap();
     let trials: Vec<six::Trial> = six::default_trials()
         .into_iter()
         .map(|mut t| {
-            t.position = t.position.map(|s| six::Sines { mag: [0.0; 2], ..s });
             t.duration_s = t.duration_s.min(120.0);
-            t.lag_s = lag_s;
+            trial(&mut t);
             t
         })
         .collect();
-    six::render::write_trials(&cases, &dir.join("truth/lagged"), &trials, seed).unwrap();
+    six::render::write_trials(&cases, &dir.join("truth/concealed"), &trials, seed).unwrap();
     ok(dir, &["build"]);
-    let mut d = json(dir, "reports/diagnosis.json");
-    d["_parameters"] = json(dir, "reports/parameters.json");
-    d
+    p
 }
 
 /// The names of the effects a diagnosis kept.
@@ -156,23 +170,11 @@ fn a_roll_moment_a_six_dof_model_lacks_is_found_in_roll() {
 /// The diagnosis of a diagonal six-DOF model on the twin's default trials (two minutes each)
 /// with `roll_from_surge` concealed.
 fn six_dof_diagnosed(roll_from_surge: f64, seed: u64) -> serde_json::Value {
-    use hydrofit::twin::six;
-    let p = crate::e2e_six_dof::six_dof_project(
+    let p = built(
         "[surge, sway, heave, roll, pitch, yaw]",
         "  fit: {kind: fit, from: [pool]}\n  diagnose: {kind: diagnose, from: [fit, pool]}\n  report: {kind: report, from: [fit, pool, diagnose]}\n",
+        seed,
+        |t| t.roll_from_surge = roll_from_surge,
     );
-    let dir = p.path();
-    let cases = dir.join("cases/pool");
-    std::fs::remove_dir_all(&cases).unwrap();
-    let trials: Vec<six::Trial> = six::default_trials()
-        .into_iter()
-        .map(|mut t| {
-            t.duration_s = t.duration_s.min(120.0);
-            t.roll_from_surge = roll_from_surge;
-            t
-        })
-        .collect();
-    six::render::write_trials(&cases, &dir.join("truth/rolled"), &trials, seed).unwrap();
-    ok(dir, &["build"]);
-    json(dir, "reports/diagnosis.json")
+    json(p.path(), "reports/diagnosis.json")
 }
