@@ -24,7 +24,7 @@ pub(super) fn residual_overview(
     let zero = vec![0.0; run.t.len()];
     let traces: Vec<crate::core::plot::Trace> = (data.slots.on())
         .map(|j| crate::core::plot::Trace {
-            label: data.slots.dofs[j].name(),
+            label: data.slots.dof(j).name(),
             t: &run.t,
             measured: &res[i][j],
             simulated: &zero,
@@ -86,7 +86,7 @@ pub(super) fn overlay_figure(
         (s / n.max(1) as f64).sqrt()
     };
     let names: Vec<&str> = selected.iter().map(|(h, _)| h.name).collect();
-    let d = data.slots.dofs[j];
+    let d = data.slots.dof(j);
     let model_label = format!("model {model} (dashed)");
     let svg = crate::core::plot::overlay(&crate::core::plot::Overlay {
         title: &format!("{}: {} velocity, recorded and simulated", run.name, d),
@@ -133,7 +133,7 @@ fn worst_run_figure(
         return Ok(None);
     };
     let run = &data.validate[i];
-    let d = data.slots.dofs[j];
+    let d = data.slots.dof(j);
     let tr = [Trace {
         label: "before",
         t: &run.t,
@@ -195,7 +195,9 @@ pub(super) fn evidence_figures(
         let svg = curves(
             &format!(
                 "{}: RMS {} residual against {}",
-                h.name, data.slots.dofs[j], label
+                h.name,
+                data.slots.dof(j),
+                label
             ),
             &label,
             "RMS residual",
@@ -217,7 +219,7 @@ fn evidence_axis(h: &dx::Hypothesis, data: &Data, j: usize) -> (String, Vec<Vec<
         .iter()
         .map(|r| (0..r.t.len()).map(|k| (h.axis.value)(r, k, j)).collect())
         .collect();
-    ((h.axis.label)(data.slots.dofs[j]), values)
+    ((h.axis.label)(data.slots.dof(j)), values)
 }
 
 /// How a binned RMS residual runs along its axis, in words the numbers choose: the

@@ -84,7 +84,7 @@ fn in_regime(name: &str, run: &Run, k: usize, j: usize, med: &RunMedians) -> Opt
         }
         "heading_pool_x" => run.psi[k].cos() > 0.0,
         "cross_flow" => cross(run, k)? > med.cross,
-        "heave" => run.slots.dofs[j] == Dof::Heave,
+        "heave" => run.slots.dof(j) == Dof::Heave,
         _ => return None,
     })
 }
@@ -204,7 +204,7 @@ pub fn locate(
             let energy: f64 = sq.iter().sum::<f64>() / scale[j];
             total += energy;
             let windows = error_windows(run, j, &sq, scale[j]);
-            parts.push((run.name.clone(), run.slots.dofs[j], windows, energy));
+            parts.push((run.name.clone(), run.slots.dof(j), windows, energy));
         }
     }
     let mut out: Vec<Mismatch> = parts

@@ -107,7 +107,7 @@ impl Run {
         let validate = r.meta.role == crate::pool::import::Role::Validate;
         let cmd = (0..r.thrust.len())
             .map(|k| {
-                let c = slots.of_nu(&r.tau(k));
+                let c = r.tau(k);
                 std::array::from_fn(|j| if slots.active[j] { c[j] } else { 0.0 })
             })
             .collect();
@@ -158,7 +158,7 @@ impl Run {
                 (vel[j], std[j]) = (vec![0.0; n], vec![0.0; n]);
                 continue;
             }
-            let (v, s, share) = slots::slot_channel(f, slots.dofs[j])?;
+            let (v, s, share) = slots::slot_channel(f, slots.dof(j))?;
             (vel[j], std[j], noise_share[j]) = (v.to_vec(), s.to_vec(), share);
         }
         let rp = &f.roll_pitch;
@@ -206,7 +206,7 @@ impl Run {
     /// Sets the slots' velocities of `s` to the recording's at sample k.
     pub fn set_velocity(&self, k: usize, s: &mut State) {
         for j in 0..SLOTS {
-            s.nu[self.slots.nu(j)] = self.vel[j][k];
+            s.nu[j] = self.vel[j][k];
         }
     }
 
@@ -311,7 +311,7 @@ fn anchor_velocity(run: &Run, rec: &Shifted, k: usize, s: &mut State) {
     let (a, b) = (k.saturating_sub(2), (k + 2).min(n - 1));
     let mean = |v: &[f64]| (a..=b).map(|q| rec.at(v, q)).sum::<f64>() / (b - a + 1) as f64;
     for j in 0..SLOTS {
-        s.nu[run.slots.nu(j)] = mean(&run.vel[j]);
+        s.nu[j] = mean(&run.vel[j]);
     }
 }
 
@@ -358,7 +358,7 @@ fn simulate_checked(
     let rec = Shifted::new(&run.t, aug.delay_s);
     let mut s = State::default();
     for j in 0..SLOTS {
-        s.nu[run.slots.nu(j)] = rec.at(&run.vel[j], 0);
+        s.nu[j] = rec.at(&run.vel[j], 0);
     }
     s.thrust = w.shape_command(&run.cmd6(0));
     let mut att = recorded_attitude(run, &rec, 0);
@@ -376,7 +376,7 @@ fn simulate_checked(
             att = recorded_attitude(run, &rec, k);
             next_anchor += 1;
         }
-        out.push(run.slots.of_nu(&s.nu));
+        out.push(s.nu);
         if k + 1 == n {
             break;
         }
@@ -536,12 +536,9 @@ impl Data {
 /// Per-DOF held-out normalised MAE as docs/formats.md writes it.
 pub fn nmae_map(s: &Sums, slots: &Slots) -> BTreeMap<Dof, f64> {
     let v = s.nmae();
-    slots
-        .dofs
-        .iter()
-        .enumerate()
-        .filter(|(j, _)| v[*j].is_finite())
-        .map(|(j, d)| (*d, v[j]))
+    (0..SLOTS)
+        .filter(|&j| v[j].is_finite())
+        .map(|j| (slots.dof(j), v[j]))
         .collect()
 }
 

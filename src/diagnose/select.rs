@@ -163,7 +163,7 @@ fn compared(data: &Data) -> String {
     let on: Vec<String> = data
         .slots
         .on()
-        .map(|j| data.slots.dofs[j].to_string())
+        .map(|j| data.slots.dof(j).to_string())
         .collect();
     on.join(", ")
 }

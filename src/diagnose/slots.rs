@@ -1,7 +1,7 @@
 //! The DOFs a diagnosis compares a model in ([`Slots`]) and the recorded channel of each.
 
 use crate::core::dof::Dof;
-use crate::core::model::{Plant, Vec6};
+use crate::core::model::Plant;
 
 /// How many DOFs a diagnosis can compare a model in: all six.
 pub const SLOTS: usize = 6;
@@ -10,48 +10,41 @@ pub const SLOTS: usize = 6;
 /// yaw).
 pub const ORDER: [Dof; SLOTS] = Dof::ALL;
 
-/// The DOFs a diagnosis compares the model in, in the order of its per-DOF arrays
-/// ([`ORDER`]), and which of them the model moves in.
-/// A slot the model leaves out is held at rest and never scored: a four-DOF pool model is
+/// Which DOFs a diagnosis compares the model in: one slot per DOF, slot j the DOF of index j
+/// in nu ([`ORDER`]), so the per-slot arrays are body vectors. A slot the model leaves out is held at rest and never scored: a four-DOF pool model is
 /// compared in surge, sway, heave and yaw; a six-DOF one in all six, its roll and pitch rates
 /// against the fused ones; one in roll, pitch and yaw alone (a vehicle whose logs have no DVL)
 /// in those.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Slots {
-    pub dofs: [Dof; SLOTS],
     pub active: [bool; SLOTS],
 }
 
 impl Slots {
     /// Surge, sway, heave and yaw, all modelled.
     pub const POOL: Slots = Slots {
-        dofs: ORDER,
         active: [true, true, true, false, false, true],
     };
 
     /// The slots for a plant's active DOFs; `None` when it moves in none of them.
     pub fn of(plant: &Plant) -> Option<Slots> {
         let active = ORDER.map(|d| plant.active[d.index()]);
-        (active.iter().any(|a| *a)).then_some(Slots {
-            dofs: ORDER,
-            active,
-        })
+        (active.iter().any(|a| *a)).then_some(Slots { active })
     }
 
-    /// Index into nu of slot `j`.
-    pub fn nu(&self, j: usize) -> usize {
-        // Slot j is the DOF of index j ([`ORDER`]).
-        j
+    /// The DOF of slot `j`.
+    pub fn dof(&self, j: usize) -> Dof {
+        ORDER[j]
     }
 
     /// The indices into nu of the slots.
     pub fn nu_all(&self) -> [usize; SLOTS] {
-        self.dofs.map(|d| d.index())
+        std::array::from_fn(|j| j)
     }
 
     /// The slot of DOF `d`, when it is one the model moves in.
     pub fn slot(&self, d: Dof) -> Option<usize> {
-        (0..SLOTS).find(|&j| self.dofs[j] == d && self.active[j])
+        (0..SLOTS).find(|&j| self.dof(j) == d && self.active[j])
     }
 
     /// The slots the model moves in.
@@ -61,22 +54,15 @@ impl Slots {
 
     /// The slots the model moves in whose DOF is among `dofs`.
     pub fn among(&self, dofs: &[Dof]) -> Vec<usize> {
-        self.on()
-            .filter(|&j| dofs.contains(&self.dofs[j]))
-            .collect()
+        self.on().filter(|&j| dofs.contains(&self.dof(j))).collect()
     }
 
     /// The DOFs the model moves in that run `f` has no fused velocity for.
     pub fn missing(&self, f: &crate::pool::fusion::Fused) -> Vec<Dof> {
         self.on()
-            .map(|j| self.dofs[j])
+            .map(|j| self.dof(j))
             .filter(|&d| slot_channel(f, d).is_none())
             .collect()
-    }
-
-    /// The slot velocities of a body-velocity vector.
-    pub fn of_nu(&self, nu: &Vec6) -> [f64; SLOTS] {
-        *nu
     }
 }
 

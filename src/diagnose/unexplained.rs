@@ -58,7 +58,7 @@ fn unexplained_dofs(data: &Data, s: &dx::Sums, left: &[Structured], crit: &Crite
     let noise_dof = dx::noise_per_dof(&data.validate, &data.scale);
     let mut dofs: Vec<Dof> = (0..SLOTS)
         .filter(|&j| per_dof[j] > crit.within_noise * noise_dof[j])
-        .map(|j| data.slots.dofs[j])
+        .map(|j| data.slots.dof(j))
         .collect();
     for d in left.iter().map(|l| l.dof) {
         if !dofs.contains(&d) {
@@ -191,7 +191,7 @@ pub(super) fn structured_left(
             let correlated = multiple > crit.unexplained_noise_multiple && acf_outside > 0.2;
             let line_hz = if correlated { None } else { line_hz() };
             (correlated || line_hz.is_some()).then(|| Structured {
-                dof: data.slots.dofs[j],
+                dof: data.slots.dof(j),
                 multiple,
                 acf_outside,
                 line_hz,

@@ -478,7 +478,7 @@ fn named_effects(
 fn improved_dofs(slots: &Slots, before: &[f64], after: &[f64]) -> Vec<Dof> {
     (0..SLOTS)
         .filter(|&j| before[j] - after[j] > 0.1 * before[j] && before[j] - after[j] > 0.003)
-        .map(|j| slots.dofs[j])
+        .map(|j| slots.dof(j))
         .collect()
 }
 

@@ -34,7 +34,7 @@ fn contributions(data: &Data, rows: &Rows, pre: &[Prepared], j: usize, var: &Var
             window_mean(&run.t, a, b, |k| {
                 let mut s = State::default();
                 run.set_velocity(k, &mut s);
-                var.term.force(run, &pre[ri], k, &s)[run.slots.nu(j)]
+                var.term.force(run, &pre[ri], k, &s)[j]
             })
         })
         .collect()
@@ -51,7 +51,7 @@ fn residual_figure(
     var: &Variant,
 ) -> anyhow::Result<Figure> {
     use crate::core::plot::lines::{Chart, Series, chart};
-    let d = data.slots.dofs[j];
+    let d = data.slots.dof(j);
     let contrib = contributions(data, rows, pre, j, var);
     let mut by_run = vec![0.0; data.train.len()];
     for (q, &(ri, _, _)) in rows.at.iter().enumerate() {

@@ -57,8 +57,8 @@ impl Feature {
 
     /// The term as it is written in an expression, its indices slots of `slots`.
     pub fn label(self, slots: &Slots) -> String {
-        let v = |j: usize| slots.dofs[j].velocity();
-        let c = |q: usize| slots.dofs[q].force();
+        let v = |j: usize| slots.dof(j).velocity();
+        let c = |q: usize| slots.dof(q).force();
         match self {
             Feature::Constant => "1".into(),
             Feature::Velocity(j) => v(j).into(),
@@ -86,9 +86,9 @@ impl Feature {
     /// The named effect this term is, for the slot `j` of `slots` it acts in, if it is one in
     /// disguise (docs/formats.md's names: `coupled_drag` is any off-diagonal drag term).
     pub(super) fn named(self, slots: &Slots, j: usize) -> Option<&'static str> {
-        let horizontal = |q: usize| matches!(slots.dofs[q], Dof::Surge | Dof::Sway);
+        let horizontal = |q: usize| matches!(slots.dof(q), Dof::Surge | Dof::Sway);
         match self {
-            Feature::Constant if slots.dofs[j] == Dof::Heave => Some("net_buoyancy"),
+            Feature::Constant if slots.dof(j) == Dof::Heave => Some("net_buoyancy"),
             Feature::LagDeficit(q, _) if q == j => Some("thruster_lag"),
             Feature::CommandSign(q) if q == j => Some("thruster_deadband"),
             Feature::AbsProduct(a, b) | Feature::Product(a, b)
@@ -234,7 +234,7 @@ pub(super) fn library(j: usize, peaks: &[f64], data: &Data) -> Vec<Feature> {
         f.push(Feature::TetherLength);
     }
     f.extend([Feature::CosHeading, Feature::SinHeading]);
-    if data.slots.dofs[j] == Dof::Yaw {
+    if data.slots.dof(j) == Dof::Yaw {
         f.push(Feature::Heading);
     }
     f.extend(peaks.iter().map(|&p| Feature::Sine(p)));

@@ -246,8 +246,8 @@ fn candidate(
     let j = p.dof;
     let (named_as, named_terms) = named_in(&var.term.features, &data.slots, j);
     Candidate {
-        dof: data.slots.dofs[j],
-        expression: expression(data.slots.dofs[j], &var.terms),
+        dof: data.slots.dof(j),
+        expression: expression(data.slots.dof(j), &var.terms),
         terms: var.terms.clone(),
         named_as,
         named_terms,

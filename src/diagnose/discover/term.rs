@@ -26,13 +26,12 @@ impl Discovered {
 
     /// The term's generalised force at sample `k` of `run`, with the model's state `s`.
     pub fn force(&self, run: &Run, pre: &Prepared, k: usize, s: &State) -> Vec6 {
-        let vel = run.slots.of_nu(&s.nu);
         let mut cols = Vec::with_capacity(self.coef.len());
         for f in &self.features {
-            f.eval(run, pre, k, &vel, &mut cols);
+            f.eval(run, pre, k, &s.nu, &mut cols);
         }
         let mut out = [0.0; 6];
-        out[run.slots.nu(self.dof)] = cols.iter().zip(&self.coef).map(|(x, c)| x * c).sum();
+        out[self.dof] = cols.iter().zip(&self.coef).map(|(x, c)| x * c).sum();
         out
     }
 }

@@ -9,8 +9,8 @@
 
 use super::{Axis, Env, Hypothesis, Limits, Needs, Param, State, Term, drag};
 use crate::core::dof::Dof;
+use crate::core::model::Vec6;
 use crate::core::model::dynamics::coriolis_full;
-use crate::core::model::{Mat6, Vec6};
 use std::sync::Arc;
 
 pub static EFFECT: Hypothesis = Hypothesis {
@@ -61,19 +61,21 @@ impl Term for WaterCurrent {
         let p = env.plant;
         f[0] += drag(p, 0, s.nu[0] - cu) - drag(p, 0, s.nu[0]);
         f[1] += drag(p, 1, s.nu[1] - cv) - drag(p, 1, s.nu[1]);
-        // M_A = -added (the added mass's coefficients are negative).
-        let ma: Mat6 = p.hydro.added.map(|row| row.map(|x| -x));
+        // M_A is -added (the added mass's coefficients are negative), and C(nu) nu is linear in
+        // the mass: C_A(nu) nu - C_A(nu_r) nu_r is C(nu_r) nu_r - C(nu) nu taken with `added`.
+        let added = &p.hydro.added;
         let mut rel = s.nu;
         rel[0] -= cu;
         rel[1] -= cv;
-        let (absolute, relative) = (coriolis_full(&ma, &s.nu), coriolis_full(&ma, &rel));
+        let (absolute, relative) = (coriolis_full(added, &s.nu), coriolis_full(added, &rel));
         let r = s.nu[5];
-        // The water's velocity in the body frame turns as the vehicle yaws.
-        let water_rate: Vec6 = [r * cv, -r * cu, 0.0, 0.0, 0.0, 0.0];
+        // The water's velocity in the body frame turns as the vehicle yaws:
+        // nu_c' = [r v_c, -r u_c, 0, ...], followed with M_A nu_c'.
+        let (wu, wv) = (r * cv, -r * cu);
         for (i, fi) in f.iter_mut().enumerate() {
             if p.active[i] {
-                let follow: f64 = (0..6).map(|j| ma[i][j] * water_rate[j]).sum();
-                *fi += absolute[i] - relative[i] + follow;
+                let follow = -(added[i][0] * wu + added[i][1] * wv);
+                *fi += relative[i] - absolute[i] + follow;
             }
         }
     }
