@@ -28,6 +28,9 @@ pub enum Effect {
     /// 2011, sec. 6.7: thrust quadratic in propeller speed). A step from rest takes about
     /// 1.6 time constants to deliver 63 %.
     ThrusterLag { time_constant_s: f64 },
+    /// Time constant of a first-order lag on the delivered force itself, s (a controller or
+    /// an ESC that ramps the thrust): the same name as [`Effect::ThrusterLag`], another law.
+    ForceLag { time_constant_s: f64 },
     /// Fraction of a reverse (negative) surge, sway or heave command that is lost, faded in
     /// over a few newtons around zero as the propeller's flow reverses:
     /// efficiency 1 - loss / (1 + exp(T / 2 N)).
@@ -104,7 +107,7 @@ impl Effect {
     pub fn name(&self) -> &'static str {
         match self {
             Effect::NetBuoyancy { .. } => NAMES[0],
-            Effect::ThrusterLag { .. } => NAMES[1],
+            Effect::ThrusterLag { .. } | Effect::ForceLag { .. } => NAMES[1],
             Effect::ReverseThrustLoss { .. } => NAMES[2],
             Effect::ThrusterDeadband { .. } => NAMES[3],
             Effect::TetherDrag { .. } => NAMES[4],
@@ -247,10 +250,15 @@ impl WorldPlant {
         })
     }
 
-    pub fn lag(&self) -> Option<f64> {
+    /// The thrusters' lag: its time constant, and whether it is the motors' speed that lags
+    /// (the force going as its square) rather than the force.
+    pub fn lag(&self) -> Option<(f64, bool)> {
         self.effects.iter().find_map(|e| match e {
             Effect::ThrusterLag { time_constant_s } if *time_constant_s > 0.0 => {
-                Some(*time_constant_s)
+                Some((*time_constant_s, true))
+            }
+            Effect::ForceLag { time_constant_s } if *time_constant_s > 0.0 => {
+                Some((*time_constant_s, false))
             }
             _ => None,
         })
@@ -412,11 +420,16 @@ impl WorldPlant {
 
     fn deriv(&self, s: &State, cmd: &Vec6, t: f64) -> State {
         let target = self.shape_command(cmd);
-        // With a lag, the state's `thrust` holds the motors' signed speeds, in sqrt(N).
+        // With a motor lag, the state's `thrust` holds the motors' signed speeds, in sqrt(N);
+        // with a force lag, the force.
         let (thrust, thrust_dot) = match self.lag() {
-            Some(tc) => (
+            Some((tc, true)) => (
                 s.thrust.map(thrust_at_speed),
                 std::array::from_fn(|i| (speed_for(target[i]) - s.thrust[i]) / tc),
+            ),
+            Some((tc, false)) => (
+                s.thrust,
+                std::array::from_fn(|i| (target[i] - s.thrust[i]) / tc),
             ),
             None => (target, [0.0; 6]),
         };
@@ -460,7 +473,8 @@ impl WorldPlant {
     /// The force and moment the thrusters deliver in a state (body frame).
     pub fn delivered(&self, s: &State, cmd: &Vec6) -> Vec6 {
         match self.lag() {
-            Some(_) => s.thrust.map(thrust_at_speed),
+            Some((_, true)) => s.thrust.map(thrust_at_speed),
+            Some((_, false)) => s.thrust,
             None => self.shape_command(cmd),
         }
     }
