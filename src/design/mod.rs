@@ -122,7 +122,7 @@ impl Setup {
     pub fn world(&self) -> World {
         let lag = crate::diagnose::hypothesis("thruster_lag").expect("a registered effect");
         let terms = match self.plant.command_lag_s > 0.0 {
-            true => vec![(lag.build)(&[self.plant.command_lag_s])],
+            true => vec![(lag.build)(&[self.plant.command_lag_s, 1.0])],
             false => Vec::new(),
         };
         let mut w = World::new(self.plant.clone(), terms);

@@ -360,7 +360,7 @@ fn simulate_checked(
     for j in 0..SLOTS {
         s.nu[j] = rec.at(&run.vel[j], 0);
     }
-    s.thrust = w.shape_command(&run.cmd6(0));
+    s.thrust = w.settled_thrust(&run.cmd6(0));
     let mut att = recorded_attitude(run, &rec, 0);
     let step = att.map_or(STEP, |_| attitude_step(plant));
     let mut out = Vec::with_capacity(n);

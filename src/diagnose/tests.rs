@@ -7,6 +7,7 @@ mod attitude;
 mod discovery;
 mod guards;
 mod joint;
+mod lag;
 mod nav_only;
 mod piloted;
 use piloted::piloted_fast_runs;
@@ -132,10 +133,11 @@ fn main_parameter(e: &Effect, d: &Diagnosis) -> (f64, [f64; 2], f64) {
     match e {
         // Same physics in both: a constant force.
         Effect::NetBuoyancy { force_n } => (*force_n, around(*force_n, 0.15), got("force_n")),
-        // Thrust quadratic in a lagged motor speed: about a step, the force's first-order time
-        // constant is the motor's (small steps) up to 1.6 of it (63 % of a step from rest).
-        Effect::ThrusterLag { time_constant_s: t } => {
-            (*t, [0.9 * t, 1.75 * t], got("time_constant_s"))
+        // Thrust quadratic in a lagged motor speed, or the force itself lagged: the two ends of
+        // the lag's thrust law, each timed at its own time constant (fitted as a force lag, the
+        // motor's came out 20-25 % long).
+        Effect::ThrusterLag { time_constant_s: t } | Effect::ForceLag { time_constant_s: t } => {
+            (*t, around(*t, 0.1), got("time_constant_s"))
         }
         // The fade spans +-2 N of commands that reach tens of newtons.
         Effect::ReverseThrustLoss { loss } => (*loss, around(*loss, 0.2), got("loss")),

@@ -1,7 +1,7 @@
 //! The model the diagnosis simulates: the base plant plus the effects under test
 //! ([`super::effects`]), in the pool frame, with the thruster state a lag needs.
 
-use super::effects::{Env, State, Term};
+use super::effects::{Env, Lag, State, Term};
 use crate::core::model::motion::rk4;
 use crate::core::model::pool::tether_length;
 use crate::core::model::{Plant, Pool, Vec6};
@@ -12,9 +12,9 @@ use std::sync::Arc;
 pub struct World {
     pub plant: Plant,
     terms: Vec<Arc<dyn Term>>,
-    /// The thruster lag's time constant, if an effect has one (looked up once: the
-    /// derivative is evaluated four times a step).
-    lag_s: Option<f64>,
+    /// The thruster lag, if an effect has one (looked up once: the derivative is evaluated
+    /// four times a step).
+    lag: Option<Lag>,
     pub pool: Option<Pool>,
     pub tether_anchor: Option<[f64; 3]>,
     /// Whether position and heading are integrated. A caller that sets them from a recording
@@ -29,11 +29,13 @@ pub struct World {
 
 impl World {
     pub fn new(plant: Plant, terms: Vec<Arc<dyn Term>>) -> World {
-        let lag_s = terms.iter().find_map(|t| t.lag_s().filter(|&tc| tc > 0.0));
+        let lag = terms
+            .iter()
+            .find_map(|t| t.lag().filter(|l| l.time_constant_s > 0.0));
         World {
             plant,
             terms,
-            lag_s,
+            lag,
             pool: None,
             tether_anchor: None,
             track_pose: true,
@@ -84,10 +86,10 @@ impl World {
     /// which no effect's force can tell apart, so the heading's sine and cosine and the
     /// geometry are computed once a step, not four times.
     fn deriv(&self, s: &State, target: &Vec6, env: &Env, external: &Vec6) -> State {
-        let (thrust, thrust_dot) = match self.lag_s {
-            Some(tc) => (
-                s.thrust,
-                std::array::from_fn(|i| (target[i] - s.thrust[i]) / tc),
+        let (thrust, thrust_dot) = match self.lag {
+            Some(l) => (
+                s.thrust.map(|x| l.force_of(x)),
+                std::array::from_fn(|i| (l.state_of(target[i]) - s.thrust[i]) / l.time_constant_s),
             ),
             None => (*target, [0.0; 6]),
         };
@@ -106,9 +108,19 @@ impl World {
     /// The force and moment the thrusters deliver in state `s` under `cmd`: the lagged thrust
     /// the state holds, or without a lag the shaped command.
     pub fn delivered(&self, s: &State, cmd: &Vec6) -> Vec6 {
-        match self.lag_s {
-            Some(_) => s.thrust,
+        match self.lag {
+            Some(l) => s.thrust.map(|x| l.force_of(x)),
             None => self.shape_command(cmd),
+        }
+    }
+
+    /// The thrusters' state when `cmd` has been held long enough: what [`State::thrust`]
+    /// holds (the lag's state, or without a lag the shaped command).
+    pub fn settled_thrust(&self, cmd: &Vec6) -> Vec6 {
+        let target = self.shape_command(cmd);
+        match self.lag {
+            Some(l) => target.map(|f| l.state_of(f)),
+            None => target,
         }
     }
 
@@ -143,7 +155,7 @@ impl World {
             ];
             out.psi = s.psi + h * mean(5);
         }
-        if self.lag_s.is_none() {
+        if self.lag.is_none() {
             out.thrust = target;
         }
         out

@@ -71,7 +71,7 @@ pub(super) fn residual_rows(plant: &Plant, aug: &Augmentation, data: &Data) -> R
         // state (under a lag) following the command.
         let mut w = super::super::world_for(plant, aug, run);
         let mut s = State {
-            thrust: w.shape_command(&run.cmd6(0)),
+            thrust: w.settled_thrust(&run.cmd6(0)),
             ..State::default()
         };
         let mut model: Vec<Vec6> = Vec::with_capacity(n);

@@ -177,13 +177,48 @@ pub fn add_horizontal_drag(k: f64, s: &State, f: &mut Vec6) {
     f[1] -= k * speed * s.nu[1];
 }
 
+/// A first-order lag of what drives the thrust: the lag's state is `sign(F) |F|^(1/exponent)`
+/// for a force F, and delivers `sign(x) |x|^exponent` (exponent 1: the force itself lags; 2: a
+/// propeller's speed lags, its thrust going with the speed's square).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Lag {
+    pub time_constant_s: f64,
+    pub exponent: f64,
+}
+
+impl Lag {
+    /// The lag's state that delivers the force `f`.
+    pub fn state_of(&self, f: f64) -> f64 {
+        let n = self.exponent;
+        if n == 1.0 {
+            f
+        } else if n == 2.0 {
+            f.signum() * f.abs().sqrt()
+        } else {
+            f.signum() * f.abs().powf(1.0 / n)
+        }
+    }
+
+    /// The force the lag's state `x` delivers.
+    pub fn force_of(&self, x: f64) -> f64 {
+        let n = self.exponent;
+        if n == 1.0 {
+            x
+        } else if n == 2.0 {
+            x * x.abs()
+        } else {
+            x.signum() * x.abs().powf(n)
+        }
+    }
+}
+
 /// An effect at its parameter values, as the simulator applies it. Every hook defaults to
 /// "does nothing", so an effect implements only the ones it acts through.
 pub trait Term: std::fmt::Debug + Send + Sync {
     /// Changes the command into what the thrusters deliver in steady state.
     fn shape_command(&self, _cmd: &mut Vec6) {}
-    /// Time constant of a first-order lag of the delivered force, s.
-    fn lag_s(&self) -> Option<f64> {
+    /// A first-order lag between the command and the delivered force.
+    fn lag(&self) -> Option<Lag> {
         None
     }
     /// Adds the effect's generalised force (body frame) at state `s`.
