@@ -80,18 +80,19 @@ impl World {
         }
     }
 
-    /// The derivative of velocity and thrust, with the thrusters driven towards `target` (the
-    /// shaped command) and the effects reading `env`. The pose is held within a step
+    /// The derivative of velocity and thrust, with the thrusters driven towards `goal` (the
+    /// shaped command as the thrusters' state holds it, [`World::goal`]) and the effects
+    /// reading `env`. The pose is held within a step
     /// ([`World::step`] advances it): over one step (at most 0.025 s) it moves by millimetres,
     /// which no effect's force can tell apart, so the heading's sine and cosine and the
     /// geometry are computed once a step, not four times.
-    fn deriv(&self, s: &State, target: &Vec6, env: &Env, external: &Vec6) -> State {
+    fn deriv(&self, s: &State, goal: &Vec6, env: &Env, external: &Vec6) -> State {
         let (thrust, thrust_dot) = match self.lag {
             Some(l) => (
                 s.thrust.map(|x| l.force_of(x)),
-                std::array::from_fn(|i| (l.state_of(target[i]) - s.thrust[i]) / l.time_constant_s),
+                std::array::from_fn(|i| (goal[i] - s.thrust[i]) / l.time_constant_s),
             ),
-            None => (*target, [0.0; 6]),
+            None => (*goal, [0.0; 6]),
         };
         let mut tau: Vec6 = std::array::from_fn(|i| thrust[i] + external[i]);
         for t in &self.terms {
@@ -117,7 +118,12 @@ impl World {
     /// The thrusters' state when `cmd` has been held long enough: what [`State::thrust`]
     /// holds (the lag's state, or without a lag the shaped command).
     pub fn settled_thrust(&self, cmd: &Vec6) -> Vec6 {
-        let target = self.shape_command(cmd);
+        self.goal(self.shape_command(cmd))
+    }
+
+    /// The thrusters' state that delivers the force `target` (computed once a step: the
+    /// derivative reads it four times).
+    fn goal(&self, target: Vec6) -> Vec6 {
         match self.lag {
             Some(l) => target.map(|f| l.state_of(f)),
             None => target,
@@ -126,9 +132,9 @@ impl World {
 
     /// The acceleration at state `s` under `cmd` (the thrusters' state as `s` holds it).
     pub fn accel(&self, s: &State, cmd: &Vec6) -> Vec6 {
-        let target = self.shape_command(cmd);
+        let goal = self.settled_thrust(cmd);
         let env = self.env_at(s);
-        self.deriv(s, &target, &env, &[0.0; 6]).nu
+        self.deriv(s, &goal, &env, &[0.0; 6]).nu
     }
 
     /// One RK4 step of length `h` with the command held. The pose (when tracked) advances by
@@ -142,8 +148,9 @@ impl World {
     /// over the step).
     pub fn step_with(&self, s: &State, cmd: &Vec6, h: f64, external: &Vec6) -> State {
         let target = self.shape_command(cmd);
+        let goal = self.goal(target);
         let env = self.env_at(s);
-        let mut out = rk4(s, h, |x| self.deriv(x, &target, &env, external));
+        let mut out = rk4(s, h, |x| self.deriv(x, &goal, &env, external));
         if self.track_pose {
             let (c, sn) = (env.cos_psi, env.sin_psi);
             let mean = |i: usize| 0.5 * (s.nu[i] + out.nu[i]);

@@ -190,7 +190,7 @@ impl Lag {
     /// The lag's state that delivers the force `f`.
     pub fn state_of(&self, f: f64) -> f64 {
         let n = self.exponent;
-        if n == 1.0 {
+        if n == 1.0 || f == 0.0 {
             f
         } else if n == 2.0 {
             f.signum() * f.abs().sqrt()
@@ -202,7 +202,7 @@ impl Lag {
     /// The force the lag's state `x` delivers.
     pub fn force_of(&self, x: f64) -> f64 {
         let n = self.exponent;
-        if n == 1.0 {
+        if n == 1.0 || x == 0.0 {
             x
         } else if n == 2.0 {
             x * x.abs()
