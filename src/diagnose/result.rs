@@ -330,6 +330,9 @@ pub struct Candidate {
     /// runs by the same margin, its costs from the cost the terms before it left.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub also: Vec<Candidate>,
+    /// Every term of the candidate (this one's and the `also`s'), as the simulation adds them.
+    #[serde(skip)]
+    pub model: Vec<std::sync::Arc<crate::diagnose::discover::Discovered>>,
 }
 
 impl Candidate {

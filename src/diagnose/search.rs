@@ -8,8 +8,10 @@
 //! ([`super::Data::train_cost_below`]), which leaves every decision, and so the result,
 //! as it would be with exact costs.
 
+use super::discover::Discovered;
 use super::{Data, Hypothesis, Selection, augmentation};
 use crate::core::model::Plant;
+use std::sync::Arc;
 
 /// Grid points per parameter: 17 for one, 7 x 7 for two.
 fn grid(k: usize) -> usize {
@@ -162,8 +164,14 @@ pub fn fit_one(
     (to_params(h, &u), c)
 }
 
-/// Refits every kept effect's parameters together, from their current values.
-pub fn refine_all(plant: &Plant, data: &Data, selected: &Selection) -> Selection {
+/// Refits every kept effect's parameters together, from their current values, with the
+/// discovered terms `beside` in the model as they are.
+pub fn refine_all(
+    plant: &Plant,
+    data: &Data,
+    selected: &Selection,
+    beside: &[Arc<Discovered>],
+) -> Selection {
     let sizes: Vec<usize> = selected.iter().map(|(h, _)| h.params.len()).collect();
     let split = |u: &[f64]| -> Selection {
         let mut at = 0;
@@ -178,8 +186,11 @@ pub fn refine_all(plant: &Plant, data: &Data, selected: &Selection) -> Selection
             .collect()
     };
     let u0: Vec<f64> = selected.iter().flat_map(|(h, p)| to_unit(h, p)).collect();
-    let cost =
-        |u: &[f64], bound: f64| data.train_cost_below(plant, &augmentation(&split(u)), bound);
+    let cost = |u: &[f64], bound: f64| {
+        let mut aug = augmentation(&split(u));
+        aug.discovered = beside.to_vec();
+        data.train_cost_below(plant, &aug, bound)
+    };
     let (u, _) = nelder_mead(&cost, &u0, 0.05, 40 * u0.len());
     split(&u)
 }

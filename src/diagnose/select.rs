@@ -361,7 +361,7 @@ fn keep(
     if kept.len() == 1 {
         return Ok(kept);
     }
-    let kept = search::refine_all(plant, data, &kept);
+    let kept = search::refine_all(plant, data, &kept, &[]);
     match kept.iter().find(|(hb, pb)| !at_bound(hb, pb).is_empty()) {
         Some((hb, pb)) => Err(at_bound(hb, pb)
             .into_iter()
@@ -434,7 +434,7 @@ fn swap(
     let mut next = selected.clone();
     let (out, _) = next.remove(i);
     next.push((h, p));
-    let next = search::refine_all(plant, data, &next);
+    let next = search::refine_all(plant, data, &next, &[]);
     let after = data.cost(plant, &augmentation(&next), true);
     if after >= current || next.iter().any(|(hb, pb)| !at_bound(hb, pb).is_empty()) {
         return None;

@@ -411,8 +411,9 @@ fn experiment() {
             eprintln!("  verdict: {}", d.verdict);
             for e in &d.effects {
                 eprintln!(
-                    "  found {} alike {:?}",
+                    "  found {} {:?} alike {:?}",
                     e.name,
+                    e.parameters,
                     e.alike
                         .iter()
                         .map(|a| (&a.name, a.validation_cost))

@@ -58,6 +58,7 @@ pub fn discover(
     }
     let mut candidate = parts.remove(0);
     candidate.also = parts;
+    candidate.model = with.discovered[aug.discovered.len()..].to_vec();
     Ok(Some((candidate, figures)))
 }
 
@@ -258,5 +259,6 @@ fn candidate(
         validation_cost_before: before.cost(&data.scale),
         validation_cost_after: after.cost(&data.scale),
         also: Vec::new(),
+        model: Vec::new(),
     }
 }

@@ -7,7 +7,7 @@ use crate::diagnose::Run;
 use crate::diagnose::effects::State;
 
 /// A discovered term: its DOF, the features kept and their coefficients (per column).
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Discovered {
     pub dof: usize,
     pub features: Vec<Feature>,

@@ -98,3 +98,39 @@ fn effects_that_need_a_position_are_untested_without_one() {
         "a hypothesis scored with a non-finite input"
     );
 }
+
+/// A named effect beside an out-of-table one is refitted once the table's effect has a
+/// discovered term beside it: a tether's drag with a thrust fading 10 % a minute, where the
+/// tether fitted first took up part of the fade (its drag at 11 m 1.2 times the twin's).
+#[test]
+fn a_named_effect_is_refitted_beside_the_discovered_terms() {
+    let effects = ["battery_sag=0.1", "tether_drag=1"].map(|a| Effect::from_arg(a).unwrap());
+    let d = scenario_diagnosis(&effects, 8);
+    assert_eq!(named(&d), ["tether_drag"], "{}", d.verdict);
+    let (want, [lo, hi], got) = main_parameter(&effects[1], &d);
+    let close = [want * 0.85, want * 1.15];
+    assert!(
+        (lo..=hi).contains(&got) && (close[0]..=close[1]).contains(&got),
+        "tether drag at 11 m {got} for {want}: {}",
+        d.verdict
+    );
+    let c = d
+        .effects
+        .iter()
+        .find_map(|x| x.candidate.as_ref())
+        .unwrap_or_else(|| panic!("no closed form: {}", d.verdict));
+    let fade = -0.1 / 60.0;
+    for t in c.parts().flat_map(|p| &p.terms) {
+        assert!(
+            (t.coefficient - fade).abs() < 0.15 * fade.abs(),
+            "{}: {}",
+            c.expressions(),
+            d.verdict
+        );
+    }
+    assert!(
+        d.verdict.contains("Refitted beside the discovered terms"),
+        "{}",
+        d.verdict
+    );
+}
