@@ -551,8 +551,13 @@ fn found_evidence(
     noise_cost: f64,
     regime: Option<&dx::RegimeShare>,
 ) -> String {
+    let law = params
+        .get("thrust_law_exponent")
+        .map_or(String::new(), |&n| {
+            format!(" ({})", dx::effects::law_in_words(n))
+        });
     let mut evidence = format!(
-        "Fitted on the training runs: {}. On the held-out runs the error cost falls {} ({:.4} to {:.4}; noise floor {:.4})",
+        "Fitted on the training runs: {}{law}. On the held-out runs the error cost falls {} ({:.4} to {:.4}; noise floor {:.4})",
         fmt_params(params),
         pct((cb - ca) / cb),
         cb,

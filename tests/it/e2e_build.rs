@@ -163,6 +163,11 @@ fn the_shipped_diagnosis_names_the_concealed_lag_and_tether() {
         (0.9 * tau..1.1 * tau).contains(&lag) && exponent > 1.7,
         "lag {lag} (thrust law exponent {exponent}) vs motor {tau}"
     );
+    let evidence = effects[0]["evidence"].as_str().unwrap();
+    assert!(
+        evidence.contains("(the thrusters' speed lags, the thrust going with its square)"),
+        "{evidence}"
+    );
     // Only the drag per unit |v| v at the distances the runs go compares: c (d + s) against
     // the twin's c (horizontal run + depth + slack), at 11 m from the anchor, 1.5 m deep.
     let (run, depth) = (11.0f64, 1.5f64);

@@ -16,6 +16,7 @@ mod tether_drag;
 mod thruster_deadband;
 mod thruster_lag;
 mod wall_effect;
+pub use thruster_lag::law_in_words;
 mod water_current;
 
 use super::Run;

@@ -40,6 +40,17 @@ pub static EFFECT: Hypothesis = Hypothesis {
     axis: SINCE_STEP,
 };
 
+/// The fitted thrust law `exponent` in words, for the effect's evidence.
+pub fn law_in_words(exponent: f64) -> &'static str {
+    if exponent >= 1.75 {
+        "the thrusters' speed lags, the thrust going with its square"
+    } else if exponent <= 1.25 {
+        "the force itself lags"
+    } else {
+        "a law between a lag of the force and one of a propeller's speed"
+    }
+}
+
 #[derive(Debug)]
 struct ThrusterLag(Lag);
 
