@@ -313,6 +313,15 @@ fn list_alike(effects: &mut [Found], search: &dx::Search, crit: &Criteria, data:
     }
 }
 
+/// Named effects kept beside a discovered candidate, its figures, and what the verdict says
+/// of the choice.
+type Chosen<T> = (
+    dx::Selection,
+    crate::diagnose::result::Candidate,
+    Vec<Figure>,
+    T,
+);
+
 /// The named effects `selected` refitted beside the discovered terms of `c`, and the terms
 /// discovered again beside them. Fitted before discovery, a named effect takes up some of
 /// what the terms explain: on a twin with a tether's drag and a thrust fading 10 % a minute,
@@ -326,12 +335,7 @@ fn refit_beside(
     dofs: &[Dof],
     c: crate::diagnose::result::Candidate,
     figs: Vec<Figure>,
-) -> anyhow::Result<(
-    dx::Selection,
-    crate::diagnose::result::Candidate,
-    Vec<Figure>,
-    Option<String>,
-)> {
+) -> anyhow::Result<Chosen<Option<String>>> {
     if selected.is_empty() || c.model.is_empty() {
         return Ok((selected, c, figs, None));
     }
@@ -382,12 +386,7 @@ fn joint_selection(
     dofs: &[Dof],
     mut c: crate::diagnose::result::Candidate,
     mut figs: Vec<Figure>,
-) -> anyhow::Result<(
-    dx::Selection,
-    crate::diagnose::result::Candidate,
-    Vec<Figure>,
-    Vec<String>,
-)> {
+) -> anyhow::Result<Chosen<Vec<String>>> {
     let mut dropped = Vec::new();
     for i in (0..selected.len()).rev() {
         let mut reduced = selected.clone();

@@ -75,7 +75,6 @@ pub(super) fn residual_rows(plant: &Plant, aug: &Augmentation, data: &Data) -> R
             ..State::default()
         };
         let mut model: Vec<Vec6> = Vec::with_capacity(n);
-        let nu = data.slots.nu_all();
         for k in 0..n {
             let c = run.cmd6(k);
             run.set_velocity(k, &mut s);
@@ -90,17 +89,15 @@ pub(super) fn residual_rows(plant: &Plant, aug: &Augmentation, data: &Data) -> R
         let mut a = every;
         while a + span < n.saturating_sub(every) {
             let b = a + span;
-            let dv: Vec6 = std::array::from_fn(|i| {
-                let model_mean = window_mean(&run.t, a, b, |k| model[k][i]);
-                match nu.iter().position(|&q| q == i) {
-                    Some(j) => (run.vel[j][b] - run.vel[j][a]) / (run.t[b] - run.t[a]) - model_mean,
-                    None => 0.0,
-                }
+            // Slot j is the DOF of index j in nu: the rows are body vectors.
+            let dv: Vec6 = std::array::from_fn(|j| {
+                let model_mean = window_mean(&run.t, a, b, |k| model[k][j]);
+                (run.vel[j][b] - run.vel[j][a]) / (run.t[b] - run.t[a]) - model_mean
             });
-            for (j, &i) in nu.iter().enumerate() {
-                rows.y[j].push((0..6).map(|q| mass[i][q] * dv[q]).sum());
+            for (j, m) in mass.iter().enumerate() {
+                rows.y[j].push((0..6).map(|q| m[q] * dv[q]).sum());
                 let sd = run.std[j][a].hypot(run.std[j][b]) / (run.t[b] - run.t[a]);
-                rows.sigma[j].push(mass[i][i].abs() * sd);
+                rows.sigma[j].push(m[j].abs() * sd);
             }
             rows.at.push((ri, a, b));
             a += every;

@@ -16,8 +16,9 @@ mod tether_drag;
 mod thruster_deadband;
 mod thruster_lag;
 mod wall_effect;
-pub use thruster_lag::law_in_words;
 mod water_current;
+
+pub use thruster_lag::law_in_words;
 
 use super::Run;
 use crate::core::dof::Dof;
