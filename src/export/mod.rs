@@ -225,6 +225,12 @@ pub fn left_out(m: &Model, full_quadratic: bool, buoyancy: bool) -> Vec<String> 
             out.push("the quadratic drag's cross terms (only its diagonal is held)".into());
         }
     }
+    if h.lever != [0.0; 3] {
+        out.push(format!(
+            "the centre of gravity r_g = {:?} m from the thrusters' layout origin (x_g, y_g, z_g): the model's moments are about the centre of gravity, so place each thruster at its layout position less r_g",
+            h.lever
+        ));
+    }
     if m.command_lag_s > 0.0 {
         out.push(format!(
             "the command lag T_cmd = {:.3} s: pass the thrusters' commands through a first-order lag of that time constant",

@@ -60,6 +60,10 @@ pub fn write(m: &Model) -> (String, Vec<String>) {
     t += &format!("vehicle.eta = [{}];\n", h.moment.map(num).join(" "));
     t += &format!("vehicle.tau0 = [{}];\n", h.constant.map(num).join(" "));
     t += &format!("vehicle.T_cmd = {};\n", num(m.command_lag_s));
+    // The thrusters' wrench is logged about their layout's origin; the model's moments are
+    // about the centre of gravity, r_g from that origin.
+    t += &format!("vehicle.r_g = [{}];\n", h.lever.map(num).join(" "));
+    t += "vehicle.tau_cg = @(tau) [tau(1:3); tau(4:6) - cross(vehicle.r_g(:), tau(1:3))];\n";
     t += "S = @(a) [0 -a(3) a(2); a(3) 0 -a(1); -a(2) a(1) 0];\n";
     t += "m2c = @(M, nu) [zeros(3) -S(M(1:3,:)*nu); -S(M(1:3,:)*nu) -S(M(4:6,:)*nu)];\n";
     t += "Dnu = @(nu) vehicle.D + sum(reshape(abs(nu), 1, 1, 6) .* vehicle.Dq, 3);\n";
@@ -106,6 +110,9 @@ pub fn read(text: &str) -> Result<Model, String> {
     let tau0 = get("tau0")?;
     h.moment = std::array::from_fn(|i| eta.get(i).copied().unwrap_or(0.0));
     h.constant = std::array::from_fn(|i| tau0.get(i).copied().unwrap_or(0.0));
+    if let Some(r) = numbers(text, "r_g") {
+        h.lever = std::array::from_fn(|i| r.get(i).copied().unwrap_or(0.0));
+    }
     let lag = numbers(text, "T_cmd")
         .and_then(|v| v.first().copied())
         .unwrap_or(0.0);

@@ -28,9 +28,11 @@
 use crate::core::dof::Dof;
 use crate::core::model::Term;
 
-/// Whether `t` is a coupling into roll or pitch from a translational velocity.
+/// Whether `t` is a coupling into roll or pitch from a translation: a translational
+/// velocity's drag (K_v, M_u), or the height z_g of the centre of gravity from the thrusters'
+/// origin, on which the surge and sway thrust's roll and pitch moments hang.
 pub(super) fn is_attitude_coupling(t: Term) -> bool {
-    matches!(t, Term::Linear(i, j) if (3..5).contains(&i) && j < 3)
+    matches!(t, Term::Linear(i, j) if (3..5).contains(&i) && j < 3) || t == Term::Lever(2)
 }
 
 /// Whether `t` acts in roll or pitch alone (their added inertia, drag, constant and
@@ -48,6 +50,8 @@ mod tests {
         assert!(is_attitude_coupling(Term::Linear(3, 1)), "K_v");
         assert!(is_attitude_coupling(Term::Linear(4, 0)), "M_u");
         assert!(!is_attitude_coupling(Term::Linear(5, 1)), "N_v acts in yaw");
+        assert!(is_attitude_coupling(Term::Lever(2)), "z_g");
+        assert!(!is_attitude_coupling(Term::Lever(0)), "x_g acts in yaw too");
         assert!(
             !is_attitude_coupling(Term::Linear(3, 3)),
             "K_p is roll's own"

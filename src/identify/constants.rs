@@ -80,11 +80,12 @@ pub enum Candidate {
 }
 
 impl Candidate {
-    /// The DOF whose left-out error judges it: the constant's, or the one the coupling acts in.
-    pub fn dof(self) -> Dof {
+    /// The DOFs whose left-out error judges it: the constant's, or those the coupling acts in
+    /// (both of roll and pitch for z_g).
+    pub fn dofs(self) -> Vec<Dof> {
         match self {
-            Candidate::Constant(d) => d,
-            Candidate::Coupling(t) => t.dof(),
+            Candidate::Constant(d) => vec![d],
+            Candidate::Coupling(t) => t.equations(),
         }
     }
 
@@ -158,9 +159,15 @@ impl Choice {
             ));
         }
         if !couplings.is_empty() {
+            let lever =
+                (self.scores.keys()).any(|c| matches!(c, Candidate::Coupling(Term::Lever(_))));
             parts.push(format!(
-                "the couplings chosen by the same {}-fold cross-validation, each judged in the DOF it acts in (`couplings: none` leaves them out): {}",
+                "the couplings chosen by the same {}-fold cross-validation, each judged in the DOF it acts in ({}`couplings: none` leaves them out): {}",
                 self.folds,
+                match lever {
+                    true => "z_g, the centre of gravity's height from the thrusters' origin, by the mean of roll's and pitch's; ",
+                    false => "",
+                },
                 couplings.join(", ")
             ));
         }
@@ -206,10 +213,15 @@ pub fn with_couplings(vehicle: &mut Vehicle) -> Vec<Candidate> {
         (Dof::Sway, Dof::Roll),
         (Dof::Surge, Dof::Pitch),
     ];
-    let terms: Vec<Term> = (pairs.iter())
+    let mut terms: Vec<Term> = (pairs.iter())
         .filter(|(from, to)| plain && moves(*from) && moves(*to))
         .map(|(from, to)| Term::Linear(to.index(), from.index()))
         .collect();
+    // The height of the centre of gravity from the thrusters' origin, z_g, where the vehicle
+    // rolls or pitches: the surge and sway thrust's moments hang on it.
+    if plain && (moves(Dof::Roll) || moves(Dof::Pitch)) {
+        terms.push(Term::Lever(2));
+    }
     if terms.is_empty() {
         return Vec::new();
     }
@@ -264,29 +276,43 @@ pub fn choose(full: &Full, runs: &[&Response], candidates: &[Candidate]) -> Opti
         .into_par_iter()
         .map(|f| fold((full, lag_s), runs, (f, folds), &from, &candidates))
         .collect();
+    // A candidate's DOFs that the model has: the left-out error it is judged by is their mean.
+    let judged = |c: &Candidate| -> Vec<Dof> {
+        let mut d = c.dofs();
+        d.retain(|e| full.vehicle.dofs.contains(e));
+        d
+    };
+    let over = |m: &BTreeMap<Dof, f64>, dofs: &[Dof]| -> Option<f64> {
+        let v: Vec<f64> = dofs
+            .iter()
+            .map(|d| m.get(d).copied())
+            .collect::<Option<_>>()?;
+        (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+    };
     let mean = |pick: &dyn Fn(&Scored) -> Option<f64>| {
         let v: Vec<f64> = per_fold.iter().flatten().filter_map(pick).collect();
         v.iter().sum::<f64>() / v.len().max(1) as f64
     };
-    let with = |e: &Dof| mean(&|s: &Scored| s.with.get(e).copied());
-    let alone = |i: usize, e: &Dof| mean(&|s: &Scored| s.without[i].get(e).copied());
+    let with = |e: &[Dof]| mean(&|s: &Scored| over(&s.with, e));
+    let alone = |i: usize, e: &[Dof]| mean(&|s: &Scored| over(&s.without[i], e));
     let scores: BTreeMap<Candidate, (f64, f64)> = (candidates.iter().enumerate())
-        .map(|(i, (c, _))| (*c, (with(&c.dof()), alone(i, &c.dof()))))
+        .map(|(i, (c, _))| (*c, (with(&judged(c)), alone(i, &judged(c)))))
         .collect();
-    let pairs = |i: usize, d: &Dof| -> Vec<(f64, f64)> {
+    let pairs = |i: usize, d: &[Dof]| -> Vec<(f64, f64)> {
         (per_fold.iter().flatten())
-            .filter_map(|s| Some((*s.with.get(d)?, *s.without[i].get(d)?)))
+            .filter_map(|s| Some((over(&s.with, d)?, over(&s.without[i], d)?)))
             .collect()
     };
     let dropped: Vec<Candidate> = (candidates.iter().enumerate())
-        .filter(|(i, (c, _))| !kept(&pairs(*i, &c.dof())))
+        .filter(|(i, (c, _))| !kept(&pairs(*i, &judged(c))))
         .map(|(_, (c, _))| *c)
         .collect();
     let elsewhere = (candidates.iter().enumerate())
         .filter(|(_, (c, _))| dropped.contains(c))
         .flat_map(|(i, (c, _))| {
-            let others = full.vehicle.dofs.iter().filter(move |e| **e != c.dof());
-            others.map(move |e| (*c, *e, with(e), alone(i, e)))
+            let own = judged(c);
+            let others = (full.vehicle.dofs.iter()).filter(move |e| !own.contains(e));
+            others.map(move |e| (*c, *e, with(&[*e]), alone(i, &[*e])))
         })
         .filter(|(_, _, w, wo)| *wo > (1.0 + ELSEWHERE) * w)
         .collect();

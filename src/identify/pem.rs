@@ -438,7 +438,7 @@ fn over_the_lag(
 /// and pitches the vehicle).
 fn acts_in(t: crate::core::model::terms::Term) -> String {
     match t {
-        crate::core::model::terms::Term::Moment(_) => {
+        Term::Moment(_) | Term::Lever(_) => {
             let axes: Vec<String> = t.equations().iter().map(|d| d.to_string()).collect();
             axes.join(" and ")
         }
@@ -483,15 +483,35 @@ fn estimate(
     beyond: Option<(f64, f64)>,
 ) -> Estimate {
     let (value, stderr) = (r.theta[j], r.stderr[j]);
+    let name = problem.layout.name(j);
+    let (note, flagged) = note(problem, bounds, (j, value), opts, beyond);
+    Estimate {
+        name,
+        value,
+        unit: problem.layout.unit(j).to_string(),
+        stderr,
+        interval: None,
+        identifiable: !flagged && stderr.is_finite() && stderr < 0.5 * value.abs(),
+        note,
+    }
+}
+
+/// The note on parameter `j` at `value`, and whether it makes the value untrustworthy (a value
+/// the runs demand beyond its prior is said, not flagged).
+fn note(
+    problem: &Regression,
+    bounds: &Bounds,
+    (j, value): (usize, f64),
+    opts: &Options,
+    beyond: Option<(f64, f64)>,
+) -> (Option<String>, bool) {
     let term = problem.layout.terms[j];
     let i = dof_of(problem, j);
     let at_prior = bounds.at_prior(j, value);
     let at_search_bound = beyond.is_some()
         && (value - BEYOND_PRIOR * -opts.rigid_mass[i]).abs() <= 1e-6 * opts.rigid_mass[i];
     let name = problem.layout.name(j);
-    // The note, and whether it makes the value untrustworthy (a value the runs demand beyond
-    // its prior is said, not flagged).
-    let (note, flagged) = match beyond {
+    match beyond {
         Some((held, freed)) if !at_search_bound => (
             Some(format!(
                 "{name} is beyond its plausibility prior ({} times the rigid-body term {:.3}): the runs demand it (output error {held:.4} held on the prior, {freed:.4} beyond it)",
@@ -514,6 +534,14 @@ fn estimate(
                     .map(|d| d.to_string())
                     .collect::<Vec<_>>()
                     .join(" and "),
+            )),
+            true,
+        ),
+        _ if at_prior && matches!(term, Term::Lever(_)) => (
+            Some(format!(
+                "{name} sits on its bound ({} m from the point the logged moments are taken about): the runs push the centre of gravity past any vehicle's, so it stands in for a moment the model lacks in {} or logged moments that are not the vehicle's",
+                crate::core::model::terms::LEVER_BOUND_M,
+                acts_in(term),
             )),
             true,
         ),
@@ -540,15 +568,6 @@ fn estimate(
             true,
         ),
         _ => (None, false),
-    };
-    Estimate {
-        name,
-        value,
-        unit: problem.layout.unit(j).to_string(),
-        stderr,
-        interval: None,
-        identifiable: !flagged && stderr.is_finite() && stderr < 0.5 * value.abs(),
-        note,
     }
 }
 

@@ -87,7 +87,7 @@ impl Regression {
                 let g = gravity_body(phi, theta);
                 let known = rigid.rigid_force(&nu, &nu_dot);
                 for (c, t) in cols.iter_mut().zip(&layout.terms) {
-                    *c = term_column(*t, &nu, &nu_dot, &g);
+                    *c = term_column(*t, &nu, &nu_dot, &g, &tau);
                 }
                 for d in &dofs {
                     let i = d.index();

@@ -35,6 +35,10 @@ pub fn plausible(
                     (b.lo[j], b.hi[j]) = (-stiffest, stiffest);
                 }
             }
+            (Term::Lever(_), _) => {
+                let r = crate::core::model::terms::LEVER_BOUND_M;
+                (b.lo[j], b.hi[j]) = (-r, r);
+            }
             _ => {}
         }
     }

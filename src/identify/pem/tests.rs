@@ -232,6 +232,16 @@ fn buoyant_six_dof() -> (Vehicle, Plant) {
 /// A run of [`buoyant_six_dof`] under random steps of the command in every DOF, the pitch and
 /// roll moments large enough to tilt it 20-30 deg; velocities and attitude as logged, noisy.
 fn tilting_run(plant: &Plant, vehicle: &Vehicle, rng: &mut Rng) -> Response {
+    tilting_run_under(plant, vehicle, rng, |tau| *tau)
+}
+
+/// [`tilting_run`] with the body driven by `applied` of each logged command.
+fn tilting_run_under(
+    plant: &Plant,
+    vehicle: &Vehicle,
+    rng: &mut Rng,
+    applied: impl Fn(&[f64; 6]) -> [f64; 6],
+) -> Response {
     use crate::core::model::attitude::{State, rk4};
     let t: Vec<f64> = (0..1200).map(|k| k as f64 * 0.05).collect();
     let scale = [10.0, 10.0, 10.0, 0.8, 0.8, 0.5];
@@ -248,8 +258,9 @@ fn tilting_run(plant: &Plant, vehicle: &Vehicle, rng: &mut Rng) -> Response {
         cmd.push(level);
         nu.push(x.nu);
         att.push(x.att);
+        let acting = applied(&level);
         for _ in 0..5 {
-            x = rk4(plant, &x, &level, 0.01);
+            x = rk4(plant, &x, &acting, 0.01);
         }
     }
     let mut r = logged(t, &cmd, &nu, &vehicle.dofs, 0.003, rng);
@@ -413,6 +424,57 @@ fn a_roll_moment_from_sway_is_found_after_the_sway_drag() {
         assert!(
             (a - b).abs() < 0.01 * b.abs(),
             "{name} {a} with K_v, {b} without"
+        );
+    }
+}
+
+/// Thrusters laid out about a point 8 cm above the centre of gravity (as a BlueROV2 Heavy's
+/// documented layout sits above its ballasted centre of gravity): the logged surge and sway
+/// thrust pitch and roll the body less than the layout says. The fit with z_g finds the
+/// height, and on runs whose logged moments are the body's it finds none.
+#[test]
+fn the_centre_of_gravity_below_the_thrusters_origin_is_found() {
+    use crate::core::model::{CustomTerms, Structure};
+    let (mut vehicle, plant) = buoyant_six_dof();
+    vehicle.structure = Structure::Custom;
+    vehicle.custom_terms = Some(CustomTerms {
+        base: Structure::Diagonal,
+        add: vec!["z_g".into()],
+        remove: Vec::new(),
+    });
+    let z_g = |fit: &Fit| {
+        let p = fit.parameters.iter().find(|p| p.name == "z_g");
+        p.expect("z_g in the fit").value
+    };
+    for (seed, height) in [(7, 0.08), (8, 0.0)] {
+        let mut rng = Rng::derive(seed, "tilting runs under thrusters above the CG");
+        // Each thrust's moment about the centre of gravity, the layout's origin `height`
+        // above it (z down): M_cg = M_logged + (r_origin - r_cg) x F, r_origin - r_cg =
+        // (0, 0, -height).
+        let about_cg = |tau: &[f64; 6]| {
+            let (d, f) = ([0.0, 0.0, -height], [tau[0], tau[1], tau[2]]);
+            let arm = [
+                d[1] * f[2] - d[2] * f[1],
+                d[2] * f[0] - d[0] * f[2],
+                d[0] * f[1] - d[1] * f[0],
+            ];
+            [
+                f[0],
+                f[1],
+                f[2],
+                tau[3] + arm[0],
+                tau[4] + arm[1],
+                tau[5] + arm[2],
+            ]
+        };
+        let responses: Vec<_> = (0..4)
+            .map(|_| tilting_run_under(&plant, &vehicle, &mut rng, about_cg))
+            .collect();
+        let fit = default_fit(&vehicle, &responses, |_| {});
+        let found = z_g(&fit);
+        assert!(
+            (found - height).abs() < 0.008,
+            "seed {seed}: z_g {found} for {height}"
         );
     }
 }

@@ -326,8 +326,13 @@ impl Scales {
                 Group::QuadraticDrag => 3.0 * fmax[d] / (v * v),
                 // A constant force (or buoyancy) no larger than the largest force the rows need.
                 Group::Constant | Group::Buoyancy => fmax[d],
+                // The centre of gravity near the thrusters' origin.
+                Group::Lever => crate::core::model::terms::LEVER_BOUND_M,
             };
-            if matches!(g, Group::Constant | Group::Buoyancy) || !reg.layout.terms[j].is_diagonal()
+            if g == Group::Lever {
+                hi[j] = crate::core::model::terms::LEVER_BOUND_M;
+            } else if matches!(g, Group::Constant | Group::Buoyancy)
+                || !reg.layout.terms[j].is_diagonal()
             {
                 hi[j] = fmax[d];
             }

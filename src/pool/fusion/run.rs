@@ -361,8 +361,7 @@ impl FusedRun {
     ///
     /// [`Plant::command`]: crate::core::model::Plant::command
     pub fn with_command_of(mut self, plant: &crate::core::model::Plant) -> FusedRun {
-        let no_lag = plant.command_lag_s.is_nan() || plant.command_lag_s <= 0.0;
-        if no_lag && plant.command_gain == 1.0 {
+        if !plant.shapes_command() {
             return self;
         }
         let given = plant.command(&self.fused.t, &self.taus());

@@ -83,8 +83,10 @@ pub fn hydro_force_at(h: &Hydro, nu: &Vec6, nu_dot: &Vec6, g: &[f64; 3]) -> Vec6
 }
 
 /// The column of one term in the regression: [`hydro_force_at`] of a model whose only
-/// coefficient is that term, at 1 (the force is linear in every term).
-pub fn term_column(t: Term, nu: &Vec6, nu_dot: &Vec6, g: &[f64; 3]) -> Vec6 {
+/// coefficient is that term, at 1 (the force is linear in every term); for a component of
+/// r_g, the moment it takes off the logged force `tau` ([`Hydro::thrust_about_cg`]), which
+/// the regression's left side carries negated as it carries the constants.
+pub fn term_column(t: Term, nu: &Vec6, nu_dot: &Vec6, g: &[f64; 3], tau: &Vec6) -> Vec6 {
     let mut out = [0.0; 6];
     match t {
         Term::Added(i, j) => {
@@ -106,6 +108,12 @@ pub fn term_column(t: Term, nu: &Vec6, nu_dot: &Vec6, g: &[f64; 3]) -> Vec6 {
             e[a] = 1.0;
             let m = cross(e, *g);
             (0..3).for_each(|i| out[3 + i] = -m[i]);
+        }
+        Term::Lever(a) => {
+            let mut h = Hydro::default();
+            h.lever[a] = 1.0;
+            let moved = h.thrust_about_cg(tau);
+            (3..6).for_each(|i| out[i] = tau[i] - moved[i]);
         }
     }
     out
@@ -175,15 +183,23 @@ impl Plant {
     }
 
     /// The force a run's logged command `tau` (at times `t`) gives this model's vehicle:
-    /// through its command lag, times its command gain.
+    /// through its command lag, times its command gain, its moments taken about the centre
+    /// of gravity ([`Hydro::thrust_about_cg`]).
     pub fn command(&self, t: &[f64], tau: &[Vec6]) -> Vec<Vec6> {
         let mut out = lagged(t, tau, self.command_lag_s);
-        if self.command_gain != 1.0 {
-            for x in &mut out {
+        for x in &mut out {
+            if self.command_gain != 1.0 {
                 x.iter_mut().for_each(|f| *f *= self.command_gain);
             }
+            *x = self.hydro.thrust_about_cg(x);
         }
         out
+    }
+
+    /// Whether [`Plant::command`] changes a logged command: a lag, a gain or a lever.
+    pub fn shapes_command(&self) -> bool {
+        let lag = self.command_lag_s.is_finite() && self.command_lag_s > 0.0;
+        lag || self.command_gain != 1.0 || self.hydro.lever != [0.0; 3]
     }
 
     /// The diagonal of M_RB - M_A.

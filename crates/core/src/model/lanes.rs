@@ -85,6 +85,8 @@ pub struct LanePlants {
     /// (crossed with it), as in [`super::dynamics`].
     net_weight: Lanes,
     moment: [Lanes; 3],
+    /// The centre of gravity from the point the logged moments are about ([`held`]).
+    lever: [Lanes; 3],
     /// Whether any lane has weight and buoyancy.
     att: bool,
     /// Whether roll or pitch is free (else the 4-DOF kernel runs).
@@ -106,6 +108,29 @@ pub fn flops_per_step(six: bool) -> usize {
         // Coriolis: -m_v v r 2, m_u u r 2, (m_v - m_u) u v 3.
         4 * (7 + 4 * 6) + 3 * 4 * 2 + 4 * 6
     }
+}
+
+/// Per lane, the logged force `tau` held over a sample as it acts about the lane's centre of
+/// gravity ([`super::Hydro::thrust_about_cg`], the moment less `lever x F`), plus the lane's
+/// constant force.
+pub(super) fn held<const L: usize>(
+    tau: &Vec6,
+    constant: &[Lanes; 6],
+    lever: &[Lanes; 3],
+) -> [[f64; L]; 6] {
+    let [fx, fy, fz, ..] = *tau;
+    std::array::from_fn(|i| {
+        std::array::from_fn(|l| {
+            let [x, y, z] = [lever[0][l], lever[1][l], lever[2][l]];
+            let arm = match i {
+                3 => y * fz - z * fy,
+                4 => z * fx - x * fz,
+                5 => x * fy - y * fx,
+                _ => 0.0,
+            };
+            tau[i] + constant[i][l] - arm
+        })
+    })
 }
 
 /// Whether the six-DOF kernel is needed for a vehicle free in `active`: roll or pitch is free.
@@ -154,6 +179,7 @@ impl LanePlants {
             constant: by(&|p, i| p.hydro.constant[i]),
             net_weight: std::array::from_fn(|l| at(l).hydro.net_weight),
             moment: std::array::from_fn(|a| std::array::from_fn(|l| at(l).hydro.moment[a])),
+            lever: std::array::from_fn(|a| std::array::from_fn(|l| at(l).hydro.lever[a])),
             att: plants
                 .iter()
                 .any(|p| p.hydro.net_weight != 0.0 || p.hydro.moment != [0.0; 3]),
@@ -286,8 +312,7 @@ impl LanePlants {
             let n = super::dynamics::substeps(span, max_step);
             let h = span / n as f64;
             // The force and constant term are held over the sample: summed once.
-            let push: [[f64; L]; 6] =
-                std::array::from_fn(|i| std::array::from_fn(|l| tau[k][i] + self.constant[i][l]));
+            let push: [[f64; L]; 6] = held(&tau[k], &self.constant, &self.lever);
             for _ in 0..n {
                 x = self.rk4::<SIX, CROSS, N, L>(&x, &push, h);
             }

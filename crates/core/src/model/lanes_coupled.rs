@@ -28,6 +28,7 @@ pub struct CoupledLanes {
     constant: [Lanes; 6],
     net_weight: Lanes,
     moment: [Lanes; 3],
+    lever: [Lanes; 3],
 }
 
 /// Body velocities and the gravity direction in the body frame, per lane.
@@ -60,6 +61,7 @@ impl CoupledLanes {
             constant: std::array::from_fn(|i| lanes(&|p| p.hydro.constant[i])),
             net_weight: lanes(&|p| p.hydro.net_weight),
             moment: std::array::from_fn(|a| lanes(&|p| p.hydro.moment[a])),
+            lever: std::array::from_fn(|a| lanes(&|p| p.hydro.lever[a])),
         }
     }
 
@@ -139,8 +141,7 @@ impl CoupledLanes {
             let span = t[k + 1] - t[k];
             let n = super::dynamics::substeps(span, max_step);
             let h = span / n as f64;
-            let push: [Lanes; 6] =
-                std::array::from_fn(|i| std::array::from_fn(|l| tau[k][i] + self.constant[i][l]));
+            let push: [Lanes; 6] = super::lanes::held(&tau[k], &self.constant, &self.lever);
             for _ in 0..n {
                 x = self.rk4(&x, &push, h);
             }

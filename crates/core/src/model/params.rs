@@ -13,7 +13,9 @@ pub type Mat6 = [[f64; 6]; 6];
 /// velocity j (X_u, Y_r ..), `quad[k][i][j]` the force in DOF i per `nu_j |nu_k|` (seed 003
 /// eq. 8, D_Qk), `constant[i]` X_0 .. a constant generalised force on the body (a steady
 /// tether pull, a thruster offset; Z_0 < 0 pushes the vehicle up), `net_weight` W - B and
-/// `moment` W r_g - B r_b of eq. 9. Diagonal drag and added mass are negative for a real vehicle.
+/// `moment` W r_g - B r_b of eq. 9, and `lever` the centre of gravity from the point the
+/// logged moments are taken about (see [`Hydro::thrust_about_cg`]). Diagonal drag and added
+/// mass are negative for a real vehicle.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Hydro {
     pub added: Mat6,
@@ -22,6 +24,7 @@ pub struct Hydro {
     pub constant: [f64; 6],
     pub net_weight: f64,
     pub moment: [f64; 3],
+    pub lever: [f64; 3],
 }
 
 impl Hydro {
@@ -43,6 +46,27 @@ impl Hydro {
             [-2.41, -1.50, -21.75, 0.0, 0.0, -1.18],
             [-44.17, -114.30, -121.30, 0.0, 0.0, -2.64],
         )
+    }
+
+    /// The logged force and moment `tau` as they act about the centre of gravity: the moment
+    /// less `lever x F`. A thruster layout (or a logged wrench) gives its moments about its
+    /// own origin; where the vehicle's centre of gravity is elsewhere, each force's lever arm
+    /// about it differs by r_g (Fossen 2011, sect. 7.5: moments about the CG from a CO).
+    #[inline]
+    pub fn thrust_about_cg(&self, tau: &[f64; 6]) -> [f64; 6] {
+        let [x, y, z] = self.lever;
+        if x == 0.0 && y == 0.0 && z == 0.0 {
+            return *tau;
+        }
+        let [fx, fy, fz, k, m, n] = *tau;
+        [
+            fx,
+            fy,
+            fz,
+            k - (y * fz - z * fy),
+            m - (z * fx - x * fz),
+            n - (x * fy - y * fx),
+        ]
     }
 
     /// The diagonal added mass X_udot .. N_rdot.
@@ -82,6 +106,7 @@ impl Hydro {
             Term::Constant(i) => self.constant[i],
             Term::NetWeight => self.net_weight,
             Term::Moment(a) => self.moment[a],
+            Term::Lever(a) => self.lever[a],
         }
     }
 
@@ -97,6 +122,7 @@ impl Hydro {
             Term::Constant(i) => self.constant[i] = value,
             Term::NetWeight => self.net_weight = value,
             Term::Moment(a) => self.moment[a] = value,
+            Term::Lever(a) => self.lever[a] = value,
         }
     }
 }
@@ -176,7 +202,11 @@ impl ParamLayout {
             && self.terms.iter().all(|t| match *t {
                 Term::Added(i, j) => i == j,
                 Term::Quadratic { .. } => t.is_diagonal(),
-                Term::Linear(..) | Term::Constant(_) | Term::NetWeight | Term::Moment(_) => true,
+                Term::Linear(..)
+                | Term::Constant(_)
+                | Term::NetWeight
+                | Term::Moment(_)
+                | Term::Lever(_) => true,
             })
     }
 

@@ -29,6 +29,11 @@ pub enum Term {
     NetWeight,
     /// One component of the buoyancy-induced moment vector eta of eq. 9.
     Moment(usize),
+    /// One component of the centre of gravity's position r_g (x_g, y_g, z_g, m) from the point
+    /// the logged moments are taken about (the origin of the thrusters' layout, or of a logged
+    /// wrench): the logged force's moment about the centre of gravity is the logged moment
+    /// less r_g x F ([`super::params::Hydro::thrust_about_cg`]).
+    Lever(usize),
 }
 
 /// The kind of a term, as estimators treat them (signs, bounds, two-step fits).
@@ -41,6 +46,8 @@ pub enum Group {
     Constant,
     /// Net weight and the moment of weight and buoyancy (seed 003 eq. 9).
     Buoyancy,
+    /// Where the centre of gravity is from the point the logged moments are taken about.
+    Lever,
 }
 
 impl Term {
@@ -51,17 +58,20 @@ impl Term {
             Term::Quadratic { .. } => Group::QuadraticDrag,
             Term::Constant(_) => Group::Constant,
             Term::NetWeight | Term::Moment(_) => Group::Buoyancy,
+            Term::Lever(_) => Group::Lever,
         }
     }
 
     /// The equation (DOF) the term belongs to: its row, the lower index of a mass pair, heave
-    /// for the net weight and the moment's axis for eta.
+    /// for the net weight, the moment's axis for eta, and for r_g the first of the two
+    /// moments it moves ([`Term::equations`]).
     pub fn dof(self) -> Dof {
         let i = match self {
             Term::Added(i, _) | Term::Linear(i, _) | Term::Constant(i) => i,
             Term::Quadratic { row, .. } => row,
             Term::NetWeight => 2,
             Term::Moment(a) => a + 3,
+            Term::Lever(a) => lever_moments(a)[0],
         };
         Dof::ALL[i]
     }
@@ -77,6 +87,7 @@ impl Term {
                 .filter(|&b| b != a)
                 .map(|b| Dof::ALL[b + 3])
                 .collect(),
+            Term::Lever(a) => lever_moments(a).iter().map(|&i| Dof::ALL[i]).collect(),
             t => vec![t.dof()],
         }
     }
@@ -111,6 +122,7 @@ impl Term {
             Term::Constant(i) => format!("{}_0", f(i)),
             Term::NetWeight => "W-B".into(),
             Term::Moment(a) => format!("eta_{}", ['x', 'y', 'z'][a]),
+            Term::Lever(a) => format!("{}_g", ['x', 'y', 'z'][a]),
         }
     }
 
@@ -141,6 +153,7 @@ impl Term {
             Term::Constant(i) if ang(i) => "N m",
             Term::Constant(_) | Term::NetWeight => "N",
             Term::Moment(_) => "N m",
+            Term::Lever(_) => "m",
         }
     }
 
@@ -386,6 +399,22 @@ fn mass_terms(ix: &[usize], full: bool) -> Vec<Term> {
     }
 }
 
+/// The furthest a fit puts the centre of gravity from the point the logged moments are
+/// about, per axis (m): a vehicle's thrusters are laid out about a point within its frame,
+/// and half a metre is more than any ROV's or small AUV's offset between the two.
+pub const LEVER_BOUND_M: f64 = 0.5;
+
+/// The moments (DOF indices) a component of r_g moves, through the logged force across it:
+/// x_g pitch (with the heave force) and yaw (sway), y_g roll (heave) and yaw (surge), z_g
+/// roll (sway) and pitch (surge).
+pub fn lever_moments(a: usize) -> [usize; 2] {
+    match a {
+        0 => [4, 5],
+        1 => [3, 5],
+        _ => [3, 4],
+    }
+}
+
 /// The net weight acts on the translational DOFs, eta on roll and pitch (its yaw moment
 /// vanishes at level trim, and every component needs a rotational DOF to be seen at all).
 fn buoyancy_terms(ix: &[usize]) -> Vec<Term> {
@@ -421,6 +450,11 @@ fn all_terms(dofs: &[Dof], constant: &[Dof]) -> Vec<Term> {
             .map(|&i| Term::Constant(i)),
     );
     out.extend(buoyancy_terms(&ix));
+    out.extend(
+        (0..3)
+            .map(Term::Lever)
+            .filter(|t| (t.equations().iter()).any(|d| ix.contains(&d.index()))),
+    );
     out
 }
 
