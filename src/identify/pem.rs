@@ -567,7 +567,10 @@ fn note(
             )),
             true,
         ),
-        _ => (None, false),
+        _ => match term {
+            Term::Lever(a) => (Some(bounds::lever_in_words(a, value)), false),
+            _ => (None, false),
+        },
     }
 }
 

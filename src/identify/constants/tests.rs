@@ -136,3 +136,38 @@ fn a_coupling_is_kept_where_the_runs_have_it_and_dropped_where_they_lack_it() {
         "{note}"
     );
 }
+
+/// The default six-DOF fit's choice of z_g, the centre of gravity's height from the
+/// thrusters' origin: on runs whose thrusters sit 8 cm above the centre of gravity it is
+/// kept and found (within 10 %); on runs whose logged moments are the body's it is dropped
+/// or found under a centimetre.
+#[test]
+fn the_centre_of_gravitys_height_is_kept_where_the_thrust_moments_hang_on_it() {
+    use crate::identify::pem::tests::{about_cg_below, buoyant_six_dof, tilting_run_under};
+    for (seed, height) in [(21, 0.08), (22, 0.0)] {
+        let (mut vehicle, plant) = buoyant_six_dof();
+        let mut rng = Rng::derive(seed, "six-DOF runs under thrusters above the CG");
+        let runs: Vec<Response> = (0..6)
+            .map(|_| tilting_run_under(&plant, &vehicle, &mut rng, about_cg_below(height)))
+            .collect();
+        let optional = with_couplings(&mut vehicle);
+        assert!(optional.contains(&Candidate::Coupling(Term::Lever(2))));
+        let id = default_fit(&vehicle, &runs, &optional);
+        let note = &id.notes[0];
+        let z_g = id.fit.parameters.iter().find(|p| p.name == "z_g");
+        match height > 0.0 {
+            true => {
+                assert!(note.contains("z_g kept"), "seed {seed}: {note}");
+                let found = z_g.expect("z_g in the fit").value;
+                assert!(
+                    (found - height).abs() < 0.1 * height,
+                    "seed {seed}: z_g {found} for {height}"
+                );
+            }
+            false => assert!(
+                z_g.is_none_or(|p| p.value.abs() < 0.01),
+                "seed {seed}: {note}, z_g {z_g:?}"
+            ),
+        }
+    }
+}

@@ -60,3 +60,20 @@ pub const FASTEST_S: f64 = 0.1;
 
 /// The speed at which a quadratic drag's time constant is taken, m/s or rad/s.
 const SPEED_REF: f64 = 2.0;
+
+/// What a component of r_g says: where the centre of gravity is from the point the logged
+/// moments are taken about, and what that means for the thrusters' lever arms.
+pub(super) fn lever_in_words(a: usize, value: f64) -> String {
+    let side = match (a, value >= 0.0) {
+        (0, true) => "ahead of",
+        (0, false) => "behind",
+        (1, true) => "to starboard of",
+        (1, false) => "to port of",
+        (_, true) => "below",
+        (_, false) => "above",
+    };
+    format!(
+        "the centre of gravity {:.1} cm {side} the point the logged moments are taken about (the thrusters' layout origin): each thrust's lever arm about it is its position there less r_g",
+        100.0 * value.abs()
+    )
+}

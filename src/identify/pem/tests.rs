@@ -204,7 +204,7 @@ fn lagged_run_stub(t: &[f64]) -> Response {
 
 /// A BlueROV2 Heavy-sized vehicle in six DOF (the diagonal coefficients Wu (2018) published
 /// for it), 2 N buoyant, its centre of gravity 2 cm below its centre of buoyancy.
-fn buoyant_six_dof() -> (Vehicle, Plant) {
+pub(crate) fn buoyant_six_dof() -> (Vehicle, Plant) {
     use crate::core::dof::Dof;
     let vehicle = Vehicle {
         name: "buoyant six-DOF vehicle".into(),
@@ -236,7 +236,7 @@ fn tilting_run(plant: &Plant, vehicle: &Vehicle, rng: &mut Rng) -> Response {
 }
 
 /// [`tilting_run`] with the body driven by `applied` of each logged command.
-fn tilting_run_under(
+pub(crate) fn tilting_run_under(
     plant: &Plant,
     vehicle: &Vehicle,
     rng: &mut Rng,
@@ -448,33 +448,41 @@ fn the_centre_of_gravity_below_the_thrusters_origin_is_found() {
     };
     for (seed, height) in [(7, 0.08), (8, 0.0)] {
         let mut rng = Rng::derive(seed, "tilting runs under thrusters above the CG");
-        // Each thrust's moment about the centre of gravity, the layout's origin `height`
-        // above it (z down): M_cg = M_logged + (r_origin - r_cg) x F, r_origin - r_cg =
-        // (0, 0, -height).
-        let about_cg = |tau: &[f64; 6]| {
-            let (d, f) = ([0.0, 0.0, -height], [tau[0], tau[1], tau[2]]);
-            let arm = [
-                d[1] * f[2] - d[2] * f[1],
-                d[2] * f[0] - d[0] * f[2],
-                d[0] * f[1] - d[1] * f[0],
-            ];
-            [
-                f[0],
-                f[1],
-                f[2],
-                tau[3] + arm[0],
-                tau[4] + arm[1],
-                tau[5] + arm[2],
-            ]
-        };
         let responses: Vec<_> = (0..4)
-            .map(|_| tilting_run_under(&plant, &vehicle, &mut rng, about_cg))
+            .map(|_| tilting_run_under(&plant, &vehicle, &mut rng, about_cg_below(height)))
             .collect();
         let fit = default_fit(&vehicle, &responses, |_| {});
         let found = z_g(&fit);
+        if height > 0.0 {
+            let p = fit.parameters.iter().find(|p| p.name == "z_g").unwrap();
+            let note = p.note.as_deref().unwrap_or_default();
+            assert!(note.contains("cm below the point"), "{note}");
+        }
         assert!(
             (found - height).abs() < 0.008,
             "seed {seed}: z_g {found} for {height}"
         );
+    }
+}
+
+/// The logged wrench as it acts about a centre of gravity `height` below the thrusters'
+/// origin (z down): M_cg = M_logged + (r_origin - r_cg) x F, r_origin - r_cg = (0, 0,
+/// -height).
+pub(crate) fn about_cg_below(height: f64) -> impl Fn(&[f64; 6]) -> [f64; 6] {
+    move |tau: &[f64; 6]| {
+        let (d, f) = ([0.0, 0.0, -height], [tau[0], tau[1], tau[2]]);
+        let arm = [
+            d[1] * f[2] - d[2] * f[1],
+            d[2] * f[0] - d[0] * f[2],
+            d[0] * f[1] - d[1] * f[0],
+        ];
+        [
+            f[0],
+            f[1],
+            f[2],
+            tau[3] + arm[0],
+            tau[4] + arm[1],
+            tau[5] + arm[2],
+        ]
     }
 }
