@@ -218,8 +218,11 @@ pub fn with_couplings(vehicle: &mut Vehicle) -> Vec<Candidate> {
         .map(|(from, to)| Term::Linear(to.index(), from.index()))
         .collect();
     // The height of the centre of gravity from the thrusters' origin, z_g, where the vehicle
-    // rolls or pitches: the surge and sway thrust's moments hang on it.
-    if plain && (moves(Dof::Roll) || moves(Dof::Pitch)) {
+    // rolls with its sway force or pitches with its surge force: their moments hang on it. (A
+    // run holds the forces of the vehicle's DOFs only: without sway and surge, z_g has no
+    // force to act through.)
+    let hangs = (moves(Dof::Roll) && moves(Dof::Sway)) || (moves(Dof::Pitch) && moves(Dof::Surge));
+    if plain && hangs {
         terms.push(Term::Lever(2));
     }
     if terms.is_empty() {
