@@ -118,16 +118,13 @@ pub(super) fn held<const L: usize>(
     constant: &[Lanes; 6],
     lever: &[Lanes; 3],
 ) -> [[f64; L]; 6] {
-    let [fx, fy, fz, ..] = *tau;
+    let f = [tau[0], tau[1], tau[2]];
+    let arms: [[f64; 3]; L] = std::array::from_fn(|l| {
+        super::params::lever_moment([lever[0][l], lever[1][l], lever[2][l]], f)
+    });
     std::array::from_fn(|i| {
         std::array::from_fn(|l| {
-            let [x, y, z] = [lever[0][l], lever[1][l], lever[2][l]];
-            let arm = match i {
-                3 => y * fz - z * fy,
-                4 => z * fx - x * fz,
-                5 => x * fy - y * fx,
-                _ => 0.0,
-            };
+            let arm = if i < 3 { 0.0 } else { arms[l][i - 3] };
             tau[i] + constant[i][l] - arm
         })
     })

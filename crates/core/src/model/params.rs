@@ -27,6 +27,17 @@ pub struct Hydro {
     pub lever: [f64; 3],
 }
 
+/// The moment `r x f` of a force `f` at `r` (body axes): what a force's moment about the
+/// logged origin exceeds its moment about a centre of gravity at `r` from it by.
+#[inline]
+pub fn lever_moment(r: [f64; 3], f: [f64; 3]) -> [f64; 3] {
+    [
+        r[1] * f[2] - r[2] * f[1],
+        r[2] * f[0] - r[0] * f[2],
+        r[0] * f[1] - r[1] * f[0],
+    ]
+}
+
 impl Hydro {
     /// The diagonal model: added mass, linear and quadratic drag per DOF.
     pub fn diagonal(added: [f64; 6], lin: [f64; 6], quad: [f64; 6]) -> Hydro {
@@ -54,19 +65,11 @@ impl Hydro {
     /// about it differs by r_g (Fossen 2011, sect. 7.5: moments about the CG from a CO).
     #[inline]
     pub fn thrust_about_cg(&self, tau: &[f64; 6]) -> [f64; 6] {
-        let [x, y, z] = self.lever;
-        if x == 0.0 && y == 0.0 && z == 0.0 {
+        if self.lever == [0.0; 3] {
             return *tau;
         }
-        let [fx, fy, fz, k, m, n] = *tau;
-        [
-            fx,
-            fy,
-            fz,
-            k - (y * fz - z * fy),
-            m - (z * fx - x * fz),
-            n - (x * fy - y * fx),
-        ]
+        let arm = lever_moment(self.lever, [tau[0], tau[1], tau[2]]);
+        std::array::from_fn(|i| if i < 3 { tau[i] } else { tau[i] - arm[i - 3] })
     }
 
     /// The diagonal added mass X_udot .. N_rdot.
