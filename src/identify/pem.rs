@@ -521,7 +521,7 @@ fn note(
         ),
         _ if at_search_bound => (
             Some(format!(
-                "{name} ran to {BEYOND_PRIOR} times its rigid-body term: the runs push it without bound, so it stands in for something the model lacks (a lag, a filtered sensor) or they cannot tell this inertia from the damping"
+                "{name} ran to {BEYOND_PRIOR} times its rigid-body term: the runs push it without bound, so it stands in for something the model lacks (a lag, a filtered sensor, a command that delivers less force in this DOF than it asks: a thrust curve or allocation that is off there) or they cannot tell this inertia from the damping"
             )),
             true,
         ),
