@@ -435,7 +435,8 @@ fn over_the_lag(
 
 /// The DOFs whose motion shows term `t`: its own, but for a component of the moment of weight
 /// and buoyancy (eta), which turns the body about the other two axes as it tilts (eta_z rolls
-/// and pitches the vehicle).
+/// and pitches the vehicle), and a component of r_g, which moves the two moments its logged
+/// forces cross (z_g: roll and pitch).
 fn acts_in(t: crate::core::model::terms::Term) -> String {
     match t {
         Term::Moment(_) | Term::Lever(_) => {

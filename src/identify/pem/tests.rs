@@ -442,20 +442,17 @@ fn the_centre_of_gravity_below_the_thrusters_origin_is_found() {
         add: vec!["z_g".into()],
         remove: Vec::new(),
     });
-    let z_g = |fit: &Fit| {
-        let p = fit.parameters.iter().find(|p| p.name == "z_g");
-        p.expect("z_g in the fit").value
-    };
     for (seed, height) in [(7, 0.08), (8, 0.0)] {
         let mut rng = Rng::derive(seed, "tilting runs under thrusters above the CG");
         let responses: Vec<_> = (0..4)
             .map(|_| tilting_run_under(&plant, &vehicle, &mut rng, about_cg_below(height)))
             .collect();
         let fit = default_fit(&vehicle, &responses, |_| {});
-        let found = z_g(&fit);
+        let z_g = fit.parameters.iter().find(|p| p.name == "z_g");
+        let z_g = z_g.expect("z_g in the fit");
+        let found = z_g.value;
         if height > 0.0 {
-            let p = fit.parameters.iter().find(|p| p.name == "z_g").unwrap();
-            let note = p.note.as_deref().unwrap_or_default();
+            let note = z_g.note.as_deref().unwrap_or_default();
             assert!(note.contains("cm below the point"), "{note}");
         }
         assert!(

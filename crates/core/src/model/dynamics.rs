@@ -110,10 +110,10 @@ pub fn term_column(t: Term, nu: &Vec6, nu_dot: &Vec6, g: &[f64; 3], tau: &Vec6) 
             (0..3).for_each(|i| out[3 + i] = -m[i]);
         }
         Term::Lever(a) => {
-            let mut h = Hydro::default();
-            h.lever[a] = 1.0;
-            let moved = h.thrust_about_cg(tau);
-            (3..6).for_each(|i| out[i] = tau[i] - moved[i]);
+            let mut unit = [0.0; 3];
+            unit[a] = 1.0;
+            let arm = super::params::lever_moment(unit, [tau[0], tau[1], tau[2]]);
+            out[3..].copy_from_slice(&arm);
         }
     }
     out
@@ -198,7 +198,7 @@ impl Plant {
 
     /// Whether [`Plant::command`] changes a logged command: a lag, a gain or a lever.
     pub fn shapes_command(&self) -> bool {
-        let lag = self.command_lag_s.is_finite() && self.command_lag_s > 0.0;
+        let lag = !(self.command_lag_s.is_nan() || self.command_lag_s <= 0.0);
         lag || self.command_gain != 1.0 || self.hydro.lever != [0.0; 3]
     }
 
