@@ -329,6 +329,7 @@ fn diagnosis_scenarios() -> anyhow::Result<Vec<Vec<Effect>>> {
         ["net_buoyancy=10", "sensor_delay=0.2"],
         ["water_current=0.12", "coupled_drag=60"],
         ["reverse_thrust_loss=0.3", "wall_effect=200"],
+        ["sensor_delay=0.3", "thruster_lag=0.3"],
     ] {
         scenarios.push(
             pair.iter()

@@ -218,13 +218,14 @@ pub fn select(
     let mut current = data.cost(plant, &Augmentation::default(), true);
     let mut current_train = data.cost(plant, &Augmentation::default(), false);
     let mut costs = vec![current];
+    let mut rivals: Vec<(&'static Hypothesis, Vec<f64>)> = Vec::new();
     for round in 1..=criteria.max_effects {
         let candidates: Vec<&'static Hypothesis> = untried(data, &selected).collect();
         progress(&format!(
             "round {round}: testing {} effects",
             candidates.len()
         ));
-        let fitted = fit_candidates(plant, data, &selected, &candidates);
+        let fitted = fit_candidates(plant, data, criteria, &selected, &candidates, &rivals);
         let mut rows = tested_rows(&fitted, criteria, current, round);
         let Some(b) = best_row(&rows, criteria, current_train) else {
             // Every candidate is refused (not corroborated on the training runs, or on a
@@ -232,7 +233,7 @@ pub fn select(
             tested.extend(rows);
             break;
         };
-        let (h, p, _, val) = &fitted[b];
+        let (h, p, _, val, _) = &fitted[b];
         if !significant(criteria, data, current, *val, h.params.len() as f64)
             || outgained_on_a_bound(&rows, b, criteria, current_train)
         {
@@ -243,7 +244,8 @@ pub fn select(
             "round {round}: {} kept, refining every kept effect together",
             h.name
         ));
-        match keep(plant, data, &selected, (*h, p.clone())) {
+        rivals = strong_rivals(&fitted, &rows, b, criteria, data, (current, current_train));
+        match keep(plant, data, &fitted[b].4, (*h, p.clone())) {
             Ok(kept) => selected = kept,
             Err(on_bound) => {
                 rows[b].at_bound = on_bound;
@@ -308,25 +310,106 @@ fn record_swap(tested: &mut Vec<Tested>, out: &str, row: Tested) {
 }
 
 /// A candidate fitted on top of the kept effects: the effect, its parameters, its training
-/// cost and its held-out cost.
-type Fitted = (&'static Hypothesis, Vec<f64>, f64, f64);
+/// cost, its held-out cost, and the kept effects as they were fitted with it.
+type Fitted = (&'static Hypothesis, Vec<f64>, f64, f64, Selection);
 
-/// Each candidate fitted on top of the kept effects, in parallel.
+/// Each candidate fitted on top of the kept effects, in parallel. A candidate among `rivals`
+/// is also fitted together with the kept effects ([`jointly`]), and that fit is taken when it
+/// is the better on the training runs and the rival carries its share in it ([`strong_rivals`]).
 fn fit_candidates(
     plant: &Plant,
     data: &Data,
+    criteria: &Criteria,
     selected: &Selection,
     candidates: &[&'static Hypothesis],
+    rivals: &[(&'static Hypothesis, Vec<f64>)],
 ) -> Vec<Fitted> {
     candidates
         .par_iter()
         .map(|h| {
             let (p, train_cost) = search::fit_one(plant, data, selected, h);
-            let mut sel = selected.clone();
+            let mut best = (p, train_cost, selected.clone());
+            if let Some((_, earlier)) = rivals.iter().find(|(r, _)| r.name == h.name) {
+                let mut joint = jointly(plant, data, selected, (h, earlier));
+                let train = data.cost(plant, &augmentation(&joint), false);
+                if train < best.1 && carries_its_share(plant, data, criteria, &joint) {
+                    let (_, q) = joint.pop().expect("pushed above");
+                    best = (q, train, joint);
+                }
+            }
+            let (p, train_cost, with) = best;
+            let mut sel = with.clone();
             sel.push((*h, p.clone()));
             let val = data.cost(plant, &augmentation(&sel), true);
-            (*h, p, train_cost, val)
+            (*h, p, train_cost, val, with)
         })
+        .collect()
+}
+
+/// The kept effects and rival `h` fitted together: each kept effect first refitted with `h` at
+/// its earlier parameters (a grid, as when it was first fitted: beside `h` it may have a
+/// smaller share of the mismatch, in another basin), then all refined together.
+fn jointly(
+    plant: &Plant,
+    data: &Data,
+    selected: &Selection,
+    (h, earlier): (&'static Hypothesis, &[f64]),
+) -> Selection {
+    let mut start = selected.clone();
+    start.push((h, earlier.to_vec()));
+    for i in 0..selected.len() {
+        let mut rest = start.clone();
+        let (kept, _) = rest.remove(i);
+        start[i].1 = search::fit_one(plant, data, &rest, kept).0;
+    }
+    search::refine_all(plant, data, &start, &[])
+}
+
+/// Whether the last effect of `joint` earns its place there: the others refined without it,
+/// from where the joint fit left them, must fit the held-out runs worse by the margin a new
+/// effect must reach. A joint fit also moves the kept effects, and what they gain by moving
+/// is theirs: a 15 N dead zone whose first fit had stopped 15 % high was refitted beside a
+/// reverse-thrust loss of 0.014, which took the credit for the better dead zone.
+fn carries_its_share(plant: &Plant, data: &Data, criteria: &Criteria, joint: &Selection) -> bool {
+    let (rival, others) = joint.split_last().expect("the rival is last");
+    let alone = search::refine_all(plant, data, &others.to_vec(), &[]);
+    let without = data.cost(plant, &augmentation(&alone), true);
+    let with = data.cost(plant, &augmentation(joint), true);
+    significant(criteria, data, without, with, rival.0.params.len() as f64)
+}
+
+/// The candidates of a round that would have been named alone beside the one kept (row `b`),
+/// explaining at least half as much of the mismatch (by the score), with their parameters.
+/// Two such effects may share one mismatch: a sensor delay and a thruster lag concealed
+/// together were fitted as one delay of 0.81 s (for 0.3 s of each; the lag alone scored 0.70
+/// of the delay), and with that delay held the lag gained nothing in the next round, though
+/// together, each at its share, they explain the runs. So in the next round each is also
+/// fitted together with the kept effects. An effect that alone explains a small part of what
+/// the kept one does is not sharing its mismatch, and is only fitted on top of it.
+fn strong_rivals(
+    fitted: &[Fitted],
+    rows: &[Tested],
+    b: usize,
+    criteria: &Criteria,
+    data: &Data,
+    (current, current_train): (f64, f64),
+) -> Vec<(&'static Hypothesis, Vec<f64>)> {
+    (0..rows.len())
+        .filter(|&i| {
+            let r = &rows[i];
+            i != b
+                && r.at_bound.is_empty()
+                && r.score >= 0.5 * rows[b].score
+                && corroborated(criteria, current_train, r.train_cost)
+                && significant(
+                    criteria,
+                    data,
+                    current,
+                    r.validation_cost,
+                    r.parameters.len() as f64,
+                )
+        })
+        .map(|i| (fitted[i].0, fitted[i].1.clone()))
         .collect()
 }
 
@@ -334,7 +417,7 @@ fn fit_candidates(
 fn tested_rows(fitted: &[Fitted], criteria: &Criteria, current: f64, round: usize) -> Vec<Tested> {
     fitted
         .iter()
-        .map(|(h, p, tc, vc)| Tested {
+        .map(|(h, p, tc, vc, _)| Tested {
             round,
             name: h.name.into(),
             parameters: params_map(h, p),

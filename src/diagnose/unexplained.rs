@@ -133,8 +133,22 @@ impl Structured {
                 pct(self.acf_outside)
             ),
         };
-        format!("{}: {:.1} times its noise, {why}", self.dof, self.multiple)
+        format!(
+            "{}: {} times its noise, {why}",
+            self.dof,
+            multiple_in_words(self.multiple)
+        )
     }
+}
+
+/// A multiple of the noise with one decimal, or more where one would round it to a whole
+/// number: the thresholds it was compared with are whole (2 and 5 times), and 5.04 read as
+/// "5.0" would say it is at the threshold rather than above it.
+fn multiple_in_words(x: f64) -> String {
+    (1..=3)
+        .map(|d| format!("{x:.d$}"))
+        .find(|s| s.parse::<f64>().is_ok_and(|r| r.fract() != 0.0))
+        .unwrap_or_else(|| format!("{x:.1}"))
 }
 
 /// The structured DOFs in words, joined by "; " (empty when there are none).
@@ -202,3 +216,14 @@ pub(super) fn structured_left(
 
 /// A residual at this multiple of its noise with a spectral line is structured.
 const LINE_NOISE_MULTIPLE: f64 = 2.0;
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn a_multiple_above_a_whole_threshold_never_reads_as_the_threshold() {
+        assert_eq!(super::multiple_in_words(6.21), "6.2");
+        assert_eq!(super::multiple_in_words(5.04), "5.04");
+        assert_eq!(super::multiple_in_words(2.001), "2.001");
+        assert_eq!(super::multiple_in_words(12.0), "12.0");
+    }
+}
