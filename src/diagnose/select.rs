@@ -218,14 +218,15 @@ pub fn select(
     let mut current = data.cost(plant, &Augmentation::default(), true);
     let mut current_train = data.cost(plant, &Augmentation::default(), false);
     let mut costs = vec![current];
-    let mut rivals: Vec<(&'static Hypothesis, Vec<f64>)> = Vec::new();
+    let mut rivals: Vec<Rival> = Vec::new();
     for round in 1..=criteria.max_effects {
         let candidates: Vec<&'static Hypothesis> = untried(data, &selected).collect();
         progress(&format!(
             "round {round}: testing {} effects",
             candidates.len()
         ));
-        let fitted = fit_candidates(plant, data, criteria, &selected, &candidates, &rivals);
+        let on_top = (&selected, current_train);
+        let fitted = fit_candidates(plant, data, criteria, on_top, &candidates, &rivals);
         let mut rows = tested_rows(&fitted, criteria, current, round);
         let Some(b) = best_row(&rows, criteria, current_train) else {
             // Every candidate is refused (not corroborated on the training runs, or on a
@@ -313,23 +314,33 @@ fn record_swap(tested: &mut Vec<Tested>, out: &str, row: Tested) {
 /// cost, its held-out cost, and the kept effects as they were fitted with it.
 type Fitted = (&'static Hypothesis, Vec<f64>, f64, f64, Selection);
 
-/// Each candidate fitted on top of the kept effects, in parallel. A candidate among `rivals`
-/// is also fitted together with the kept effects ([`jointly`]), and that fit is taken when it
-/// is the better on the training runs and the rival carries its share in it ([`strong_rivals`]).
+/// An effect that explained as much as the kept one alone ([`strong_rivals`]): its parameters
+/// then, and the share of the training cost it removed.
+type Rival = (&'static Hypothesis, Vec<f64>, f64);
+
+/// Each candidate fitted on top of the kept effects (`selected`, at training cost
+/// `current_train`), in parallel. A candidate among `rivals` that, fitted so, removes under
+/// half the share of the training cost it removed alone has lost its part of the mismatch to
+/// the kept effects: it is also fitted together with them ([`jointly`]), and that fit is taken
+/// when it is the better on the training runs and the rival carries its share in it.
 fn fit_candidates(
     plant: &Plant,
     data: &Data,
     criteria: &Criteria,
-    selected: &Selection,
+    (selected, current_train): (&Selection, f64),
     candidates: &[&'static Hypothesis],
-    rivals: &[(&'static Hypothesis, Vec<f64>)],
+    rivals: &[Rival],
 ) -> Vec<Fitted> {
     candidates
         .par_iter()
         .map(|h| {
             let (p, train_cost) = search::fit_one(plant, data, selected, h);
             let mut best = (p, train_cost, selected.clone());
-            if let Some((_, earlier)) = rivals.iter().find(|(r, _)| r.name == h.name) {
+            let lost = |alone: f64| 1.0 - train_cost / current_train < 0.5 * alone;
+            let rival = rivals
+                .iter()
+                .find(|(r, _, alone)| r.name == h.name && lost(*alone));
+            if let Some((_, earlier, _)) = rival {
                 let mut joint = jointly(plant, data, selected, (h, earlier));
                 let train = data.cost(plant, &augmentation(&joint), false);
                 if train < best.1 && carries_its_share(plant, data, criteria, &joint) {
@@ -346,9 +357,8 @@ fn fit_candidates(
         .collect()
 }
 
-/// The kept effects and rival `h` fitted together: each kept effect first refitted with `h` at
-/// its earlier parameters (a grid, as when it was first fitted: beside `h` it may have a
-/// smaller share of the mismatch, in another basin), then all refined together.
+/// The kept effects and rival `h` fitted together: each kept effect refitted (grid, then
+/// Nelder-Mead) with `h` at its earlier parameters, then all refined together.
 fn jointly(
     plant: &Plant,
     data: &Data,
@@ -365,11 +375,10 @@ fn jointly(
     search::refine_all(plant, data, &start, &[])
 }
 
-/// Whether the last effect of `joint` earns its place there: the others refined without it,
-/// from where the joint fit left them, must fit the held-out runs worse by the margin a new
-/// effect must reach. A joint fit also moves the kept effects, and what they gain by moving
-/// is theirs: a 15 N dead zone whose first fit had stopped 15 % high was refitted beside a
-/// reverse-thrust loss of 0.014, which took the credit for the better dead zone.
+/// Whether the last effect of `joint` earns its place: without it, the others refined from
+/// where the joint fit left them must fit the held-out runs worse by the margin a new effect
+/// must reach. What the kept effects gain by moving is theirs (a 15 N dead zone whose first
+/// fit stopped 15 % high, refitted beside a reverse-thrust loss of 0.014).
 fn carries_its_share(plant: &Plant, data: &Data, criteria: &Criteria, joint: &Selection) -> bool {
     let (rival, others) = joint.split_last().expect("the rival is last");
     let alone = search::refine_all(plant, data, &others.to_vec(), &[]);
@@ -393,7 +402,7 @@ fn strong_rivals(
     criteria: &Criteria,
     data: &Data,
     (current, current_train): (f64, f64),
-) -> Vec<(&'static Hypothesis, Vec<f64>)> {
+) -> Vec<Rival> {
     (0..rows.len())
         .filter(|&i| {
             let r = &rows[i];
@@ -409,7 +418,10 @@ fn strong_rivals(
                     r.parameters.len() as f64,
                 )
         })
-        .map(|i| (fitted[i].0, fitted[i].1.clone()))
+        .map(|i| {
+            let share = 1.0 - rows[i].train_cost / current_train;
+            (fitted[i].0, fitted[i].1.clone(), share)
+        })
         .collect()
 }
 
