@@ -94,7 +94,7 @@ fn the_logs_own_lag(
     for e in &mut d.effects {
         if e.name == "thruster_lag" || e.name == "sensor_delay" {
             e.evidence
-                .push_str(&format!("; of this lag, {}", s.sentence()));
+                .push_str(&format!(" Of this lag, {}.", s.sentence()));
         }
     }
 }

@@ -573,5 +573,16 @@ fn found_evidence(
         );
     }
     evidence.push('.');
+    if params
+        .get("thrust_law_exponent")
+        .is_some_and(|&n| n <= 1.25)
+    {
+        evidence.push_str(FORCE_LAG_ALIKE);
+    }
     evidence
 }
+
+/// What a lag of the force itself looks like, said beside it: the two first-order lags
+/// commute through a linear vehicle, so only its nonlinearity or another sensor tells them
+/// apart.
+const FORCE_LAG_ALIKE: &str = " A lag of the force and a first-order filter on the recorded velocities look alike on a vehicle whose drag is nearly linear; runs fast enough for the quadratic drag to dominate, or a second velocity sensor (position fixes), tell them apart.";

@@ -18,6 +18,12 @@ fn a_lag_of_the_force_itself_is_timed_as_one() {
             (lo..=hi).contains(&got) && exponent < 1.3,
             "seed {seed}: lag {got} for {truth}, thrust law exponent {exponent}"
         );
+        // Its look-alike, a filter on the recorded velocities, is said beside it.
+        let evidence = &d.effects[0].evidence;
+        assert!(
+            evidence.contains("first-order filter on the recorded"),
+            "{evidence}"
+        );
     }
 }
 
