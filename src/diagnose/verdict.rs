@@ -550,11 +550,10 @@ fn found_evidence(
     noise_cost: f64,
     regime: Option<&dx::RegimeShare>,
 ) -> String {
-    let law = params
-        .get("thrust_law_exponent")
-        .map_or(String::new(), |&n| {
-            format!(" ({})", dx::effects::law_in_words(n))
-        });
+    let exponent = params.get("thrust_law_exponent").copied();
+    let law = exponent.map_or(String::new(), |n| {
+        format!(" ({})", dx::effects::law_in_words(n))
+    });
     let mut evidence = format!(
         "Fitted on the training runs: {}{law}. On the held-out runs the error cost falls {} ({:.4} to {:.4}; noise floor {:.4})",
         fmt_params(params),
@@ -573,16 +572,6 @@ fn found_evidence(
         );
     }
     evidence.push('.');
-    if params
-        .get("thrust_law_exponent")
-        .is_some_and(|&n| n <= 1.25)
-    {
-        evidence.push_str(FORCE_LAG_ALIKE);
-    }
+    evidence.push_str(exponent.map_or("", dx::effects::alike_in_words));
     evidence
 }
-
-/// What a lag of the force itself looks like, said beside it: the two first-order lags
-/// commute through a linear vehicle, so only its nonlinearity or another sensor tells them
-/// apart.
-const FORCE_LAG_ALIKE: &str = " A lag of the force and a first-order filter on the recorded velocities look alike on a vehicle whose drag is nearly linear; runs fast enough for the quadratic drag to dominate, or a second velocity sensor (position fixes), tell them apart.";

@@ -18,7 +18,7 @@ mod thruster_lag;
 mod wall_effect;
 mod water_current;
 
-pub use thruster_lag::law_in_words;
+pub use thruster_lag::{alike_in_words, law_in_words};
 
 use super::Run;
 use crate::core::dof::Dof;

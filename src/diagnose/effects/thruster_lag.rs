@@ -40,14 +40,28 @@ pub static EFFECT: Hypothesis = Hypothesis {
     axis: SINCE_STEP,
 };
 
+/// The thrust law exponents at or below which the force itself lags.
+const FORCE_LAW: f64 = 1.25;
+
 /// The fitted thrust law `exponent` in words, for the effect's evidence.
 pub fn law_in_words(exponent: f64) -> &'static str {
     if exponent >= 1.75 {
         "the thrusters' speed lags, the thrust going with its square"
-    } else if exponent <= 1.25 {
+    } else if exponent <= FORCE_LAW {
         "the force itself lags"
     } else {
         "a law between a lag of the force and one of a propeller's speed"
+    }
+}
+
+/// What a lag of the force itself looks like, said beside it (nothing for another law): the
+/// two first-order lags commute through a linear vehicle, so only its nonlinearity or another
+/// sensor tells them apart.
+pub fn alike_in_words(exponent: f64) -> &'static str {
+    if exponent <= FORCE_LAW {
+        " A lag of the force and a first-order filter on the recorded velocities look alike on a vehicle whose drag is nearly linear; runs fast enough for the quadratic drag to dominate, or a second velocity sensor (position fixes), tell them apart."
+    } else {
+        ""
     }
 }
 
