@@ -294,13 +294,10 @@ pub fn check_diagnosis(seeds: &[u64], navigation_log: bool) -> anyhow::Result<Ex
 /// thruster lag or a sensor delay no longer than one ping period. Only when neither is
 /// concealed (`truth`).
 fn logs_own_lateness(e: &crate::diagnose::result::Found, truth: &[&str]) -> bool {
-    let time = match e.name.as_str() {
-        "thruster_lag" => e.parameters.get("time_constant_s"),
-        "sensor_delay" => e.parameters.get("delay_s"),
-        _ => None,
-    };
     let concealed = truth.contains(&"thruster_lag") || truth.contains(&"sensor_delay");
-    !concealed && time.is_some_and(|t| *t <= crate::twin::pool::NAV_DVL_PERIOD_S)
+    !concealed
+        && e.lateness_s()
+            .is_some_and(|t| t <= crate::twin::pool::NAV_DVL_PERIOD_S)
 }
 
 /// The check's scenarios: nothing concealed, each effect alone at two magnitudes, then pairs.

@@ -227,6 +227,8 @@ impl Run {
 pub struct Augmentation {
     pub terms: Vec<Arc<dyn effects::Term>>,
     pub delay_s: f64,
+    /// Time constant of the recording's low-pass, s (see [`record_filter`]).
+    pub filter_s: f64,
     /// The terms found by [`discover`] beyond the named effects, added as forces.
     pub discovered: Vec<Arc<discover::Discovered>>,
 }
@@ -239,6 +241,7 @@ pub fn augmentation(sel: &[(&'static Hypothesis, Vec<f64>)]) -> Augmentation {
     for (h, p) in sel {
         let term = (h.build)(p);
         a.delay_s += term.delay_s();
+        a.filter_s += term.sensor_filter_s();
         if term.acts_on_plant() {
             a.terms.push(term);
         }
@@ -305,13 +308,29 @@ fn world_for(plant: &Plant, aug: &Augmentation, run: &Run) -> World {
 
 /// The fused velocities at sample `k` as the centred mean over five samples: a window started
 /// from one noisy sample would carry that sample's noise through it (and a time shift that
-/// interpolates between samples would look like an improvement).
-fn anchor_velocity(run: &Run, rec: &Shifted, k: usize, s: &mut State) {
+/// interpolates between samples would look like an improvement). Behind a sensor's low-pass
+/// of time constant `lead` the vehicle is ahead of its record by `lead` times the record's
+/// rate of change, taken as the window's least-squares slope.
+fn anchor_velocity(run: &Run, rec: &Shifted, k: usize, lead: f64, s: &mut State) {
     let n = run.t.len();
     let (a, b) = (k.saturating_sub(2), (k + 2).min(n - 1));
-    let mean = |v: &[f64]| (a..=b).map(|q| rec.at(v, q)).sum::<f64>() / (b - a + 1) as f64;
+    let m = (b - a + 1) as f64;
+    let t_mean = (a..=b).map(|q| run.t[q]).sum::<f64>() / m;
+    let spread: f64 = (a..=b).map(|q| (run.t[q] - t_mean).powi(2)).sum();
     for j in 0..SLOTS {
-        s.nu[j] = mean(&run.vel[j]);
+        let v: Vec<f64> = (a..=b).map(|q| rec.at(&run.vel[j], q)).collect();
+        let mean = v.iter().sum::<f64>() / m;
+        let slope = match lead > 0.0 && spread > 0.0 {
+            true => {
+                (a..=b)
+                    .zip(&v)
+                    .map(|(q, x)| (run.t[q] - t_mean) * (x - mean))
+                    .sum::<f64>()
+                    / spread
+            }
+            false => 0.0,
+        };
+        s.nu[j] = mean + lead * slope;
     }
 }
 
@@ -353,15 +372,53 @@ fn simulate_checked(
     aug: &Augmentation,
     run: &Run,
 ) -> (Vec<[f64; SLOTS]>, Option<usize>) {
+    let rec = Shifted::new(&run.t, aug.delay_s);
+    let (mut out, diverged) = simulate_vehicle(plant, aug, run, &rec);
+    if aug.filter_s > 0.0 {
+        record_filter(&mut out, run, &rec, aug.filter_s);
+    }
+    (out, diverged)
+}
+
+/// The simulated velocities as a sensor with a first-order low-pass of time constant `tau`
+/// records them, in place. The filter starts again where the simulation does (the run's
+/// anchors), from the record there (the simulation itself starts ahead of it, see
+/// [`anchor_velocity`]).
+fn record_filter(out: &mut [[f64; SLOTS]], run: &Run, rec: &Shifted, tau: f64) {
+    let anchors = crate::core::model::stability::anchors(&run.t, &run.anchors_s);
+    let mut y = State::default();
+    for (k, x) in out.iter_mut().enumerate() {
+        if anchors.contains(&k) {
+            anchor_velocity(run, rec, k, 0.0, &mut y);
+        } else {
+            let a = 1.0 - (-(run.t[k] - run.t[k - 1]) / tau).exp();
+            for (yj, xj) in y.nu.iter_mut().zip(x.iter()) {
+                *yj += a * (xj - *yj);
+            }
+        }
+        *x = y.nu;
+    }
+}
+
+/// The vehicle's velocities as [`simulate`] gives them, before a sensor's low-pass, and the
+/// sample after which the simulation diverged.
+fn simulate_vehicle(
+    plant: &Plant,
+    aug: &Augmentation,
+    run: &Run,
+    rec: &Shifted,
+) -> (Vec<[f64; SLOTS]>, Option<usize>) {
     let mut w = world_for(plant, aug, run);
     let n = run.t.len();
-    let rec = Shifted::new(&run.t, aug.delay_s);
     let mut s = State::default();
     for j in 0..SLOTS {
         s.nu[j] = rec.at(&run.vel[j], 0);
     }
+    if aug.filter_s > 0.0 {
+        anchor_velocity(run, rec, 0, aug.filter_s, &mut s);
+    }
     s.thrust = w.settled_thrust(&run.cmd6(0));
-    let mut att = recorded_attitude(run, &rec, 0);
+    let mut att = recorded_attitude(run, rec, 0);
     let step = att.map_or(STEP, |_| attitude_step(plant));
     let mut out = Vec::with_capacity(n);
     let anchors = crate::core::model::stability::anchors(&run.t, &run.anchors_s);
@@ -372,8 +429,8 @@ fn simulate_checked(
         if anchors.get(next_anchor) == Some(&k) {
             // Multiple shooting: the window starts again from the fused state (thruster
             // states carry over).
-            anchor_velocity(run, &rec, k, &mut s);
-            att = recorded_attitude(run, &rec, k);
+            anchor_velocity(run, rec, k, aug.filter_s, &mut s);
+            att = recorded_attitude(run, rec, k);
             next_anchor += 1;
         }
         out.push(s.nu);

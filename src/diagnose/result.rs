@@ -61,6 +61,17 @@ pub struct Alike {
 }
 
 impl Found {
+    /// The time by which a lag or a sensor delay makes the record late, s: a thruster lag's
+    /// time constant, a sensor delay's delay plus its filter. `None` for other effects.
+    pub fn lateness_s(&self) -> Option<f64> {
+        let at = |k: &str| self.parameters.get(k).copied();
+        match self.name.as_str() {
+            "thruster_lag" => at("time_constant_s"),
+            "sensor_delay" => Some(at("delay_s")? + at("filter_s").unwrap_or(0.0)),
+            _ => None,
+        }
+    }
+
     /// An effect's name, with the effects the runs cannot tell from it: "thruster_lag (or
     /// sensor_delay: these runs cannot tell them apart)".
     pub fn name_with_alike(&self) -> String {

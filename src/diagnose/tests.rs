@@ -184,10 +184,12 @@ fn main_parameter(e: &Effect, d: &Diagnosis) -> (f64, [f64; 2], f64) {
         // c (|V| - |u|) u against c' |v| u: equal at |u| = |v| for c' = (sqrt 2 - 1) c, and
         // smaller where one speed dominates, so c' lies in (0, 0.42 c].
         Effect::CoupledDrag { coefficient: c } => (*c, [0.1 * c, 0.5 * c], got("coefficient")),
-        // A delay and a low-pass, fitted as a pure delay: the total latency.
+        // A delay and a low-pass in both, but a smooth run tells only their sum: the total
+        // latency.
         Effect::SensorDelay { delay_s, filter_s } => {
             let total = delay_s + filter_s;
-            (total, around(total, 0.25), got("delay_s"))
+            let latency = d.effects[0].lateness_s().unwrap_or(f64::NAN);
+            (total, around(total, 0.25), latency)
         }
         // Outside the vocabulary: no named parameter (see `tests/discovery.rs`).
         Effect::Wave { .. }

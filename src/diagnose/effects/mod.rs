@@ -233,6 +233,11 @@ pub trait Term: std::fmt::Debug + Send + Sync {
     fn delay_s(&self) -> f64 {
         0.0
     }
+    /// Time constant of a first-order low-pass through which the recording sees the vehicle,
+    /// s (a sensor effect, not a force).
+    fn sensor_filter_s(&self) -> f64 {
+        0.0
+    }
     /// False for an effect that changes only how the recording is read (a sensor delay).
     fn acts_on_plant(&self) -> bool {
         true

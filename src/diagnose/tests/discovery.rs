@@ -194,12 +194,8 @@ fn faded_thrust_found(d: &Diagnosis, what: &str, nav: bool) {
         .iter()
         .filter(|e| e.name != "unexplained")
         .filter(|e| {
-            let late = match e.name.as_str() {
-                "thruster_lag" => e.parameters.get("time_constant_s"),
-                "sensor_delay" => e.parameters.get("delay_s"),
-                _ => None,
-            };
-            !(nav && late.is_some_and(|t| *t <= crate::twin::pool::NAV_DVL_PERIOD_S))
+            let late = e.lateness_s();
+            !(nav && late.is_some_and(|t| t <= crate::twin::pool::NAV_DVL_PERIOD_S))
         })
         .map(|e| format!("{} {:?}", e.name, e.parameters))
         .collect();

@@ -26,11 +26,12 @@ fn nav_diagnosis(effects: &[Effect], seed: u64) -> Diagnosis {
 /// the sensors (look-alikes, listed together) no longer than one ping period. Panics when
 /// `e` is anything else.
 fn assert_the_logs_lateness(e: &crate::diagnose::result::Found, seed: u64) {
-    let (lag, other) = match e.name.as_str() {
-        "thruster_lag" => (e.parameters["time_constant_s"], "sensor_delay"),
-        "sensor_delay" => (e.parameters["delay_s"], "thruster_lag"),
+    let other = match e.name.as_str() {
+        "thruster_lag" => "sensor_delay",
+        "sensor_delay" => "thruster_lag",
         _ => panic!("seed {seed}: {} named where nothing is concealed", e.name),
     };
+    let lag = e.lateness_s().expect("a lag or a delay");
     assert!(
         lag <= 0.125 && e.alike.iter().any(|a| a.name == other),
         "seed {seed}: {} of {lag} s",
