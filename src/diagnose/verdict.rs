@@ -390,7 +390,7 @@ fn joint_selection(
     let mut dropped = Vec::new();
     for i in (0..selected.len()).rev() {
         let mut reduced = selected.clone();
-        let (h, _) = reduced.remove(i);
+        let (h, p) = reduced.remove(i);
         let aug = dx::augmentation(&reduced);
         let Some((c2, figs2)) = super::discover::discover(plant, data, &aug, dofs, crit)? else {
             continue;
@@ -405,7 +405,11 @@ fn joint_selection(
         }
         let (with, without) = (c.cost_after_all(), c2.cost_after_all());
         let gain = (without - with) / without.max(1e-300);
-        let needed = crit.min_gain + crit.gain_per_parameter * h.params.len() as f64;
+        // A parameter at its physical floor (no filter, no slack) is the simpler effect's.
+        let free = (h.params.iter().zip(&p))
+            .filter(|(q, x)| !(q.limits == dx::effects::Limits::PhysicalFloor && **x <= q.lo))
+            .count();
+        let needed = crit.min_gain + crit.gain_per_parameter * free as f64;
         if gain < needed || without - with < crit.min_noise_multiple * data.noise_cost {
             let change = if with > without {
                 format!("raises the held-out error cost from {without:.4} to {with:.4}")
