@@ -22,16 +22,6 @@ fn grid(k: usize) -> usize {
     }
 }
 
-/// Grid points per parameter of `h`: [`grid`] for each, except a sensor delay, whose cost
-/// in the delay has a basin per command step and needs the one-parameter grid's 17 points,
-/// with 4 for its filter.
-fn grid_sizes(h: &Hypothesis) -> Vec<usize> {
-    match h.name {
-        "sensor_delay" if h.params.len() == 2 => vec![17, 4],
-        _ => vec![grid(h.params.len()); h.params.len()],
-    }
-}
-
 /// A point and its cost.
 type Vertex = (Vec<f64>, f64);
 
@@ -155,22 +145,15 @@ pub fn fit_one(
         sel.push((h, to_params(h, u)));
         data.train_cost_below(plant, &augmentation(&sel), bound)
     };
-    let sizes = grid_sizes(h);
-    let g = sizes[0];
+    let g = grid(k);
     let mut best = (vec![0.0; k], f64::INFINITY);
-    let total: usize = sizes.iter().product();
+    let total = g.pow(k as u32);
     for idx in 0..total {
         if crate::core::interrupt::requested() {
             break;
         }
-        let mut rest = idx;
-        let u: Vec<f64> = sizes
-            .iter()
-            .map(|&n| {
-                let i = rest % n;
-                rest /= n;
-                i as f64 / (n - 1) as f64
-            })
+        let u: Vec<f64> = (0..k)
+            .map(|i| ((idx / g.pow(i as u32)) % g) as f64 / (g - 1) as f64)
             .collect();
         let c = cost(&u, best.1);
         if c < best.1 {
