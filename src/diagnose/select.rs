@@ -235,7 +235,7 @@ pub fn select(
             break;
         };
         let (h, p, _, val, _) = &fitted[b];
-        if !significant(criteria, data, current, *val, h.params.len() as f64)
+        if !significant(criteria, data, current, *val, h.free_params(p))
             || outgained_on_a_bound(&rows, b, criteria, current_train)
         {
             tested.extend(rows);
@@ -384,7 +384,7 @@ fn carries_its_share(plant: &Plant, data: &Data, criteria: &Criteria, joint: &Se
     let alone = search::refine_all(plant, data, &others.to_vec(), &[]);
     let without = data.cost(plant, &augmentation(&alone), true);
     let with = data.cost(plant, &augmentation(joint), true);
-    significant(criteria, data, without, with, rival.0.params.len() as f64)
+    significant(criteria, data, without, with, rival.0.free_params(&rival.1))
 }
 
 /// The candidates of a round that would have been named alone beside the one kept (row `b`),
@@ -436,7 +436,7 @@ fn tested_rows(fitted: &[Fitted], criteria: &Criteria, current: f64, round: usiz
             train_cost: *tc,
             validation_cost: *vc,
             gain: (current - vc) / current,
-            score: score(criteria, current, *vc, h.params.len() as f64),
+            score: score(criteria, current, *vc, h.free_params(p)),
             accepted: false,
             at_bound: at_bound(h, p),
         })
@@ -512,18 +512,18 @@ fn swap(
     ));
     let fitted = fit_replacements(plant, data, criteria, selected, &options, current_train);
     // Parameters beyond those of the effect replaced.
-    let extra = |i: usize, h: &Hypothesis| {
-        (h.params.len() as f64 - selected[i].0.params.len() as f64).max(0.0)
+    let extra = |i: usize, h: &Hypothesis, p: &[f64]| {
+        (h.free_params(p) - selected[i].0.free_params(&selected[i].1)).max(0.0)
     };
     let (i, h, p, val) = fitted.into_iter().max_by(|a, b| {
-        score(criteria, current, a.3, extra(a.0, a.1)).total_cmp(&score(
+        score(criteria, current, a.3, extra(a.0, a.1, &a.2)).total_cmp(&score(
             criteria,
             current,
             b.3,
-            extra(b.0, b.1),
+            extra(b.0, b.1, &b.2),
         ))
     })?;
-    if !significant(criteria, data, current, val, extra(i, h)) {
+    if !significant(criteria, data, current, val, extra(i, h, &p)) {
         return None;
     }
     let mut next = selected.clone();
@@ -543,7 +543,7 @@ fn swap(
         train_cost: data.cost(plant, &augmentation(&next), false),
         validation_cost: after,
         gain: (current - after) / current,
-        score: score(criteria, current, after, h.params.len() as f64),
+        score: score(criteria, current, after, h.free_params(p)),
         accepted: true,
         at_bound: Vec::new(),
     };

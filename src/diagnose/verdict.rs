@@ -405,11 +405,7 @@ fn joint_selection(
         }
         let (with, without) = (c.cost_after_all(), c2.cost_after_all());
         let gain = (without - with) / without.max(1e-300);
-        // A parameter at its physical floor (no filter, no slack) is the simpler effect's.
-        let free = (h.params.iter().zip(&p))
-            .filter(|(q, x)| !(q.limits == dx::effects::Limits::PhysicalFloor && **x <= q.lo))
-            .count();
-        let needed = crit.min_gain + crit.gain_per_parameter * free as f64;
+        let needed = crit.min_gain + crit.gain_per_parameter * h.free_params(&p);
         if gain < needed || without - with < crit.min_noise_multiple * data.noise_cost {
             let change = if with > without {
                 format!("raises the held-out error cost from {without:.4} to {with:.4}")

@@ -149,6 +149,19 @@ pub struct Hypothesis {
     pub axis: Axis,
 }
 
+impl Hypothesis {
+    /// How many of the parameters `p` count against the effect: one at its physical floor (no
+    /// filter, no slack, no dead zone) leaves the simpler effect, and is not counted.
+    pub fn free_params(&self, p: &[f64]) -> f64 {
+        let at_floor = |q: &Param, v: f64| {
+            q.limits == Limits::PhysicalFloor && v - q.lo <= 0.01 * (q.hi - q.lo)
+        };
+        (self.params.iter().zip(p))
+            .filter(|(q, v)| !at_floor(q, **v))
+            .count() as f64
+    }
+}
+
 /// What an effect's force may read besides the velocity: the base plant, and the heading and
 /// the run's geometry at the pose held over one integration step.
 pub struct Env<'a> {
