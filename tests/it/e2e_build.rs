@@ -141,12 +141,19 @@ fn the_shipped_diagnosis_names_the_concealed_lag_and_tether() {
         .iter()
         .map(|e| e["name"].as_str().unwrap())
         .collect();
+    // Both are named, in either order (the greedy rounds pick first whichever alone explains
+    // more per parameter it needs; here they are within a parameter's penalty of each other).
+    let mut two = names[..2.min(names.len())].to_vec();
+    two.sort();
     assert!(
-        names.starts_with(&["thruster_lag", "tether_drag"])
-            && names[2..].iter().all(|n| *n == "unexplained"),
+        two == ["tether_drag", "thruster_lag"] && names[2..].iter().all(|n| *n == "unexplained"),
         "{names:?}: {}",
         d["verdict"]
     );
+    let (il, it) = match names[0] {
+        "thruster_lag" => (0, 1),
+        _ => (1, 0),
+    };
     // A real motor lag is told apart from a late sensor: no look-alike is listed.
     assert!(
         effects[0]["alike"].is_null() && effects[1]["alike"].is_null(),
@@ -157,13 +164,13 @@ fn the_shipped_diagnosis_names_the_concealed_lag_and_tether() {
     // The lag of a motor whose thrust goes with its speed's square: its own time constant,
     // with the thrust law's exponent near 2 (as a force lag it came out 1.2-1.25 times long).
     let tau = hidden("thruster_lag", "time_constant_s");
-    let lag = param(0, "time_constant_s");
-    let exponent = param(0, "thrust_law_exponent");
+    let lag = param(il, "time_constant_s");
+    let exponent = param(il, "thrust_law_exponent");
     assert!(
         (0.9 * tau..1.1 * tau).contains(&lag) && exponent > 1.7,
         "lag {lag} (thrust law exponent {exponent}) vs motor {tau}"
     );
-    let evidence = effects[0]["evidence"].as_str().unwrap();
+    let evidence = effects[il]["evidence"].as_str().unwrap();
     assert!(
         evidence.contains("(the thrusters' speed lags, the thrust going with its square)"),
         "{evidence}"
@@ -173,7 +180,7 @@ fn the_shipped_diagnosis_names_the_concealed_lag_and_tether() {
     let (run, depth) = (11.0f64, 1.5f64);
     let want =
         hidden("tether_drag", "coefficient") * (run + depth + hidden("tether_drag", "slack_m"));
-    let got = param(1, "coefficient") * (run.hypot(depth) + param(1, "slack_m"));
+    let got = param(it, "coefficient") * (run.hypot(depth) + param(it, "slack_m"));
     assert!(
         (got - want).abs() < 0.25 * want,
         "tether drag at 11 m: {got} vs {want}"
@@ -195,7 +202,10 @@ fn the_shipped_diagnosis_names_the_concealed_lag_and_tether() {
         .collect();
     assert_eq!(rms.len(), 2, "{caption}");
     assert!(rms[1] < 0.5 * rms[0], "{caption}");
-    assert!(caption.contains(", lower)") && caption.contains("thruster_lag and tether_drag"));
+    assert!(
+        caption.contains(", lower)") && caption.contains(&format!("{} and {}", names[0], names[1])),
+        "{caption}"
+    );
 }
 
 #[test]
