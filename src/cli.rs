@@ -65,6 +65,10 @@ pub enum Command {
         /// Also list every field of every topic by the path run.yaml's `log:` names it.
         #[arg(long)]
         fields: bool,
+        /// A folder of message packages (`<pkg>/msg/*.msg`), a package or its `msg/` folder,
+        /// searched first for the types a ROS 2 `.db3` bag does not define; repeatable.
+        #[arg(long = "msg-folder", value_name = "DIR")]
+        msg_folders: Vec<PathBuf>,
     },
     /// Write the identified model for a simulator or a toolbox (gazebo: gz-sim SDF; uuv:
     /// uuv_simulator; stonefish; mss: MATLAB; yaml: hydrofit's own), from the last build.
@@ -323,7 +327,11 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             cmd::provenance::run(&root, &parameter, model.as_deref())
         }
         Command::Graph { dot } => cmd::graph::run(&root, dot),
-        Command::Inspect { log, fields } => cmd::inspect::run(&log, fields),
+        Command::Inspect {
+            log,
+            fields,
+            msg_folders,
+        } => cmd::inspect::run(&log, fields, &msg_folders),
         Command::Export { to, model, out } => cmd::export::run(&root, &to, model.as_deref(), &out),
         Command::ImportModel { file, format } => cmd::export::import(&file, format),
         asked @ Command::Design { .. } => design(&root, asked),

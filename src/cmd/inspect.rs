@@ -2,12 +2,16 @@
 //! format and span, and per topic its type, count, rate, whether its messages carry header
 //! stamps, and its fields by path (the paths `run.yaml`'s `log:` section names).
 
-use hydrofit_logs::Log;
-use std::path::Path;
+use hydrofit_logs::{Log, Options};
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-pub fn run(path: &Path, fields: bool) -> anyhow::Result<ExitCode> {
-    let log = Log::open(path)?;
+pub fn run(path: &Path, fields: bool, msg_folders: &[PathBuf]) -> anyhow::Result<ExitCode> {
+    let options = Options {
+        msg_folders: msg_folders.to_vec(),
+        ..Options::default()
+    };
+    let log = Log::open_with(path, &options)?;
     let start = log
         .topics
         .iter()
@@ -54,6 +58,14 @@ pub fn run(path: &Path, fields: bool) -> anyhow::Result<ExitCode> {
                 crate::outln!("      {p}: {ty}");
             }
         }
+    }
+    let all: Vec<usize> = (0..log.topics.len()).collect();
+    for f in log
+        .files(&all)
+        .iter()
+        .filter(|f| f.extension().is_some_and(|e| e == "msg"))
+    {
+        crate::outln!("definition: {}", f.display());
     }
     for n in log.notes() {
         crate::outln!("note: {n}");

@@ -22,7 +22,8 @@ const FORMATS: [LogFormat; 6] = [
     LogFormat::PlainCsv,
 ];
 
-fn files(root: &Path, dir: &str) -> Vec<String> {
+/// The files of run folder `dir`, as the project lists them.
+pub fn files(root: &Path, dir: &str) -> Vec<String> {
     hydrofit::core::fsutil::files_under(&root.join(dir), true)
         .unwrap()
         .into_iter()

@@ -13,6 +13,7 @@ mod e2e_field;
 mod e2e_field_identifiers;
 mod e2e_integrity;
 mod e2e_logs;
+mod e2e_msg_files;
 mod e2e_nav_latency;
 mod e2e_openfoam;
 mod e2e_pool;

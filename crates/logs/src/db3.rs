@@ -3,8 +3,11 @@
 //! format) and a `messages` table (topic id, receive time in nanoseconds, the CDR bytes).
 //! Since Iron a `message_definitions` table carries each type's `.msg` text; a Humble bag has
 //! none, so the common types of [`ros_types`](crate::ros_types) are decoded from the
-//! definitions built in, and a topic of another type is listed but refused when read (with
-//! the fix: convert the bag to MCAP, which carries its definitions). Messages compressed one
+//! definitions built in, and another type from its `.msg` file where one is found
+//! ([`msg_files`](crate::msg_files): the folders the user names, a sourced ROS 2
+//! installation's, or beside the bag). A topic of a type found nowhere is listed but refused
+//! when read (with the fix: name the folder of its package, or convert the bag to MCAP, which
+//! carries its definitions). Messages compressed one
 //! by one (`ros2 bag record --compression-mode message`, zstd) are inflated; a bag compressed
 //! as a whole file (`.db3.zstd`) is refused with the command that inflates it.
 //!
@@ -20,6 +23,7 @@ mod writer;
 pub use writer::{Layout, Writer};
 
 use crate::compress::unzstd_whole;
+use crate::msg_files;
 use crate::msgdef::{self, Flavor};
 use crate::value::Schema;
 use crate::{LogError, Message, Topic, ros_types, wire};
@@ -41,11 +45,12 @@ const MAX_MESSAGE: u64 = 256 << 20;
 const DAMAGED: &str = "the bag is damaged or was cut short: copy it again from the vehicle, or \
                        try `sqlite3 bag.db3 .recover | sqlite3 fixed.db3`";
 
-/// An open `.db3` bag: per topic (in the listing's order) its ids in the `topics` table and,
-/// for a topic that cannot be decoded, why.
+/// An open `.db3` bag: per topic (in the listing's order) its ids in the `topics` table, the
+/// `.msg` files its definition was read from and, for a topic that cannot be decoded, why.
 #[derive(Debug)]
 pub struct Db3 {
     ids: Vec<Vec<i64>>,
+    msg_files: Vec<Vec<PathBuf>>,
     refused: Vec<Option<(String, String)>>,
     notes: Vec<String>,
 }
@@ -59,8 +64,9 @@ struct TopicRow {
 }
 
 impl Db3 {
-    /// Reads the bag's tables and lists its topics (counts and spans from `messages`).
-    pub fn open(path: &Path) -> Result<(Db3, Vec<Topic>), LogError> {
+    /// Reads the bag's tables and lists its topics (counts and spans from `messages`); a type
+    /// the bag does not define is looked for in `msg_folders` ([`msg_files::search_folders`]).
+    pub fn open(path: &Path, msg_folders: &[PathBuf]) -> Result<(Db3, Vec<Topic>), LogError> {
         let db = connect(path)?;
         let tables = tables(&db, path)?;
         for t in ["topics", "messages"] {
@@ -82,7 +88,26 @@ impl Db3 {
         };
         let rows = topic_rows(&db, path)?;
         let spans = spans(&db, path)?;
-        Ok(listing(rows, &defs, &spans))
+        let folders = msg_files::search_folders(path, msg_folders);
+        Ok(listing(rows, &defs, &folders, &spans))
+    }
+
+    /// Why topic `t` cannot be decoded, and the fix (`None` for a topic that can).
+    pub fn refused(&self, t: usize) -> Option<(String, String)> {
+        self.refused.get(t).cloned().flatten()
+    }
+
+    /// The `.msg` files the definitions of `topics` were read from (none where the bag or the
+    /// built-in definitions gave them).
+    pub fn msg_files(&self, topics: &[usize]) -> Vec<PathBuf> {
+        let mut out: Vec<PathBuf> = (topics.iter())
+            .filter_map(|&t| self.msg_files.get(t))
+            .flatten()
+            .cloned()
+            .collect();
+        out.sort();
+        out.dedup();
+        out
     }
 
     /// What the reader noted: topics whose messages cannot be decoded, and why.
@@ -286,10 +311,12 @@ fn spans(db: &Connection, path: &Path) -> Result<HashMap<i64, (u64, i64, i64)>, 
 fn listing(
     rows: Vec<TopicRow>,
     defs: &HashMap<String, (String, String)>,
+    folders: &[PathBuf],
     spans: &HashMap<i64, (u64, i64, i64)>,
 ) -> (Db3, Vec<Topic>) {
     let mut db3 = Db3 {
         ids: Vec::new(),
+        msg_files: Vec::new(),
         refused: Vec::new(),
         notes: Vec::new(),
     };
@@ -313,17 +340,18 @@ fn listing(
             }
             continue;
         }
-        let (schema, refused) = match schema_of(&row, defs) {
-            Ok(s) => (s, None),
+        let (schema, files, refused) = match schema_of(&row, defs, folders) {
+            Ok((s, files)) => (s, files, None),
             Err((what, fix)) => {
                 db3.notes.push(format!(
                     "topic {} ({}) cannot be decoded: {what}",
                     row.name, row.type_name
                 ));
-                (Schema { fields: Vec::new() }, Some((what, fix)))
+                (Schema { fields: Vec::new() }, Vec::new(), Some((what, fix)))
             }
         };
         db3.ids.push(vec![row.id]);
+        db3.msg_files.push(files);
         db3.refused.push(refused);
         topics.push(Topic {
             name: row.name,
@@ -337,12 +365,14 @@ fn listing(
     (db3, topics)
 }
 
-/// The layout of a topic's messages: from the bag's own definition, else from the ones built
-/// in; `Err((what, fix))` when neither gives one.
+/// The layout of a topic's messages, and the `.msg` files it was read from: from the bag's
+/// own definition, else from the ones built in, else from a `.msg` file under `folders`;
+/// `Err((what, fix))` when none gives one.
 fn schema_of(
     row: &TopicRow,
     defs: &HashMap<String, (String, String)>,
-) -> Result<Schema, (String, String)> {
+    folders: &[PathBuf],
+) -> Result<(Schema, Vec<PathBuf>), (String, String)> {
     if row.format != "cdr" {
         return Err((
             format!("its messages are serialized as `{}`, not CDR", row.format),
@@ -352,38 +382,75 @@ fn schema_of(
     let own = defs
         .get(&row.type_name)
         .filter(|(enc, text)| enc == "ros2msg" && !text.trim().is_empty());
-    let text = match own {
-        Some((_, text)) => text.clone(),
+    let (text, files, damaged) = match own {
+        Some((_, text)) => (text.clone(), Vec::new(), BAG_DEFINITION_DAMAGED),
         None => match ros_types::ros2(&row.type_name) {
-            Some(text) => text,
-            None => {
-                let why = match defs.get(&row.type_name) {
-                    Some((enc, _)) if enc != "ros2msg" => {
-                        format!("the bag defines the type as `{enc}`, which is not read")
-                    }
-                    _ => "the bag does not carry its definition (a .db3 of ROS 2 Humble or older \
-                          never does) and hydrofit has none built in"
-                        .to_string(),
-                };
-                return Err((
-                    why,
-                    format!(
-                        "convert the bag to MCAP, which carries every type's definition \
-                         (`ros2 bag convert -i BAG -o out.yaml` with `storage_id: mcap`), or log \
-                         a built-in type: {}",
-                        ros_types::COMMON.join(", ")
-                    ),
-                ));
-            }
+            Some(text) => (text, Vec::new(), BAG_DEFINITION_DAMAGED),
+            None => match msg_files::definition(&row.type_name, folders) {
+                Ok(Some(found)) => (found.text, found.files, MSG_FILE_DAMAGED),
+                Ok(None) => return Err(not_defined(row, defs, folders)),
+                Err(e) => return Err((
+                    format!("its .msg file was found, but: {e}"),
+                    "give every .msg file the type uses, in its package's `msg/` folder (run.yaml `log: {message_folders: [...]}`)".into(),
+                )),
+            },
         },
     };
-    msgdef::schema(&text, &row.type_name, Flavor::Ros2).map_err(|e| {
+    let schema = msgdef::schema(&text, &row.type_name, Flavor::Ros2).map_err(|e| {
+        let shown: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
+        let from = match shown.is_empty() {
+            true => String::new(),
+            false => format!(" (read from {})", shown.join(", ")),
+        };
         (
-            format!("its definition cannot be read: {e}"),
-            "the bag's message_definitions table is damaged or was written by a non-standard tool"
-                .into(),
+            format!("its definition cannot be read{from}: {e}"),
+            damaged.into(),
         )
-    })
+    })?;
+    Ok((schema, files))
+}
+
+const BAG_DEFINITION_DAMAGED: &str =
+    "the bag's message_definitions table is damaged or was written by a non-standard tool";
+const MSG_FILE_DAMAGED: &str =
+    "check the .msg file against the one the vehicle's software was built with";
+
+/// Why a topic's type has no definition, and the fixes.
+fn not_defined(
+    row: &TopicRow,
+    defs: &HashMap<String, (String, String)>,
+    folders: &[PathBuf],
+) -> (String, String) {
+    let why = match defs.get(&row.type_name) {
+        Some((enc, _)) if enc != "ros2msg" => {
+            format!("the bag defines the type as `{enc}`, which is not read")
+        }
+        _ => format!(
+            "the bag does not carry its definition (a .db3 of ROS 2 Humble or older never \
+             does), hydrofit has none built in, and no `{}.msg` was found in {} (nor in a \
+             subfolder of one)",
+            ros_types::ros2_name(&row.type_name),
+            folders
+                .iter()
+                .map(|f| f.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    };
+    let fix = format!(
+        "name the folder holding the type's package (`{}/msg/*.msg`, from the vehicle's \
+         workspace) in run.yaml's `log: {{message_folders: [...]}}` (`hydrofit inspect \
+         --msg-folder DIR`), or source the ROS 2 workspace that builds it \
+         (`AMENT_PREFIX_PATH`), or convert the bag to MCAP, which carries every type's \
+         definition (`ros2 bag convert -i BAG -o out.yaml` with `storage_id: mcap`); the \
+         built-in types: {}",
+        msgdef::short_name(&row.type_name)
+            .split('/')
+            .next()
+            .unwrap_or_default(),
+        ros_types::COMMON.join(", ")
+    );
+    (why, fix)
 }
 
 /// Decodes one row of `messages`.

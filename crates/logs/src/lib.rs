@@ -23,6 +23,7 @@ mod encode;
 pub mod error;
 pub mod mcap;
 mod merge;
+pub mod msg_files;
 pub mod msgdef;
 pub mod ros1;
 pub mod ros_types;
@@ -117,11 +118,14 @@ pub struct Message {
 }
 
 /// What the user says of a log that the log does not say itself.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct Options {
     /// Seconds per unit of a CSV table's time column whose name gives no unit (`None`: read
     /// from its values, [`csv_clock`]).
     pub csv_time_unit_s: Option<f64>,
+    /// Folders searched first for the `.msg` files of types a `.db3` bag does not define
+    /// ([`msg_files`]).
+    pub msg_folders: Vec<PathBuf>,
 }
 
 /// An open log: what it holds, and the means to read it.
@@ -217,7 +221,7 @@ impl Log {
             (Format::Tlog, topics, Inner::Tlog(tlog))
         } else if data.starts_with(db3::MAGIC) {
             drop(data);
-            let (db, topics) = db3::Db3::open(path)?;
+            let (db, topics) = db3::Db3::open(path, &options.msg_folders)?;
             (Format::Db3, topics, Inner::Db3(db))
         } else if topic_csv::is_timed_csv(&data) {
             drop(data);
@@ -298,6 +302,15 @@ impl Log {
         }
     }
 
+    /// Why the messages of `topic` cannot be decoded, and the fix, for a topic the log lists
+    /// but cannot read (a `.db3` bag's type with no definition found); `None` otherwise.
+    pub fn undecodable(&self, topic: usize) -> Option<(String, String)> {
+        match &self.inner {
+            Inner::Db3(d) => d.refused(topic),
+            _ => None,
+        }
+    }
+
     /// What the reader stepped over in a log it could still read (damaged bytes skipped, a
     /// last record cut off, packets with a bad checksum) and what it assumed (the unit of a CSV
     /// file's time column where its name does not give one), one sentence each; empty for an
@@ -314,9 +327,15 @@ impl Log {
     }
 
     /// The files the messages of `topics` are read from: the log's own file, or for a folder
-    /// of topic files each topic's file (each is an input of what is read from it).
+    /// of topic files each topic's file, and the `.msg` files a `.db3` bag's types were read
+    /// from (each is an input of what is read from it).
     pub fn files(&self, topics: &[usize]) -> Vec<PathBuf> {
         match &self.inner {
+            Inner::Db3(d) => {
+                let mut out = vec![self.path.clone()];
+                out.extend(d.msg_files(topics));
+                out
+            }
             Inner::TopicCsv(c) if self.path.is_dir() => {
                 let mut out: Vec<PathBuf> =
                     topics.iter().map(|&t| c.file(t).to_path_buf()).collect();

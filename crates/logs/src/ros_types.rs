@@ -10,6 +10,7 @@ use crate::msgdef::{Flavor, short_name, used_types};
 pub const COMMON: &[&str] = &[
     "nav_msgs/Odometry",
     "geometry_msgs/TwistStamped",
+    "geometry_msgs/PoseStamped",
     "geometry_msgs/WrenchStamped",
     "sensor_msgs/Imu",
     "sensor_msgs/FluidPressure",
@@ -62,6 +63,7 @@ const TYPES: &[(&str, &str)] = &[
     ),
     ("geometry_msgs/Wrench", "Vector3  force\nVector3  torque"),
     ("geometry_msgs/TwistStamped", "Header header\nTwist twist"),
+    ("geometry_msgs/PoseStamped", "Header header\nPose pose"),
     (
         "geometry_msgs/WrenchStamped",
         "Header header\nWrench wrench",
@@ -124,6 +126,7 @@ const ROS2_ONLY: &[(&str, &str)] = &[
         "builtin_interfaces/Time stamp\nstring frame_id",
     ),
     ("builtin_interfaces/Time", "int32 sec\nuint32 nanosec"),
+    ("builtin_interfaces/Duration", "int32 sec\nuint32 nanosec"),
 ];
 
 /// The ROS 1 `message_definition` of `type_name` (`nav_msgs/Odometry`), if built in.
@@ -143,6 +146,12 @@ pub fn ros2_name(type_name: &str) -> String {
         Some((pkg, ty)) => format!("{pkg}/msg/{ty}"),
         None => type_name.to_string(),
     }
+}
+
+/// The ROS 2 lines of `type_name` alone (not the types it uses), if built in: the fallback
+/// for a type a `.msg` file uses ([`crate::msg_files`]).
+pub fn ros2_own(type_name: &str) -> Option<String> {
+    own_text(&short_name(type_name), Flavor::Ros2)
 }
 
 /// A type's own lines in a flavour (ROS 2 writes a header as `std_msgs/Header header`).
@@ -230,6 +239,10 @@ mod tests {
             (
                 "geometry_msgs/WrenchStamped",
                 "d78d3cb249ce23087ade7e7d0c40cfa7",
+            ),
+            (
+                "geometry_msgs/PoseStamped",
+                "d3812c3cbc69362b77dc0b19b345f8f5",
             ),
             ("sensor_msgs/Imu", "6a62c6daae103f4ff57a132d6f95cec2"),
             (

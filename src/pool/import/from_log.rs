@@ -28,8 +28,9 @@ pub struct LogSource {
     pub topics: BTreeMap<String, String>,
     /// The span read, seconds from the log's first message.
     pub span_s: [f64; 2],
-    /// For a folder of topic files (`rostopic echo -p`), the files read, each an input of the
-    /// run; empty when the log is one file (`path`).
+    /// The files read, each an input of the run: for a folder of topic files (`rostopic echo
+    /// -p`) each topic's file; for a `.db3` bag whose types were read from `.msg` files, the
+    /// bag and those files. Empty when the log is one file (`path`) and nothing else is read.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub files: Vec<String>,
 }
@@ -79,6 +80,9 @@ pub fn read(
     let (abs, mut shown) = resolve(root, dir, &spec.file);
     let options = hydrofit_logs::Options {
         csv_time_unit_s: spec.time_unit.map(|u| u.seconds()),
+        msg_folders: (spec.message_folders.iter())
+            .map(|f| resolve(root, dir, f).0)
+            .collect(),
     };
     let log = VehicleLog::open_with(&abs, &options).map_err(|e| {
         let at = e.offset.map_or(String::new(), |o| format!(" (byte {o})"));
@@ -117,7 +121,7 @@ pub fn read(
             .map(|(k, s)| (k.to_string(), s.source.topic.clone()))
             .collect(),
         span_s: [start, end].map(|x| ((x - log_start(&log, &timed)) * 1e6).round() / 1e6),
-        files: match is_topic_folder(&log) {
+        files: match is_topic_folder(&log) || log.files(&timed).len() > 1 {
             true => (log.files(&timed).iter())
                 .map(|f| resolve(root, dir, &f.to_string_lossy()).1)
                 .collect(),
@@ -474,6 +478,14 @@ fn compile_part<'a>(
             ),
         )
     })?;
+    if let Some((what, fix)) = log.undecodable(topic) {
+        let type_name = &log.topics[topic].type_name;
+        return Err(InputError::file(
+            shown,
+            format!("the {name} on `{topic_name}` ({type_name}) cannot be read: {what}"),
+            fix,
+        ));
+    }
     let schema = &log.topics[topic].schema;
     let fields = match &s.quaternion {
         Some(q) => ["x", "y", "z", "w"]

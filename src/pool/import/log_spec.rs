@@ -29,6 +29,11 @@ pub struct LogSpec {
     /// read from its values when left out (docs/logs.md).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub time_unit: Option<TimeUnit>,
+    /// Folders holding the `.msg` files of the message types a ROS 2 `.db3` bag does not
+    /// define (Humble and older carry none): each a folder of packages (`<pkg>/msg/*.msg`, a
+    /// workspace's `src/`), a package or its `msg/` folder; relative to the run folder.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub message_folders: Vec<String>,
     /// Per-thruster commands, one field per unit of `vehicle.thrusters`, in its order.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub command: Option<Source>,

@@ -29,7 +29,7 @@ pub const TOPICS: &[(&str, &str, f64)] = &[
     ("/custom", "test_msgs/Everything", 5.0),
 ];
 
-const SEP: &str =
+pub const SEP: &str =
     "\n================================================================================\n";
 
 /// A type with every primitive, arrays of all kinds and a nested type (ROS 1 flavour).

@@ -5,7 +5,7 @@ use crate::common::*;
 use crate::fuzz::Rng;
 use hydrofit_logs::db3::storage_file;
 use hydrofit_logs::write::{Db3Layout, Db3Writer};
-use hydrofit_logs::{Format, Log, LogError, Schema};
+use hydrofit_logs::{Format, Log, LogError, Options, Schema};
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -97,7 +97,64 @@ fn a_humble_bag_lists_a_type_it_cannot_decode_and_refuses_it_with_the_fix() {
     );
     let e = log.read(&[c], &mut |_| Ok(())).unwrap_err();
     assert!(e.what.contains("does not carry its definition"), "{e}");
-    assert!(e.fix.contains("MCAP"), "{e}");
+    assert!(
+        e.fix.contains("MCAP") && e.fix.contains("message_folders"),
+        "{e}"
+    );
+}
+
+/// A Humble bag of a vehicle's own type reads through the type's `.msg` files: from a folder
+/// the user names, or from a `types/` folder beside the bags; the files are inputs of what is
+/// read, and a dependency found nowhere is refused by name.
+#[test]
+fn a_humble_bag_of_a_custom_type_reads_through_its_msg_files() {
+    let root = tmp("msg-files");
+    let _ = std::fs::remove_dir_all(&root);
+    let own = custom_ros2();
+    let own = own.split(SEP).next().unwrap().to_string();
+    let write_pkg = |msg: &Path, with_item: bool| {
+        std::fs::create_dir_all(msg).unwrap();
+        std::fs::write(msg.join("Everything.msg"), format!("# all of it\n{own}\n")).unwrap();
+        if with_item {
+            std::fs::write(msg.join("Item.msg"), "string label\nint32[] values\n").unwrap();
+        }
+    };
+    let bag = root.join("bags/run1/run1_0.db3");
+    std::fs::create_dir_all(bag.parent().unwrap()).unwrap();
+    let sent = write_db3(&bag, Layout(Db3Layout::Humble, false), 2.0, true);
+    let read_all = |log: &Log| {
+        let all: Vec<usize> = (0..log.topics.len()).collect();
+        let mut got = Vec::new();
+        log.read(&all, &mut |m| {
+            got.push(m.clone());
+            Ok(())
+        })
+        .map(|_| got)
+    };
+    // The user's workspace, named.
+    let ws = root.join("ws/src");
+    write_pkg(&ws.join("test_msgs/msg"), false);
+    let options = Options {
+        msg_folders: vec![ws.clone()],
+        ..Options::default()
+    };
+    let log = Log::open_with(&bag, &options).unwrap();
+    let e = read_all(&log).unwrap_err();
+    assert!(e.what.contains("test_msgs/Item"), "{e}");
+    write_pkg(&ws.join("test_msgs/msg"), true);
+    let log = Log::open_with(&bag, &options).unwrap();
+    assert!(log.notes().is_empty(), "{:?}", log.notes());
+    assert_same(&log, &read_all(&log).unwrap(), &sent);
+    let c = log.topic(CUSTOM).unwrap();
+    let files = log.files(&[c]);
+    assert_eq!(files.len(), 3, "{files:?}");
+    assert!(files[1..].iter().all(|f| f.starts_with(&ws)), "{files:?}");
+    // Beside the bags, found without being named.
+    write_pkg(&root.join("bags/types/test_msgs/msg"), true);
+    let log = Log::open(&bag).unwrap();
+    assert_same(&log, &read_all(&log).unwrap(), &sent);
+    assert!(log.files(&[c])[1].starts_with(root.join("bags/types")));
+    std::fs::remove_dir_all(root).unwrap();
 }
 
 #[test]
