@@ -125,7 +125,8 @@ pub struct Source {
     pub unit: Option<Unit>,
     /// The frame of the fields: `frd` (body x forward, y starboard, z down; the default for
     /// body vectors), `flu` (ROS's body frame, REP-103), `ned` or `enu` (world frames, for a
-    /// velocity or a quaternion's reference).
+    /// velocity, a quaternion's reference or a position; a position's default is `ned`, the
+    /// pool frame).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub frame: Option<Frame>,
     /// For a pressure read as depth: the water's density (default 1000 kg/m^3, a pool).

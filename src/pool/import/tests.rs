@@ -222,3 +222,49 @@ fn run_yaml_says_the_unit_of_a_tables_time() {
         "read from its values: us"
     );
 }
+
+/// A motion-capture position in ENU (`frame: enu`) becomes the pool frame's x north, y east,
+/// z down; without a frame it is read as the pool frame; a body frame is refused.
+#[test]
+fn a_position_in_enu_is_turned_into_the_pool_frame() {
+    let d = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(d.path().join("cases/pool/r1")).unwrap();
+    let rows: String = (0..30)
+        .map(|k| format!("{},{},0,0,0\n", 0.05 * k as f64, k))
+        .collect();
+    std::fs::write(d.path().join("wrench.csv"), format!("t,X,Y,Z,N\n{rows}")).unwrap();
+    let rows: String = (0..30)
+        .map(|k| {
+            format!(
+                "{},{},{},{}\n",
+                0.05 * k as f64,
+                1.0 + 0.01 * k as f64,
+                2.0,
+                -0.5
+            )
+        })
+        .collect();
+    std::fs::write(d.path().join("mocap.csv"), format!("t,x,y,z\n{rows}")).unwrap();
+    let read = |frame: &str| {
+        let yaml = format!(
+            "role: train\nlog:\n  file: ../../..\n  wrench: {{topic: wrench, fields: [X, Y, Z, N]}}\n  \
+             position: {{topic: mocap, fields: [x, y, z]{frame}}}\n"
+        );
+        std::fs::write(d.path().join("cases/pool/r1/run.yaml"), yaml).unwrap();
+        let files = vec!["cases/pool/r1/run.yaml".to_string()];
+        load(d.path(), "cases/pool/r1", &files, None)
+    };
+    let enu = read(", frame: enu").unwrap().uwb.unwrap();
+    let k = 10;
+    assert_eq!(
+        [enu.cols[0][k], enu.cols[1][k], enu.cols[2][k]],
+        [2.0, 1.1, 0.5]
+    );
+    let pool = read("").unwrap().uwb.unwrap();
+    assert_eq!(
+        [pool.cols[0][k], pool.cols[1][k], pool.cols[2][k]],
+        [1.1, 2.0, -0.5]
+    );
+    let e = read(", frame: flu").unwrap_err().to_string();
+    assert!(e.contains("world frame") && e.contains("frame: enu"), "{e}");
+}

@@ -28,12 +28,7 @@ pub(super) fn build(
     thrusters: Option<&Thrusters>,
     shown: &str,
 ) -> Result<(), InputError> {
-    let src = |n: &str| {
-        sources
-            .iter()
-            .find(|(k, _)| *k == n)
-            .map(|(_, c)| &c.source)
-    };
+    let src = |n: &str| source_of(sources, n);
     for (name, s) in samples {
         let clock = match (s.stamped, s.received) {
             (0, _) => "receive times",
@@ -88,22 +83,92 @@ pub(super) fn build(
     out.depth = samples
         .get("depth")
         .map(|s| depth(s, src("depth").expect("a source")));
-    out.uwb = samples.get("position").map(|s| position(s, UWB.len() - 1));
-    out.sonar = samples.get("sonar").map(|s| position(s, SONAR.len() - 1));
+    positions(out, sources, samples, shown)
+}
+
+/// The source of signal `name`, if the run reads it.
+fn source_of<'a>(sources: &'a [(&'static str, Chosen)], name: &str) -> Option<&'a Source> {
+    sources
+        .iter()
+        .find(|(k, _)| *k == name)
+        .map(|(_, c)| &c.source)
+}
+
+/// The position fixes (UWB, acoustic positioning, motion capture) and the sonar's track, in
+/// the pool frame; a note where the frame is left to its default beside an ENU attitude.
+fn positions(
+    out: &mut FromLog,
+    sources: &[(&'static str, Chosen)],
+    samples: &BTreeMap<&'static str, Samples>,
+    shown: &str,
+) -> Result<(), InputError> {
+    let src = |n: &str| source_of(sources, n);
+    for (name, width, to) in [
+        ("position", UWB.len() - 1, &mut out.uwb),
+        ("sonar", SONAR.len() - 1, &mut out.sonar),
+    ] {
+        if let Some(s) = samples.get(name) {
+            let frame = src(name).and_then(|c| c.frame);
+            *to = Some(position(s, width, frame, name, shown)?);
+            let att = src("attitude");
+            let enu_attitude = att.is_some_and(|a| {
+                (a.quaternion.is_some() || a.fields.len() == 4)
+                    && matches!(a.frame, None | Some(Frame::Enu))
+            });
+            if frame.is_none() && enu_attitude {
+                out.notes.push(format!(
+                    "{shown}: the {name} is read in the pool frame (x, y level, z down), the \
+                     attitude as an ENU quaternion (ROS's convention): if the {name} is ENU too \
+                     (x east, y north, z up, as ROS and most motion-capture systems publish \
+                     it), write `frame: enu` in `log.{name}`"
+                ));
+            }
+        }
+    }
     Ok(())
 }
 
-/// A position log (x, y and, where there are `width` = 3 columns, z).
-fn position(s: &Samples, width: usize) -> Log {
+/// A position log (x, y and, where there are `width` = 3 columns, z) in the pool frame (z
+/// down). One in ENU (`frame: enu`: ROS's world frame, REP-103, and most motion-capture
+/// systems' as ROS publishes them) is turned into it: x north, y east, z down, as an ENU
+/// attitude is.
+fn position(
+    s: &Samples,
+    width: usize,
+    frame: Option<Frame>,
+    name: &str,
+    shown: &str,
+) -> Result<Log, InputError> {
+    let enu = match frame {
+        None | Some(Frame::Ned) => false,
+        Some(Frame::Enu) => true,
+        Some(f @ (Frame::Frd | Frame::Flu)) => {
+            return Err(InputError::file(
+                shown,
+                format!(
+                    "the {name} is given in the body frame `{}`, but a position is in a world frame",
+                    format!("{f:?}").to_lowercase()
+                ),
+                format!(
+                    "write `frame: ned` (the pool frame, z down; the default) or `frame: enu` (x east, y north, z up) in run.yaml's `log.{name}`"
+                ),
+            ));
+        }
+    };
+    let at = |r: &Vec<f64>, j: usize| r.get(j).copied().unwrap_or(f64::NAN);
     let cols: Vec<Vec<f64>> = (0..width)
         .map(|j| {
-            s.rows
-                .iter()
-                .map(|r| r.get(j).copied().unwrap_or(f64::NAN))
+            (s.rows.iter())
+                .map(|r| match (enu, j) {
+                    (false, _) => at(r, j),
+                    (true, 0) => at(r, 1),
+                    (true, 1) => at(r, 0),
+                    (true, _) => -at(r, j),
+                })
                 .collect()
         })
         .collect();
-    log_of(&s.t, cols, width)
+    Ok(log_of(&s.t, cols, width))
 }
 
 /// A log with the given columns (all-NaN columns marked absent), padded to `width`.
