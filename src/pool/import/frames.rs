@@ -83,10 +83,15 @@ fn wrap(a: f64) -> f64 {
     if w == -PI { PI } else { w }
 }
 
+/// An ENU vector (x east, y north, z up) in NED.
+pub fn enu_to_ned(v: [f64; 3]) -> [f64; 3] {
+    [v[1], v[0], -v[2]]
+}
+
 /// A world-frame vector (NED, or ENU) in the body frame at attitude `e` (NED / FRD).
 pub fn world_to_body(v: [f64; 3], e: [f64; 3], frame: Frame) -> [f64; 3] {
     let ned = match frame {
-        Frame::Enu => [v[1], v[0], -v[2]],
+        Frame::Enu => enu_to_ned(v),
         _ => v,
     };
     let r = from_euler(e);

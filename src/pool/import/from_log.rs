@@ -113,6 +113,7 @@ pub fn read(
         out.notes.push(format!("{shown}: {n}"));
     }
     layout::build(&mut out, &sources, &samples, thrusters, &shown)?;
+    let read_from = log.files(&timed);
     out.source = Some(LogSource {
         path: shown,
         format: log.format.name().into(),
@@ -121,8 +122,8 @@ pub fn read(
             .map(|(k, s)| (k.to_string(), s.source.topic.clone()))
             .collect(),
         span_s: [start, end].map(|x| ((x - log_start(&log, &timed)) * 1e6).round() / 1e6),
-        files: match is_topic_folder(&log) || log.files(&timed).len() > 1 {
-            true => (log.files(&timed).iter())
+        files: match is_topic_folder(&log) || read_from.len() > 1 {
+            true => (read_from.iter())
                 .map(|f| resolve(root, dir, &f.to_string_lossy()).1)
                 .collect(),
             false => Vec::new(),

@@ -155,18 +155,18 @@ fn position(
             ));
         }
     };
-    let at = |r: &Vec<f64>, j: usize| r.get(j).copied().unwrap_or(f64::NAN);
-    let cols: Vec<Vec<f64>> = (0..width)
-        .map(|j| {
-            (s.rows.iter())
-                .map(|r| match (enu, j) {
-                    (false, _) => at(r, j),
-                    (true, 0) => at(r, 1),
-                    (true, 1) => at(r, 0),
-                    (true, _) => -at(r, j),
-                })
-                .collect()
+    let rows: Vec<[f64; 3]> = (s.rows.iter())
+        .map(|r| {
+            let v = [0, 1, 2].map(|j| r.get(j).copied().unwrap_or(f64::NAN));
+            if enu {
+                super::super::frames::enu_to_ned(v)
+            } else {
+                v
+            }
         })
+        .collect();
+    let cols: Vec<Vec<f64>> = (0..width)
+        .map(|j| rows.iter().map(|r| r[j]).collect())
         .collect();
     Ok(log_of(&s.t, cols, width))
 }
