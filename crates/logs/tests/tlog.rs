@@ -212,11 +212,12 @@ const SMALL: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/ardusub/sma
 
 /// Messages per topic as pymavlink 2.4.50 (`mavutil`, ardupilotmega dialect) counts them.
 #[rustfmt::skip]
-const SMALL_COUNTS: [(&str, u64); 17] = [
+const SMALL_COUNTS: [(&str, u64); 18] = [
     ("ATTITUDE", 5245), ("SERVO_OUTPUT_RAW", 528), ("RC_CHANNELS", 528), ("RAW_IMU", 528),
     ("SCALED_IMU2", 528), ("SCALED_PRESSURE", 528), ("SCALED_PRESSURE2", 635),
     ("NAMED_VALUE_FLOAT", 4224), ("VFR_HUD", 3060), ("SYS_STATUS", 528),
     ("GLOBAL_POSITION_INT", 792), ("LOCAL_POSITION_NED", 792), ("MANUAL_CONTROL", 1450),
+    ("EKF_STATUS_REPORT", 792),
     ("HEARTBEAT[1:1]", 263), ("HEARTBEAT[1:100]", 264), ("HEARTBEAT[1:194]", 264),
     ("HEARTBEAT[255:190]", 265),
 ];
@@ -242,7 +243,7 @@ fn small_tlog_counts_agree_with_pymavlink() {
     // version of their definitions: not compiled in here, so counted as unknown.
     let notes = log.notes();
     assert_eq!(notes.len(), 1, "{notes:?}");
-    assert!(notes[0].starts_with("15494 packets of 36 message types not compiled in"));
+    assert!(notes[0].starts_with("14702 packets of 35 message types not compiled in"));
 }
 
 /// Values as pymavlink reads them (`to_dict()`, `_timestamp`).
@@ -267,6 +268,11 @@ fn small_tlog_values_agree_with_pymavlink() {
     let (_, _, mc) = first("MANUAL_CONTROL");
     let xyzr = ["x", "y", "z", "r"].map(|p| f("MANUAL_CONTROL", mc, p));
     assert_eq!(xyzr, [36.0, 7.0, 511.0, -40.0]);
+    let (_, t, ekf) = first("EKF_STATUS_REPORT");
+    assert_eq!(*t, 1683220541.495);
+    assert_eq!(f("EKF_STATUS_REPORT", ekf, "flags"), 831.0);
+    let var = f("EKF_STATUS_REPORT", ekf, "velocity_variance");
+    assert_eq!(var, 0.03235374763607979);
     let (_, _, nv) = first("NAMED_VALUE_FLOAT");
     assert!(matches!(nv, Value::Struct(v) if v[1] == Value::Text("CamTilt".into())));
 }

@@ -378,6 +378,20 @@ pub(crate) const MESSAGES: &[MsgDef] = &[
         ],
     },
     MsgDef {
+        id: 193,
+        name: "EKF_STATUS_REPORT",
+        crc_extra: 71,
+        fields: &[
+            f("flags", U16, 0),
+            f("velocity_variance", F32, 0),
+            f("pos_horiz_variance", F32, 0),
+            f("pos_vert_variance", F32, 0),
+            f("compass_variance", F32, 0),
+            f("terrain_alt_variance", F32, 0),
+            x("airspeed_variance", F32, 0),
+        ],
+    },
+    MsgDef {
         id: 251,
         name: "NAMED_VALUE_FLOAT",
         crc_extra: 170,
