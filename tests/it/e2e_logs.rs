@@ -3,7 +3,7 @@
 //! tables (a CSV per topic, `timestamp` in seconds) read back to the same logs and the same fused velocities as their
 //! CSV files, sample by sample; per-thruster PWM through a thruster layout and curve identifies
 //! the same model as the logged wrench; a run folder that names what its log lacks is a
-//! located error listing what the log holds; a real ArduSub log is read with no mapping.
+//! located error listing what the log holds. Real ArduSub logs: `e2e_real_ardusub.rs`.
 
 use crate::common::{json, ok, run, stderr};
 use crate::log_writer::{LogFormat, write};
@@ -31,7 +31,7 @@ pub fn files(root: &Path, dir: &str) -> Vec<String> {
         .collect()
 }
 
-fn load(root: &Path, dir: &str, thrusters: Option<&Thrusters>) -> PoolRun {
+pub fn load(root: &Path, dir: &str, thrusters: Option<&Thrusters>) -> PoolRun {
     import::load(root, dir, &files(root, dir), thrusters).unwrap_or_else(|e| panic!("{dir}: {e}"))
 }
 
@@ -145,7 +145,7 @@ fn every_log_format_reads_back_to_the_csv_run_and_its_fusion() {
 
 /// The Heavy's layout and T200 curve, at twice the T200's thrust: the twin's 35 kg vehicle is
 /// commanded up to 100 N, more than eight T200 give in some directions.
-fn heavy() -> Thrusters {
+pub fn heavy() -> Thrusters {
     Thrusters {
         layout: Some(Layout::Bluerov2Heavy),
         units: vec![],
@@ -505,51 +505,4 @@ fn a_mapping_the_log_cannot_satisfy_is_a_located_error() {
     assert!(!o.status.success(), "damage in the middle is an error");
     let e = stderr(&o);
     assert!(e.contains("run.bag") && e.contains("(byte "), "{e}");
-}
-
-#[test]
-fn a_real_ardusub_log_is_read_without_a_mapping() {
-    let d = tempfile::tempdir().unwrap();
-    let root = d.path();
-    let bin =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("crates/logs/tests/data/ardusub/small.BIN");
-    let out = ok(root, &["inspect", bin.to_str().unwrap()]);
-    assert!(
-        out.contains("ArduPilot DataFlash log") && out.contains("RCOU"),
-        "{out}"
-    );
-    std::fs::create_dir_all(root.join("cases/pool/dive")).unwrap();
-    std::fs::write(
-        root.join("cases/pool/dive/run.yaml"),
-        format!("role: train\nlog:\n  file: {}\n", bin.display()),
-    )
-    .unwrap();
-    let mut t = heavy();
-    t.layout = Some(Layout::Bluerov2);
-    t.gain = 1.0;
-    let run = load(root, "cases/pool/dive", Some(&t));
-    let notes = run.notes.join("\n");
-    for signal in [
-        "command from `RCOU`",
-        "attitude from `ATT`",
-        "rates from `IMU[0]`",
-        "depth from `BARO[1]`",
-    ] {
-        assert!(notes.contains(signal), "{signal} in {notes}");
-    }
-    // A bench test in air at neutral PWM: no thrust, level within a degree, at the surface.
-    assert!(run.thrust.cols[0].iter().all(|x| x.abs() < 1e-9));
-    let imu = run.imu.as_ref().expect("attitude and rates");
-    assert!(
-        imu.cols[0]
-            .iter()
-            .filter(|r| !r.is_nan())
-            .all(|r| r.abs() < 1f64.to_radians())
-    );
-    let depth = run.depth.as_ref().expect("depth");
-    assert!(
-        depth.cols[0].iter().all(|z| z.abs() < 0.05),
-        "{:?}",
-        &depth.cols[0][..5]
-    );
 }

@@ -18,6 +18,7 @@ mod e2e_nav_latency;
 mod e2e_openfoam;
 mod e2e_pool;
 mod e2e_pool_fit;
+mod e2e_real_ardusub;
 mod e2e_robust;
 mod e2e_rotation;
 mod e2e_six_dof;

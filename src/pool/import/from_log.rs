@@ -5,6 +5,7 @@
 //! cannot tell a log from its CSV export. Per-thruster commands become the body wrench here,
 //! through `vehicle.thrusters`.
 
+mod aiding;
 mod layout;
 mod parts;
 
@@ -108,7 +109,8 @@ pub fn read(
     let sources = sources(&log, spec, thrusters, &mut out.notes);
     let timed = timed_topics(&log, &sources);
     let (start, end) = span(&log, &timed, spec, &shown)?;
-    let samples = read_signals(&log, &sources, spec.time, start, end, &shown)?;
+    let mut samples = read_signals(&log, &sources, spec.time, start, end, &shown)?;
+    aiding::keep_aided(&mut samples, &shown, &mut out.notes);
     for n in log.notes() {
         out.notes.push(format!("{shown}: {n}"));
     }
@@ -212,6 +214,7 @@ fn sources(
         out.retain(|(k, c)| *k != "command" || c.explicit);
         missing.retain(|(m, _)| *m != "command");
     }
+    aiding::add_status(log, &mut out);
     missing.dedup_by(|a, b| a.0 == b.0);
     for (signal, topic) in missing {
         notes.push(format!(

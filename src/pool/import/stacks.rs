@@ -1,7 +1,7 @@
 //! The topics common vehicle software writes, so a run folder needs no mapping for them:
 //! a BlueROV2 under ArduSub with mavros (ROS 1 or 2), an ArduSub DataFlash log, an ArduSub
 //! MAVLink telemetry log. Sources: mavros `rc_io`, `imu`, `local_position` and
-//! `global_position` plugins; ArduPilot's log messages (RCOU, ATT, IMU, BARO) and MAVLink's
+//! `global_position` plugins; ArduPilot's log messages (RCOU, ATT, IMU, XKF1, BARO) and MAVLink's
 //! common messages. A default whose topic the log lacks is left out (with a note).
 
 use super::log_spec::{Frame, Source, Stack, Unit};
@@ -57,6 +57,12 @@ fn ardusub(n: usize) -> Vec<(&'static str, Source)> {
     for imu in ["IMU[0]", "IMU"] {
         out.push(("rates", Source::new(imu, &["GyrX", "GyrY", "GyrZ"])));
         out.push(("acceleration", Source::new(imu, &["AccX", "AccY", "AccZ"])));
+    }
+    // The EKF's velocity (EKF3, else EKF2), north-east-down: a measurement only where a DVL
+    // or a position fix aided it, which its status (XKF4 / NKF4) says (`from_log::aiding`).
+    for ekf in ["XKF1[0]", "XKF1", "NKF1[0]", "NKF1"] {
+        let v = Source::new(ekf, &["VN", "VE", "VD"]).frame(Frame::Ned);
+        out.push(("velocity", v));
     }
     // ArduSub's external pressure sensor is the second barometer; its altitude is negative
     // under water.

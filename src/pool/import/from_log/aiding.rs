@@ -1,0 +1,252 @@
+//! Whether an autopilot's velocity estimate was measured. ArduPilot's EKF reports a velocity
+//! whatever aids it: with no DVL, no position fix and no optical flow it runs in
+//! constant-position mode, and its horizontal velocity is then inertial dead reckoning held
+//! near zero, not a measurement of the vehicle's motion. The filter says so in its status
+//! word, logged beside the velocity: MAVLink's `EKF_STATUS_REPORT.flags` in a telemetry log
+//! (for `LOCAL_POSITION_NED` and `GLOBAL_POSITION_INT`), the `SS` field of `XKF4` (EKF3) or
+//! `NKF4` (EKF2) in a DataFlash log (for `XKF1` / `NKF1`'s `VN`, `VE`, `VD`). A velocity sample
+//! taken while the status says the horizontal velocity was not aided is left out, with a
+//! note; the run keeps the samples the filter did measure.
+//!
+//! Both words share their low bits (ArduPilot's `nav_filter_status`, MAVLink's
+//! `EKF_STATUS_FLAGS`): bit 1 the horizontal velocity is good, bit 7 constant-position mode.
+//! Through mavros, the `ekf_status` plugin of mavros_extras publishes the MAVLink message as
+//! `mavros_msgs/EKFStatusReport`; a bag without it leaves `local_position/odom` unchecked.
+
+use super::{Chosen, Samples};
+use crate::pool::import::log_spec::Source;
+use hydrofit_logs::{Format, Log as VehicleLog};
+use std::collections::BTreeMap;
+
+/// The signal name the status is read under (never a signal of `run.yaml`).
+pub(super) const STATUS: &str = "ekf_status";
+
+/// `EKF_STATUS_FLAGS` / `nav_filter_status`: horizontal velocity estimate good.
+const HORIZONTAL_VELOCITY: u32 = 1 << 1;
+/// Constant-position mode: no aiding at all, the filter holds its position.
+const CONSTANT_POSITION: u32 = 1 << 7;
+
+/// The filter's status for the velocity `velocity`, when the log has it: the status topic of
+/// the same filter instance (or MAVLink sender), its status word.
+pub(super) fn status_source(log: &VehicleLog, velocity: &Source) -> Option<Source> {
+    let (base, instance) = match velocity.topic.split_once('[') {
+        Some((b, rest)) => (b, format!("[{rest}")),
+        None => (velocity.topic.as_str(), String::new()),
+    };
+    let (topic, field) = match (log.format, base) {
+        (Format::Tlog, "LOCAL_POSITION_NED" | "GLOBAL_POSITION_INT") => {
+            ("EKF_STATUS_REPORT", "flags")
+        }
+        (Format::DataFlash, "XKF1") => ("XKF4", "SS"),
+        (Format::DataFlash, "NKF1") => ("NKF4", "SS"),
+        (Format::DataFlash | Format::Tlog, _) => return None,
+        _ if velocity.topic.contains("mavros/") => return mavros_status(log),
+        _ => return None,
+    };
+    // A telemetry log names a message by its sender only when several send it.
+    [format!("{topic}{instance}"), topic.to_string()]
+        .into_iter()
+        .find_map(|t| {
+            let i = log.topic(&t)?;
+            usable(log, i, field)?;
+            Some(Source::new(&t, &[field]))
+        })
+}
+
+/// mavros's `ekf_status` plugin (mavros_extras): a topic of type `mavros_msgs/EKFStatusReport`
+/// with the MAVLink message's `flags`, wherever the launch file put it.
+fn mavros_status(log: &VehicleLog) -> Option<Source> {
+    (log.topics.iter().enumerate())
+        .filter(|(_, t)| t.type_name.to_lowercase().contains("ekfstatus"))
+        .find_map(|(i, t)| usable(log, i, "flags").map(|_| Source::new(&t.name, &["flags"])))
+}
+
+/// Whether topic `i` can be read and has `field` (a firmware or a message version may lack
+/// it: then there is nothing to check).
+fn usable(log: &VehicleLog, i: usize, field: &str) -> Option<()> {
+    log.undecodable(i).is_none().then_some(())?;
+    log.topics[i].schema.select(field).ok().map(|_| ())
+}
+
+/// Adds the filter's status to the signals read, when the velocity is an autopilot's estimate
+/// whose log carries it.
+pub(super) fn add_status(log: &VehicleLog, sources: &mut Vec<(&'static str, Chosen)>) {
+    let status = sources
+        .iter()
+        .find(|(k, _)| *k == "velocity")
+        .and_then(|(_, c)| status_source(log, &c.source));
+    if let Some(source) = status {
+        let explicit = false;
+        sources.push((STATUS, Chosen { source, explicit }));
+    }
+}
+
+/// Leaves out the velocity samples the filter's status marks as not aided (the status in
+/// force is the last one at or before the sample; a sample before the first status is kept),
+/// and takes the status out of the signals. Says what was left out in `notes`.
+pub(super) fn keep_aided(
+    samples: &mut BTreeMap<&'static str, Samples>,
+    shown: &str,
+    notes: &mut Vec<String>,
+) {
+    let Some(status) = samples.remove(STATUS) else {
+        return;
+    };
+    let Some(v) = samples.get_mut("velocity") else {
+        return;
+    };
+    let aided = |t: f64| {
+        let k = status.t.partition_point(|s| *s <= t);
+        let Some(word) = k.checked_sub(1).and_then(|k| status.rows[k].first()) else {
+            return true;
+        };
+        let word = *word as u32;
+        word & HORIZONTAL_VELOCITY != 0 && word & CONSTANT_POSITION == 0
+    };
+    let keep: Vec<bool> = v.t.iter().map(|&t| aided(t)).collect();
+    let dropped = keep.iter().filter(|k| !**k).count();
+    if dropped == 0 {
+        return;
+    }
+    let total = keep.len();
+    let topic = v.topic.clone();
+    let why = format!(
+        "the autopilot's filter status (`{}`) says its horizontal velocity was not aided (no DVL or position fix: in constant-position mode the velocity is dead reckoning, not a measurement)",
+        status.topic
+    );
+    if dropped == total {
+        samples.remove("velocity");
+        notes.push(format!(
+            "{shown}: no velocity: {why} for all {total} samples of `{topic}`; map a DVL's own topic in run.yaml's `log.velocity`, or give the run a position (UWB, sonar)"
+        ));
+        return;
+    }
+    let (t, rows) = (std::mem::take(&mut v.t), std::mem::take(&mut v.rows));
+    (v.t, v.rows) = (t.into_iter().zip(rows).zip(&keep))
+        .filter(|(_, k)| **k)
+        .map(|(s, _)| s)
+        .unzip();
+    notes.push(format!(
+        "{shown}: {dropped} of {total} velocity samples of `{topic}` left out: {why} at their times"
+    ));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::super::log_spec::LogSpec;
+    use super::super::read;
+    use hydrofit_logs::tlog::Writer;
+
+    const T0: u64 = 1_700_000_000_000_000;
+
+    /// A telemetry log of 10 s: attitude at 20 Hz, `LOCAL_POSITION_NED` at 10 Hz (0.3 m/s
+    /// north), and the filter's status at 2 Hz, its flags from `flags(t)`.
+    fn tlog(dir: &std::path::Path, flags: impl Fn(f64) -> f64) {
+        let mut w = Writer::new(true);
+        for k in 0..200u64 {
+            let t = k as f64 * 0.05;
+            let us = T0 + k * 50_000;
+            let ms = (k * 50) as f64;
+            let att = [ms, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+            w.write(us, (1, 1), "ATTITUDE", &att).unwrap();
+            if k % 2 == 0 {
+                let lp = [ms, 0.0, 0.0, 0.0, 0.3, 0.0, 0.0];
+                w.write(us, (1, 1), "LOCAL_POSITION_NED", &lp).unwrap();
+            }
+            if k % 10 == 0 {
+                let st = [flags(t), 0.03, 0.005, 0.02, 0.01, 0.0];
+                w.write(us, (1, 1), "EKF_STATUS_REPORT", &st).unwrap();
+            }
+        }
+        std::fs::write(dir.join("run.tlog"), w.into_bytes()).unwrap();
+    }
+
+    fn spec() -> LogSpec {
+        let y = "file: run.tlog\nstack: none\nattitude: {topic: ATTITUDE, fields: [roll, pitch, yaw]}\nvelocity: {topic: LOCAL_POSITION_NED, fields: [vx, vy, vz], frame: ned}\n";
+        serde_yaml_ng::from_str(y).unwrap()
+    }
+
+    #[test]
+    fn velocity_the_filter_did_not_aid_is_left_out() {
+        let d = tempfile::tempdir().unwrap();
+        // Aided (831, ArduSub with a DVL), then constant-position mode for 3 s (167: the
+        // horizontal-velocity bit still set), then aided again.
+        tlog(d.path(), |t| {
+            if (5.0..8.0).contains(&t) {
+                167.0
+            } else {
+                831.0
+            }
+        });
+        let run = read(d.path(), ".", &spec(), None).unwrap();
+        let nav = run.nav.expect("the aided samples");
+        // 100 samples at 10 Hz; those at 5.0 .. 7.9 s (30) follow a constant-position status.
+        assert_eq!(nav.len(), 70);
+        assert!(nav.t.iter().all(|t| !(5.0 - 1e-9..8.0 - 1e-9).contains(t)));
+        assert!(nav.cols[0].iter().all(|u| (u - 0.3).abs() < 1e-6));
+        let notes = run.notes.join("\n");
+        assert!(
+            notes.contains("30 of 100 velocity samples of `LOCAL_POSITION_NED` left out")
+                && notes.contains("`EKF_STATUS_REPORT`"),
+            "{notes}"
+        );
+        let source = run.source.expect("a source");
+        assert_eq!(source.topics["ekf_status"], "EKF_STATUS_REPORT");
+
+        // Never aided: no navigation log, and a note that says what to do.
+        tlog(d.path(), |_| 167.0);
+        let run = read(d.path(), ".", &spec(), None).unwrap();
+        assert!(run.nav.is_none());
+        let notes = run.notes.join("\n");
+        assert!(
+            notes.contains("no velocity") && notes.contains("for all 100 samples"),
+            "{notes}"
+        );
+        // Without the horizontal-velocity bit (an EKF still aligning), likewise.
+        tlog(d.path(), |_| 1.0 + 4.0 + 32.0);
+        assert!(read(d.path(), ".", &spec(), None).unwrap().nav.is_none());
+
+        // Aided throughout: every sample, no note.
+        tlog(d.path(), |_| 831.0);
+        let run = read(d.path(), ".", &spec(), None).unwrap();
+        assert_eq!(run.nav.expect("a navigation log").len(), 100);
+        assert!(!run.notes.join("\n").contains("left out"));
+    }
+
+    /// A mavros bag (ROS 1) whose `ekf_status` plugin published the filter's status: the
+    /// default `local_position/odom` velocity is kept only while it was aided.
+    #[test]
+    fn mavros_velocity_is_checked_against_the_ekf_status_plugin() {
+        use hydrofit_logs::write::{self, BagCompression, BagWriter};
+        let d = tempfile::tempdir().unwrap();
+        let mut bag = BagWriter::create(&d.path().join("run.bag"), BagCompression::None).unwrap();
+        let odom = bag
+            .add_topic("/mavros/local_position/odom", "nav_msgs/Odometry")
+            .unwrap();
+        let def = "uint16 flags\nfloat32 velocity_variance\n";
+        let status = "/mavros/ekf_status/ekf_status_report";
+        let ekf = (bag.add_connection(status, "mavros_msgs/EKFStatusReport", def)).unwrap();
+        let (s_odom, s_ekf) = (
+            bag.schema(odom).unwrap().clone(),
+            bag.schema(ekf).unwrap().clone(),
+        );
+        for k in 0..100 {
+            let t = 1.7e9 + k as f64 * 0.1;
+            if k % 5 == 0 {
+                // Aided for the first 6 s, then constant-position mode.
+                let flags = if k < 60 { 831.0 } else { 167.0 };
+                let m = write::message(&s_ekf, &[("flags", flags)]).unwrap();
+                bag.write(ekf, t, &m).unwrap();
+            }
+            let v = [("header.stamp", t), ("twist.twist.linear.x", 0.3)];
+            bag.write(odom, t, &write::message(&s_odom, &v).unwrap())
+                .unwrap();
+        }
+        bag.finish().unwrap();
+        let spec: LogSpec = serde_yaml_ng::from_str("file: run.bag\n").unwrap();
+        let run = read(d.path(), ".", &spec, None).unwrap();
+        assert_eq!(run.nav.expect("the aided samples").len(), 60);
+        let notes = run.notes.join("\n");
+        assert!(notes.contains(&format!("`{status}`")), "{notes}");
+    }
+}
