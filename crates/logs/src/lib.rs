@@ -1,8 +1,8 @@
 //! Logs as vehicles write them, read without user code: ROS 1 bags (`.bag`), ROS 2 bags
 //! (MCAP `.mcap` and SQLite `.db3`, CDR payloads), ArduPilot DataFlash logs (`.BIN`), MAVLink
-//! telemetry logs (`.tlog`) and CSV files with a time column (a topic per file: `rostopic echo
-//! -p`'s exports, PlotJuggler's, PX4's, a simulator's). The first three describe their own messages (a ROS message
-//! definition, an MCAP schema, a DataFlash FMT record), so any message is decoded into a
+//! telemetry logs (`.tlog`), PX4 ULog files (`.ulg`) and CSV files with a time column (a topic per file: `rostopic echo
+//! -p`'s exports, PlotJuggler's, PX4's, a simulator's). All but the tlog describe their own messages (a ROS message
+//! definition, an MCAP schema, a DataFlash FMT record, a ULog format record), so any message is decoded into a
 //! [`Value`] tree without compiled-in types; MAVLink is not self-describing, so the tlog
 //! reader compiles in the messages ArduSub users need. A field is picked by its path
 //! (`twist.twist.linear.x`, `data[3]`, `C1`).
@@ -29,6 +29,7 @@ pub mod ros1;
 pub mod ros_types;
 pub mod tlog;
 pub mod topic_csv;
+pub mod ulog;
 pub mod value;
 mod wire;
 pub mod write;
@@ -49,6 +50,8 @@ pub enum Format {
     DataFlash,
     /// MAVLink telemetry log (`.tlog`): receive times and MAVLink 1/2 packets.
     Tlog,
+    /// PX4 ULog (`.ulg`), self-described by its format records.
+    Ulog,
     /// ROS 2 bag in SQLite (`.db3`), CDR messages.
     Db3,
     /// Topics exported by `rostopic echo -p`: a CSV file per topic, or a folder of them.
@@ -64,6 +67,7 @@ impl Format {
             Format::Mcap => "MCAP",
             Format::DataFlash => "ArduPilot DataFlash log",
             Format::Tlog => "MAVLink telemetry log",
+            Format::Ulog => "PX4 ULog",
             Format::Db3 => "ROS 2 SQLite bag",
             Format::TopicCsv => "rostopic CSV",
             Format::Csv => "CSV with a time column",
@@ -71,7 +75,7 @@ impl Format {
     }
 }
 
-/// One topic (ROS) or message type (DataFlash) of a log.
+/// One topic (ROS, ULog) or message type (DataFlash) of a log.
 #[derive(Debug, Clone)]
 pub struct Topic {
     /// The topic (`/mavros/imu/data`) or the DataFlash message name (`ATT`).
@@ -145,6 +149,7 @@ enum Inner {
     Mcap(mcap::File),
     DataFlash(dataflash::Bin),
     Tlog(tlog::Tlog),
+    Ulog(ulog::Ulog),
     Db3(db3::Db3),
     TopicCsv(topic_csv::TopicCsv),
 }
@@ -201,7 +206,7 @@ impl Log {
         let path = &db3::storage_file(path)?;
         let data = std::fs::read(path).map_err(|e| {
             LogError::new(path, format!("cannot read the log: {e}"))
-                .fix("give the path of a ROS 1 bag, an MCAP file, an ArduPilot .BIN log or a .tlog")
+                .fix("give the path of a ROS 1 bag, an MCAP file, an ArduPilot .BIN log, a PX4 .ulg or a .tlog")
         })?;
         let (format, topics, inner) = if data.starts_with(ROS1_MAGIC) {
             let (bag, topics) = ros1::Bag::open(path, data)?;
@@ -212,6 +217,9 @@ impl Log {
         } else if data.starts_with(DATAFLASH_MAGIC) {
             let (bin, topics) = dataflash::Bin::open(path, data)?;
             (Format::DataFlash, topics, Inner::DataFlash(bin))
+        } else if data.starts_with(ulog::MAGIC) {
+            let (ulog, topics) = ulog::Ulog::open(path, data)?;
+            (Format::Ulog, topics, Inner::Ulog(ulog))
         } else if data.starts_with(b"#ROSBAG V") {
             return Err(LogError::new(path, "a ROS bag of a version other than 2.0")
                 .at(0)
@@ -245,10 +253,10 @@ impl Log {
         } else {
             return Err(LogError::new(
                 path,
-                "not a ROS 1 bag, an MCAP file or an ArduPilot DataFlash log (unknown first bytes)",
+                "not a ROS 1 bag, an MCAP file, an ArduPilot DataFlash log or a PX4 ULog (unknown first bytes)",
             )
             .at(0)
-            .fix("give the log the vehicle wrote (.bag, .mcap, .BIN, a .tlog named so, or a CSV file whose header names a time column: `time`, `timestamp`, `t`, `%time`)"));
+            .fix("give the log the vehicle wrote (.bag, .mcap, .BIN, .ulg, a .tlog named so, or a CSV file whose header names a time column: `time`, `timestamp`, `t`, `%time`)"));
         };
         Ok(Log {
             path: path.to_path_buf(),
@@ -297,6 +305,7 @@ impl Log {
             Inner::Mcap(f) => f.read(&self.path, &self.topics, wanted, each),
             Inner::DataFlash(b) => b.read(&self.path, &self.topics, wanted, each),
             Inner::Tlog(t) => t.read(&self.path, &self.topics, wanted, each),
+            Inner::Ulog(u) => u.read(&self.path, &self.topics, wanted, each),
             Inner::Db3(d) => d.read(&self.path, &self.topics, wanted, each),
             Inner::TopicCsv(c) => c.read(wanted, each),
         }
@@ -321,6 +330,7 @@ impl Log {
             Inner::Mcap(f) => f.notes(),
             Inner::DataFlash(b) => b.notes(),
             Inner::Tlog(t) => t.notes(),
+            Inner::Ulog(u) => u.notes(),
             Inner::Db3(d) => d.notes(),
             Inner::TopicCsv(c) => c.notes(),
         }

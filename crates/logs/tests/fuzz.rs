@@ -7,7 +7,7 @@ mod common;
 
 use common::{Rng, TempFile};
 use hydrofit_logs::dataflash::{self, Writer};
-use hydrofit_logs::{Log, LogError, Topic, Value, tlog};
+use hydrofit_logs::{Log, LogError, Topic, Value, tlog, ulog};
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -47,6 +47,11 @@ fn dataflash_reader(path: &Path, data: Vec<u8>) -> Result<(usize, u64), LogError
 fn tlog_reader(path: &Path, data: Vec<u8>) -> Result<(usize, u64), LogError> {
     let (t, topics) = tlog::Tlog::open(path, data)?;
     read_counted(&topics, |w, each| t.read(path, &topics, w, each))
+}
+
+fn ulog_reader(path: &Path, data: Vec<u8>) -> Result<(usize, u64), LogError> {
+    let (u, topics) = ulog::Ulog::open(path, data)?;
+    read_counted(&topics, |w, each| u.read(path, &topics, w, each))
 }
 
 /// Runs one damaged case: no panic, bounded time, errors with path and offset.
@@ -181,6 +186,16 @@ fn fuzz_small_tlog() {
         return;
     };
     fuzz(tlog_reader, "small.tlog", &data, 200, 200, 4);
+}
+
+#[test]
+fn fuzz_px4_ulog() {
+    let p = Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/data/px4/sample_appended_multiple.ulg"
+    ));
+    let data = std::fs::read(p).unwrap();
+    fuzz(ulog_reader, "appended.ulg", &data, 200, 300, 5);
 }
 
 /// Through `Log::open` and real files, including cuts shorter than any magic.
