@@ -3,7 +3,7 @@
 //! tables (a CSV per topic, `timestamp` in seconds) read back to the same logs and the same fused velocities as their
 //! CSV files, sample by sample; per-thruster PWM through a thruster layout and curve identifies
 //! the same model as the logged wrench; a run folder that names what its log lacks is a
-//! located error listing what the log holds. Real ArduSub logs: `e2e_real_ardusub.rs`.
+//! located error listing what the log holds. Real autopilot logs: `e2e_autopilot_logs.rs`.
 
 use crate::common::{json, ok, run, stderr};
 use crate::log_writer::{LogFormat, write};

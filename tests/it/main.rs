@@ -5,6 +5,7 @@
 mod architecture;
 mod artifacts;
 mod common;
+mod e2e_autopilot_logs;
 mod e2e_build;
 mod e2e_design;
 mod e2e_discovery;
@@ -18,7 +19,6 @@ mod e2e_nav_latency;
 mod e2e_openfoam;
 mod e2e_pool;
 mod e2e_pool_fit;
-mod e2e_real_ardusub;
 mod e2e_robust;
 mod e2e_rotation;
 mod e2e_six_dof;

@@ -12,7 +12,7 @@ mod parts;
 use super::csvlog::Log;
 use super::log_spec::{LogSpec, Source, Stack, TimeSource};
 use crate::core::diag::InputError;
-use crate::core::model::thrusters::Thrusters;
+use crate::core::model::thrusters::{Command, Thrusters};
 use hydrofit_logs::{Format, Log as VehicleLog, Selector};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -182,9 +182,10 @@ fn sources(
 ) -> Vec<(&'static str, Chosen)> {
     let stack = spec.stack.unwrap_or_else(|| default_stack(log));
     let n = thrusters.map_or(8, |t| t.units().len());
+    let normalised = thrusters.is_some_and(|t| t.command == Command::Normalised);
     let mut out: Vec<(&'static str, Chosen)> = Vec::new();
     let mut missing: Vec<(&'static str, String)> = Vec::new();
-    for (k, source) in super::stacks::defaults(stack, n) {
+    for (k, source) in super::stacks::defaults(stack, n, normalised) {
         // The first candidate whose topic the log has.
         if out.iter().any(|(o, _)| *o == k) {
             continue;
@@ -228,7 +229,9 @@ fn default_stack(log: &VehicleLog) -> Stack {
     match log.format {
         Format::DataFlash => Stack::Ardusub,
         Format::Tlog => Stack::ArdusubTlog,
+        Format::Ulog => Stack::Px4,
         _ if log.topics.iter().any(|t| t.name.starts_with("/mavros/")) => Stack::Mavros,
+        _ if log.topics.iter().any(|t| t.name.starts_with("/fmu/")) => Stack::Px4,
         _ => Stack::None,
     }
 }

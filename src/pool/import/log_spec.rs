@@ -1,7 +1,7 @@
 //! `run.yaml`'s `log:` section: a log the vehicle wrote (a ROS 1 bag, an MCAP file, an
 //! ArduPilot `.BIN` or `.tlog`), the span of it that is this run, and which topic and fields
 //! carry each signal the pool stage reads. Common stacks have defaults (`stack: mavros`,
-//! `ardusub`, `ardusub_tlog`); anything set here overrides them.
+//! `ardusub`, `ardusub_tlog`, `px4`); anything set here overrides them.
 
 use serde::{Deserialize, Serialize};
 
@@ -17,8 +17,9 @@ pub struct LogSpec {
     pub span_s: Option<[f64; 2]>,
     /// The software that wrote the log, for the default topics: `mavros` (a BlueROV2 with
     /// mavros, ROS 1 or 2), `ardusub` (an ArduSub DataFlash log), `ardusub_tlog` (its MAVLink
-    /// telemetry log) or `none`. By default: `ardusub` for a DataFlash log, `ardusub_tlog` for a
-    /// tlog, `mavros` for a ROS log with mavros topics, `none` otherwise.
+    /// telemetry log), `px4` (a PX4 ULog, or PX4's ROS 2 topics `/fmu/out/...`) or `none`. By
+    /// default: `ardusub` for a DataFlash log, `ardusub_tlog` for a tlog, `px4` for a ULog or
+    /// a ROS log with `/fmu/` topics, `mavros` for a ROS log with mavros topics, `none` otherwise.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stack: Option<Stack>,
     /// Which time a message is taken at: `auto` (its header stamp where it has one, else the
@@ -71,6 +72,7 @@ pub enum Stack {
     Mavros,
     Ardusub,
     ArdusubTlog,
+    Px4,
     None,
 }
 

@@ -1,18 +1,21 @@
 //! The topics common vehicle software writes, so a run folder needs no mapping for them:
 //! a BlueROV2 under ArduSub with mavros (ROS 1 or 2), an ArduSub DataFlash log, an ArduSub
-//! MAVLink telemetry log. Sources: mavros `rc_io`, `imu`, `local_position` and
+//! MAVLink telemetry log, a PX4 vehicle's ULog or its ROS 2 topics (`/fmu/out/...`). Sources: mavros `rc_io`, `imu`, `local_position` and
 //! `global_position` plugins; ArduPilot's log messages (RCOU, ATT, IMU, XKF1, BARO) and MAVLink's
-//! common messages. A default whose topic the log lacks is left out (with a note).
+//! common messages; PX4's uORB topics (`msg/*.msg` of PX4-Autopilot, as `px4_msgs` mirrors
+//! them). A default whose topic the log lacks is left out (with a note).
 
 use super::log_spec::{Frame, Source, Stack, Unit};
 
-/// The default sources of `stack`, for `n` thrusters, best first per signal (the first whose
-/// topic the log has is used).
-pub fn defaults(stack: Stack, n: usize) -> Vec<(&'static str, Source)> {
+/// The default sources of `stack`, for `n` thrusters commanded in -1..1 (`normalised`) or
+/// otherwise (a pulse width), best first per signal (the first whose topic the log has is
+/// used).
+pub fn defaults(stack: Stack, n: usize, normalised: bool) -> Vec<(&'static str, Source)> {
     match stack {
         Stack::Mavros => mavros(n),
         Stack::Ardusub => ardusub(n),
         Stack::ArdusubTlog => ardusub_tlog(n),
+        Stack::Px4 => px4(n, normalised),
         Stack::None => Vec::new(),
     }
 }
@@ -94,6 +97,43 @@ fn ardusub_tlog(n: usize) -> Vec<(&'static str, Source)> {
             Source::new("SCALED_PRESSURE2", &["press_abs"]).unit(Unit::HpaAbs),
         ),
     ]
+}
+
+/// PX4: each topic as its ULog names it, then as its ROS 2 bridge publishes it.
+fn px4(n: usize, normalised: bool) -> Vec<(&'static str, Source)> {
+    // The control allocator's motor commands (-1..1), or the PWM outputs (us).
+    let command = match normalised {
+        true => ("actuator_motors", format!("control[0..{n}]")),
+        false => ("actuator_outputs", format!("output[0..{n}]")),
+    };
+    let one = |topic: &str, fields: &[&str]| Source::new(topic, fields);
+    let signals: Vec<(&'static str, Source)> = vec![
+        ("command", one(command.0, &[&command.1])),
+        // Hamilton (w, x, y, z), body FRD to NED.
+        (
+            "attitude",
+            one("vehicle_attitude", &["q[1]", "q[2]", "q[3]", "q[0]"]).frame(Frame::Ned),
+        ),
+        ("rates", one("vehicle_angular_velocity", &["xyz[0..3]"])),
+        ("rates", one("sensor_combined", &["gyro_rad[0..3]"])),
+        (
+            "acceleration",
+            one("sensor_combined", &["accelerometer_m_s2[0..3]"]),
+        ),
+        // The EKF's; `v_xy_valid` says where an aiding sensor measured it (`aiding`).
+        (
+            "velocity",
+            one("vehicle_local_position", &["vx", "vy", "vz"]).frame(Frame::Ned),
+        ),
+        ("depth", one("vehicle_local_position", &["z"])),
+    ];
+    let bridged = signals.iter().map(|(k, s)| {
+        let mut s = s.clone();
+        s.topic = format!("/fmu/out/{}", s.topic);
+        (*k, s)
+    });
+    let bridged: Vec<_> = bridged.collect();
+    signals.into_iter().chain(bridged).collect()
 }
 
 fn xyz(topic: &str, base: &str) -> Source {

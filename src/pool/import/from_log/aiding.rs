@@ -12,14 +12,40 @@
 //! `EKF_STATUS_FLAGS`): bit 1 the horizontal velocity is good, bit 7 constant-position mode.
 //! Through mavros, the `ekf_status` plugin of mavros_extras publishes the MAVLink message as
 //! `mavros_msgs/EKFStatusReport`; a bag without it leaves `local_position/odom` unchecked.
+//! PX4 says it on the velocity's own message: `vehicle_local_position.v_xy_valid` (in a ULog,
+//! and on the ROS 2 bridge's `/fmu/out/vehicle_local_position`).
 
 use super::{Chosen, Samples};
 use crate::pool::import::log_spec::Source;
 use hydrofit_logs::{Format, Log as VehicleLog};
 use std::collections::BTreeMap;
 
-/// The signal name the status is read under (never a signal of `run.yaml`).
-pub(super) const STATUS: &str = "ekf_status";
+/// How a status says the horizontal velocity was aided.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Rule {
+    /// ArduPilot's status word: bit 1 set, bit 7 clear.
+    Bits,
+    /// PX4's flag: not zero.
+    Flag,
+}
+
+impl Rule {
+    /// The signal name the status is read under (never a signal of `run.yaml`).
+    fn signal(self) -> &'static str {
+        match self {
+            Rule::Bits => "ekf_status",
+            Rule::Flag => "velocity_valid",
+        }
+    }
+
+    fn aided(self, word: f64) -> bool {
+        let w = word as u32;
+        match self {
+            Rule::Bits => w & HORIZONTAL_VELOCITY != 0 && w & CONSTANT_POSITION == 0,
+            Rule::Flag => word != 0.0,
+        }
+    }
+}
 
 /// `EKF_STATUS_FLAGS` / `nav_filter_status`: horizontal velocity estimate good.
 const HORIZONTAL_VELOCITY: u32 = 1 << 1;
@@ -28,7 +54,12 @@ const CONSTANT_POSITION: u32 = 1 << 7;
 
 /// The filter's status for the velocity `velocity`, when the log has it: the status topic of
 /// the same filter instance (or MAVLink sender), its status word.
-pub(super) fn status_source(log: &VehicleLog, velocity: &Source) -> Option<Source> {
+fn status_source(log: &VehicleLog, velocity: &Source) -> Option<(Source, Rule)> {
+    if velocity.topic.ends_with("vehicle_local_position") {
+        let i = log.topic(&velocity.topic)?;
+        usable(log, i, "v_xy_valid")?;
+        return Some((Source::new(&velocity.topic, &["v_xy_valid"]), Rule::Flag));
+    }
     let (base, instance) = match velocity.topic.split_once('[') {
         Some((b, rest)) => (b, format!("[{rest}")),
         None => (velocity.topic.as_str(), String::new()),
@@ -49,16 +80,19 @@ pub(super) fn status_source(log: &VehicleLog, velocity: &Source) -> Option<Sourc
         .find_map(|t| {
             let i = log.topic(&t)?;
             usable(log, i, field)?;
-            Some(Source::new(&t, &[field]))
+            Some((Source::new(&t, &[field]), Rule::Bits))
         })
 }
 
 /// mavros's `ekf_status` plugin (mavros_extras): a topic of type `mavros_msgs/EKFStatusReport`
 /// with the MAVLink message's `flags`, wherever the launch file put it.
-fn mavros_status(log: &VehicleLog) -> Option<Source> {
+fn mavros_status(log: &VehicleLog) -> Option<(Source, Rule)> {
     (log.topics.iter().enumerate())
         .filter(|(_, t)| t.type_name.to_lowercase().contains("ekfstatus"))
-        .find_map(|(i, t)| usable(log, i, "flags").map(|_| Source::new(&t.name, &["flags"])))
+        .find_map(|(i, t)| {
+            usable(log, i, "flags")?;
+            Some((Source::new(&t.name, &["flags"]), Rule::Bits))
+        })
 }
 
 /// Whether topic `i` can be read and has `field` (a firmware or a message version may lack
@@ -75,9 +109,9 @@ pub(super) fn add_status(log: &VehicleLog, sources: &mut Vec<(&'static str, Chos
         .iter()
         .find(|(k, _)| *k == "velocity")
         .and_then(|(_, c)| status_source(log, &c.source));
-    if let Some(source) = status {
+    if let Some((source, rule)) = status {
         let explicit = false;
-        sources.push((STATUS, Chosen { source, explicit }));
+        sources.push((rule.signal(), Chosen { source, explicit }));
     }
 }
 
@@ -89,7 +123,10 @@ pub(super) fn keep_aided(
     shown: &str,
     notes: &mut Vec<String>,
 ) {
-    let Some(status) = samples.remove(STATUS) else {
+    let Some((status, rule)) = [Rule::Bits, Rule::Flag]
+        .into_iter()
+        .find_map(|r| Some((samples.remove(r.signal())?, r)))
+    else {
         return;
     };
     let Some(v) = samples.get_mut("velocity") else {
@@ -100,8 +137,7 @@ pub(super) fn keep_aided(
         let Some(word) = k.checked_sub(1).and_then(|k| status.rows[k].first()) else {
             return true;
         };
-        let word = *word as u32;
-        word & HORIZONTAL_VELOCITY != 0 && word & CONSTANT_POSITION == 0
+        rule.aided(*word)
     };
     let keep: Vec<bool> = v.t.iter().map(|&t| aided(t)).collect();
     let dropped = keep.iter().filter(|k| !**k).count();
@@ -111,7 +147,7 @@ pub(super) fn keep_aided(
     let total = keep.len();
     let topic = v.topic.clone();
     let why = format!(
-        "the autopilot's filter status (`{}`) says its horizontal velocity was not aided (no DVL or position fix: in constant-position mode the velocity is dead reckoning, not a measurement)",
+        "the autopilot's filter status (`{}`) says its horizontal velocity was not aided (no DVL or position fix: the velocity is then dead reckoning, not a measurement)",
         status.topic
     );
     if dropped == total {
@@ -248,5 +284,55 @@ mod tests {
         assert_eq!(run.nav.expect("the aided samples").len(), 60);
         let notes = run.notes.join("\n");
         assert!(notes.contains(&format!("`{status}`")), "{notes}");
+    }
+
+    /// PX4's ROS 2 bridge (`/fmu/out/...`, px4_msgs): the `px4` stack is the default, its
+    /// quaternion (w, x, y, z) is read as NED, and `v_xy_valid` on the velocity's own message
+    /// says which samples were aided.
+    #[test]
+    fn px4_ros2_topics_read_by_default_with_their_validity_flag() {
+        use hydrofit_logs::write::{self, McapCompression, McapWriter};
+        let d = tempfile::tempdir().unwrap();
+        let path = d.path().join("run.mcap");
+        let mut bag = McapWriter::create(&path, McapCompression::None).unwrap();
+        let lp_def =
+            "uint64 timestamp\nfloat32 z\nfloat32 vx\nfloat32 vy\nfloat32 vz\nbool v_xy_valid\n";
+        let lp = "/fmu/out/vehicle_local_position";
+        let lp = (bag.add_channel(lp, "px4_msgs/msg/VehicleLocalPosition", lp_def)).unwrap();
+        let att_def = "uint64 timestamp\nfloat32[4] q\n";
+        let att = "/fmu/out/vehicle_attitude";
+        let att = (bag.add_channel(att, "px4_msgs/msg/VehicleAttitude", att_def)).unwrap();
+        let (s_lp, s_att) = (
+            bag.schema(lp).unwrap().clone(),
+            bag.schema(att).unwrap().clone(),
+        );
+        // Heading 90 deg (east): q = (cos 45, 0, 0, sin 45).
+        let h = std::f64::consts::FRAC_1_SQRT_2;
+        for k in 0..50 {
+            let t = 1.7e9 + k as f64 * 0.1;
+            let valid = if k < 20 { 0.0 } else { 1.0 };
+            let v = [("vy", 0.4), ("z", 2.0), ("v_xy_valid", valid)];
+            bag.write(lp, t, &write::message(&s_lp, &v).unwrap())
+                .unwrap();
+            let q = [("q[0]", h), ("q[3]", h)];
+            bag.write(att, t, &write::message(&s_att, &q).unwrap())
+                .unwrap();
+        }
+        bag.finish().unwrap();
+        let spec: LogSpec = serde_yaml_ng::from_str("file: run.mcap\n").unwrap();
+        let run = read(d.path(), ".", &spec, None).unwrap();
+        let nav = run.nav.expect("the valid samples");
+        assert_eq!(nav.len(), 30);
+        // 0.4 m/s east, heading east: 0.4 m/s forward.
+        assert!(
+            nav.cols[0].iter().all(|u| (u - 0.4).abs() < 1e-6),
+            "{:?}",
+            nav.cols[0]
+        );
+        assert!(nav.cols[1].iter().all(|v| v.abs() < 1e-6));
+        let depth = run.depth.expect("depth");
+        assert!(depth.cols[0].iter().all(|z| (z - 2.0).abs() < 1e-6));
+        let notes = run.notes.join("\n");
+        assert!(notes.contains("20 of 50 velocity samples"), "{notes}");
     }
 }

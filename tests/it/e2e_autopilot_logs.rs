@@ -1,5 +1,6 @@
-//! Real ArduSub logs (`crates/logs/tests/data/ardusub/`, a BlueROV2's test logs from
-//! clydemcqueen/ardusub_log_tools, MIT) read with no mapping, and the autopilot's velocity
+//! Real autopilot logs read with no mapping: ArduSub's (`crates/logs/tests/data/ardusub/`, a
+//! BlueROV2's test logs from clydemcqueen/ardusub_log_tools, MIT) and PX4's
+//! (`crates/logs/tests/data/px4/`, pyulog's test logs, BSD); the autopilot's velocity
 //! estimate kept only where its filter says a sensor aided it.
 
 use crate::common::ok;
@@ -8,8 +9,13 @@ use hydrofit::core::model::thrusters::{Layout, Thrusters};
 use std::path::{Path, PathBuf};
 
 fn data(file: &str) -> PathBuf {
+    let dir = match file.ends_with(".ulg") {
+        true => "px4",
+        false => "ardusub",
+    };
     Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("crates/logs/tests/data/ardusub")
+        .join("crates/logs/tests/data")
+        .join(dir)
         .join(file)
 }
 
@@ -108,4 +114,56 @@ fn an_aided_ekf_velocity_is_read_whole() {
     assert_eq!(nav.len(), 792);
     let source = run.log_source.as_ref().expect("a log source");
     assert_eq!(source.topics["ekf_status"], "EKF_STATUS_REPORT");
+}
+
+/// A PX4 ULog (an aerial vehicle's, on the ground before its position was known) through the
+/// `px4` stack: every signal found with no mapping, the quaternion (w, x, y, z, NED) read as
+/// pyulog gives it, and the EKF's velocity refused because `v_xy_valid` is never set.
+#[test]
+fn a_px4_ulog_is_read_without_a_mapping() {
+    let d = tempfile::tempdir().unwrap();
+    let root = d.path();
+    run_folder(root, "log", &data("sample_log_small.ulg"), "");
+    let run = load(root, "log", Some(&bluerov2()));
+    let notes = run.notes.join("\n");
+    for signal in [
+        "command from `actuator_outputs` (65 samples",
+        "attitude from `vehicle_attitude` (1298 samples",
+        "rates from `vehicle_angular_velocity` (1812 samples",
+        "acceleration from `sensor_combined` (1298 samples",
+        "depth from `vehicle_local_position` (636 samples",
+    ] {
+        assert!(notes.contains(signal), "{signal} in {notes}");
+    }
+    assert!(
+        notes.contains("no velocity") && notes.contains("for all 636 samples"),
+        "{notes}"
+    );
+    assert!(run.nav.is_none());
+    let imu = run.imu.as_ref().expect("attitude, rates, acceleration");
+    // pyulog's first vehicle_attitude q (w, x, y, z), as roll and yaw.
+    let [w, x, y, z] = [0.9926282f32, 0.009468006, 0.00018696938, 0.1208285].map(f64::from);
+    let roll = (2.0 * (w * x + y * z)).atan2(1.0 - 2.0 * (x * x + y * y));
+    let yaw = (2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z));
+    let k = (imu.cols[0].iter()).position(|r| !r.is_nan()).unwrap();
+    assert!(
+        (imu.cols[0][k] - roll).abs() < 0.02,
+        "{} {roll}",
+        imu.cols[0][k]
+    );
+    assert!(
+        (imu.cols[2][k] - yaw).abs() < 0.02,
+        "{} {yaw}",
+        imu.cols[2][k]
+    );
+    // On the ground: the accelerometer reads gravity upwards, -g along body z.
+    let az: Vec<f64> = imu.cols[8]
+        .iter()
+        .copied()
+        .filter(|a| a.is_finite())
+        .collect();
+    let mean = az.iter().sum::<f64>() / az.len() as f64;
+    assert!((mean + 9.8).abs() < 0.5, "{mean}");
+    let source = run.log_source.as_ref().expect("a log source");
+    assert_eq!(source.topics["velocity_valid"], "vehicle_local_position");
 }
