@@ -58,7 +58,7 @@ struct Damage {
     dropped_ms: u64,
 }
 
-/// One record: its offset, type and body (after the 3-byte header).
+/// One record: its type and body (after the 3-byte header).
 struct Rec<'a> {
     kind: u8,
     body: &'a [u8],
