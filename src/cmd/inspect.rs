@@ -1,7 +1,9 @@
 //! `hydrofit inspect LOG`: what a vehicle's log holds, as `rosbag info` prints it: its
 //! format and span, and per topic its type, count, rate, whether its messages carry header
-//! stamps, and its fields by path (the paths `run.yaml`'s `log:` section names).
+//! stamps, and its fields by path (the paths `run.yaml`'s `log:` section names); then what a
+//! run folder reading it with nothing mapped would read (the stack's defaults found).
 
+use crate::pool::import::log_spec::Stack;
 use hydrofit_logs::{Log, Options};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -70,5 +72,38 @@ pub fn run(path: &Path, fields: bool, msg_folders: &[PathBuf]) -> anyhow::Result
     for n in log.notes() {
         crate::outln!("note: {n}");
     }
+    unmapped(&log);
     Ok(ExitCode::SUCCESS)
+}
+
+/// What a run folder reading the log with nothing mapped would read: the stack's defaults
+/// found, those missing, and whether the autopilot's velocity was aided.
+fn unmapped(log: &Log) {
+    let (stack, signals, notes) = crate::pool::import::from_log::unmapped(log);
+    if stack == Stack::None {
+        crate::outln!(
+            "with nothing mapped: no stack's topics (name each signal in run.yaml's `log:`, docs/logs.md)"
+        );
+        return;
+    }
+    crate::outln!(
+        "with nothing mapped (stack: {}; 8 thrusters until vehicle.thrusters says):",
+        stack.name()
+    );
+    let width = signals.iter().map(|(k, _)| k.len()).max().unwrap_or(0);
+    let twidth = signals
+        .iter()
+        .map(|(_, s)| s.topic.len())
+        .max()
+        .unwrap_or(0);
+    for (signal, s) in &signals {
+        let fields = match &s.quaternion {
+            Some(q) => format!("quaternion {q}"),
+            None => s.fields.join(", "),
+        };
+        crate::outln!("  {signal:width$}  {:twidth$}  {fields}", s.topic);
+    }
+    for n in notes {
+        crate::outln!("  note: {n}");
+    }
 }

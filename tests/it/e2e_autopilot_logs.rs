@@ -47,6 +47,18 @@ fn a_real_ardusub_log_is_read_without_a_mapping() {
         out.contains("ArduPilot DataFlash log") && out.contains("RCOU"),
         "{out}"
     );
+    // What a run folder would read with nothing mapped, the unaided velocity said.
+    let unmapped = out
+        .split("with nothing mapped")
+        .nth(1)
+        .expect("the defaults");
+    assert!(
+        unmapped.contains("(stack: ardusub;")
+            && unmapped.contains("velocity      XKF1[0]")
+            && unmapped.contains("no velocity")
+            && unmapped.contains("for all 237 samples"),
+        "{unmapped}"
+    );
     run_folder(root, "cases/pool/dive", &bin, "");
     let t = bluerov2();
     let run = load(root, "cases/pool/dive", Some(&t));
@@ -102,6 +114,12 @@ fn an_unaided_ekf_velocity_is_not_taken_for_a_measurement() {
 fn an_aided_ekf_velocity_is_read_whole() {
     let d = tempfile::tempdir().unwrap();
     let root = d.path();
+    let out = ok(root, &["inspect", data("small.tlog").to_str().unwrap()]);
+    assert!(
+        out.contains("(stack: ardusub_tlog;")
+            && out.contains("says all 792 velocity samples were aided"),
+        "{out}"
+    );
     run_folder(root, "cases/pool/dive", &data("small.tlog"), "");
     let run = load(root, "cases/pool/dive", Some(&bluerov2()));
     let notes = run.notes.join("\n");
@@ -123,6 +141,16 @@ fn an_aided_ekf_velocity_is_read_whole() {
 fn a_px4_ulog_is_read_without_a_mapping() {
     let d = tempfile::tempdir().unwrap();
     let root = d.path();
+    let out = ok(
+        root,
+        &["inspect", data("sample_log_small.ulg").to_str().unwrap()],
+    );
+    assert!(
+        out.contains("format:    PX4 ULog")
+            && out.contains("(stack: px4;")
+            && out.contains("actuator_outputs[1]"),
+        "{out}"
+    );
     run_folder(root, "log", &data("sample_log_small.ulg"), "");
     let run = load(root, "log", Some(&bluerov2()));
     let notes = run.notes.join("\n");

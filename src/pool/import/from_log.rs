@@ -8,6 +8,9 @@
 mod aiding;
 mod layout;
 mod parts;
+mod unmapped;
+
+pub use unmapped::unmapped;
 
 use super::csvlog::Log;
 use super::log_spec::{LogSpec, Source, Stack, TimeSource};
@@ -168,6 +171,7 @@ fn normalise(p: &Path) -> PathBuf {
 
 /// A signal's source and whether the user named it (then a missing topic is an error) or a
 /// stack's default gave it (then a missing topic leaves the signal out, with a note).
+#[derive(Clone)]
 struct Chosen {
     source: Source,
     explicit: bool,

@@ -6,7 +6,7 @@
 use serde::{Deserialize, Serialize};
 
 /// The log of a run.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LogSpec {
     /// The log's path, relative to the run folder or absolute.
@@ -74,6 +74,19 @@ pub enum Stack {
     ArdusubTlog,
     Px4,
     None,
+}
+
+impl Stack {
+    /// As `run.yaml` names it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Stack::Mavros => "mavros",
+            Stack::Ardusub => "ardusub",
+            Stack::ArdusubTlog => "ardusub_tlog",
+            Stack::Px4 => "px4",
+            Stack::None => "none",
+        }
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]

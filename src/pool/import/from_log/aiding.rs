@@ -102,6 +102,11 @@ fn usable(log: &VehicleLog, i: usize, field: &str) -> Option<()> {
     log.topics[i].schema.select(field).ok().map(|_| ())
 }
 
+/// Whether signal `name` is a status this module reads (not a signal of `run.yaml`).
+pub(super) fn is_status(name: &str) -> bool {
+    [Rule::Bits, Rule::Flag].iter().any(|r| r.signal() == name)
+}
+
 /// Adds the filter's status to the signals read, when the velocity is an autopilot's estimate
 /// whose log carries it.
 pub(super) fn add_status(log: &VehicleLog, sources: &mut Vec<(&'static str, Chosen)>) {
