@@ -219,7 +219,7 @@ fn sources(
         out.retain(|(k, c)| *k != "command" || c.explicit);
         missing.retain(|(m, _)| *m != "command");
     }
-    aiding::add_status(log, &mut out);
+    aiding::add_status(log, &mut out, notes);
     missing.dedup_by(|a, b| a.0 == b.0);
     for (signal, topic) in missing {
         notes.push(format!(

@@ -108,15 +108,42 @@ pub(super) fn is_status(name: &str) -> bool {
 }
 
 /// Adds the filter's status to the signals read, when the velocity is an autopilot's estimate
-/// whose log carries it.
-pub(super) fn add_status(log: &VehicleLog, sources: &mut Vec<(&'static str, Chosen)>) {
-    let status = sources
-        .iter()
+/// whose log carries it; says so in `notes` when it is one whose log does not.
+pub(super) fn add_status(
+    log: &VehicleLog,
+    sources: &mut Vec<(&'static str, Chosen)>,
+    notes: &mut Vec<String>,
+) {
+    let Some(velocity) = (sources.iter())
         .find(|(k, _)| *k == "velocity")
-        .and_then(|(_, c)| status_source(log, &c.source));
-    if let Some((source, rule)) = status {
-        let explicit = false;
-        sources.push((rule.signal(), Chosen { source, explicit }));
+        .map(|(_, c)| c.source.clone())
+    else {
+        return;
+    };
+    match status_source(log, &velocity) {
+        Some((source, rule)) => {
+            let explicit = false;
+            sources.push((rule.signal(), Chosen { source, explicit }));
+        }
+        None if is_estimate(log, &velocity.topic) => notes.push(format!(
+            "the velocity on `{}` is the autopilot's estimate, and the log holds no filter status to say a DVL or position fix aided it (mavros: record mavros_extras' `ekf_status` topic too); where nothing aided it, it is dead reckoning, not a measurement",
+            velocity.topic
+        )),
+        None => {}
+    }
+}
+
+/// Whether `topic` is one of the autopilot velocity estimates this module knows.
+fn is_estimate(log: &VehicleLog, topic: &str) -> bool {
+    let base = topic.split('[').next().unwrap_or(topic);
+    match log.format {
+        Format::Tlog => matches!(base, "LOCAL_POSITION_NED" | "GLOBAL_POSITION_INT"),
+        Format::DataFlash => matches!(base, "XKF1" | "NKF1"),
+        _ => {
+            topic.contains("mavros/local_position")
+                || topic.contains("mavros/global_position")
+                || topic.ends_with("vehicle_local_position")
+        }
     }
 }
 
@@ -289,6 +316,30 @@ mod tests {
         assert_eq!(run.nav.expect("the aided samples").len(), 60);
         let notes = run.notes.join("\n");
         assert!(notes.contains(&format!("`{status}`")), "{notes}");
+    }
+
+    /// Without the `ekf_status` plugin's topic the mavros velocity is read as it is, and the
+    /// run's notes say that nothing tells whether it was measured.
+    #[test]
+    fn an_unchecked_mavros_velocity_is_said() {
+        use hydrofit_logs::write::{self, BagCompression, BagWriter};
+        let d = tempfile::tempdir().unwrap();
+        let mut bag = BagWriter::create(&d.path().join("run.bag"), BagCompression::None).unwrap();
+        let topic = "/mavros/local_position/odom";
+        let odom = bag.add_topic(topic, "nav_msgs/Odometry").unwrap();
+        let schema = bag.schema(odom).unwrap().clone();
+        for k in 0..20 {
+            let t = 1.7e9 + k as f64 * 0.1;
+            let v = [("header.stamp", t), ("twist.twist.linear.x", 0.3)];
+            bag.write(odom, t, &write::message(&schema, &v).unwrap())
+                .unwrap();
+        }
+        bag.finish().unwrap();
+        let spec: LogSpec = serde_yaml_ng::from_str("file: run.bag\n").unwrap();
+        let run = read(d.path(), ".", &spec, None).unwrap();
+        assert_eq!(run.nav.expect("the velocity").len(), 20);
+        let notes = run.notes.join("\n");
+        assert!(notes.contains("holds no filter status"), "{notes}");
     }
 
     /// PX4's ROS 2 bridge (`/fmu/out/...`, px4_msgs): the `px4` stack is the default, its
