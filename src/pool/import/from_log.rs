@@ -223,7 +223,8 @@ fn sources(
     missing.dedup_by(|a, b| a.0 == b.0);
     for (signal, topic) in missing {
         notes.push(format!(
-            "no {signal}: the {stack:?} stack's topic `{topic}` is not in the log (name another in run.yaml's `log.{signal}`)"
+            "no {signal}: the {} stack's topic `{topic}` is not in the log (name another in run.yaml's `log.{signal}`)",
+            stack.name()
         ));
     }
     out
