@@ -143,7 +143,7 @@ impl Bin {
 }
 
 /// `wanted` as a set over the topic indices; an index past the topics is the caller's error.
-fn wanted_set(path: &Path, n: usize, wanted: &[usize]) -> Result<Vec<bool>, LogError> {
+pub(crate) fn wanted_set(path: &Path, n: usize, wanted: &[usize]) -> Result<Vec<bool>, LogError> {
     let mut want = vec![false; n];
     for &w in wanted {
         let Some(slot) = want.get_mut(w) else {

@@ -225,12 +225,7 @@ impl Ulog {
         wanted: &[usize],
         each: &mut dyn FnMut(&Message) -> Result<(), LogError>,
     ) -> Result<(), LogError> {
-        let mut want = vec![false; topics.len()];
-        for &w in wanted {
-            *want.get_mut(w).ok_or_else(|| {
-                LogError::new(path, format!("no topic {w}: the log has {}", topics.len()))
-            })? = true;
-        }
+        let want = crate::dataflash::wanted_set(path, topics.len(), wanted)?;
         let mut subs: HashMap<u16, usize> = HashMap::new();
         let mut scan = Scan::new(&self.data);
         let start = start_s(&self.data);

@@ -127,12 +127,12 @@ fn px4(n: usize, normalised: bool) -> Vec<(&'static str, Source)> {
         ),
         ("depth", one("vehicle_local_position", &["z"])),
     ];
-    let bridged = signals.iter().map(|(k, s)| {
-        let mut s = s.clone();
-        s.topic = format!("/fmu/out/{}", s.topic);
-        (*k, s)
-    });
-    let bridged: Vec<_> = bridged.collect();
+    let bridged: Vec<_> = (signals.iter())
+        .map(|(k, s)| {
+            let topic = format!("/fmu/out/{}", s.topic);
+            (*k, Source { topic, ..s.clone() })
+        })
+        .collect();
     signals.into_iter().chain(bridged).collect()
 }
 

@@ -52,36 +52,59 @@ const HORIZONTAL_VELOCITY: u32 = 1 << 1;
 /// Constant-position mode: no aiding at all, the filter holds its position.
 const CONSTANT_POSITION: u32 = 1 << 7;
 
-/// The filter's status for the velocity `velocity`, when the log has it: the status topic of
-/// the same filter instance (or MAVLink sender), its status word.
-fn status_source(log: &VehicleLog, velocity: &Source) -> Option<(Source, Rule)> {
-    if velocity.topic.ends_with("vehicle_local_position") {
-        let i = log.topic(&velocity.topic)?;
-        usable(log, i, "v_xy_valid")?;
-        return Some((Source::new(&velocity.topic, &["v_xy_valid"]), Rule::Flag));
+/// Where the filter's status for a velocity is.
+enum Status {
+    /// In the log: its topic and field, and how it says aided.
+    Found(Source, Rule),
+    /// The velocity is an autopilot's estimate, and the log holds no status for it.
+    Missing,
+    /// The velocity is not an estimate this module knows (a DVL's own, a tracker's).
+    NotEstimate,
+}
+
+/// The filter's status for the velocity `velocity`: the status topic of the same filter
+/// instance (or MAVLink sender), its status word.
+fn status_source(log: &VehicleLog, velocity: &Source) -> Status {
+    let found = |s: Option<(Source, Rule)>| s.map_or(Status::Missing, |(s, r)| Status::Found(s, r));
+    let topic = velocity.topic.as_str();
+    if topic.ends_with("vehicle_local_position") {
+        let flag = (log.topic(topic)).and_then(|i| usable(log, i, "v_xy_valid"));
+        return found(flag.map(|_| (Source::new(topic, &["v_xy_valid"]), Rule::Flag)));
     }
-    let (base, instance) = match velocity.topic.split_once('[') {
+    let (base, instance) = match topic.split_once('[') {
         Some((b, rest)) => (b, format!("[{rest}")),
-        None => (velocity.topic.as_str(), String::new()),
+        None => (topic, String::new()),
     };
-    let (topic, field) = match (log.format, base) {
+    let (status, field) = match (log.format, base) {
         (Format::Tlog, "LOCAL_POSITION_NED" | "GLOBAL_POSITION_INT") => {
             ("EKF_STATUS_REPORT", "flags")
         }
         (Format::DataFlash, "XKF1") => ("XKF4", "SS"),
         (Format::DataFlash, "NKF1") => ("NKF4", "SS"),
-        (Format::DataFlash | Format::Tlog, _) => return None,
-        _ if velocity.topic.contains("mavros/") => return mavros_status(log),
-        _ => return None,
+        (Format::DataFlash | Format::Tlog, _) => return Status::NotEstimate,
+        _ if topic.contains("mavros/") => {
+            return match mavros_status(log) {
+                Some((s, r)) => Status::Found(s, r),
+                None if topic.contains("mavros/local_position")
+                    || topic.contains("mavros/global_position") =>
+                {
+                    Status::Missing
+                }
+                None => Status::NotEstimate,
+            };
+        }
+        _ => return Status::NotEstimate,
     };
     // A telemetry log names a message by its sender only when several send it.
-    [format!("{topic}{instance}"), topic.to_string()]
-        .into_iter()
-        .find_map(|t| {
-            let i = log.topic(&t)?;
-            usable(log, i, field)?;
-            Some((Source::new(&t, &[field]), Rule::Bits))
-        })
+    found(
+        [format!("{status}{instance}"), status.to_string()]
+            .into_iter()
+            .find_map(|t| {
+                let i = log.topic(&t)?;
+                usable(log, i, field)?;
+                Some((Source::new(&t, &[field]), Rule::Bits))
+            }),
+    )
 }
 
 /// mavros's `ekf_status` plugin (mavros_extras): a topic of type `mavros_msgs/EKFStatusReport`
@@ -121,29 +144,15 @@ pub(super) fn add_status(
         return;
     };
     match status_source(log, &velocity) {
-        Some((source, rule)) => {
+        Status::Found(source, rule) => {
             let explicit = false;
             sources.push((rule.signal(), Chosen { source, explicit }));
         }
-        None if is_estimate(log, &velocity.topic) => notes.push(format!(
+        Status::Missing => notes.push(format!(
             "the velocity on `{}` is the autopilot's estimate, and the log holds no filter status to say a DVL or position fix aided it (mavros: record mavros_extras' `ekf_status` topic too); where nothing aided it, it is dead reckoning, not a measurement",
             velocity.topic
         )),
-        None => {}
-    }
-}
-
-/// Whether `topic` is one of the autopilot velocity estimates this module knows.
-fn is_estimate(log: &VehicleLog, topic: &str) -> bool {
-    let base = topic.split('[').next().unwrap_or(topic);
-    match log.format {
-        Format::Tlog => matches!(base, "LOCAL_POSITION_NED" | "GLOBAL_POSITION_INT"),
-        Format::DataFlash => matches!(base, "XKF1" | "NKF1"),
-        _ => {
-            topic.contains("mavros/local_position")
-                || topic.contains("mavros/global_position")
-                || topic.ends_with("vehicle_local_position")
-        }
+        Status::NotEstimate => {}
     }
 }
 
