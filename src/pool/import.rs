@@ -178,7 +178,8 @@ pub fn load(
         })
         .collect();
     run.repairs.extend(spread);
-    let logs = std::iter::once(&run.thrust).chain(run.sensor_logs());
+    let actuators = run.actuators.iter().map(|a| &a.log);
+    let logs = (std::iter::once(&run.thrust).chain(actuators)).chain(run.sensor_logs());
     let notes: Vec<String> = logs.flat_map(|l| l.notes.iter().cloned()).collect();
     run.notes.extend(notes);
     run.trim_command_to_sensors();
@@ -202,10 +203,7 @@ pub fn load_as_logged(
         None => from_log::FromLog::default(),
     };
     notes.append(&mut logged.notes);
-    let actuators = match find(files, "actuators.csv") {
-        Some(p) => Some(actuators::parse(&p, &read(root, &p)?)?),
-        None => None,
-    };
+    let actuators = actuator_log(root, files, &mut logged)?;
     let (command_path, thrust, force_logged) =
         command_log(root, dir, files, &mut logged, &actuators)?;
     let mut sensors = read_sensors(root, dir, files, meta.log.is_none(), &mut notes)?;
@@ -301,7 +299,36 @@ fn command_log(
         )],
         present: vec![false; THRUST.len() - 1],
     };
-    Ok((format!("{dir}/actuators.csv"), log, false))
+    let path = match (logged.source.as_ref()).filter(|_| find(files, "actuators.csv").is_none()) {
+        Some(s) => format!(
+            "{}:{}",
+            s.path,
+            s.topics.get("actuators").map_or("", String::as_str)
+        ),
+        None => format!("{dir}/actuators.csv"),
+    };
+    Ok((path, log, false))
+}
+
+/// The actuator commands of a fin-steered vehicle: `actuators.csv`, or the log's
+/// `log.actuators`; both is an error.
+fn actuator_log(
+    root: &Path,
+    files: &[String],
+    logged: &mut from_log::FromLog,
+) -> Result<Option<actuators::Actuators>, InputError> {
+    let from_log = logged.actuators.take();
+    let Some(p) = find(files, "actuators.csv") else {
+        return Ok(from_log);
+    };
+    if from_log.is_some() {
+        return Err(InputError::file(
+            p,
+            "the run has both actuators.csv and the actuators in its log",
+            "keep one: remove actuators.csv, or `actuators` from run.yaml's `log:`",
+        ));
+    }
+    Ok(Some(actuators::parse(&p, &read(root, &p)?)?))
 }
 
 /// The path of the run's file named `n`, if it has one.

@@ -72,7 +72,7 @@ fn same_log(what: &str, a: &Option<Log>, b: &Option<Log>) {
     }
 }
 
-fn same_fusion(what: &str, a: &PoolRun, b: &PoolRun) {
+pub fn same_fusion(what: &str, a: &PoolRun, b: &PoolRun) {
     let s = fusion::Settings::default();
     let (fa, fb) = (fusion::fuse(a, &s), fusion::fuse(b, &s));
     assert_eq!(fa.t.len(), fb.t.len(), "{what}: fused samples");

@@ -9,6 +9,7 @@
 use anyhow::Context;
 use hydrofit::core::model::thrusters::{Allocation, Command, Thrusters};
 use hydrofit::pool::import::PoolRun;
+use hydrofit::pool::import::actuators::Actuators;
 use hydrofit::pool::import::csvlog::Log;
 use hydrofit_logs::write::{
     self, BagCompression, BagWriter, Db3Layout, Db3Writer, McapCompression, McapWriter,
@@ -115,7 +116,13 @@ fn plan(
     let mut streams = Vec::new();
     let mut rows = Vec::new();
     let mut yaml = String::new();
-    command(run, alloc, format, &mut streams, &mut rows, &mut yaml)?;
+    // A fin-steered run without thrust.csv logs its actuators alone.
+    if run.force_logged || run.actuators.is_none() {
+        command(run, alloc, format, &mut streams, &mut rows, &mut yaml)?;
+    }
+    if let Some(a) = &run.actuators {
+        actuators(a, format, &mut streams, &mut rows, &mut yaml);
+    }
     if let Some(l) = &run.uwb {
         let s = Stream {
             name: "position",
@@ -268,6 +275,38 @@ fn inverse_thrust(a: &Allocation, f: f64) -> f64 {
         }
     }
     0.5 * (lo + hi)
+}
+
+/// A fin-steered vehicle's actuator commands, each in the unit its CSV column had (degrees,
+/// rpm), mapped with those columns.
+fn actuators(
+    a: &Actuators,
+    format: LogFormat,
+    streams: &mut Vec<Stream>,
+    rows: &mut Vec<Row>,
+    yaml: &mut String,
+) {
+    let n = a.names.len();
+    let s = Stream {
+        name: "actuators",
+        ros_topic: "/actuators",
+        ros_type: "std_msgs/Float64MultiArray",
+        ros_fields: (0..n).map(|k| format!("data[{k}]")).collect(),
+        df_labels: (0..n).map(|k| format!("A{k}")).collect(),
+    };
+    for (k, &t) in a.log.t.iter().enumerate() {
+        rows.push(Row {
+            stream: s.name,
+            t,
+            numbers: (0..n).map(|j| a.log.cols[j][k] / a.factors[j]).collect(),
+        });
+    }
+    let columns: Vec<String> = (a.names.iter().zip(&a.units))
+        .map(|(name, unit)| format!("{name}{unit}"))
+        .collect();
+    let extra = format!(", columns: [{}]", columns.join(", "));
+    *yaml += &mapping(&s, format, &(0..n).collect::<Vec<_>>(), &extra);
+    streams.push(s);
 }
 
 /// The IMU: attitude as a quaternion (FRD in NED), rates and specific force.
@@ -462,6 +501,7 @@ fn df_name(stream: &str) -> &'static str {
         "sonar" => "SNR",
         "imu" => "IMU",
         "depth" => "DPTH",
+        "actuators" => "ACT",
         _ => "NAV",
     }
 }

@@ -5,6 +5,7 @@
 mod architecture;
 mod artifacts;
 mod common;
+mod e2e_actuator_logs;
 mod e2e_autopilot_logs;
 mod e2e_build;
 mod e2e_design;

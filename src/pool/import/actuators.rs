@@ -27,19 +27,65 @@ const UNITS: [(&str, f64); 7] = [
     ("_N", 1.0),
 ];
 
-/// The actuator log: `log.cols[j]` is the actuator `names[j]`, in SI units.
+/// The actuator log: `log.cols[j]` is the actuator `names[j]`, in SI units; `units[j]` is
+/// the suffix its column was logged with (`_deg`), whose factor to SI is `factors[j]`.
 #[derive(Debug, Clone)]
 pub struct Actuators {
     pub names: Vec<String>,
+    pub units: Vec<&'static str>,
+    pub factors: Vec<f64>,
     pub log: Log,
 }
 
-/// The actuator's name and the factor to SI of a column header, or why it cannot be read.
-fn split_unit(col: &str) -> Option<(&str, f64)> {
+/// The actuator's name, unit suffix and factor to SI of a column header, or why it cannot
+/// be read.
+fn split_unit(col: &str) -> Option<(&str, &'static str, f64)> {
     UNITS.iter().find_map(|(suffix, f)| {
         let name = col.strip_suffix(suffix)?;
-        (!name.is_empty()).then_some((name, *f))
+        (!name.is_empty()).then_some((name, *suffix, *f))
     })
+}
+
+/// Why a column heading cannot name an actuator: which heading (0 for the first actuator's),
+/// what is wrong and how to fix it.
+#[derive(Debug)]
+pub struct HeadError {
+    pub at: usize,
+    pub what: String,
+    pub fix: &'static str,
+}
+
+/// The actuators named by their headings (`fin_top_deg`), no samples yet: every heading with
+/// a unit suffix and a name of its own. `actuators.csv`'s header and a log's `columns` alike.
+pub fn heads<S: AsRef<str>>(cols: &[S]) -> Result<Actuators, HeadError> {
+    let mut a = Actuators {
+        names: Vec::new(),
+        units: Vec::new(),
+        factors: Vec::new(),
+        log: Log::default(),
+    };
+    for (at, c) in cols.iter().enumerate() {
+        let c = c.as_ref();
+        let Some((name, unit, f)) = split_unit(c) else {
+            let shown: String = c.chars().take(60).collect();
+            return Err(HeadError {
+                at,
+                what: format!("column `{shown}` has no unit suffix"),
+                fix: "end each actuator column with its unit: _deg, _rad, _rpm, _rad_s, _pct, _N or _Nm",
+            });
+        };
+        if a.names.iter().any(|n| n == name) {
+            return Err(HeadError {
+                at,
+                what: format!("actuator `{name}` appears twice"),
+                fix: "give each actuator column its own name",
+            });
+        }
+        a.names.push(name.to_string());
+        a.units.push(unit);
+        a.factors.push(f);
+    }
+    Ok(a)
 }
 
 /// Reads `actuators.csv` at `path` with contents `text`.
@@ -58,44 +104,16 @@ pub fn parse(path: &str, text: &str) -> Result<Actuators, InputError> {
         )
         .at(1, Some(1)));
     }
-    let mut names = Vec::new();
-    let mut factors = Vec::new();
-    for (i, c) in cols.iter().enumerate().skip(1) {
-        let Some((name, f)) = split_unit(c) else {
-            let shown: String = c.chars().take(60).collect();
-            return Err(InputError::file(
-                path,
-                format!("column `{shown}` has no unit suffix"),
-                "end each actuator column with its unit: _deg, _rad, _rpm, _rad_s, _pct, _N or _Nm",
-            )
-            .at(
-                1,
-                Some(
-                    header
-                        .split(',')
-                        .take(i)
-                        .map(|s| s.len() + 1)
-                        .sum::<usize>()
-                        + 1,
-                ),
-            ));
-        };
-        if names.iter().any(|n| n == name) {
-            return Err(InputError::file(
-                path,
-                format!("actuator `{name}` appears twice"),
-                "give each actuator column its own name",
-            )
-            .at(1, None));
-        }
-        names.push(name.to_string());
-        factors.push(f);
-    }
-    let mut log = csvlog::parse_subset(path, text, &cols, "actuator log", 10)?;
-    for (c, f) in log.cols.iter_mut().zip(&factors) {
+    let mut a = heads(&cols[1..]).map_err(|e| {
+        // The heading's first character (`t` and each heading before it with its comma).
+        let col: usize = header.split(',').take(e.at + 1).map(|s| s.len() + 1).sum();
+        InputError::file(path, e.what, e.fix).at(1, Some(col + 1))
+    })?;
+    a.log = csvlog::parse_subset(path, text, &cols, "actuator log", 10)?;
+    for (c, f) in a.log.cols.iter_mut().zip(&a.factors) {
         c.iter_mut().for_each(|x| *x *= f);
     }
-    Ok(Actuators { names, log })
+    Ok(a)
 }
 
 /// The actuator values at times `t`, held from the last logged row (a command stays until

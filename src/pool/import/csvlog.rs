@@ -5,7 +5,7 @@ use crate::core::diag::InputError;
 use crate::core::input::{PLAUSIBLE, clip};
 
 /// A parsed log: the time column and the requested columns, in the requested order.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct Log {
     pub t: Vec<f64>,
     pub cols: Vec<Vec<f64>>,

@@ -5,6 +5,7 @@
 //! cannot tell a log from its CSV export. Per-thruster commands become the body wrench here,
 //! through `vehicle.thrusters`.
 
+mod actuators;
 mod aiding;
 mod layout;
 mod parts;
@@ -49,6 +50,8 @@ pub struct FromLog {
     pub depth: Option<Log>,
     pub uwb: Option<Log>,
     pub sonar: Option<Log>,
+    /// A fin-steered vehicle's actuator commands (`log.actuators`), as `actuators.csv`.
+    pub actuators: Option<super::actuators::Actuators>,
     pub notes: Vec<String>,
     pub source: Option<LogSource>,
 }
@@ -515,6 +518,7 @@ fn compile_part<'a>(
             format!("add `fields: [...]` (the message has: {schema})"),
         ));
     }
+    actuators::check_columns(name, s, fields.len(), shown)?;
     if name == "attitude" && !matches!(fields.len(), 3 | 4) {
         return Err(InputError::file(
             shown,

@@ -1,6 +1,6 @@
 //! `run.yaml`'s `log:` section: a log the vehicle wrote (a ROS 1 bag, an MCAP file, an
 //! ArduPilot `.BIN` or `.tlog`), the span of it that is this run, and which topic and fields
-//! carry each signal the pool stage reads. Common stacks have defaults (`stack: mavros`,
+//! carry each signal the pool stage reads (a fin-steered vehicle's actuators too). Common stacks have defaults (`stack: mavros`,
 //! `ardusub`, `ardusub_tlog`, `px4`); anything set here overrides them.
 
 use serde::{Deserialize, Serialize};
@@ -64,6 +64,11 @@ pub struct LogSpec {
     /// A position tracked in a fixed imaging sonar's images, pool frame, x, y.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sonar: Option<Source>,
+    /// The actuator commands of a vehicle steered by fins and propeller speed, as
+    /// `actuators.csv` holds them: one field per actuator, each named by `columns` as that
+    /// file's header names it (`fin_top_deg`, `prop_rpm`: the name and the unit).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub actuators: Option<Source>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -147,6 +152,10 @@ pub struct Source {
     /// For a pressure read as depth: the water's density (default 1000 kg/m^3, a pool).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub density_kg_m3: Option<f64>,
+    /// For the actuators: each field's column as `actuators.csv` would head it, its name and
+    /// unit (`fin_top_deg`, `prop_rpm`, `thruster_pct`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub columns: Vec<String>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -196,6 +205,7 @@ impl Source {
             unit: None,
             frame: None,
             density_kg_m3: None,
+            columns: Vec::new(),
         }
     }
 
@@ -260,7 +270,7 @@ fn range(f: &str) -> Option<(&str, usize, usize)> {
 
 impl LogSpec {
     /// The signals set here, by name.
-    pub fn signals(&self) -> [(&'static str, Option<&Source>); 9] {
+    pub fn signals(&self) -> [(&'static str, Option<&Source>); 10] {
         [
             ("command", self.command.as_ref()),
             ("wrench", self.wrench.as_ref()),
@@ -271,6 +281,7 @@ impl LogSpec {
             ("depth", self.depth.as_ref()),
             ("position", self.position.as_ref()),
             ("sonar", self.sonar.as_ref()),
+            ("actuators", self.actuators.as_ref()),
         ]
     }
 }

@@ -83,6 +83,9 @@ pub(super) fn build(
     out.depth = samples
         .get("depth")
         .map(|s| depth(s, src("depth").expect("a source")));
+    out.actuators = (samples.get("actuators"))
+        .map(|s| super::actuators::lay_out(s, src("actuators").expect("a source"), shown))
+        .transpose()?;
     positions(out, sources, samples, shown)
 }
 
