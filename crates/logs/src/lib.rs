@@ -163,6 +163,33 @@ const ZSTD_MAGIC: &[u8] = &[0x28, 0xB5, 0x2F, 0xFD];
 const HEADERLESS: &str = "a CSV table without a header (its first row is numbers): its columns have no names to read them by";
 const HEADERLESS_FIX: &str = "give the table a header line naming its columns, the time among them (`t` in seconds, or `time_ms`, ...): MATLAB's `writetable` writes one, `writematrix` does not; or convert it into a run folder's files (docs/formats.md)";
 
+/// A file that holds no log at all: empty (a copy or a download that did not finish), or a
+/// Git LFS pointer (a repository cloned without `git lfs`, whose large files are stubs).
+fn not_a_log(path: &Path, data: &[u8]) -> Option<LogError> {
+    if data.is_empty() {
+        return Some(
+            LogError::new(path, "the file is empty (0 bytes)")
+                .at(0)
+                .fix("copy the log again: a copy or download that stopped leaves an empty file"),
+        );
+    }
+    if data.starts_with(b"version https://git-lfs.github.com/spec/") {
+        let size = String::from_utf8_lossy(&data[..data.len().min(400)])
+            .lines()
+            .find_map(|l| l.strip_prefix("size ").map(str::to_string))
+            .unwrap_or_else(|| "?".into());
+        return Some(
+            LogError::new(
+                path,
+                format!("a Git LFS pointer, not the log (the log is {size} bytes, not fetched)"),
+            )
+            .at(0)
+            .fix("fetch the large files of the clone: `git lfs install && git lfs pull`"),
+        );
+    }
+    None
+}
+
 /// The error for a folder of CSV files none of which names a time: each listed, those whose
 /// first row is numbers said to have no header.
 fn untimed_folder(path: &Path, files: &[(PathBuf, bool)]) -> LogError {
@@ -208,6 +235,9 @@ impl Log {
             LogError::new(path, format!("cannot read the log: {e}"))
                 .fix("give the path of a ROS 1 bag, an MCAP file, an ArduPilot .BIN log, a PX4 .ulg or a .tlog")
         })?;
+        if let Some(e) = not_a_log(path, &data) {
+            return Err(e);
+        }
         let (format, topics, inner) = if data.starts_with(ROS1_MAGIC) {
             let (bag, topics) = ros1::Bag::open(path, data)?;
             (Format::Ros1Bag, topics, Inner::Ros1(bag))
@@ -385,6 +415,28 @@ mod tests {
                     .contains("pose_data.csv (no header: its first row is numbers)"),
             "{e}"
         );
+        std::fs::remove_dir_all(d).unwrap();
+    }
+
+    /// An empty file and a Git LFS pointer are said to be what they are, with the fix.
+    #[test]
+    fn an_empty_file_and_an_lfs_pointer_are_named() {
+        let d = std::env::temp_dir().join(format!("hydrofit-nolog-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        let empty = d.join("bag_0.mcap");
+        std::fs::write(&empty, "").unwrap();
+        let e = super::Log::open(&empty).unwrap_err();
+        assert!(e.what.contains("empty (0 bytes)"), "{e}");
+        let pointer = d.join("dive.bag");
+        let text =
+            "version https://git-lfs.github.com/spec/v1\noid sha256:4d7a2146\nsize 3800660\n";
+        std::fs::write(&pointer, text).unwrap();
+        let e = super::Log::open(&pointer).unwrap_err();
+        assert!(
+            e.what.contains("Git LFS pointer") && e.what.contains("3800660"),
+            "{e}"
+        );
+        assert!(e.fix.contains("git lfs pull"), "{e}");
         std::fs::remove_dir_all(d).unwrap();
     }
 }
