@@ -13,9 +13,10 @@ use hydrofit::pool::import::csvlog::Log;
 use hydrofit::pool::import::{self, PoolRun};
 use std::path::Path;
 
-const FORMATS: [LogFormat; 6] = [
+const FORMATS: [LogFormat; 7] = [
     LogFormat::Ros1Bag,
     LogFormat::Mcap,
+    LogFormat::McapRos1,
     LogFormat::Db3,
     LogFormat::DataFlash,
     LogFormat::TopicCsv,

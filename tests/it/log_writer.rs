@@ -22,6 +22,8 @@ use std::path::Path;
 pub enum LogFormat {
     Ros1Bag,
     Mcap,
+    /// A ROS 1 bag converted to MCAP (`mcap convert`: `ros1msg` schemas, ROS 1 messages).
+    McapRos1,
     /// A ROS 2 Humble SQLite bag (no definitions inside: the reader's built-in types).
     Db3,
     DataFlash,
@@ -37,6 +39,7 @@ impl LogFormat {
         match self {
             LogFormat::Ros1Bag => "run.bag",
             LogFormat::Mcap => "run.mcap",
+            LogFormat::McapRos1 => "run_ros1.mcap",
             LogFormat::Db3 => "run.db3",
             LogFormat::DataFlash => "run.BIN",
             LogFormat::TopicCsv => "topics",
@@ -94,6 +97,11 @@ pub fn write(
             let mut w = McapWriter::create(&path, McapCompression::Zstd)?;
             write_ros(&mut w, &streams, &rows)?;
             w.finish()?;
+        }
+        LogFormat::McapRos1 => {
+            let mut w = Ros1Mcap(McapWriter::create(&path, McapCompression::Zstd)?);
+            write_ros(&mut w, &streams, &rows)?;
+            w.0.finish()?;
         }
         LogFormat::Db3 => {
             let mut w = Db3Writer::create(&path, Db3Layout::Humble)?;
@@ -577,6 +585,22 @@ macro_rules! ros_writer {
             }
         }
     };
+}
+
+/// An MCAP writer whose topics carry ROS 1 messages.
+struct Ros1Mcap(McapWriter);
+
+impl RosWriter for Ros1Mcap {
+    type Id = u16;
+    fn topic(&mut self, topic: &str, type_name: &str) -> Result<u16, LogError> {
+        self.0.add_ros1_topic(topic, type_name)
+    }
+    fn layout(&self, id: u16) -> Option<&Schema> {
+        self.0.schema(id)
+    }
+    fn put(&mut self, id: u16, time_s: f64, value: &Value) -> Result<(), LogError> {
+        self.0.write(id, time_s, value)
+    }
 }
 
 ros_writer!(BagWriter, u32);

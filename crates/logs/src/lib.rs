@@ -44,7 +44,7 @@ use std::path::{Path, PathBuf};
 pub enum Format {
     /// ROS 1 bag, version 2.0 (uncompressed, bz2 or lz4 chunks).
     Ros1Bag,
-    /// MCAP (ROS 2 `ros2msg` schemas with CDR messages).
+    /// MCAP (ROS 2 `ros2msg` schemas with CDR messages, or `ros1msg` with ROS 1 messages).
     Mcap,
     /// ArduPilot DataFlash binary log (`.BIN`), self-described by FMT records.
     DataFlash,

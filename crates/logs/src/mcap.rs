@@ -1,5 +1,6 @@
 //! MCAP files as ROS 2 writes them (MCAP spec, <https://mcap.dev/spec>): `ros2msg` schemas and
-//! CDR messages, chunked or not, chunks uncompressed, zstd or lz4. The reader, and [`Writer`].
+//! CDR messages, chunked or not, chunks uncompressed, zstd or lz4; and ROS 1 bags converted
+//! to MCAP (`mcap convert`: `ros1msg` schemas, ROS 1 messages). The reader, and [`Writer`].
 //! Other schema encodings (`ros2idl`, `protobuf`, `jsonschema`, ...) are reported, not read.
 
 mod index;
@@ -26,6 +27,8 @@ pub struct File {
     chunks: Vec<Chunk>,
     /// Per channel (as `Slot::conn` counts them): its id and its topic.
     channels: Vec<(u16, usize)>,
+    /// Per topic: whose messages it carries (ROS 1's serialization or ROS 2's CDR).
+    flavors: Vec<Flavor>,
     /// Every message, in time order.
     slots: Vec<Slot>,
     /// How many topics `open` listed: `read` must be given those.
@@ -76,11 +79,12 @@ impl File {
             }
         };
         found.slots.sort_unstable_by_key(Slot::key);
-        let (topics, channels) = topics_of(path, &found)?;
+        let (topics, channels, flavors) = topics_of(path, &found)?;
         let file = File {
             data,
             chunks: found.chunks,
             channels,
+            flavors,
             slots: found.slots,
             n_topics: topics.len(),
             notes,
@@ -186,7 +190,11 @@ impl File {
             ));
         }
         let time_s = wire::ns_to_s(time_ns);
-        let value = wire::decode_cdr(&topic.schema, payload).map_err(|e| {
+        let decoded = match self.flavors[t] {
+            Flavor::Ros1 => wire::decode(&topic.schema, payload, wire::Wire::Ros1),
+            Flavor::Ros2 => wire::decode_cdr(&topic.schema, payload),
+        };
+        let value = decoded.map_err(|e| {
             fail(format!(
                 "the message at t = {time_s:.6} s does not match its schema: {e}"
             ))
@@ -204,11 +212,13 @@ impl File {
 /// Per connection (channel): its id in the file and the index of its topic.
 type Conns = Vec<(u16, usize)>;
 
-/// The topics (one per topic name and schema), sorted by name, with counts and time spans.
-fn topics_of(path: &Path, found: &Found) -> Result<(Vec<Topic>, Conns), LogError> {
+/// The topics (one per topic name and schema), sorted by name, with counts and time spans,
+/// and each topic's flavour.
+fn topics_of(path: &Path, found: &Found) -> Result<(Vec<Topic>, Conns, Vec<Flavor>), LogError> {
     let mut order: Vec<usize> = (0..found.channels.len()).collect();
     order.sort_by(|&a, &b| found.channels[a].topic.cmp(&found.channels[b].topic));
     let mut topics: Vec<Topic> = Vec::new();
+    let mut flavors: Vec<Flavor> = Vec::new();
     let mut keys: HashMap<(&str, u16), usize> = HashMap::new();
     let mut channels = vec![(0, 0); found.channels.len()];
     for i in order {
@@ -216,7 +226,9 @@ fn topics_of(path: &Path, found: &Found) -> Result<(Vec<Topic>, Conns), LogError
         let t = match keys.get(&(c.topic.as_str(), c.schema_id)) {
             Some(&t) => t,
             None => {
-                topics.push(new_topic(path, c, &found.schemas)?);
+                let (topic, flavor) = new_topic(path, c, &found.schemas)?;
+                topics.push(topic);
+                flavors.push(flavor);
                 keys.insert((c.topic.as_str(), c.schema_id), topics.len() - 1);
                 topics.len() - 1
             }
@@ -233,10 +245,14 @@ fn topics_of(path: &Path, found: &Found) -> Result<(Vec<Topic>, Conns), LogError
         topic.first_s = topic.first_s.min(t);
         topic.last_s = topic.last_s.max(t);
     }
-    Ok((topics, channels))
+    Ok((topics, channels, flavors))
 }
 
-fn new_topic(path: &Path, c: &ChannelRec, schemas: &[SchemaRec]) -> Result<Topic, LogError> {
+fn new_topic(
+    path: &Path,
+    c: &ChannelRec,
+    schemas: &[SchemaRec],
+) -> Result<(Topic, Flavor), LogError> {
     let fail = |what: String, fix: &str| {
         LogError::new(path, format!("topic {}: {what}", c.topic))
             .at(c.at as u64)
@@ -245,39 +261,52 @@ fn new_topic(path: &Path, c: &ChannelRec, schemas: &[SchemaRec]) -> Result<Topic
     let Some(s) = schemas.iter().find(|s| s.id == c.schema_id) else {
         return Err(fail(
             format!("its channel has no schema (schema id {})", c.schema_id),
-            "hydrofit reads ROS 2 MCAP files, whose channels have ros2msg schemas",
+            "hydrofit reads ROS MCAP files, whose channels have ros2msg or ros1msg schemas",
         ));
     };
-    if s.encoding != "ros2msg" {
+    let flavor = match s.encoding.as_str() {
+        "ros2msg" => Flavor::Ros2,
+        "ros1msg" => Flavor::Ros1,
+        other => {
+            return Err(fail(
+                format!(
+                    "its schema {} is encoded as `{other}`, which is not read: only ROS \
+                     `ros2msg` and `ros1msg` schemas are (not ros2idl, protobuf, flatbuffer, \
+                     jsonschema)",
+                    s.name
+                ),
+                "record the topic with a message type defined in a .msg file, or export the \
+                 topics needed to CSV",
+            ));
+        }
+    };
+    let wanted = match flavor {
+        Flavor::Ros2 => "cdr",
+        Flavor::Ros1 => "ros1",
+    };
+    if c.encoding != wanted {
         return Err(fail(
             format!(
-                "its schema {} is encoded as `{}`, which is not read: only ROS 2 `ros2msg` \
-                 schemas are (not ros2idl, protobuf, flatbuffer, jsonschema)",
-                s.name, s.encoding
+                "its messages are encoded as `{}`, not `{wanted}` as its `{}` schema says",
+                c.encoding, s.encoding
             ),
-            "record the topic with a message type defined in a .msg file, or export the topics \
-             needed to CSV",
-        ));
-    }
-    if c.encoding != "cdr" {
-        return Err(fail(
-            format!("its messages are encoded as `{}`, not CDR", c.encoding),
-            "hydrofit reads ROS 2 (CDR) messages",
+            "hydrofit reads ROS 2 (CDR) messages and ROS 1 messages converted to MCAP",
         ));
     }
     let text = String::from_utf8_lossy(&s.data);
-    let schema = msgdef::schema(&text, &s.name, Flavor::Ros2).map_err(|e| {
+    let schema = msgdef::schema(&text, &s.name, flavor).map_err(|e| {
         fail(
             format!("its schema {} cannot be read: {e}", s.name),
             "the schema record is damaged or was written by a non-standard tool",
         )
     })?;
-    Ok(Topic {
+    let topic = Topic {
         name: c.topic.clone(),
         type_name: s.name.clone(),
         count: 0,
         first_s: 0.0,
         last_s: 0.0,
         schema,
-    })
+    };
+    Ok((topic, flavor))
 }

@@ -1,4 +1,5 @@
-//! Writes MCAP files as ROS 2 does (profile `ros2`, `ros2msg` schemas, CDR messages): the
+//! Writes MCAP files as ROS 2 does (profile `ros2`, `ros2msg` schemas, CDR messages), or as
+//! `mcap convert` writes a ROS 1 bag's messages (`ros1msg` schemas, ROS 1 serialization): the
 //! data section (schemas and channels, then messages in chunks with their message indexes,
 //! or loose), then a summary (schemas, channels, statistics, chunk indexes), summary offsets
 //! and the footer (MCAP spec, "File Structure"). CRCs are written for readers to check.
@@ -32,6 +33,8 @@ struct Channel {
     schema: Schema,
     topic: String,
     count: u64,
+    /// ROS 1 messages (`ros1msg` schema) or ROS 2 CDR (`ros2msg`).
+    flavor: Flavor,
 }
 
 /// The open chunk.
@@ -98,13 +101,39 @@ impl Writer {
         type_name: &str,
         definition: &str,
     ) -> Result<u16, LogError> {
-        let schema = schema(definition, type_name, Flavor::Ros2)
+        self.channel(topic, type_name, definition, Flavor::Ros2)
+    }
+
+    /// Adds a topic of ROS 1 messages, as `mcap convert` writes a bag's: its ROS 1 type
+    /// (`nav_msgs/Odometry`) and `ros1msg` definition (the bag's `message_definition`, its
+    /// dependencies after `===` lines); returns its channel id for [`Writer::write`].
+    pub fn add_ros1_channel(
+        &mut self,
+        topic: &str,
+        type_name: &str,
+        definition: &str,
+    ) -> Result<u16, LogError> {
+        self.channel(topic, type_name, definition, Flavor::Ros1)
+    }
+
+    fn channel(
+        &mut self,
+        topic: &str,
+        type_name: &str,
+        definition: &str,
+        flavor: Flavor,
+    ) -> Result<u16, LogError> {
+        let schema = schema(definition, type_name, flavor)
             .map_err(|e| LogError::new(&self.path, format!("definition of {type_name}: {e}")))?;
         let id = u16::try_from(self.channels.len() + 1)
             .map_err(|_| LogError::new(&self.path, "more than 65535 channels"))?;
+        let (schema_encoding, message_encoding): (&[u8], &[u8]) = match flavor {
+            Flavor::Ros1 => (b"ros1msg", b"ros1"),
+            Flavor::Ros2 => (b"ros2msg", b"cdr"),
+        };
         let mut body = id.to_le_bytes().to_vec();
         put_bytes(&mut body, type_name.as_bytes());
-        put_bytes(&mut body, b"ros2msg");
+        put_bytes(&mut body, schema_encoding);
         put_bytes(&mut body, definition.as_bytes());
         let mut rec = Vec::new();
         put(&mut rec, OP_SCHEMA, &body);
@@ -112,7 +141,7 @@ impl Writer {
         let mut body = id.to_le_bytes().to_vec();
         body.extend(id.to_le_bytes());
         put_bytes(&mut body, topic.as_bytes());
-        put_bytes(&mut body, b"cdr");
+        put_bytes(&mut body, message_encoding);
         body.extend(0u32.to_le_bytes()); // metadata: an empty map
         let mut chan = Vec::new();
         put(&mut chan, OP_CHANNEL, &body);
@@ -124,8 +153,17 @@ impl Writer {
             schema,
             topic: topic.to_string(),
             count: 0,
+            flavor,
         });
         Ok(id)
+    }
+
+    /// [`Writer::add_ros1_channel`] for one of the common types [`ros_types`] defines.
+    pub fn add_ros1_topic(&mut self, topic: &str, type_name: &str) -> Result<u16, LogError> {
+        let def = ros_types::ros1(type_name).ok_or_else(|| {
+            LogError::new(&self.path, format!("no built-in definition of {type_name}"))
+        })?;
+        self.add_ros1_channel(topic, type_name, &def)
     }
 
     /// Adds a topic of one of the common types [`ros_types`] defines (`sensor_msgs/Imu`).
@@ -156,12 +194,16 @@ impl Writer {
         else {
             return Err(LogError::new(&self.path, format!("no channel {id}")));
         };
-        let payload = encode::cdr(&ch.schema, value)
-            .map_err(|e| LogError::new(&self.path, format!("{}: {e}", ch.topic)))?;
+        let payload = match ch.flavor {
+            Flavor::Ros1 => encode::ros1(&ch.schema, value),
+            Flavor::Ros2 => encode::cdr(&ch.schema, value),
+        }
+        .map_err(|e| LogError::new(&self.path, format!("{}: {e}", ch.topic)))?;
         self.write_bytes(id, time_s, &payload)
     }
 
-    /// Writes a message already serialized (CDR with its encapsulation header) as it is: for
+    /// Writes a message already serialized (CDR with its encapsulation header, or ROS 1's
+    /// serialization on a ROS 1 channel) as it is: for
     /// copying messages, and for testing readers with messages that do not match their type.
     pub fn write_bytes(&mut self, id: u16, time_s: f64, payload: &[u8]) -> Result<(), LogError> {
         let Some(ch) = (id as usize)

@@ -2,7 +2,8 @@
 `rosbags` package (uncompressed, bz2, lz4) and MCAP files written by the `mcap` and
 `mcap-ros2-support` packages (zstd, lz4, uncompressed): other implementations than ours.
 Run from the crate root: pip install rosbags mcap mcap-ros2-support; python3 tests/data/make_fixtures.py
-The last part writes a ROS 2 SQLite bag folder (`py-rosbag2/`) with the MCAP files' /cmd messages.
+Then a ROS 2 SQLite bag folder (`py-rosbag2/`) with the MCAP files' /cmd messages, and the bags'
+/imu converted to MCAP as `mcap convert` does (`py-ros1.mcap`: `ros1msg` schema, ROS 1 messages).
 Message i has header.stamp = 1700000000 + i // 100 + (i % 100) * 0.01 s; the bags' /imu has
 header.seq = i and angular_velocity.x = 0.5 i; the MCAP files' /cmd has twist.linear.x = 0.25 i
 and twist.angular.z = -0.5 i.
@@ -46,3 +47,18 @@ with Bag2Writer('tests/data/py-rosbag2', version=8, storage_plugin=StoragePlugin
     for i in range(300):
         m = TS(H2(T2(1700000000 + i//100, (i%100)*10_000_000), 'base'), Tw(V2(i*0.25, 0, 0), V2(0, 0, -i*0.5)))
         w.write(c, 1700000000*10**9 + i*10_000_000 + 7, ts2.serialize_cdr(m, TS.__msgtype__))
+# A ROS 1 bag's /imu as `mcap convert` writes it: profile `ros1`, a `ros1msg` schema (the
+# bag's message_definition) and `ros1` messages, written by the `mcap` package's writer with
+# the messages serialized by `rosbags` (pip install mcap).
+from mcap.writer import Writer as RawMcapWriter, CompressionType
+definition, _ = ts.generate_msgdef(Imu.__msgtype__)
+with open('tests/data/py-ros1.mcap', 'wb') as f:
+    w = RawMcapWriter(f, compression=CompressionType.ZSTD)
+    w.start(profile='ros1', library='make_fixtures.py')
+    sid = w.register_schema(name='sensor_msgs/Imu', encoding='ros1msg', data=definition.encode())
+    cid = w.register_channel(topic='/imu', message_encoding='ros1', schema_id=sid)
+    for i in range(300):
+        m = Imu(Header(i, Time(1700000000 + i//100, (i%100)*10_000_000), 'imu'), Q(0,0,0,1), np.zeros(9), V(i*0.5,0,0), np.zeros(9), V(0,0,-9.81), np.zeros(9))
+        t = (1700000000 + i//100)*10**9 + (i%100)*10_000_000 + 5
+        w.add_message(channel_id=cid, log_time=t, data=bytes(ts.serialize_ros1(m, Imu.__msgtype__)), publish_time=t, sequence=i)
+    w.finish()

@@ -286,6 +286,30 @@ pub fn write_mcap_with(
     sent
 }
 
+/// Writes the run as a ROS 1 bag converted to MCAP (`ros1msg` schemas, ROS 1 messages, as
+/// `mcap convert` writes them); returns what was sent.
+pub fn write_ros1_mcap(path: &Path, c: McapCompression, seconds: f64) -> Vec<Sent> {
+    let mut w = McapWriter::create(path, c).expect("create");
+    let mut ids = Vec::new();
+    for &(topic, ty, _) in TOPICS {
+        let id = match ty {
+            "test_msgs/Everything" => w.add_ros1_channel(topic, ty, &custom_ros1()),
+            _ => w.add_ros1_topic(topic, ty),
+        };
+        ids.push(id.expect("channel"));
+    }
+    let schemas: Vec<Schema> = ids
+        .iter()
+        .map(|&id| w.schema(id).expect("schema").clone())
+        .collect();
+    let sent = run(&schemas, seconds);
+    for m in &sent {
+        w.write(ids[m.topic], m.time_s, &m.value).expect("write");
+    }
+    w.finish().expect("finish");
+    sent
+}
+
 /// Every message of every topic of `log`.
 pub fn read_all(log: &Log) -> Vec<Message> {
     let all: Vec<usize> = (0..log.topics.len()).collect();

@@ -1,5 +1,6 @@
 //! Files written by other implementations (Python `rosbags` (ROS 1 bags and a ROS 2 SQLite bag
-//! folder), `mcap` + `mcap-ros2-support`;
+//! folder), `mcap` + `mcap-ros2-support`, `mcap` with `rosbags`' ROS 1 serialization (a bag
+//! converted to MCAP);
 //! see tests/data/make_fixtures.py), and our files' shape as they expect it.
 
 use hydrofit_logs::Log;
@@ -13,6 +14,7 @@ fn files_other_writers_wrote_read_right() {
         ("py-none.bag", "angular_velocity.x", 0.5, "header.seq", 1.0),
         ("py-bz2.bag", "angular_velocity.x", 0.5, "header.seq", 1.0),
         ("py-lz4.bag", "angular_velocity.x", 0.5, "header.seq", 1.0),
+        ("py-ros1.mcap", "angular_velocity.x", 0.5, "header.seq", 1.0),
         (
             "py-none.mcap",
             "twist.linear.x",

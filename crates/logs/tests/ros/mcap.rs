@@ -26,6 +26,39 @@ fn mcap_files_round_trip_chunked_or_not() {
     }
 }
 
+/// A ROS 1 bag converted to MCAP (`mcap convert`) reads as the bag does: its messages keep
+/// ROS 1's serialization and `Header` (with `seq`) under `ros1msg` schemas.
+#[test]
+fn ros1_messages_in_mcap_round_trip() {
+    for c in [McapCompression::Unchunked, McapCompression::Zstd] {
+        let path = tmp(&format!("ros1-{c:?}.mcap"));
+        let sent = write_ros1_mcap(&path, c, 10.0);
+        let log = Log::open(&path).unwrap();
+        assert_eq!(log.format, Format::Mcap);
+        let imu = log.topic("/imu").unwrap();
+        assert_eq!(log.topics[imu].type_name, "sensor_msgs/Imu");
+        assert!(log.topics[imu].schema.select("header.seq").is_ok());
+        assert_same(&log, &read_all(&log), &sent);
+    }
+    // A ros1msg schema over CDR messages is refused, naming both.
+    let path = tmp("ros1-cdr.mcap");
+    write_ros1_mcap(&path, McapCompression::None, 1.0);
+    let mut bytes = std::fs::read(&path).unwrap();
+    let mut k = 0;
+    // Each channel's message encoding `ros1` (4 bytes after its length) becomes `cdr ` -> the
+    // length stays, so write a 4-letter encoding the reader does not take for ROS 1.
+    while let Some(i) = find(&bytes[k..], b"\x04\x00\x00\x00ros1") {
+        bytes[k + i + 4..k + i + 8].copy_from_slice(b"xcdr");
+        k += i + 1;
+    }
+    std::fs::write(&path, &bytes).unwrap();
+    let e = Log::open(&path).unwrap_err();
+    assert!(
+        e.what.contains("encoded as `xcdr`, not `ros1`") && e.what.contains("ros1msg"),
+        "{e}"
+    );
+}
+
 #[test]
 fn an_mcap_file_never_finished_is_scanned() {
     for c in ALL {
