@@ -203,7 +203,9 @@ pub fn load_as_logged(
         None => from_log::FromLog::default(),
     };
     notes.append(&mut logged.notes);
-    let actuators = actuator_log(root, files, &mut logged)?;
+    let csv =
+        (find(files, "actuators.csv").map(|p| read(root, &p).map(|text| (p, text)))).transpose()?;
+    let actuators = actuators::of_run(csv, logged.actuators.take())?;
     let (command_path, thrust, force_logged) =
         command_log(root, dir, files, &mut logged, &actuators)?;
     let mut sensors = read_sensors(root, dir, files, meta.log.is_none(), &mut notes)?;
@@ -308,27 +310,6 @@ fn command_log(
         None => format!("{dir}/actuators.csv"),
     };
     Ok((path, log, false))
-}
-
-/// The actuator commands of a fin-steered vehicle: `actuators.csv`, or the log's
-/// `log.actuators`; both is an error.
-fn actuator_log(
-    root: &Path,
-    files: &[String],
-    logged: &mut from_log::FromLog,
-) -> Result<Option<actuators::Actuators>, InputError> {
-    let from_log = logged.actuators.take();
-    let Some(p) = find(files, "actuators.csv") else {
-        return Ok(from_log);
-    };
-    if from_log.is_some() {
-        return Err(InputError::file(
-            p,
-            "the run has both actuators.csv and the actuators in its log",
-            "keep one: remove actuators.csv, or `actuators` from run.yaml's `log:`",
-        ));
-    }
-    Ok(Some(actuators::parse(&p, &read(root, &p)?)?))
 }
 
 /// The path of the run's file named `n`, if it has one.

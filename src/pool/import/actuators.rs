@@ -116,6 +116,23 @@ pub fn parse(path: &str, text: &str) -> Result<Actuators, InputError> {
     Ok(a)
 }
 
+/// The actuator commands of a fin-steered run: `actuators.csv` (`csv`: its path and text), or
+/// the actuators of its log (`log.actuators`); both is an error.
+pub fn of_run(
+    csv: Option<(String, String)>,
+    from_log: Option<Actuators>,
+) -> Result<Option<Actuators>, InputError> {
+    match (csv, from_log) {
+        (Some((p, _)), Some(_)) => Err(InputError::file(
+            p,
+            "the run has both actuators.csv and the actuators in its log",
+            "keep one: remove actuators.csv, or `actuators` from run.yaml's `log:`",
+        )),
+        (Some((p, text)), None) => parse(&p, &text).map(Some),
+        (None, from_log) => Ok(from_log),
+    }
+}
+
 /// The actuator values at times `t`, held from the last logged row (a command stays until
 /// the next one); before the first row, the first value.
 pub fn hold_at(log: &Log, col: usize, t: &[f64]) -> Vec<f64> {
