@@ -152,6 +152,11 @@ pub struct Source {
     /// For a pressure read as depth: the water's density (default 1000 kg/m^3, a pool).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub density_kg_m3: Option<f64>,
+    /// For a velocity: a field of the same messages that is false (0) where the sample is not
+    /// a measurement (a DVL without bottom lock). Water Linked's `velocity_valid`
+    /// (`dvl_msgs/DVL`) is found without it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub valid: Option<String>,
     /// For the actuators: each field's column as `actuators.csv` would head it, its name and
     /// unit (`fin_top_deg`, `prop_rpm`, `thruster_pct`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -205,6 +210,7 @@ impl Source {
             unit: None,
             frame: None,
             density_kg_m3: None,
+            valid: None,
             columns: Vec::new(),
         }
     }

@@ -14,8 +14,14 @@
 //! `mavros_msgs/EKFStatusReport`; a bag without it leaves `local_position/odom` unchecked.
 //! PX4 says it on the velocity's own message: `vehicle_local_position.v_xy_valid` (in a ULog,
 //! and on the ROS 2 bridge's `/fmu/out/vehicle_local_position`).
+//!
+//! A DVL says it of its own velocity: without bottom lock (too high, too close, too few
+//! beams) its velocity is not a measurement, and its message says so (Water Linked's
+//! `dvl_msgs/DVL.velocity_valid`, or the field `log.velocity.valid` names). Those samples are
+//! left out the same way.
 
 use super::{Chosen, Samples};
+use crate::core::diag::InputError;
 use crate::pool::import::log_spec::Source;
 use hydrofit_logs::{Format, Log as VehicleLog};
 use std::collections::BTreeMap;
@@ -27,6 +33,8 @@ enum Rule {
     Bits,
     /// PX4's flag: not zero.
     Flag,
+    /// A DVL's validity flag on its own messages: not zero.
+    Lock,
 }
 
 impl Rule {
@@ -35,6 +43,19 @@ impl Rule {
         match self {
             Rule::Bits => "ekf_status",
             Rule::Flag => "velocity_valid",
+            Rule::Lock => "dvl_valid",
+        }
+    }
+
+    /// Why a sample the rule marks is not a measurement.
+    fn why(self, status: &str) -> String {
+        match self {
+            Rule::Lock => format!(
+                "the DVL marks them not valid (its validity flag on `{status}` false: no bottom lock, too close or too few beams)"
+            ),
+            _ => format!(
+                "the autopilot's filter status (`{status}`) says its horizontal velocity was not aided (no DVL or position fix: the velocity is then dead reckoning, not a measurement)"
+            ),
         }
     }
 
@@ -42,10 +63,12 @@ impl Rule {
         let w = word as u32;
         match self {
             Rule::Bits => w & HORIZONTAL_VELOCITY != 0 && w & CONSTANT_POSITION == 0,
-            Rule::Flag => word != 0.0,
+            Rule::Flag | Rule::Lock => word != 0.0,
         }
     }
 }
+
+const RULES: [Rule; 3] = [Rule::Bits, Rule::Flag, Rule::Lock];
 
 /// `EKF_STATUS_FLAGS` / `nav_filter_status`: horizontal velocity estimate good.
 const HORIZONTAL_VELOCITY: u32 = 1 << 1;
@@ -67,6 +90,14 @@ enum Status {
 fn status_source(log: &VehicleLog, velocity: &Source) -> Status {
     let found = |s: Option<(Source, Rule)>| s.map_or(Status::Missing, |(s, r)| Status::Found(s, r));
     let topic = velocity.topic.as_str();
+    let lock = |f: &str| Status::Found(Source::new(topic, &[f]), Rule::Lock);
+    if let Some(f) = &velocity.valid {
+        return lock(f);
+    }
+    let i = log.topic(topic);
+    if i.is_some_and(|i| usable(log, i, "velocity_valid").is_some()) {
+        return lock("velocity_valid");
+    }
     if topic.ends_with("vehicle_local_position") {
         let flag = (log.topic(topic)).and_then(|i| usable(log, i, "v_xy_valid"));
         return found(flag.map(|_| (Source::new(topic, &["v_xy_valid"]), Rule::Flag)));
@@ -127,7 +158,7 @@ fn usable(log: &VehicleLog, i: usize, field: &str) -> Option<()> {
 
 /// Whether signal `name` is a status this module reads (not a signal of `run.yaml`).
 pub(super) fn is_status(name: &str) -> bool {
-    [Rule::Bits, Rule::Flag].iter().any(|r| r.signal() == name)
+    RULES.iter().any(|r| r.signal() == name)
 }
 
 /// Adds the filter's status to the signals read, when the velocity is an autopilot's estimate
@@ -156,6 +187,20 @@ pub(super) fn add_status(
     }
 }
 
+/// `valid` names a velocity's validity flag; on another signal it is an error.
+pub(super) fn check_valid(name: &str, s: &Source, shown: &str) -> Result<(), InputError> {
+    if name == "velocity" || s.valid.is_none() {
+        return Ok(());
+    }
+    Err(InputError::file(
+        shown,
+        format!("the {name} on `{}` has `valid`", s.topic),
+        format!(
+            "`valid` names a velocity's validity flag (`log.velocity.valid`); leave it out of `log.{name}`"
+        ),
+    ))
+}
+
 /// Leaves out the velocity samples the filter's status marks as not aided (the status in
 /// force is the last one at or before the sample; a sample before the first status is kept),
 /// and takes the status out of the signals. Says what was left out in `notes`.
@@ -164,7 +209,7 @@ pub(super) fn keep_aided(
     shown: &str,
     notes: &mut Vec<String>,
 ) {
-    let Some((status, rule)) = [Rule::Bits, Rule::Flag]
+    let Some((status, rule)) = RULES
         .into_iter()
         .find_map(|r| Some((samples.remove(r.signal())?, r)))
     else {
@@ -187,14 +232,15 @@ pub(super) fn keep_aided(
     }
     let total = keep.len();
     let topic = v.topic.clone();
-    let why = format!(
-        "the autopilot's filter status (`{}`) says its horizontal velocity was not aided (no DVL or position fix: the velocity is then dead reckoning, not a measurement)",
-        status.topic
-    );
+    let why = rule.why(&status.topic);
     if dropped == total {
         samples.remove("velocity");
         notes.push(format!(
-            "{shown}: no velocity: {why} for all {total} samples of `{topic}`; map a DVL's own topic in run.yaml's `log.velocity`, or give the run a position (UWB, sonar)"
+            "{shown}: no velocity: {why} for all {total} samples of `{topic}`; {}",
+            match rule {
+                Rule::Lock => "the DVL measured nothing in this run's span: check its altitude and `span_s`, or give the run a position (UWB, sonar)",
+                _ => "map a DVL's own topic in run.yaml's `log.velocity`, or give the run a position (UWB, sonar)",
+            }
         ));
         return;
     }
@@ -349,6 +395,70 @@ mod tests {
         assert_eq!(run.nav.expect("the velocity").len(), 20);
         let notes = run.notes.join("\n");
         assert!(notes.contains("holds no filter status"), "{notes}");
+    }
+
+    /// A Water Linked DVL's own messages (`dvl_msgs/DVL`): the samples it marks not valid
+    /// (no bottom lock; their velocity is junk) are left out with no mapping of the flag; a
+    /// flag of another name is named by `valid`; a DVL never locked gives no velocity.
+    #[test]
+    fn dvl_samples_without_bottom_lock_are_left_out() {
+        use hydrofit_logs::write::{self, McapCompression, McapWriter};
+        let d = tempfile::tempdir().unwrap();
+        let write_dvl = |flag: &str, valid: &dyn Fn(usize) -> bool| {
+            let path = d.path().join("run.mcap");
+            let mut bag = McapWriter::create(&path, McapCompression::None).unwrap();
+            let def = format!(
+                "std_msgs/Header header\ngeometry_msgs/Vector3 velocity\nfloat64 fom\nbool {flag}\n================================================================================\nMSG: std_msgs/Header\nbuiltin_interfaces/Time stamp\nstring frame_id\n================================================================================\nMSG: builtin_interfaces/Time\nint32 sec\nuint32 nanosec\n================================================================================\nMSG: geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64 z\n"
+            );
+            let id = (bag.add_channel("/dvl/data", "dvl_msgs/msg/DVL", &def)).unwrap();
+            let schema = bag.schema(id).unwrap().clone();
+            for k in 0..50 {
+                let t = 1.7e9 + k as f64 * 0.1;
+                let (ok, u) = if valid(k) { (1.0, 0.3) } else { (0.0, -32.768) };
+                let v = [("header.stamp", t), ("velocity.x", u), (flag, ok)];
+                bag.write(id, t, &write::message(&schema, &v).unwrap())
+                    .unwrap();
+            }
+            bag.finish().unwrap();
+        };
+        let spec = |extra: &str| -> LogSpec {
+            let y = format!(
+                "file: run.mcap\nvelocity: {{topic: /dvl/data, fields: [velocity.x, velocity.y, velocity.z]{extra}}}\n"
+            );
+            serde_yaml_ng::from_str(&y).unwrap()
+        };
+        // Bottom lock lost for 1 s of 5.
+        write_dvl("velocity_valid", &|k| !(20..30).contains(&k));
+        let run = read(d.path(), ".", &spec(""), None).unwrap();
+        let nav = run.nav.expect("the valid samples");
+        assert_eq!(nav.len(), 40);
+        assert!(nav.cols[0].iter().all(|u| (u - 0.3).abs() < 1e-9));
+        let notes = run.notes.join("\n");
+        assert!(
+            notes.contains("10 of 50 velocity samples of `/dvl/data` left out")
+                && notes.contains("the DVL marks them not valid"),
+            "{notes}"
+        );
+        // Another driver's flag, named.
+        write_dvl("bottom_lock", &|k| k % 2 == 0);
+        let run = read(d.path(), ".", &spec(", valid: bottom_lock"), None).unwrap();
+        assert_eq!(run.nav.expect("the locked samples").len(), 25);
+        // Unnamed, that flag is not known: every sample is read.
+        let run = read(d.path(), ".", &spec(""), None).unwrap();
+        assert_eq!(run.nav.expect("every sample").len(), 50);
+        // A flag the message lacks is an error naming it.
+        let e = read(d.path(), ".", &spec(", valid: locked"), None).unwrap_err();
+        assert!(e.to_string().contains("locked"), "{e}");
+        // `valid` on another signal is an error.
+        let y = "file: run.mcap\ndepth: {topic: /dvl/data, fields: [velocity.z], valid: fom}\n";
+        let e = read(d.path(), ".", &serde_yaml_ng::from_str(y).unwrap(), None).unwrap_err();
+        assert!(e.to_string().contains("`valid` names a velocity's"), "{e}");
+        // Never locked: no velocity, and a note that says so.
+        write_dvl("velocity_valid", &|_| false);
+        let run = read(d.path(), ".", &spec(""), None).unwrap();
+        assert!(run.nav.is_none());
+        let notes = run.notes.join("\n");
+        assert!(notes.contains("the DVL measured nothing"), "{notes}");
     }
 
     /// PX4's ROS 2 bridge (`/fmu/out/...`, px4_msgs): the `px4` stack is the default, its
