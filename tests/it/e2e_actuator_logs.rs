@@ -6,20 +6,10 @@
 //! mapping whose columns do not fit is a located error.
 
 use crate::common::{example, json, ok, run, stderr};
-use crate::e2e_logs::{files, load, same_fusion};
+use crate::e2e_logs::{FORMATS, files, load, same_fusion};
 use crate::log_writer::{LogFormat, write};
 use hydrofit::pool::import::{self, PoolRun};
 use std::path::Path;
-
-const FORMATS: [LogFormat; 7] = [
-    LogFormat::Ros1Bag,
-    LogFormat::Mcap,
-    LogFormat::McapRos1,
-    LogFormat::Db3,
-    LogFormat::DataFlash,
-    LogFormat::TopicCsv,
-    LogFormat::PlainCsv,
-];
 
 /// Replaces the CSV run `dir` by a log of `format` holding the same numbers, mapped in its
 /// `run.yaml`; returns the run as the CSV files held it.

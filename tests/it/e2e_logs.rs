@@ -13,7 +13,7 @@ use hydrofit::pool::import::csvlog::Log;
 use hydrofit::pool::import::{self, PoolRun};
 use std::path::Path;
 
-const FORMATS: [LogFormat; 7] = [
+pub const FORMATS: [LogFormat; 7] = [
     LogFormat::Ros1Bag,
     LogFormat::Mcap,
     LogFormat::McapRos1,

@@ -258,17 +258,31 @@ pub fn write_mcap_with(
     chunk: Option<usize>,
     finish: bool,
 ) -> Vec<Sent> {
+    write_mcap_of(path, c, seconds, chunk, finish, false)
+}
+
+/// [`write_mcap_with`], its messages ROS 2's or (`ros1`) ROS 1's.
+fn write_mcap_of(
+    path: &Path,
+    c: McapCompression,
+    seconds: f64,
+    chunk: Option<usize>,
+    finish: bool,
+    ros1: bool,
+) -> Vec<Sent> {
     let mut w = McapWriter::create(path, c).expect("create");
     if let Some(n) = chunk {
         w.set_chunk_size(n);
     }
     let mut ids = Vec::new();
     for &(topic, ty, _) in TOPICS {
-        let id = match ty {
-            "test_msgs/Everything" => {
+        let id = match (ty, ros1) {
+            ("test_msgs/Everything", true) => w.add_ros1_channel(topic, ty, &custom_ros1()),
+            ("test_msgs/Everything", false) => {
                 w.add_channel(topic, "test_msgs/msg/Everything", &custom_ros2())
             }
-            _ => w.add_topic(topic, ty),
+            (_, true) => w.add_ros1_topic(topic, ty),
+            (_, false) => w.add_topic(topic, ty),
         };
         ids.push(id.expect("channel"));
     }
@@ -289,25 +303,7 @@ pub fn write_mcap_with(
 /// Writes the run as a ROS 1 bag converted to MCAP (`ros1msg` schemas, ROS 1 messages, as
 /// `mcap convert` writes them); returns what was sent.
 pub fn write_ros1_mcap(path: &Path, c: McapCompression, seconds: f64) -> Vec<Sent> {
-    let mut w = McapWriter::create(path, c).expect("create");
-    let mut ids = Vec::new();
-    for &(topic, ty, _) in TOPICS {
-        let id = match ty {
-            "test_msgs/Everything" => w.add_ros1_channel(topic, ty, &custom_ros1()),
-            _ => w.add_ros1_topic(topic, ty),
-        };
-        ids.push(id.expect("channel"));
-    }
-    let schemas: Vec<Schema> = ids
-        .iter()
-        .map(|&id| w.schema(id).expect("schema").clone())
-        .collect();
-    let sent = run(&schemas, seconds);
-    for m in &sent {
-        w.write(ids[m.topic], m.time_s, &m.value).expect("write");
-    }
-    w.finish().expect("finish");
-    sent
+    write_mcap_of(path, c, seconds, None, true, true)
 }
 
 /// Every message of every topic of `log`.
