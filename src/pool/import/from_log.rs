@@ -8,6 +8,7 @@
 mod actuators;
 mod aiding;
 mod layout;
+mod lever;
 mod parts;
 mod unmapped;
 

@@ -157,6 +157,11 @@ pub struct Source {
     /// (`dvl_msgs/DVL`) is found without it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub valid: Option<String>,
+    /// For a body velocity measured away from the centre of gravity (a DVL): the sensor's
+    /// position there, metres, x forward, y starboard, z down. The velocity there is
+    /// `v + omega x at`; the rates (`log.rates`) take `omega x at` off.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub at: Option<[f64; 3]>,
     /// For the actuators: each field's column as `actuators.csv` would head it, its name and
     /// unit (`fin_top_deg`, `prop_rpm`, `thruster_pct`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -211,6 +216,7 @@ impl Source {
             frame: None,
             density_kg_m3: None,
             valid: None,
+            at: None,
             columns: Vec::new(),
         }
     }

@@ -56,7 +56,17 @@ pub(super) fn build(
         .map(|s| attitude(s, src("attitude").expect("a source")));
     let rates = series("rates", Quantity::Rate);
     let accel = series("acceleration", Quantity::Acceleration);
-    let velocity = series("velocity", Quantity::Velocity);
+    let mut velocity = series("velocity", Quantity::Velocity);
+    if let Some(v) = velocity.as_mut() {
+        let r = rates.as_ref().map(|r| (r.t.as_slice(), r.rows.as_slice()));
+        super::lever::to_centre(
+            &v.t,
+            &mut v.rows,
+            src("velocity").expect("a source"),
+            r,
+            shown,
+        )?;
+    }
     let world = src("velocity")
         .and_then(|s| s.frame)
         .filter(|f| matches!(f, Frame::Ned | Frame::Enu));
