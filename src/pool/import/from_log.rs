@@ -520,7 +520,7 @@ fn compile_part<'a>(
         ));
     }
     actuators::check_columns(name, s, fields.len(), shown)?;
-    aiding::check_valid(name, s, shown)?;
+    aiding::check_valid(name, s, shown).and_then(|_| lever::check_at(name, s, shown))?;
     if name == "attitude" && !matches!(fields.len(), 3 | 4) {
         return Err(InputError::file(
             shown,

@@ -75,6 +75,19 @@ impl Rule {
         }
     }
 
+    /// What to do when the rule leaves out every sample of a run.
+    fn fix(self) -> &'static str {
+        match self {
+            Rule::Lock => {
+                "the DVL measured nothing in this run's span: check its altitude and `span_s`, or give the run a position (UWB, sonar)"
+            }
+            Rule::Depth => "map a pressure sensor's own topic in run.yaml's `log.depth`",
+            _ => {
+                "map a DVL's own topic in run.yaml's `log.velocity`, or give the run a position (UWB, sonar)"
+            }
+        }
+    }
+
     fn aided(self, word: f64) -> bool {
         let w = word as u32;
         match self {
@@ -115,7 +128,7 @@ fn status_source(log: &VehicleLog, velocity: &Source) -> Status {
         return lock("velocity_valid");
     }
     if topic.ends_with("vehicle_local_position") {
-        let flag = (log.topic(topic)).and_then(|i| usable(log, i, "v_xy_valid"));
+        let flag = i.and_then(|i| usable(log, i, "v_xy_valid"));
         return found(flag.map(|_| (Source::new(topic, &["v_xy_valid"]), Rule::Flag)));
     }
     let (base, instance) = match topic.split_once('[') {
@@ -282,11 +295,7 @@ fn keep(
         samples.remove(target);
         notes.push(format!(
             "{shown}: no {target}: {why} for all {total} samples of `{topic}`; {}",
-            match rule {
-                Rule::Lock => "the DVL measured nothing in this run's span: check its altitude and `span_s`, or give the run a position (UWB, sonar)",
-                Rule::Depth => "map a pressure sensor's own topic in run.yaml's `log.depth`",
-                _ => "map a DVL's own topic in run.yaml's `log.velocity`, or give the run a position (UWB, sonar)",
-            }
+            rule.fix()
         ));
         return;
     }

@@ -11,8 +11,39 @@ use crate::pool::import::log_spec::{Frame, Source};
 /// Body rates: their times and (p, q, r) samples, rad/s.
 type Rates<'a> = (&'a [f64], &'a [[f64; 3]]);
 
-/// Moves the velocity samples `rows` (at times `t`) from `src.at` (when it is set) to the
-/// centre of gravity.
+/// Checks `at` before the log is read: only a velocity has it, as a sensor position in metres,
+/// and not on a world-frame velocity (an estimator's velocity is of its own reference point).
+pub(super) fn check_at(name: &str, src: &Source, shown: &str) -> Result<(), InputError> {
+    let Some(at) = src.at else {
+        return Ok(());
+    };
+    let fail = |what: String, fix: &str| Err(InputError::file(shown, what, fix.to_string()));
+    if name != "velocity" {
+        return fail(
+            format!("the {name} on `{}` has `at`", src.topic),
+            "`at` places a DVL away from the centre of gravity (`log.velocity.at`); leave it out of this signal",
+        );
+    }
+    let what = |s: &str| format!("the velocity on `{}` has `at`, {s}", src.topic);
+    if !at.iter().all(|x| x.is_finite() && x.abs() <= 20.0) {
+        return fail(
+            what("not a sensor position (metres from the centre of gravity, each within 20 m)"),
+            "give `at: [x, y, z]` in metres, x forward, y starboard, z down",
+        );
+    }
+    if matches!(src.frame, Some(Frame::Ned | Frame::Enu)) {
+        return fail(
+            what(
+                "but it is in a world frame: an estimator's velocity is of its own reference point",
+            ),
+            "leave `at` out, or map the DVL's own body-frame velocity",
+        );
+    }
+    Ok(())
+}
+
+/// Moves the velocity samples `rows` (at times `t`) from `src.at` (when it is set, checked by
+/// [`check_at`]) to the centre of gravity.
 pub(super) fn to_centre(
     t: &[f64],
     rows: &mut [[f64; 3]],
@@ -23,30 +54,15 @@ pub(super) fn to_centre(
     let Some(at) = src.at else {
         return Ok(());
     };
-    let fail = |what: &str, fix: &str| {
-        Err(InputError::file(
-            shown,
-            format!("the velocity on `{}` has `at`, {what}", src.topic),
-            fix.to_string(),
-        ))
-    };
-    if !at.iter().all(|x| x.is_finite() && x.abs() <= 20.0) {
-        return fail(
-            "not a sensor position (metres from the centre of gravity, each within 20 m)",
-            "give `at: [x, y, z]` in metres, x forward, y starboard, z down",
-        );
-    }
-    if matches!(src.frame, Some(Frame::Ned | Frame::Enu)) {
-        return fail(
-            "but it is in a world frame: an estimator's velocity is of its own reference point",
-            "leave `at` out, or map the DVL's own body-frame velocity",
-        );
-    }
     let Some(rates) = rates.filter(|r| r.0.len() >= 2) else {
-        return fail(
-            "and the log's rates are not mapped: the lever arm's omega x at needs them",
+        return Err(InputError::file(
+            shown,
+            format!(
+                "the velocity on `{}` has `at`, and the log's rates are not mapped: the lever arm's omega x at needs them",
+                src.topic
+            ),
             "map the body rates in run.yaml's `log.rates` (an IMU's angular_velocity)",
-        );
+        ));
     };
     for (t, v) in t.iter().zip(rows.iter_mut()) {
         let w = at_time(rates, *t);
@@ -133,5 +149,12 @@ mod tests {
         }
         let e = read(d.path(), ".", &spec(", at: [-0.3, 0, 0.2]", false), None).unwrap_err();
         assert!(e.to_string().contains("map the body rates"), "{e}");
+        let mut on_rates = spec("", true);
+        on_rates.rates.as_mut().unwrap().at = Some([0.1, 0.0, 0.0]);
+        let e = read(d.path(), ".", &on_rates, None).unwrap_err();
+        assert!(
+            e.to_string().contains("the rates on `/imu` has `at`"),
+            "{e}"
+        );
     }
 }
