@@ -105,24 +105,10 @@ impl File {
         wanted: &[usize],
         each: &mut dyn FnMut(&Message) -> Result<(), LogError>,
     ) -> Result<(), LogError> {
-        if topics.len() != self.n_topics {
-            return Err(LogError::new(
-                path,
-                "read with other topics than the log's own",
-            ));
-        }
-        let mut want = vec![false; topics.len()];
-        for &w in wanted {
-            if let Some(x) = want.get_mut(w) {
-                *x = true;
-            }
-        }
-        let slots: Vec<Slot> = self
-            .slots
-            .iter()
-            .filter(|s| want[self.channels[s.conn as usize].1])
-            .copied()
-            .collect();
+        let sizes = (self.n_topics, topics.len());
+        let slots = merge::wanted(path, &self.slots, sizes, wanted, |s| {
+            self.channels[s.conn as usize].1
+        })?;
         let load = |c: u32| self.load(path, c);
         merge::run(&slots, &load, &mut |slot, bytes| {
             let msg = self.message(path, topics, slot, bytes)?;

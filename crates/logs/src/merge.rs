@@ -35,6 +35,35 @@ pub(crate) type Load<'d> = dyn Fn(u32) -> Result<Cow<'d, [u8]>, LogError> + Sync
 /// Takes one message: its slot and the bytes of its inflated chunk.
 pub(crate) type Visit<'v> = dyn FnMut(&Slot, &[u8]) -> Result<(), LogError> + 'v;
 
+/// The slots of the topics `wanted` (indices into the `n_topics` topics the log was opened
+/// with; `topic_of` gives a slot's topic), in their order. Reading with another topic list
+/// than the log's own (`given` topics) is an error.
+pub(crate) fn wanted(
+    path: &std::path::Path,
+    slots: &[Slot],
+    (n_topics, given): (usize, usize),
+    wanted: &[usize],
+    topic_of: impl Fn(&Slot) -> usize,
+) -> Result<Vec<Slot>, LogError> {
+    if given != n_topics {
+        return Err(LogError::new(
+            path,
+            "read with other topics than the log's own",
+        ));
+    }
+    let mut want = vec![false; n_topics];
+    for &w in wanted {
+        if let Some(x) = want.get_mut(w) {
+            *x = true;
+        }
+    }
+    Ok(slots
+        .iter()
+        .filter(|s| want[topic_of(s)])
+        .copied()
+        .collect())
+}
+
 /// Calls `visit` with each of `slots` (sorted) and the bytes of its chunk. Stops at the first
 /// error, from `load` or from `visit`; messages before it have been visited.
 pub(crate) fn run<'d>(slots: &[Slot], load: &Load<'d>, visit: &mut Visit) -> Result<(), LogError> {
