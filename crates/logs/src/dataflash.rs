@@ -108,7 +108,7 @@ impl Bin {
         wanted: &[usize],
         each: &mut dyn FnMut(&Message) -> Result<(), LogError>,
     ) -> Result<(), LogError> {
-        let want = wanted_set(path, topics.len(), wanted)?;
+        let want = crate::wanted_set(path, topics.len(), wanted)?;
         let def_wanted: Vec<bool> = (self.routes.iter())
             .map(|r| r.topics().any(|t| want[t]))
             .collect();
@@ -140,21 +140,6 @@ impl Bin {
         }
         Ok(())
     }
-}
-
-/// `wanted` as a set over the topic indices; an index past the topics is the caller's error.
-pub(crate) fn wanted_set(path: &Path, n: usize, wanted: &[usize]) -> Result<Vec<bool>, LogError> {
-    let mut want = vec![false; n];
-    for &w in wanted {
-        let Some(slot) = want.get_mut(w) else {
-            return Err(LogError::new(
-                path,
-                format!("no topic {w}: the log has {n} topics"),
-            ));
-        };
-        *slot = true;
-    }
-    Ok(want)
 }
 
 /// Topics, counts and routes, built while `open` scans.

@@ -394,6 +394,25 @@ fn is_tlog(path: &Path) -> bool {
         .is_some_and(|e| e.eq_ignore_ascii_case("tlog"))
 }
 
+/// `wanted` as a set over the topic indices; an index past the topics is the caller's error.
+pub(crate) fn wanted_set(
+    path: &std::path::Path,
+    n: usize,
+    wanted: &[usize],
+) -> Result<Vec<bool>, LogError> {
+    let mut want = vec![false; n];
+    for &w in wanted {
+        let Some(slot) = want.get_mut(w) else {
+            return Err(LogError::new(
+                path,
+                format!("no topic {w}: the log has {n} topics"),
+            ));
+        };
+        *slot = true;
+    }
+    Ok(want)
+}
+
 #[cfg(test)]
 mod tests {
     /// A table without a header (MATLAB's `writematrix`) and a folder of them are refused

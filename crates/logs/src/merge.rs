@@ -37,7 +37,7 @@ pub(crate) type Visit<'v> = dyn FnMut(&Slot, &[u8]) -> Result<(), LogError> + 'v
 
 /// The slots of the topics `wanted` (indices into the `n_topics` topics the log was opened
 /// with; `topic_of` gives a slot's topic), in their order. Reading with another topic list
-/// than the log's own (`given` topics) is an error.
+/// than the log's own (`given` topics), or an index past them, is an error.
 pub(crate) fn wanted(
     path: &std::path::Path,
     slots: &[Slot],
@@ -51,12 +51,7 @@ pub(crate) fn wanted(
             "read with other topics than the log's own",
         ));
     }
-    let mut want = vec![false; n_topics];
-    for &w in wanted {
-        if let Some(x) = want.get_mut(w) {
-            *x = true;
-        }
-    }
+    let want = crate::wanted_set(path, n_topics, wanted)?;
     Ok(slots
         .iter()
         .filter(|s| want[topic_of(s)])

@@ -99,12 +99,7 @@ impl Tlog {
         wanted: &[usize],
         each: &mut dyn FnMut(&Message) -> Result<(), LogError>,
     ) -> Result<(), LogError> {
-        let mut want = vec![false; topics.len()];
-        for &w in wanted {
-            *want.get_mut(w).ok_or_else(|| {
-                LogError::new(path, format!("no topic {w}: the log has {}", topics.len()))
-            })? = true;
-        }
+        let want = crate::wanted_set(path, topics.len(), wanted)?;
         let mut scan = Scan::new(&self.data, &self.catalog);
         while let Some(p) = scan.next_packet() {
             let Some(&topic) = self.routes.get(&(p.msgid, p.sys, p.comp)) else {

@@ -225,7 +225,7 @@ impl Ulog {
         wanted: &[usize],
         each: &mut dyn FnMut(&Message) -> Result<(), LogError>,
     ) -> Result<(), LogError> {
-        let want = crate::dataflash::wanted_set(path, topics.len(), wanted)?;
+        let want = crate::wanted_set(path, topics.len(), wanted)?;
         let mut subs: HashMap<u16, usize> = HashMap::new();
         let mut scan = Scan::new(&self.data);
         let start = start_s(&self.data);
