@@ -45,7 +45,14 @@ impl StageImpl for Settings {
             (fused.vel[3], fused.std[3]) = (Some(r), Some(sd));
         }
         fused.stats.notes.extend(notes);
-        let without_sonar = self.fuse_without_sonar(&run);
+        let mut without_sonar = self.fuse_without_sonar(&run);
+        if let Some(at) = self.fusion.nav_at_m {
+            let note = fusion::lever::move_to_centre(&run, &mut fused, at)?;
+            if let Some(f) = without_sonar.as_mut() {
+                fusion::lever::move_to_centre(&run, f, at)?;
+            }
+            fused.stats.notes.push(note);
+        }
         let (thrust, moments) = thrust_rows(&run);
         run::write_table(&ctx.out.join(run::TABLE), &thrust, &moments, &fused)?;
         if let Some(f) = &without_sonar {

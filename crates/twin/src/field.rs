@@ -38,6 +38,10 @@ pub struct Hidden {
     pub nav_filter_s: f64,
     /// Thruster limits per DOF (X, Y, Z N; N N m): commands beyond are clipped.
     pub limits: [f64; 4],
+    /// Where the DVL is mounted, from the centre of gravity (x forward, y starboard, z down,
+    /// m): it measures its own point's velocity, `v + omega x at` (the vehicle turns in yaw
+    /// only, so `(-r y, r x, 0)` is added).
+    pub dvl_at_m: [f64; 3],
 }
 
 impl Default for Hidden {
@@ -49,6 +53,7 @@ impl Default for Hidden {
             nav_latency_s: 0.15,
             nav_filter_s: 0.25,
             limits: [60.0, 50.0, 45.0, 9.0],
+            dvl_at_m: [0.0; 3],
         }
     }
 }
@@ -404,8 +409,8 @@ pub const DVL_PERIOD_S: f64 = 0.125;
 /// The DVL's velocity noise (standard deviation of each sample), m/s.
 pub const DVL_NOISE_M_S: f64 = 0.01;
 
-/// `nav.csv`: the navigation filter's output. DVL velocity (1 cm/s noise) at 8 Hz through an
-/// exponential low-pass, written at an irregular 5-7 Hz, `nav_latency_s` late; AHRS heading
+/// `nav.csv`: the navigation filter's output. DVL velocity (1 cm/s noise, at `dvl_at_m`) at
+/// 8 Hz through an exponential low-pass, written at an irregular 5-7 Hz, `nav_latency_s` late; AHRS heading
 /// with 0.4 deg noise.
 fn nav_csv(h: &Hidden, truth: &Truth, end: f64, rng: &mut Rng) -> String {
     let mut nav = String::from("t,u_m_s,v_m_s,w_m_s,roll_deg,pitch_deg,yaw_deg\n");
@@ -415,8 +420,10 @@ fn nav_csv(h: &Hidden, truth: &Truth, end: f64, rng: &mut Rng) -> String {
         while t_dvl <= t_out - h.nav_latency_s {
             let (nu, _, _) = at(truth, t_dvl);
             let a = (-DVL_PERIOD_S / h.nav_filter_s).exp();
+            let lever = [-nu[3] * h.dvl_at_m[1], nu[3] * h.dvl_at_m[0], 0.0];
             for i in 0..3 {
-                filt[i] = a * filt[i] + (1.0 - a) * (nu[i] + DVL_NOISE_M_S * rng.normal());
+                let measured = nu[i] + lever[i];
+                filt[i] = a * filt[i] + (1.0 - a) * (measured + DVL_NOISE_M_S * rng.normal());
             }
             t_dvl += DVL_PERIOD_S;
         }

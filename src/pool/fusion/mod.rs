@@ -18,6 +18,7 @@
 mod heading;
 pub mod kalman;
 pub mod latency;
+pub mod lever;
 pub mod motion;
 pub mod nav;
 mod numeric;
@@ -67,6 +68,11 @@ pub struct Settings {
     /// gauge where they change depth, [`latency`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub nav_latency_s: Option<f64>,
+    /// Where the navigation log's velocity is measured: a DVL's position from the centre of
+    /// gravity (x forward, y starboard, z down, m). Every run's navigation-log velocity is
+    /// moved to the centre with the fused rates ([`lever`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub nav_at_m: Option<[f64; 3]>,
 }
 
 /// The noise levels used, after estimation (SI: m, rad, rad/s, m/s^2).
