@@ -100,11 +100,9 @@ pub fn move_to_centre(run: &PoolRun, fused: &mut Fused, at: [f64; 3]) -> anyhow:
 
 /// `omega x at` and the variance of each component from the rates' standard deviations `ws`.
 fn cross(w: [f64; 3], ws: [f64; 3], at: [f64; 3]) -> ([f64; 3], [f64; 3]) {
-    let lever = [
-        w[1] * at[2] - w[2] * at[1],
-        w[2] * at[0] - w[0] * at[2],
-        w[0] * at[1] - w[1] * at[0],
-    ];
+    let lever = nalgebra::Vector3::from(w)
+        .cross(&nalgebra::Vector3::from(at))
+        .into();
     let sq = |x: f64| x * x;
     let var = [
         sq(ws[1] * at[2]) + sq(ws[2] * at[1]),

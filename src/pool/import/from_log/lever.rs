@@ -65,12 +65,9 @@ pub(super) fn to_centre(
         ));
     };
     for (t, v) in t.iter().zip(rows.iter_mut()) {
-        let w = at_time(rates, *t);
-        let wxr = [
-            w[1] * at[2] - w[2] * at[1],
-            w[2] * at[0] - w[0] * at[2],
-            w[0] * at[1] - w[1] * at[0],
-        ];
+        let wxr: [f64; 3] = nalgebra::Vector3::from(at_time(rates, *t))
+            .cross(&nalgebra::Vector3::from(at))
+            .into();
         for j in 0..3 {
             v[j] -= wxr[j];
         }
