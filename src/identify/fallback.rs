@@ -7,8 +7,10 @@
 //! no DOF can be replaced alone and the fit is refused with the reason.
 
 use crate::core::dof::Dof;
+use crate::core::model::params::Group;
 use crate::core::model::terms::Term;
 use crate::core::model::{ParamLayout, Plant, Vehicle};
+use crate::core::response::Response;
 use crate::identify::Fit;
 
 /// The DOFs whose diagonal of M_RB - M_A is not positive under `fit`, with that diagonal, when
@@ -31,6 +33,65 @@ pub fn unphysical_dofs(
             .map(|d| (*d, plant.mass()[d.index()]))
             .filter(|(_, m)| *m <= 0.0)
             .collect(),
+    )
+}
+
+/// The DOFs where `fit`'s diagonal drag, linear and quadratic together, pushes instead of
+/// damping at a speed the runs reach (a coefficient past its physical sign, which total least
+/// squares does not hold at zero as ordinary least squares does): a simulation of the model
+/// runs away there. With the speed (a tenth, a quarter, half or all of the fastest of
+/// `responses` in the DOF) and the damping per unit of velocity there, negative.
+pub fn runaway_dofs(
+    layout: &ParamLayout,
+    fit: &Fit,
+    responses: &[&Response],
+) -> Vec<(Dof, f64, f64)> {
+    let drag = |dof: Dof, group: Group| {
+        (layout.terms.iter().zip(&fit.parameters))
+            .find(|(t, _)| t.is_diagonal() && t.dof() == dof && t.group() == group)
+            .map_or(0.0, |(_, p)| p.value)
+    };
+    let mut out = Vec::new();
+    for &dof in &layout.dofs {
+        let (lin, quad) = (
+            drag(dof, Group::LinearDrag),
+            drag(dof, Group::QuadraticDrag),
+        );
+        let top = (responses.iter())
+            .filter_map(|r| r.dofs.get(&dof))
+            .flat_map(|s| s.velocity.iter())
+            .filter(|v| v.is_finite())
+            .fold(0.0f64, |m, v| m.max(v.abs()));
+        let pushes = [0.1, 0.25, 0.5, 1.0]
+            .iter()
+            .map(|f| (f * top, -(lin + quad * f * top)))
+            .find(|(_, damping)| *damping < 0.0);
+        if let Some((speed, damping)) = pushes.filter(|_| top > 0.0) {
+            out.push((dof, speed, damping));
+        }
+    }
+    out
+}
+
+/// What the fit's notes say of the DOFs `runaway` (from [`runaway_dofs`]) taking ordinary
+/// least squares' coefficients, `replaced` with the DOFs they share terms with.
+pub fn runaway_note(runaway: &[(Dof, f64, f64)], replaced: &[Dof]) -> String {
+    let list: Vec<String> = runaway
+        .iter()
+        .map(|(d, speed, damping)| {
+            format!(
+                "{d} (damping {damping:.3} {} per {} at {speed:.3} {})",
+                d.force_unit(),
+                d.velocity_unit(),
+                d.velocity_unit()
+            )
+        })
+        .collect();
+    let all: Vec<String> = replaced.iter().map(|d| d.to_string()).collect();
+    format!(
+        "total least squares gave a drag past its physical sign that pushes instead of damping at a speed the runs reach in {}: its simulation would run away there. TLS does not hold a coefficient at its sign as ordinary least squares does, so the coefficients of {} are ordinary least squares'; the wrong sign stands in for something the model lacks there (a lag, a command that delivers less than it asks) or noise in a DOF the runs hardly excite",
+        list.join(", "),
+        all.join(", ")
     )
 }
 
@@ -185,5 +246,50 @@ mod tests {
         assert!(layout.terms.contains(&Term::Moment(2)));
         assert_eq!(together(&layout, &[Dof::Roll]), vec![Dof::Roll, Dof::Pitch]);
         assert_eq!(together(&layout, &[Dof::Yaw]), vec![Dof::Yaw]);
+    }
+
+    /// A yaw whose quadratic drag is past its sign pushes beyond 0.91 rad/s, which the runs
+    /// reach: it runs away; a small linear drag past its sign beside a large quadratic one
+    /// pushes only below a thousandth of the top speed, and does not.
+    #[test]
+    fn a_drag_that_pushes_at_the_runs_speed_is_found() {
+        use crate::core::response::{Series, Source};
+        let mut vehicle = Vehicle::reference();
+        vehicle.dofs = vec![Dof::Yaw];
+        let layout = ParamLayout::of(&vehicle);
+        let run = Response {
+            t: vec![0.0, 1.0],
+            dofs: [(
+                Dof::Yaw,
+                Series {
+                    force: vec![0.0; 2],
+                    velocity: vec![0.2, -1.5],
+                    accel: vec![0.0; 2],
+                    force_source: Source::Column,
+                    accel_source: Source::Differentiated,
+                },
+            )]
+            .into_iter()
+            .collect(),
+            attitude: Vec::new(),
+        };
+        let with = |lin: f64, quad: f64| {
+            let values: Vec<f64> = (layout.terms.iter())
+                .map(|t| match t.group() {
+                    Group::LinearDrag => lin,
+                    Group::QuadraticDrag => quad,
+                    _ => -0.2,
+                })
+                .collect();
+            runaway_dofs(&layout, &fit(&values, 1.0, &layout), &[&run])
+        };
+        let away = with(-34.4, 37.8);
+        assert_eq!(away.len(), 1, "{away:?}");
+        assert_eq!(away[0].0, Dof::Yaw);
+        assert!(away[0].1 > 0.91 && away[0].2 < 0.0, "{away:?}");
+        assert!(with(-34.4, -1.0).is_empty());
+        assert!(with(0.01, -50.0).is_empty());
+        let text = runaway_note(&away, &[Dof::Yaw]);
+        assert!(text.contains("yaw (damping"), "{text}");
     }
 }

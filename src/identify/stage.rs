@@ -267,8 +267,16 @@ impl Settings {
         use crate::identify::fallback;
         let data = &data.of(as_fitted);
         let layout = crate::core::model::ParamLayout::of(data.vehicle);
+        let tls = self.method.estimator.name() == "tls";
         let bad = fallback::unphysical_dofs(data.vehicle, &layout, &fit).unwrap_or_default();
-        let fit = if self.method.estimator.name() == "tls" && !bad.is_empty() {
+        let responses: Vec<_> = (data.pool.iter().copied())
+            .chain(data.cases.iter().map(|c| c.0))
+            .collect();
+        let runaway = match tls {
+            true => fallback::runaway_dofs(&layout, &fit, &responses),
+            false => Vec::new(),
+        };
+        let fit = if tls && !(bad.is_empty() && runaway.is_empty()) {
             let ols = crate::identify::Method::parse("ols", Default::default())
                 .map_err(anyhow::Error::msg)?;
             let request = fit::Request {
@@ -277,9 +285,16 @@ impl Settings {
                 ..self.request(&|_| {}, &[])
             };
             let from = fit::identify(data, &request)?.fit;
-            let bad_dofs: Vec<_> = bad.iter().map(|(d, _)| *d).collect();
+            let bad_dofs: Vec<_> = (bad.iter().map(|(d, _)| *d))
+                .chain(runaway.iter().map(|r| r.0))
+                .collect();
             let dofs = fallback::together(&layout, &bad_dofs);
-            notes.push(fallback::note(&bad, &dofs));
+            if !bad.is_empty() {
+                notes.push(fallback::note(&bad, &dofs));
+            }
+            if !runaway.is_empty() {
+                notes.push(fallback::runaway_note(&runaway, &dofs));
+            }
             fallback::with_dofs_from(&layout, fit, &from, &dofs)
         } else {
             fit

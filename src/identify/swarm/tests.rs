@@ -44,3 +44,116 @@ fn blocked_population_kernels_equal_the_one_particle_cost() {
         }
     }
 }
+
+/// A yaw with a constant moment drifts at a steady rate while its command is zero: there the
+/// force over speed the search box was bounded by is 0, and the linear drag was pinned at it.
+/// The box now holds the least-squares value, the drag is found, and its standard error is
+/// the regression's, not the restarts' agreement (1e-9 of the value).
+#[test]
+fn a_drift_under_a_constant_moment_does_not_pin_the_drag() {
+    use crate::core::model::{Plant, Vehicle};
+    use crate::core::response::{Response, Series, Source, differentiate};
+    use crate::identify::{Method, Options};
+    let mut vehicle = Vehicle::reference();
+    vehicle.dofs = vec![Dof::Yaw];
+    vehicle.constant_force = vec![Dof::Yaw];
+    let layout = ParamLayout::of(&vehicle);
+    let truth = |name: &str| match name {
+        "N_rdot" => -0.5,
+        "N_r" => -8.0,
+        "N_rr" => -4.0,
+        "N_0" => 1.5,
+        other => panic!("unexpected {other}"),
+    };
+    let theta: Vec<f64> = layout.names().iter().map(|n| truth(n)).collect();
+    let plant = Plant::new(&vehicle, layout.to_hydro(&theta));
+    let mut rng = Rng::new(4);
+    let t: Vec<f64> = (0..2400).map(|k| k as f64 * 0.05).collect();
+    let mut level = 0.0;
+    let cmd: Vec<[f64; 6]> = (0..t.len())
+        .map(|k| {
+            if k % 60 == 0 {
+                // A third of the holds are at zero command: the drift.
+                let u = rng.uniform();
+                level = if u < 1.0 / 3.0 {
+                    0.0
+                } else {
+                    16.0 * (u - 2.0 / 3.0)
+                };
+            }
+            [0.0, 0.0, 0.0, 0.0, 0.0, level]
+        })
+        .collect();
+    let nu = plant.simulate(&t, &cmd, [0.0; 6], 0.01);
+    let velocity: Vec<f64> = nu.iter().map(|v| v[5] + 0.005 * rng.normal()).collect();
+    let series = Series {
+        force: cmd.iter().map(|c| c[5]).collect(),
+        accel: differentiate(&t, &velocity),
+        velocity,
+        force_source: Source::Column,
+        accel_source: Source::Differentiated,
+    };
+    let run = Response {
+        t,
+        dofs: [(Dof::Yaw, series)].into_iter().collect(),
+        attitude: Vec::new(),
+    };
+    let reg = Regression::build(&vehicle, &[&run], 0.0);
+    let method = Method::parse("qpso", Default::default()).unwrap();
+    let opts = method.options(Options {
+        rigid_mass: vehicle.rigid_mass(),
+        ..Options::default()
+    });
+    let fit = method.estimator.fit(&reg, &opts).unwrap();
+    let n_r = fit.parameters.iter().find(|p| p.name == "N_r").unwrap();
+    assert!(
+        (n_r.value - -8.0).abs() < 0.15 * 8.0 && n_r.identifiable,
+        "{n_r:?}"
+    );
+    assert!(
+        n_r.stderr > 1e-4 * n_r.value.abs() && n_r.stderr < 0.1 * n_r.value.abs(),
+        "{n_r:?}"
+    );
+}
+
+/// An added mass beyond the default fit's prior is said in its note; one within it is not.
+#[test]
+fn an_added_mass_beyond_the_prior_is_said() {
+    use crate::identify::{Estimate, Fit};
+    let layout = ParamLayout::new(&[Dof::Surge, Dof::Yaw]);
+    let rigid = [35.2, 35.2, 35.2, 0.0, 0.0, 1.38];
+    let value = |name: &str| match name {
+        "X_udot" => -3.0 * 35.2,
+        "N_rdot" => -1.0,
+        _ => -5.0,
+    };
+    let mut fit = Fit {
+        parameters: (layout.names().iter())
+            .map(|n| Estimate {
+                name: n.clone(),
+                value: value(n),
+                unit: String::new(),
+                stderr: 0.1,
+                interval: None,
+                identifiable: true,
+                note: None,
+            })
+            .collect(),
+        ..Fit::default()
+    };
+    let reg = Regression {
+        layout,
+        phi: Vec::new(),
+        y: Vec::new(),
+        row_dof: Vec::new(),
+    };
+    super::executor::say_beyond_prior(&mut fit, &reg, &rigid, &[2.0; 6]);
+    let note = |n: &str| {
+        let p = fit.parameters.iter().find(|p| p.name == n).unwrap();
+        p.note.clone()
+    };
+    let x = note("X_udot").expect("X_udot at 3 times is beyond the prior");
+    assert!(x.contains("3.0 times the rigid-body term 35.200"), "{x}");
+    assert_eq!(note("N_rdot"), None);
+    assert_eq!(note("X_u"), None);
+}
