@@ -112,8 +112,9 @@ impl<'a> Problem<'a> {
 
     /// The weighted equation error's standard errors at `theta`: s_d^2 (A^T W A)^-1, with s_d^2
     /// the weighted residual variance of the DOF whose equation the coefficient is in (the
-    /// normal matrix is block-diagonal by equation, so this is OLS's error with this problem's
-    /// row weights); infinite where the normal matrix cannot be inverted. Summed serially.
+    /// normal matrix is block-diagonal by equation but for a term two equations share, as the
+    /// moment of weight, which takes its first DOF's); infinite where the normal matrix cannot
+    /// be inverted. Summed serially.
     pub fn regression_stderr(&self, theta: &[f64]) -> Vec<f64> {
         let (reg, p) = (self.reg, theta.len());
         let (mut ss, mut rows, mut terms) = ([0.0f64; 6], [0usize; 6], [0usize; 6]);
