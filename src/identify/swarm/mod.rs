@@ -61,9 +61,9 @@ impl<'a> Problem<'a> {
     /// Bounds: every coefficient is negative (docs/formats.md sign convention); its magnitude is
     /// bounded by a scale read from the data: added mass by 5 x the rigid-body mass of its DOF,
     /// linear drag by 3 x the smallest |force| / |speed| over samples moving at >= 5 % of the
-    /// top speed, quadratic drag by 3 max|tau| / max|nu|^2; each widened to 3 x the weighted
-    /// least-squares value where that is negative and larger, so that the box holds the
-    /// equation error's own minimum wherever its signs are physical.
+    /// top speed, quadratic drag by 3 max|tau| / max|nu|^2; a bound that leaves out the
+    /// weighted least-squares value (the equation error's own minimum, where its sign is
+    /// physical) is widened to 3 x it.
     pub fn new(reg: &'a Regression, rigid_mass: &[f64; 6], norm: Norm) -> Problem<'a> {
         let p = reg.cols();
         let scales = Scales::of(reg);
@@ -84,8 +84,10 @@ impl<'a> Problem<'a> {
                     g,
                     Group::AddedMass | Group::LinearDrag | Group::QuadraticDrag
                 );
-                if hydro && ls[j] < 0.0 {
-                    *l = l.min(3.0 * ls[j]);
+                // Only a box that leaves the minimum out is widened; one that holds it keeps
+                // the tighter bound the search converges in.
+                if hydro && ls[j] < *l {
+                    *l = 3.0 * ls[j];
                 }
             }
         }
