@@ -113,6 +113,32 @@ impl<'a> OutputError<'a> {
         out
     }
 
+    /// Mean weighted squared velocity error of the model `theta` in `dof` alone.
+    pub(crate) fn dof_cost(
+        &self,
+        layout: &crate::core::model::ParamLayout,
+        theta: &[f64],
+        dof: crate::core::dof::Dof,
+    ) -> f64 {
+        let e = self.residuals(layout, theta);
+        let starts = self.case_starts();
+        let (mut s, mut n) = (0.0, 0usize);
+        for (c, r) in self.responses.iter().enumerate() {
+            let Some(at) = r.dofs.keys().position(|&d| d == dof) else {
+                continue;
+            };
+            for x in e[starts[c]..starts[c + 1]]
+                .iter()
+                .skip(at)
+                .step_by(r.dofs.len())
+            {
+                s += x * x;
+                n += 1;
+            }
+        }
+        s / n.max(1) as f64
+    }
+
     /// Integration steps and recorded values one evaluation simulates and compares.
     pub fn work(&self) -> (usize, usize) {
         let mut steps = 0;

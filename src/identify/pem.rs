@@ -20,8 +20,6 @@ use super::per_run::{Kind, Kinds};
 use super::refine::{Bounds, output_error_lm_within};
 use super::{Estimate, EstimateError, Estimator, Fit, Options, Regression};
 use crate::core::dof::Dof;
-use crate::core::model::params::Group;
-use crate::core::model::terms::Term;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -232,6 +230,7 @@ fn free_prior(
     if freed.cost_after.is_nan() || freed.cost_after >= (1.0 - DEMAND) * r.cost_after {
         return (Vec::new(), None);
     }
+    let (freed, wide) = past_search_bound(problem, oe, opts, prior, freed, wide);
     let demanded = on_prior
         .iter()
         .filter(|&&j| freed.theta[j] < bounds.lo[j])
@@ -239,6 +238,44 @@ fn free_prior(
         .collect();
     *r = freed;
     (demanded, Some(wide))
+}
+
+/// A freed inertia that ran to the search bound, freed once more (to [`FARTHEST`] times its
+/// rigid-body term), one DOF at a time, and kept there when the runs demand it of that DOF: a
+/// per-DOF first-order model, whose gain is free, then no longer predicts that DOF better than
+/// the fit (a real AUV's yaw, whose command delivered a fraction of what it asked). The
+/// demand is judged on the DOF's own output error, which the others' would dilute. Returns
+/// the fit and its bounds.
+fn past_search_bound(
+    problem: &Regression,
+    oe: &OutputError,
+    opts: &Options,
+    mut prior: [f64; 6],
+    mut freed: super::refine::Refined,
+    mut wide: Bounds,
+) -> (super::refine::Refined, Bounds) {
+    let layout = &problem.layout;
+    let on_bound: Vec<usize> = (0..freed.theta.len())
+        .filter(|&j| is_added_mass(problem, j) && prior[dof_of(problem, j)] >= BEYOND_PRIOR)
+        .filter(|&j| wide.at_prior(j, freed.theta[j]))
+        .collect();
+    for j in on_bound {
+        let dof = layout.terms[j].dof();
+        let mut wider_prior = prior;
+        wider_prior[dof.index()] = FARTHEST;
+        let wider = plausible(layout, &opts.rigid_mass, &wider_prior);
+        let from = [freed.theta.as_slice(), &freed.nuisance].concat();
+        let farther = output_error_lm_within(oe, layout, &from, opts.iterations, &wider);
+        let own = |r: &super::refine::Refined| {
+            oe.dof_cost(layout, &[r.theta.as_slice(), &r.nuisance].concat(), dof)
+        };
+        let gained =
+            farther.cost_after < freed.cost_after && own(&farther) < (1.0 - DEMAND) * own(&freed);
+        if gained {
+            (freed, wide, prior) = (farther, wider, wider_prior);
+        }
+    }
+    (freed, wide)
 }
 
 /// The output-error fit from `theta0` with the command lag `opts` asks for: none, the one set,
@@ -433,43 +470,18 @@ fn over_the_lag(
     e
 }
 
-/// The DOFs whose motion shows term `t`: its own, but for a component of the moment of weight
-/// and buoyancy (eta), which turns the body about the other two axes as it tilts (eta_z rolls
-/// and pitches the vehicle), and a component of r_g, which moves the two moments its logged
-/// forces cross (z_g: roll and pitch).
-fn acts_in(t: crate::core::model::terms::Term) -> String {
-    match t {
-        Term::Moment(_) | Term::Lever(_) => {
-            let axes: Vec<String> = t.equations().iter().map(|d| d.to_string()).collect();
-            axes.join(" and ")
-        }
-        t => t.dof().to_string(),
-    }
-}
-
 /// Gauss-Newton steps of the lag at most, and the step, in standard errors of the lag, below
 /// which it is left as it is.
 const LAG_POLISH_STEPS: usize = 2;
 const POLISHED: f64 = 0.25;
 
-/// How far a freed added mass may go, in multiples of the rigid-body term: the population
-/// methods' search bound.
-const BEYOND_PRIOR: f64 = 5.0;
+/// How far an added mass that runs to [`BEYOND_PRIOR`] may go when freed once more: a
+/// command that delivers a seventeenth of what it asks, with the added mass on a prior of 2.
+const FARTHEST: f64 = 50.0;
 
 /// The relative drop of the output error at which the runs demand an added mass beyond its
 /// prior: well above what refitting noise gains.
 const DEMAND: f64 = 0.01;
-
-/// Whether parameter `j` is a diagonal added mass (the terms with a plausibility prior).
-fn is_added_mass(problem: &Regression, j: usize) -> bool {
-    let t = problem.layout.terms[j];
-    t.group() == Group::AddedMass && t.is_diagonal()
-}
-
-/// The DOF (index) of parameter `j`'s equation.
-fn dof_of(problem: &Regression, j: usize) -> usize {
-    problem.layout.terms[j].dof().index()
-}
 
 /// Parameter `j` of the refined answer `r`: its standard error from the output error's
 /// Jacobian, not identifiable when that is over half the value or the value sits on the prior
@@ -497,87 +509,11 @@ fn estimate(
     }
 }
 
-/// The note on parameter `j` at `value`, and whether it makes the value untrustworthy (a value
-/// the runs demand beyond its prior is said, not flagged).
-fn note(
-    problem: &Regression,
-    bounds: &Bounds,
-    (j, value): (usize, f64),
-    opts: &Options,
-    beyond: Option<(f64, f64)>,
-) -> (Option<String>, bool) {
-    let term = problem.layout.terms[j];
-    let i = dof_of(problem, j);
-    let at_prior = bounds.at_prior(j, value);
-    let at_search_bound = beyond.is_some()
-        && (value - BEYOND_PRIOR * -opts.rigid_mass[i]).abs() <= 1e-6 * opts.rigid_mass[i];
-    let name = problem.layout.name(j);
-    match beyond {
-        Some((held, freed)) if !at_search_bound => (
-            Some(format!(
-                "{name} is beyond its plausibility prior ({} times the rigid-body term {:.3}): the runs demand it (output error {held:.4} held on the prior, {freed:.4} beyond it)",
-                opts.added_mass_prior[i], opts.rigid_mass[i],
-            )),
-            false,
-        ),
-        _ if at_search_bound => (
-            Some(format!(
-                "{name} ran to {BEYOND_PRIOR} times its rigid-body term: the runs push it without bound, so it stands in for something the model lacks (a lag, a filtered sensor, a command that delivers less force in this DOF than it asks: a thrust curve or allocation that is off there) or they cannot tell this inertia from the damping"
-            )),
-            true,
-        ),
-        _ if at_prior && matches!(term, Term::Moment(_)) => (
-            Some(format!(
-                "{name} sits on its stiffness bound (a natural frequency of {:.0} rad/s with the heaviest inertia the prior allows): a restoring moment this stiff pins the attitude, so it stands in for a moment the model lacks in {}: one that follows the motion (a coupling from another DOF, as a sway velocity's roll moment K_v or a surge velocity's pitch moment M_u in `custom_terms`), a constant moment (`constant_force`), or the runs' attitude does not follow their logged moments",
-                1.0 / FASTEST_S,
-                rights(term, &problem.layout)
-                    .iter()
-                    .map(|d| d.to_string())
-                    .collect::<Vec<_>>()
-                    .join(" and "),
-            )),
-            true,
-        ),
-        _ if at_prior && matches!(term, Term::Lever(_)) => (
-            Some(format!(
-                "{name} sits on its bound ({} m from the point the logged moments are taken about): the runs push the centre of gravity past any vehicle's, so it stands in for a moment the model lacks in {} or logged moments that are not the vehicle's",
-                crate::core::model::terms::LEVER_BOUND_M,
-                acts_in(term),
-            )),
-            true,
-        ),
-        _ if at_prior && !is_added_mass(problem, j) => (
-            Some(format!(
-                "{name} sits on its stiffness bound (a time constant of {FASTEST_S} s): the runs push the drag past any vehicle's, so it stands in for something the model lacks (a constant force in {}: `constant_force`, a lag) or the runs do not move in this DOF",
-                term.dof()
-            )),
-            true,
-        ),
-        _ if at_prior => (
-            Some(format!(
-                "{name} sits on its plausibility bound ({} times the rigid-body term {:.3}): the runs cannot tell this inertia from the damping or a lag; runs with sharper changes of command in {} (steps, a PRBS) would",
-                opts.added_mass_prior[i],
-                opts.rigid_mass[i],
-                term.dof()
-            )),
-            true,
-        ),
-        _ if value == 0.0 && term.physical_sign().is_some() => (
-            Some(format!(
-                "{name} held at 0: the output error pushes it past its physical sign; it stands in for something the model lacks or the runs do not excite it"
-            )),
-            true,
-        ),
-        _ => match term {
-            Term::Lever(a) => (Some(bounds::lever_in_words(a, value)), false),
-            _ => (None, false),
-        },
-    }
-}
-
 mod bounds;
-use bounds::rights;
+mod notes;
+use bounds::{BEYOND_PRIOR, dof_of, is_added_mass};
 pub use bounds::{FASTEST_S, plausible};
+use notes::{acts_in, note};
 
 #[cfg(test)]
 pub(crate) mod tests;

@@ -77,3 +77,18 @@ pub(super) fn lever_in_words(a: usize, value: f64) -> String {
         100.0 * value.abs()
     )
 }
+
+/// How far a freed added mass may go, in multiples of the rigid-body term: the population
+/// methods' search bound.
+pub(super) const BEYOND_PRIOR: f64 = 5.0;
+
+/// Whether parameter `j` is a diagonal added mass (the terms with a plausibility prior).
+pub(super) fn is_added_mass(problem: &crate::identify::Regression, j: usize) -> bool {
+    let t = problem.layout.terms[j];
+    t.group() == Group::AddedMass && t.is_diagonal()
+}
+
+/// The DOF (index) of parameter `j`'s equation.
+pub(super) fn dof_of(problem: &crate::identify::Regression, j: usize) -> usize {
+    problem.layout.terms[j].dof().index()
+}
