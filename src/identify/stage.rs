@@ -269,12 +269,14 @@ impl Settings {
         let layout = crate::core::model::ParamLayout::of(data.vehicle);
         let tls = self.method.estimator.name() == "tls";
         let bad = fallback::unphysical_dofs(data.vehicle, &layout, &fit).unwrap_or_default();
-        let responses: Vec<_> = (data.pool.iter().copied())
-            .chain(data.cases.iter().map(|c| c.0))
-            .collect();
-        let runaway = match tls {
-            true => fallback::runaway_dofs(&layout, &fit, &responses),
-            false => Vec::new(),
+        // Only TLS can keep a drag past its sign (OLS and the others hold it there).
+        let runaway = if tls {
+            let responses: Vec<_> = (data.pool.iter().copied())
+                .chain(data.cases.iter().map(|c| c.0))
+                .collect();
+            fallback::runaway_dofs(&layout, &fit, &responses)
+        } else {
+            Vec::new()
         };
         let fit = if tls && !(bad.is_empty() && runaway.is_empty()) {
             let ols = crate::identify::Method::parse("ols", Default::default())
