@@ -507,3 +507,47 @@ fn a_mapping_the_log_cannot_satisfy_is_a_located_error() {
     let e = stderr(&o);
     assert!(e.contains("run.bag") && e.contains("(byte "), "{e}");
 }
+
+/// A topic CSV export that stopped mid-write (its last row cut in the middle) is read without
+/// that row, where it stopped the whole run before, and the run's notes say so; a topic whose file holds its header only is an error
+/// that names the topic, not a message about its fields.
+#[test]
+fn a_topic_csv_cut_short_is_read_to_its_last_whole_row() {
+    let d = tempfile::tempdir().unwrap();
+    let root = d.path();
+    ok(root, &["twin", "pool", "--out", "pool", "--truth", "truth"]);
+    let dir = "pool/mixed";
+    let whole = as_log(root, dir, "csv/r", LogFormat::TopicCsv, None);
+    let topics = root.join("csv/r_topics");
+    let wrench = std::fs::read_dir(&topics)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.to_string_lossy().contains("wrench"))
+        .expect("a wrench topic file");
+    let text = std::fs::read_to_string(&wrench).unwrap();
+    let body = text.trim_end();
+    let last = body.rfind('\n').unwrap();
+    let cut = &body[..last + 1 + (body.len() - last) / 3];
+    std::fs::write(&wrench, cut).unwrap();
+    let torn = load(root, "csv/r", None);
+    // Read to its last whole row (the rows are counted in the log reader's own test; the
+    // command is then put on a regular clock, which may end where the whole log's does).
+    assert!(torn.thrust.t.len().abs_diff(whole.thrust.t.len()) <= 2);
+    assert!(
+        torn.notes
+            .iter()
+            .any(|n| n.contains("last row is cut short")),
+        "{:?}",
+        torn.notes
+    );
+    let header = &text[..text.find('\n').unwrap() + 1];
+    std::fs::write(&wrench, header).unwrap();
+    let files = files(root, "csv/r");
+    let e = import::load(root, "csv/r", &files, None)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("the wrench topic `/wrench` has no messages"),
+        "{e}"
+    );
+}

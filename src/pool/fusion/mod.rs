@@ -299,14 +299,13 @@ fn use_nav(fused: &mut Fused, nav: &Log, hd: Option<&Heading>) {
         fused.vel[3] = Some(s.v);
         fused.std[3] = Some(s.std);
     }
-    // The position filter's reasons for unknown velocities no longer hold where the log gave them.
-    let known = |j: usize| fused.vel[j].is_some();
-    let (horizontal, vertical, yaw) = (known(0) && known(1), known(2), known(3));
-    fused.stats.notes.retain(|n| {
-        !((horizontal && n.contains("so surge and sway are unknown"))
-            || (vertical && n.contains("so heave is unknown"))
-            || (horizontal && yaw && n.contains("so surge, sway and yaw rate are unknown")))
-    });
+    // The position filter's reasons for unknown velocities no longer hold where the log gave
+    // them: each note names only the DOFs still unknown, or goes.
+    let known: [bool; 4] = std::array::from_fn(|j| fused.vel[j].is_some());
+    fused.stats.notes = std::mem::take(&mut fused.stats.notes)
+        .into_iter()
+        .filter_map(|n| still_unknown(n, &known))
+        .collect();
     if fused.vel[3].is_none() {
         fused
             .stats
@@ -318,6 +317,35 @@ fn use_nav(fused: &mut Fused, nav: &Log, hd: Option<&Heading>) {
             "no pool-frame position (no UWB or sonar): tether length and wall distance are unknown"
                 .into(),
         );
+    }
+}
+
+/// A position filter's note of unknown velocities (`..., so surge and sway are unknown`)
+/// naming only the DOFs the navigation log did not give after all (`known`: surge, sway,
+/// heave, yaw); `None` when it gave them all. Other notes are kept as they are.
+fn still_unknown(note: String, known: &[bool; 4]) -> Option<String> {
+    const TAILS: [(&str, &[usize]); 3] = [
+        ("so surge and sway are unknown", &[0, 1]),
+        ("so heave is unknown", &[2]),
+        ("so surge, sway and yaw rate are unknown", &[0, 1, 3]),
+    ];
+    let Some((tail, dofs)) = TAILS.iter().find(|(t, _)| note.contains(t)) else {
+        return Some(note);
+    };
+    let names = ["surge", "sway", "heave", "yaw rate"];
+    let left: Vec<&str> = dofs
+        .iter()
+        .filter(|&&j| !known[j])
+        .map(|&j| names[j])
+        .collect();
+    let said = match left.as_slice() {
+        [] => return None,
+        [one] => format!("so {one} is unknown"),
+        [init @ .., last] => format!("so {} and {last} are unknown", init.join(", ")),
+    };
+    match left.len() == dofs.len() {
+        true => Some(note),
+        false => Some(note.replacen(tail, &said, 1)),
     }
 }
 

@@ -371,3 +371,33 @@ fn a_dvl_away_from_the_centre_is_moved_to_it() {
         assert!(sway > 0.02, "{}: the offset shows ({sway})", spec.name);
     }
 }
+
+/// A navigation log that gives surge but not sway (its v missing throughout) leaves the
+/// position filter's note naming sway alone; one that gives both drops it; other notes stay.
+#[test]
+fn a_note_of_unknown_velocities_names_only_those_still_unknown() {
+    let note = "r: no UWB or sonar positions, so surge and sway are unknown".to_string();
+    let heading =
+        "r: no IMU heading, so surge, sway and yaw rate are unknown (the pool-frame track is kept)"
+            .to_string();
+    let surge_only = [true, false, true, true];
+    assert_eq!(
+        still_unknown(note.clone(), &surge_only).as_deref(),
+        Some("r: no UWB or sonar positions, so sway is unknown")
+    );
+    assert_eq!(still_unknown(note.clone(), &[true; 4]), None);
+    assert_eq!(
+        still_unknown(note.clone(), &[false, false, true, true]),
+        Some(note)
+    );
+    assert_eq!(
+        still_unknown(heading.clone(), &[false, false, true, true]).as_deref(),
+        Some("r: no IMU heading, so surge and sway are unknown (the pool-frame track is kept)")
+    );
+    assert_eq!(
+        still_unknown(heading, &[true, false, true, false]).as_deref(),
+        Some("r: no IMU heading, so sway and yaw rate are unknown (the pool-frame track is kept)")
+    );
+    let other = "r: the depth sensor drops out 3 times".to_string();
+    assert_eq!(still_unknown(other.clone(), &[true; 4]), Some(other));
+}

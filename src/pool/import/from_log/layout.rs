@@ -29,18 +29,7 @@ pub(super) fn build(
     shown: &str,
 ) -> Result<(), InputError> {
     let src = |n: &str| source_of(sources, n);
-    for (name, s) in samples {
-        let clock = match (s.stamped, s.received) {
-            (0, _) => "receive times",
-            (_, 0) => "header stamps",
-            _ => "header stamps where they agree with the receive times, else receive times",
-        };
-        out.notes.push(format!(
-            "{shown}: the {name} from `{}` ({} samples, {clock})",
-            s.topic,
-            s.t.len()
-        ));
-    }
+    say_samples(out, samples, shown)?;
     out.thrust = match (samples.get("command"), samples.get("wrench")) {
         (_, Some(w)) => Some(wrench(w, src("wrench").expect("a source"), shown)?),
         (Some(c), None) => Some(per_thruster(c, thrusters, shown)?),
@@ -336,6 +325,37 @@ fn nav(
         }
     }
     Ok(log_of(&t, cols, NAV.len() - 1))
+}
+
+/// Each signal's topic, sample count and clock, in the run's notes; a signal with no sample
+/// in the run is an error.
+fn say_samples(
+    out: &mut FromLog,
+    samples: &BTreeMap<&'static str, Samples>,
+    shown: &str,
+) -> Result<(), InputError> {
+    for (name, s) in samples {
+        if s.t.is_empty() {
+            // A topic whose file holds a header only, or whose messages all fall outside the
+            // run's span: said as such, not as a signal with no fields.
+            return Err(InputError::file(
+                shown,
+                format!("the {name} topic `{}` has no messages in the run", s.topic),
+                "check that the topic was recorded (`hydrofit inspect` of the log lists each topic's count and span), or give the run's `span_s` inside it",
+            ));
+        }
+        let clock = match (s.stamped, s.received) {
+            (0, _) => "receive times",
+            (_, 0) => "header stamps",
+            _ => "header stamps where they agree with the receive times, else receive times",
+        };
+        out.notes.push(format!(
+            "{shown}: the {name} from `{}` ({} samples, {clock})",
+            s.topic,
+            s.t.len()
+        ));
+    }
+    Ok(())
 }
 
 /// Depth (m, positive down) from a depth, an altitude or a pressure.
