@@ -100,22 +100,35 @@ pub fn residual(sim: &[[f64; SLOTS]], run: &Run, delay: f64) -> [Vec<f64>; SLOTS
 
 /// Per-DOF sums of a simulation against a run, with the Huber thresholds `delta` (per DOF).
 pub fn sums(sim: &[[f64; SLOTS]], run: &Run, delay: f64, delta: &[f64; SLOTS]) -> Sums {
-    let e = residual(sim, run, delay);
     let mut s = Sums::default();
-    for j in 0..SLOTS {
-        for (k, x) in e[j].iter().enumerate() {
-            if x.is_finite() {
-                s.sse[j] += x * x;
-                let a = x.abs();
-                s.huber[j] += if a <= delta[j] {
-                    x * x
-                } else {
-                    delta[j] * (2.0 * a - delta[j])
-                };
-                s.sae[j] += x.abs();
-                s.sam[j] += run.vel[j][k].abs();
-                s.n[j] += 1.0;
+    let mut add = |j: usize, k: usize, x: f64| {
+        if x.is_finite() {
+            s.sse[j] += x * x;
+            let a = x.abs();
+            s.huber[j] += if a <= delta[j] {
+                x * x
+            } else {
+                delta[j] * (2.0 * a - delta[j])
+            };
+            s.sae[j] += x.abs();
+            s.sam[j] += run.vel[j][k].abs();
+            s.n[j] += 1.0;
+        }
+    };
+    if delay == 0.0 {
+        // The residual of [`residual`] without a delay, summed as it is formed (the search
+        // scores thousands of simulations; the same sums, in the same order).
+        for j in (0..SLOTS).filter(|&j| run.slots.active[j]) {
+            for (k, (x, v)) in sim.iter().zip(&run.vel[j]).enumerate() {
+                add(j, k, x[j] - v);
             }
+        }
+        return s;
+    }
+    let e = residual(sim, run, delay);
+    for (j, e) in e.iter().enumerate() {
+        for (k, x) in e.iter().enumerate() {
+            add(j, k, *x);
         }
     }
     s
