@@ -151,6 +151,28 @@ fn check_no_folders(root: &Path, dir: &str) -> Result<(), InputError> {
     Ok(())
 }
 
+/// The command log cut to its longest stretch without a stop ([`timing::cut_at_stops`]), and
+/// the sensor logs to that stretch give or take [`STOP_MARGIN_S`], each cut said.
+fn cut_at_stops(run: &mut PoolRun, dir: &str, path: &str) {
+    let Some(r) = timing::cut_at_stops(&mut run.thrust) else {
+        return;
+    };
+    run.repairs.push(format!("{path}: {r}"));
+    let span = (run.thrust.t[0], run.thrust.t[run.thrust.len() - 1]);
+    let cut: Vec<&str> = (run.sensors_mut().into_iter())
+        .filter_map(|(name, log)| timing::keep_near(log, span, STOP_MARGIN_S).then_some(name))
+        .collect();
+    for name in cut {
+        run.repairs.push(format!(
+            "{dir}: the {name} rows more than {STOP_MARGIN_S} s outside that stretch are left out"
+        ));
+    }
+}
+
+/// How far beyond the command log's stretch a sensor's rows are kept when the command log
+/// was cut at a stop, s: the smoothers' edges.
+const STOP_MARGIN_S: f64 = 2.0;
+
 /// Loads the run in folder `dir` (relative to `root`, `/`-separated) whose files are `files`;
 /// per-thruster commands in a log become the wrench through `thrusters`. The command log's
 /// timing is repaired ([`timing`]) and every repair said.
@@ -162,6 +184,8 @@ pub fn load(
 ) -> Result<PoolRun, InputError> {
     let mut run = load_as_logged(root, dir, files, thrusters)?;
     let path = run.command_path.clone();
+    // A stop first: a regular clock is fitted to a stretch without one.
+    cut_at_stops(&mut run, dir, &path);
     if let Some(r) = timing::repair_command_clock(&mut run.thrust) {
         run.repairs.push(format!("{path}: {r}"));
     }

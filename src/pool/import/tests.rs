@@ -268,3 +268,40 @@ fn a_position_in_enu_is_turned_into_the_pool_frame() {
     let e = read(", frame: flu").unwrap_err().to_string();
     assert!(e.contains("world frame") && e.contains("frame: enu"), "{e}");
 }
+
+/// A command log whose clock jumps by a day after 1 s (a computer that set its clock
+/// mid-log), with the navigation log's clock jumping with it: the run is cut to the longer
+/// stretch after the jump, the navigation rows before it are left out with it, and both cuts
+/// are said.
+#[test]
+fn a_clock_set_mid_log_cuts_the_run_to_its_longest_stretch() {
+    let day = 86_400.0;
+    let at = |k: usize| match k < 20 {
+        true => k as f64 * 0.05,
+        false => day + k as f64 * 0.05,
+    };
+    let mut t = String::from("t,X_N,Y_N,Z_N,N_Nm\n");
+    let mut nav = String::from("t,u_m_s,v_m_s,w_m_s,yaw_deg\n");
+    for k in 0..60 {
+        t += &format!("{},{},0,0,0\n", at(k), k);
+        nav += &format!("{},0.1,0,0,90\n", at(k));
+    }
+    let (d, files) = folder(&[
+        ("run.yaml", "role: train\n"),
+        ("thrust.csv", &t),
+        ("nav.csv", &nav),
+    ]);
+    let run = load(d.path(), "cases/pool/r1", &files, None).unwrap();
+    assert_eq!(run.thrust.len(), 40);
+    assert_eq!(run.thrust.t[0], day + 1.0);
+    assert!(run.nav.as_ref().unwrap().t.iter().all(|&x| x >= day));
+    let said = run.repairs.join("\n");
+    assert!(
+        said.contains("the command log stops for 86400.1 s at 0.95 s"),
+        "{said}"
+    );
+    assert!(
+        said.contains("the nav rows more than 2 s outside"),
+        "{said}"
+    );
+}

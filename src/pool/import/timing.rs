@@ -121,6 +121,78 @@ pub fn spread_bursts(log: &mut Log) -> Option<String> {
     ))
 }
 
+/// Shortest stop of the command log that cuts a run, s, and in the log's median intervals.
+const STALL_S: f64 = 10.0;
+const STALL_INTERVALS: f64 = 100.0;
+
+/// Cuts the command log to its longest stretch without a stop of [`STALL_S`] and
+/// [`STALL_INTERVALS`] median intervals or more: a logger that stalled, a controller
+/// restarted, or a clock set during the recording (a computer without a battery-backed clock
+/// that synchronises mid-log jumps by days). No command is known over such a stop, and a
+/// simulation held the last one across it (over a clock's jump of days it did not finish).
+/// Returns what was cut, if anything.
+pub fn cut_at_stops(log: &mut Log) -> Option<String> {
+    let n = log.len();
+    if n < 3 {
+        return None;
+    }
+    let mut dt: Vec<f64> = log.t.windows(2).map(|w| w[1] - w[0]).collect();
+    let stop = |d: f64| d >= STALL_S;
+    dt.sort_by(f64::total_cmp);
+    let limit = STALL_INTERVALS * dt[dt.len() / 2];
+    let cuts: Vec<usize> = (1..n)
+        .filter(|&k| {
+            let d = log.t[k] - log.t[k - 1];
+            stop(d) && d >= limit
+        })
+        .collect();
+    if cuts.is_empty() {
+        return None;
+    }
+    let bounds: Vec<usize> = std::iter::once(0)
+        .chain(cuts.iter().copied())
+        .chain([n])
+        .collect();
+    let (a, b) = bounds
+        .windows(2)
+        .map(|w| (w[0], w[1]))
+        .max_by(|x, y| {
+            let span = |(a, b): (usize, usize)| log.t[b - 1] - log.t[a];
+            span(*x).total_cmp(&span(*y))
+        })
+        .expect("at least one stretch");
+    let stops: Vec<String> = cuts
+        .iter()
+        .map(|&k| format!("{:.1} s at {:.2} s", log.t[k] - log.t[k - 1], log.t[k - 1]))
+        .collect();
+    let (from, to) = (log.t[a], log.t[b - 1]);
+    log.t = log.t[a..b].to_vec();
+    for c in &mut log.cols {
+        *c = c[a..b].to_vec();
+    }
+    Some(format!(
+        "the command log stops for {} (a logger that stalled, or a clock set during the recording): only its longest stretch without a stop, {from:.2}-{to:.2} s, is used; to use the others, give each its own run folder with `span_s` (a log) or its own rows",
+        stops.join(", ")
+    ))
+}
+
+/// Keeps the rows of a sensor log within `margin_s` of the command log's span `from`-`to`:
+/// after the command was cut at a stop ([`cut_at_stops`]), a sensor's rows across the stop
+/// would have its smoother predict over it (days, for a clock set mid-log). Returns whether
+/// rows were dropped.
+pub fn keep_near(log: &mut Log, (from, to): (f64, f64), margin_s: f64) -> bool {
+    let keep = |t: f64| t >= from - margin_s && t <= to + margin_s;
+    if log.t.iter().all(|&t| keep(t)) {
+        return false;
+    }
+    let rows: Vec<usize> = (0..log.len()).filter(|&k| keep(log.t[k])).collect();
+    log.t = rows.iter().map(|&k| log.t[k]).collect();
+    for c in &mut log.cols {
+        *c = rows.iter().map(|&k| c[k]).collect();
+    }
+    true
+}
+
 /// Cuts the command log to the span where every velocity sensor has data: the fusion has nothing
 /// to say before the first sensor row or after the last. Returns what was cut, if anything.
 pub fn trim_to_overlap(command: &mut Log, sensors: &[&Log]) -> Option<String> {
@@ -172,6 +244,30 @@ mod tests {
             notes: vec![],
             present: vec![true],
         }
+    }
+
+    /// A 20 Hz command log whose clock jumps by 11.6 days after 30 s (a computer that set its
+    /// clock mid-log), then runs 50 s more: the longer stretch is kept and the stop said; a
+    /// log with a 2 s pause (40 intervals) is left whole.
+    #[test]
+    fn a_command_log_that_stops_is_cut_to_its_longest_stretch() {
+        let mut t: Vec<f64> = (0..600).map(|k| k as f64 * 0.05).collect();
+        t.extend((0..1000).map(|k| 1e6 + k as f64 * 0.05));
+        let mut l = log(t);
+        let said = cut_at_stops(&mut l).expect("a cut");
+        assert_eq!(l.len(), 1000);
+        assert_eq!(l.t[0], 1e6);
+        assert_eq!(l.cols[0].len(), 1000);
+        assert!(said.contains("stops for 999970.1 s at 29.95 s"), "{said}");
+        assert!(
+            said.contains("stretch without a stop, 1000000.00-1000049.95 s"),
+            "{said}"
+        );
+        let mut t: Vec<f64> = (0..600).map(|k| k as f64 * 0.05).collect();
+        t.extend((0..600).map(|k| 32.0 + k as f64 * 0.05));
+        let mut l = log(t);
+        assert_eq!(cut_at_stops(&mut l), None);
+        assert_eq!(l.len(), 1200);
     }
 
     /// A 50 Hz controller whose rows reach the logger in bursts: every 0.5-1.5 s a stall, then
