@@ -52,9 +52,14 @@ impl Log {
             "{path}: {} rows repeated a time stamp; the last of each was kept",
             n - keep.len()
         ));
-        self.t = keep.iter().map(|&k| self.t[k]).collect();
+        self.keep_rows(&keep);
+    }
+
+    /// Keeps rows `rows` (ascending) of the time and every column.
+    pub fn keep_rows(&mut self, rows: &[usize]) {
+        self.t = rows.iter().map(|&k| self.t[k]).collect();
         for c in &mut self.cols {
-            *c = keep.iter().map(|&k| c[k]).collect();
+            *c = rows.iter().map(|&k| c[k]).collect();
         }
     }
 }

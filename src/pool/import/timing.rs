@@ -166,10 +166,7 @@ pub fn cut_at_stops(log: &mut Log) -> Option<String> {
         .map(|&k| format!("{:.1} s at {:.2} s", log.t[k] - log.t[k - 1], log.t[k - 1]))
         .collect();
     let (from, to) = (log.t[a], log.t[b - 1]);
-    log.t = log.t[a..b].to_vec();
-    for c in &mut log.cols {
-        *c = c[a..b].to_vec();
-    }
+    log.keep_rows(&(a..b).collect::<Vec<_>>());
     Some(format!(
         "the command log stops for {} (a logger that stalled, or a clock set during the recording): only its longest stretch without a stop, {from:.2}-{to:.2} s, is used; to use the others, give each its own run folder with `span_s` (a log) or its own rows",
         stops.join(", ")
@@ -186,10 +183,7 @@ pub fn keep_near(log: &mut Log, (from, to): (f64, f64), margin_s: f64) -> bool {
         return false;
     }
     let rows: Vec<usize> = (0..log.len()).filter(|&k| keep(log.t[k])).collect();
-    log.t = rows.iter().map(|&k| log.t[k]).collect();
-    for c in &mut log.cols {
-        *c = rows.iter().map(|&k| c[k]).collect();
-    }
+    log.keep_rows(&rows);
     true
 }
 
@@ -221,10 +215,7 @@ pub fn trim_to_overlap(command: &mut Log, sensors: &[&Log]) -> Option<String> {
             keep.len()
         ));
     }
-    log.t = keep.iter().map(|&k| log.t[k]).collect();
-    for c in &mut log.cols {
-        *c = keep.iter().map(|&k| c[k]).collect();
-    }
+    log.keep_rows(&keep);
     Some(format!(
         "the logs start and stop at different times: only their overlap {start:.2}-{end:.2} s is used ({:.2} s of command before it and {:.2} s after it dropped)",
         (start - first).max(0.0),
