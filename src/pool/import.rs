@@ -9,6 +9,7 @@ pub mod csvlog;
 pub mod frames;
 pub mod from_log;
 pub mod log_spec;
+mod repairs;
 mod stacks;
 pub mod timing;
 
@@ -151,28 +152,6 @@ fn check_no_folders(root: &Path, dir: &str) -> Result<(), InputError> {
     Ok(())
 }
 
-/// The command log cut to its longest stretch without a stop ([`timing::cut_at_stops`]), and
-/// the sensor logs to that stretch give or take [`STOP_MARGIN_S`], each cut said.
-fn cut_at_stops(run: &mut PoolRun, dir: &str, path: &str) {
-    let Some(r) = timing::cut_at_stops(&mut run.thrust) else {
-        return;
-    };
-    run.repairs.push(format!("{path}: {r}"));
-    let span = (run.thrust.t[0], run.thrust.t[run.thrust.len() - 1]);
-    let cut: Vec<&str> = (run.sensors_mut().into_iter())
-        .filter_map(|(name, log)| timing::keep_near(log, span, STOP_MARGIN_S).then_some(name))
-        .collect();
-    for name in cut {
-        run.repairs.push(format!(
-            "{dir}: the {name} rows more than {STOP_MARGIN_S} s outside that stretch are left out"
-        ));
-    }
-}
-
-/// How far beyond the command log's stretch a sensor's rows are kept when the command log
-/// was cut at a stop, s: the smoothers' edges.
-const STOP_MARGIN_S: f64 = 2.0;
-
 /// Loads the run in folder `dir` (relative to `root`, `/`-separated) whose files are `files`;
 /// per-thruster commands in a log become the wrench through `thrusters`. The command log's
 /// timing is repaired ([`timing`]) and every repair said.
@@ -185,7 +164,7 @@ pub fn load(
     let mut run = load_as_logged(root, dir, files, thrusters)?;
     let path = run.command_path.clone();
     // A stop first: a regular clock is fitted to a stretch without one.
-    cut_at_stops(&mut run, dir, &path);
+    run.cut_at_stops(dir);
     if let Some(r) = timing::repair_command_clock(&mut run.thrust) {
         run.repairs.push(format!("{path}: {r}"));
     }
@@ -553,54 +532,6 @@ impl Sensors {
                 c.iter_mut().for_each(|x| *x = x.to_radians());
             }
         }
-    }
-}
-
-impl PoolRun {
-    /// The command log cut to the span where every sensor log has data, the cut said in the
-    /// timing repairs ([`timing::trim_to_overlap`]).
-    pub fn trim_command_to_sensors(&mut self) {
-        // Disjoint fields: the command log is trimmed while the sensor logs are read.
-        let sensors: Vec<&Log> = [&self.uwb, &self.sonar, &self.imu, &self.depth, &self.nav]
-            .into_iter()
-            .flatten()
-            .collect();
-        if let Some(r) = timing::trim_to_overlap(&mut self.thrust, &sensors) {
-            self.repairs.push(format!("{}: {r}", self.command_path));
-        }
-    }
-
-    /// The sensor logs the run has, in the order their notes are listed.
-    fn sensor_logs(&self) -> impl Iterator<Item = &Log> {
-        self.sensors().into_iter().map(|(_, l)| l)
-    }
-
-    /// The sensor logs the run has, by name, to repair.
-    fn sensors_mut(&mut self) -> Vec<(&'static str, &mut Log)> {
-        [
-            ("uwb", &mut self.uwb),
-            ("sonar", &mut self.sonar),
-            ("imu", &mut self.imu),
-            ("depth", &mut self.depth),
-            ("nav", &mut self.nav),
-        ]
-        .into_iter()
-        .filter_map(|(n, l)| Some((n, l.as_mut()?)))
-        .collect()
-    }
-
-    /// The sensor logs the run has, by name.
-    pub fn sensors(&self) -> Vec<(&'static str, &Log)> {
-        [
-            ("uwb", &self.uwb),
-            ("sonar", &self.sonar),
-            ("imu", &self.imu),
-            ("depth", &self.depth),
-            ("nav", &self.nav),
-        ]
-        .into_iter()
-        .filter_map(|(n, l)| Some((n, l.as_ref()?)))
-        .collect()
     }
 }
 
