@@ -57,23 +57,36 @@ impl Candidate {
     /// in disguise when it is one, its held-out errors after the term, its evidence said.
     /// The verdict's sentence for it.
     pub fn verdict_sentence(&self) -> String {
+        let form = |c: &Candidate| {
+            let named = c.named_as.as_ref();
+            format!(
+                "{}{}",
+                c.expression,
+                named.map_or(String::new(), |n| format!(" (the form of {n})"))
+            )
+        };
+        if !self.also.is_empty() && self.validation_cost_after >= self.validation_cost_before {
+            // One physics in several DOFs, found together: no part lowers the cost alone.
+            let all: Vec<String> = self.parts().map(form).collect();
+            return format!(
+                " Discovery proposes a closed form for it in {} DOFs at once: {}, which together lower the held-out error cost from {:.4} to {:.4}.",
+                all.len(),
+                all.join("; "),
+                self.validation_cost_before,
+                self.cost_after_all()
+            );
+        }
         let mut out = format!(
-            " Discovery proposes a closed form for it: {}{}, which lowers the held-out error cost from {:.4} to {:.4}",
-            self.expression,
-            self.named_as
-                .as_ref()
-                .map_or(String::new(), |n| format!(" (the form of {n})")),
+            " Discovery proposes a closed form for it: {}, which lowers the held-out error cost from {:.4} to {:.4}",
+            form(self),
             self.validation_cost_before,
             self.validation_cost_after
         );
         for c in &self.also {
             let _ = write!(
                 out,
-                "; beside it, {}{} {} {:.4}",
-                c.expression,
-                c.named_as
-                    .as_ref()
-                    .map_or(String::new(), |n| format!(" (the form of {n})")),
+                "; beside it, {} {} {:.4}",
+                form(c),
                 if c.validation_cost_after < c.validation_cost_before {
                     "lowers it further to"
                 } else {
@@ -141,10 +154,16 @@ impl Candidate {
             .collect();
         let _ = write!(
             evidence,
-            " Discovery, a sparse regression of the residual force on {} candidate terms, proposes {} from {}; added to the model it lowers the held-out error cost from {:.4} to {:.4} ({}).",
+            " Discovery, a sparse regression of the residual force on {} candidate terms, proposes {} from {}; added to the model it {} the held-out error cost from {:.4} to {:.4} ({}).",
             self.library_terms,
             self.expression,
             terms.join(" and "),
+            // A part found with others at once may not lower the cost alone.
+            if self.validation_cost_after < self.validation_cost_before {
+                "lowers"
+            } else {
+                "takes"
+            },
             self.validation_cost_before,
             self.validation_cost_after,
             nmae_change(

@@ -166,6 +166,7 @@ fn a_thrust_that_fades_over_the_run_is_found() {
         &scenario_diagnosis(std::slice::from_ref(&e), 2),
         "pool sensors",
         false,
+        FADE,
     );
     let fused = scenario::fused_runs_seen(
         std::slice::from_ref(&e),
@@ -174,12 +175,57 @@ fn a_thrust_that_fades_over_the_run_is_found() {
     )
     .unwrap();
     let d = full(&fused, &scenario::cfd_fit_plant(1).unwrap());
-    faded_thrust_found(&d, "navigation log", true);
+    faded_thrust_found(&d, "navigation log", true, FADE);
+}
+
+/// What [`a_thrust_that_fades_over_the_run_is_found`] asks of a fade of 15 % a minute: the
+/// rate, the DOFs it is found in, and the share of the held-out cost left.
+const FADE: Fade = Fade {
+    per_minute: 0.15,
+    dofs: 4,
+    cost_left: 0.2,
+};
+
+/// A weak drain, 5 % a minute, is found too, with the look-alike it was taken for dropped.
+/// It stands out only in yaw (the other DOFs' residuals stay under the structure mark), where
+/// the exact term alone did not lower the held-out cost (0.0078 -> 0.0078: surge, sway and
+/// heave still faded), so discovery found nothing and `reverse_thrust_loss` was named in
+/// heave (17 % of the cost: the heave command is mostly one-signed). The thruster forms found
+/// in one DOF are now tried in the model's other DOFs together with it
+/// (`discover::search::siblings`). Measured: the rate found in 3 and 4 DOFs, -0.0008 per s in
+/// each, the held-out cost 0.0097 -> 0.0043 and 0.0098 -> 0.0022 (noise floor about 0.0024).
+#[test]
+fn a_weak_fade_is_found_not_named_as_a_look_alike() {
+    let e = Effect::from_arg("battery_sag=0.05").unwrap();
+    let fade = Fade {
+        per_minute: 0.05,
+        dofs: 3,
+        cost_left: 0.5,
+    };
+    for seed in [2, 3] {
+        let d = scenario_diagnosis(std::slice::from_ref(&e), seed);
+        faded_thrust_found(&d, &format!("seed {seed}, 5 % a minute"), false, fade);
+        assert!(
+            d.dropped.iter().any(|w| w.contains("reverse_thrust_loss")),
+            "seed {seed}: {:?}\n{}",
+            d.dropped,
+            d.verdict
+        );
+    }
+}
+
+/// A thrust that fades: the share lost per minute, the fewest DOFs its term must be found in,
+/// and the most of the held-out cost the terms may leave.
+#[derive(Clone, Copy)]
+struct Fade {
+    per_minute: f64,
+    dofs: usize,
+    cost_left: f64,
 }
 
 /// The checks of [`a_thrust_that_fades_over_the_run_is_found`] on one diagnosis.
-fn faded_thrust_found(d: &Diagnosis, what: &str, nav: bool) {
-    let want = -0.15 / 60.0;
+fn faded_thrust_found(d: &Diagnosis, what: &str, nav: bool, fade: Fade) {
+    let want = -fade.per_minute / 60.0;
     eprintln!("{what}: {}", d.verdict);
     let c = d
         .effects
@@ -205,7 +251,7 @@ fn faded_thrust_found(d: &Diagnosis, what: &str, nav: bool) {
     );
     // Found in every DOF the thrusters drive, each with the twin's rate.
     let dofs: Vec<Dof> = c.parts().map(|p| p.dof).collect();
-    assert_eq!(dofs.len(), 4, "{what}: {}", d.verdict);
+    assert!(dofs.len() >= fade.dofs, "{what}: {}", d.verdict);
     for p in c.parts() {
         let own = format!("t {}", p.dof.force());
         let t = p.terms.iter().find(|t| t.term == own);
@@ -220,7 +266,7 @@ fn faded_thrust_found(d: &Diagnosis, what: &str, nav: bool) {
     // Together they take the held-out cost down by most of it and every DOF's NMAE.
     let last = c.also.last().unwrap();
     assert!(
-        c.cost_after_all() < 0.2 * c.validation_cost_before,
+        c.cost_after_all() < fade.cost_left * c.validation_cost_before,
         "{what}: held-out cost {} -> {}",
         c.validation_cost_before,
         c.cost_after_all()
