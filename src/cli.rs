@@ -300,6 +300,12 @@ pub enum TwinCommand {
         /// sensors.
         #[arg(long)]
         navigation_log: bool,
+        /// A scenario of your own instead of the check's set: effects concealed together as
+        /// `name=magnitude`, `,`-separated (the table's names and wave, skewed_thruster,
+        /// surface_drag, tether_torsion, battery_sag, which the diagnosis must report
+        /// unexplained); repeatable.
+        #[arg(long = "scenario")]
+        scenarios: Vec<String>,
     },
 }
 
@@ -432,6 +438,7 @@ fn twin(root: &std::path::Path, what: TwinCommand) -> anyhow::Result<ExitCode> {
         TwinCommand::CheckDiagnosis {
             seeds,
             navigation_log,
-        } => cmd::twin::check_diagnosis(&seeds, navigation_log),
+            scenarios,
+        } => cmd::check_diagnosis::check_diagnosis(&seeds, navigation_log, &scenarios),
     }
 }

@@ -3,6 +3,7 @@
 pub mod bench;
 pub mod bench_six;
 pub mod build;
+pub mod check_diagnosis;
 pub mod clean;
 pub mod design;
 pub mod export;
