@@ -23,6 +23,7 @@ pub mod effects;
 mod figures;
 mod latency;
 mod locate;
+mod readmit;
 pub mod reckon;
 mod record;
 pub mod report;
@@ -35,6 +36,7 @@ mod spectrum;
 pub mod stage;
 pub mod start;
 mod sums;
+mod testable;
 #[cfg(test)]
 mod tests;
 mod unexplained;
@@ -54,9 +56,10 @@ use world::World;
 pub use effects::{Hypothesis, REGISTRY, hypothesis};
 pub use locate::{Mismatch, REGIMES, Regime, RegimeShare, locate, regime_shares};
 pub use result::{Diagnosis, Figure};
-pub use select::{Criteria, Search, Tested, Untested, params_map, select, untested};
+pub use select::{Criteria, Search, Tested, params_map, select};
 pub use slots::{SLOTS, Slots};
 pub use sums::{Sums, noise_per_dof, residual, sums};
+pub use testable::{Untested, untested};
 pub use verdict::diagnose;
 
 /// The pool DOFs, in the order of the fused tables: surge, sway, heave, yaw.

@@ -139,11 +139,23 @@ pub fn fit_one(
     selected: &Selection,
     h: &'static Hypothesis,
 ) -> (Vec<f64>, f64) {
+    fit_beside(plant, data, (selected, &[]), h)
+}
+
+/// [`fit_one`] with discovered terms `beside` in the model as they are.
+pub fn fit_beside(
+    plant: &Plant,
+    data: &Data,
+    (selected, beside): (&Selection, &[Arc<Discovered>]),
+    h: &'static Hypothesis,
+) -> (Vec<f64>, f64) {
     let k = h.params.len();
     let cost = |u: &[f64], bound: f64| {
         let mut sel = selected.clone();
         sel.push((h, to_params(h, u)));
-        data.train_cost_below(plant, &augmentation(&sel), bound)
+        let mut aug = augmentation(&sel);
+        aug.discovered = beside.to_vec();
+        data.train_cost_below(plant, &aug, bound)
     };
     let g = grid(k);
     let mut best = (vec![0.0; k], f64::INFINITY);

@@ -2,6 +2,7 @@
 //! with a swap step for effects that only make sense together.
 
 use super::effects::Limits;
+use super::testable::applicable;
 use super::{Augmentation, Data, Hypothesis, Selection, augmentation, search};
 use crate::core::model::Plant;
 use rayon::prelude::*;
@@ -101,73 +102,6 @@ pub fn params_map(h: &Hypothesis, p: &[f64]) -> BTreeMap<String, f64> {
         .collect()
 }
 
-/// A hypothesis the runs cannot test, and what they lack for it.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct Untested {
-    pub name: String,
-    pub missing: String,
-}
-
-/// Every hypothesis some run lacks the data for, with what is missing and where (docs/formats.md:
-/// listed apart, never skipped silently).
-pub fn untested(data: &Data) -> Vec<Untested> {
-    let all: Vec<&super::Run> = data.train.iter().chain(&data.validate).collect();
-    data.effects
-        .iter()
-        .filter(|h| !applicable(h, data))
-        .map(|h| {
-            if !acts_in_slots(h, data) {
-                let dofs: Vec<String> = h.acts_in.iter().map(|d| d.to_string()).collect();
-                return Untested {
-                    name: h.name.to_string(),
-                    missing: format!(
-                        "a model that moves in {}, where the table's form of the effect acts (this one is compared in {} only; discovery still looks for other forms there)",
-                        dofs.join(" or "),
-                        compared(data)
-                    ),
-                };
-            }
-            // Grouped by what is missing, runs named under each.
-            let mut lacking: Vec<(&str, Vec<&str>)> = Vec::new();
-            for r in all.iter().filter(|r| !h.needs.met_by(r)) {
-                let what = h.needs.missing_in(r);
-                match lacking.iter_mut().find(|(w, _)| *w == what) {
-                    Some((_, runs)) => runs.push(r.name.as_str()),
-                    None => lacking.push((what, vec![r.name.as_str()])),
-                }
-            }
-            let missing: Vec<String> = lacking
-                .iter()
-                .map(|(what, runs)| format!("{what} is missing in {}", runs.join(", ")))
-                .collect();
-            Untested {
-                name: h.name.to_string(),
-                missing: missing.join("; "),
-            }
-        })
-        .collect()
-}
-
-fn applicable(h: &Hypothesis, data: &Data) -> bool {
-    let all = || data.train.iter().chain(&data.validate);
-    acts_in_slots(h, data) && all().all(|r| h.needs.met_by(r))
-}
-
-/// Whether the effect acts in a DOF the model is compared in.
-fn acts_in_slots(h: &Hypothesis, data: &Data) -> bool {
-    h.acts_in.is_empty() || h.acts_in.iter().any(|d| data.slots.slot(*d).is_some())
-}
-
-/// The DOFs the model is compared in, in words.
-fn compared(data: &Data) -> String {
-    let on: Vec<String> = data
-        .slots
-        .on()
-        .map(|j| data.slots.dof(j).to_string())
-        .collect();
-    on.join(", ")
-}
-
 /// Result of the greedy search.
 pub struct Search {
     pub selected: Selection,
@@ -190,7 +124,13 @@ fn corroborated(criteria: &Criteria, train_before: f64, train_after: f64) -> boo
 
 /// Whether lowering the held-out cost from `before` to `after` with `params` more parameters
 /// is worth naming: by `min_gain` plus the per-parameter penalty, and by more than noise.
-fn significant(criteria: &Criteria, data: &Data, before: f64, after: f64, params: f64) -> bool {
+pub(super) fn significant(
+    criteria: &Criteria,
+    data: &Data,
+    before: f64,
+    after: f64,
+    params: f64,
+) -> bool {
     (before - after) / before - criteria.gain_per_parameter * params >= criteria.min_gain
         && before - after >= criteria.min_noise_multiple * data.noise_cost
 }

@@ -129,7 +129,7 @@ fn compose_verdict(
     if let Some(c) = effects.iter().find_map(|e| e.candidate.as_ref()) {
         verdict.push_str(&c.verdict_sentence());
     }
-    for d in conclusion.dropped.iter().chain(&conclusion.refit) {
+    for d in conclusion.dropped.iter().chain(&conclusion.notes) {
         let _ = write!(verdict, " {d}.");
     }
     verdict
@@ -169,8 +169,9 @@ struct Conclusion {
     /// Named effects dropped once a discovered term explained what they were chosen for,
     /// each with the numbers that decided it.
     dropped: Vec<String>,
-    /// How the named effects kept moved when refitted beside the discovered terms.
-    refit: Option<String>,
+    /// Named effects taken back beside the discovered terms (`readmit`), and how the named
+    /// effects kept moved when refitted beside them.
+    notes: Vec<String>,
     /// The held-out cost of the effects kept, once some were dropped or refitted.
     cost_after_drop: Option<f64>,
     /// The DOFs whose residual after the effects kept is structured above its noise, with the
@@ -217,7 +218,7 @@ fn conclude(
         !left.is_empty()
             || (!within(cost) && (cost > 0.5 * costs.base.max(1e-12) || n_effects == 0))
     };
-    let (mut dropped, mut refit) = (Vec::new(), None);
+    let (mut dropped, mut notes) = (Vec::new(), Vec::new());
     let mut found = None;
     let mut disc_figures = Vec::new();
     if unexplained(explained_cost, &left, selected.len()) {
@@ -228,11 +229,11 @@ fn conclude(
             let dofs = f.dofs.clone();
             let aug = dx::augmentation(&selected);
             if let Some((c, figs)) = super::discover::discover(plant, data, &aug, &dofs, crit)? {
-                let (kept, c, figs, why) =
-                    joint_selection(plant, data, crit, selected.clone(), &dofs, c, figs)?;
-                let (kept, c, figs, note) = refit_beside(plant, data, crit, kept, &dofs, c, figs)?;
-                (selected, dropped, refit) = (kept, why, note);
-                if !dropped.is_empty() || refit.is_some() {
+                let on_top = (selected.clone(), &search.tested[..]);
+                let (kept, c, figs, (why, said)) =
+                    settle(plant, data, crit, on_top, &dofs, (c, figs))?;
+                (selected, dropped, notes) = (kept, why, said);
+                if !dropped.is_empty() || !notes.is_empty() {
                     let aug = dx::augmentation(&selected);
                     explained_cost = data.eval(plant, &aug, true).cost(&data.scale);
                     left = structured_left(plant, data, &aug, crit);
@@ -256,13 +257,33 @@ fn conclude(
         Conclusion {
             drift,
             unexplained,
-            cost_after_drop: (!dropped.is_empty() || refit.is_some()).then_some(explained_cost),
+            cost_after_drop: (!dropped.is_empty() || !notes.is_empty()).then_some(explained_cost),
             selected,
             dropped,
-            refit,
+            notes,
             structured: if unexplained { left } else { Vec::new() },
         },
     ))
+}
+
+/// The named effects `selected` (found by the search that `tested` them) settled beside the
+/// discovered term `c`: dropped where it explains them ([`joint_selection`]), taken back where
+/// it carries their form (`readmit`), refitted beside it ([`refit_beside`]); with the sentences
+/// of the effects dropped, and of those taken back or moved.
+fn settle(
+    plant: &Plant,
+    data: &Data,
+    crit: &Criteria,
+    (selected, tested): (dx::Selection, &[dx::Tested]),
+    dofs: &[Dof],
+    (c, figs): (crate::diagnose::result::Candidate, Vec<Figure>),
+) -> anyhow::Result<Chosen<(Vec<String>, Vec<String>)>> {
+    let (kept, c, figs, why) = joint_selection(plant, data, crit, selected, dofs, c, figs)?;
+    let on_top = (kept, tested);
+    let (kept, c, figs, back) =
+        super::readmit::readmit(plant, data, crit, on_top, dofs, (c, figs))?;
+    let (kept, c, figs, note) = refit_beside(plant, data, crit, kept, dofs, c, figs)?;
+    Ok((kept, c, figs, (why, back.into_iter().chain(note).collect())))
 }
 
 /// Whether a closed form discovery finds with the model as it is (and the named effects

@@ -24,6 +24,26 @@ impl Discovered {
         self.features.iter().map(|f| f.columns()).sum()
     }
 
+    /// The term without its features of named effect `name`'s form (their coefficients as
+    /// fitted, the rest kept as they are); `None` when nothing is left.
+    pub fn without_form(&self, name: &str, slots: &crate::diagnose::Slots) -> Option<Discovered> {
+        let (mut features, mut coef) = (Vec::new(), Vec::new());
+        let mut at = 0;
+        for f in &self.features {
+            let n = f.columns();
+            if f.named(slots, self.dof) != Some(name) {
+                features.push(*f);
+                coef.extend_from_slice(&self.coef[at..at + n]);
+            }
+            at += n;
+        }
+        (!features.is_empty()).then_some(Discovered {
+            dof: self.dof,
+            features,
+            coef,
+        })
+    }
+
     /// The term's generalised force at sample `k` of `run`, with the model's state `s`.
     pub fn force(&self, run: &Run, pre: &Prepared, k: usize, s: &State) -> Vec6 {
         let mut cols = Vec::with_capacity(self.coef.len());
