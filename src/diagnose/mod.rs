@@ -241,6 +241,10 @@ pub struct Augmentation {
 /// A set of effects with their parameter values.
 pub type Selection = Vec<(&'static Hypothesis, Vec<f64>)>;
 
+/// Named effects kept beside a discovered candidate, its figures, and what the verdict says
+/// of the choice.
+type Chosen<T> = (Selection, result::Candidate, Vec<result::Figure>, T);
+
 pub fn augmentation(sel: &[(&'static Hypothesis, Vec<f64>)]) -> Augmentation {
     let mut a = Augmentation::default();
     for (h, p) in sel {

@@ -11,15 +11,11 @@
 
 use super::discover::Discovered;
 use super::result::{Candidate, Figure};
-use super::{Criteria, Data, Selection, Tested, augmentation, search, select, testable};
+use super::{Chosen, Criteria, Data, Selection, Tested, augmentation, search, select, testable};
 use crate::core::dof::Dof;
 use crate::core::model::Plant;
 use std::collections::BTreeSet;
 use std::sync::Arc;
-
-/// The named effects kept (`selected` and those taken back), the candidate and its figures,
-/// and a sentence per effect taken back.
-pub(super) type Readmitted = (Selection, Candidate, Vec<Figure>, Vec<String>);
 
 /// `selected` with every named effect whose form `c`'s terms carry taken back where the
 /// held-out runs prove it (module docs), with the terms discovered again beside it. An effect
@@ -28,7 +24,7 @@ pub(super) type Readmitted = (Selection, Candidate, Vec<Figure>, Vec<String>);
 /// give (a thruster lag of 3 s, its search ending at 1.5 s with 60 % of the cost, was named at
 /// 0.43 s beside command-gain terms), and it would be named at a value that is not the
 /// finding. At a bound with nothing gained (a lag at 0 s in a later round) it was merely not
-/// wanted then.
+/// wanted then. The sentences are one per effect taken back.
 pub(super) fn readmit(
     plant: &Plant,
     data: &Data,
@@ -36,7 +32,7 @@ pub(super) fn readmit(
     (mut selected, tested): (Selection, &[Tested]),
     dofs: &[Dof],
     (mut c, mut figs): (Candidate, Vec<Figure>),
-) -> anyhow::Result<Readmitted> {
+) -> anyhow::Result<Chosen<Vec<String>>> {
     let mut notes = Vec::new();
     let named: BTreeSet<String> = c.parts().flat_map(|p| p.named_terms.clone()).collect();
     for name in named {

@@ -7,7 +7,7 @@ use super::figures;
 use super::result::*;
 use super::sentence::{Costs, verdict_sentence};
 use super::unexplained::{Structured, structured_left, unexplained_residual};
-use super::{self as dx, Augmentation, Criteria, Data, Mismatch, Run, Slots};
+use super::{self as dx, Augmentation, Chosen, Criteria, Data, Mismatch, Run, Slots};
 use crate::core::dof::Dof;
 use crate::core::model::Plant;
 use crate::diagnose::SLOTS;
@@ -333,15 +333,6 @@ fn list_alike(effects: &mut [Found], search: &dx::Search, crit: &Criteria, data:
         }
     }
 }
-
-/// Named effects kept beside a discovered candidate, its figures, and what the verdict says
-/// of the choice.
-type Chosen<T> = (
-    dx::Selection,
-    crate::diagnose::result::Candidate,
-    Vec<Figure>,
-    T,
-);
 
 /// The named effects `selected` refitted beside the discovered terms of `c`, and the terms
 /// discovered again beside them. Fitted before discovery, a named effect takes up some of
