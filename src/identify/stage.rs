@@ -420,7 +420,8 @@ fn training_runs(
     Vec<String>,
 )> {
     let (mut refs, mut responses, mut notes) = (Vec::new(), Vec::new(), Vec::new());
-    let mut unknown: Vec<crate::core::dof::Dof> = Vec::new();
+    // The DOFs every training run's logs give a velocity in, whatever the vehicle declares.
+    let mut gives = crate::core::dof::Dof::ALL.to_vec();
     let mut latencies = Vec::new();
     for up in ctx.upstream_of(Artifact::PoolRuns) {
         let run = crate::pool::fusion::run::load_for(&up.dir, vehicle)?;
@@ -428,6 +429,7 @@ fn training_runs(
         if run.meta.role != crate::pool::import::Role::Train {
             continue;
         }
+        gives.retain(|d| run.velocity(*d).is_some() || run.meta.stats.rates_unfused.contains(d));
         match run.as_response(vehicle, filter) {
             Some(r) => {
                 refs.push(RunRef {
@@ -439,11 +441,6 @@ fn training_runs(
             }
             None => {
                 let dofs = run.missing_dofs(vehicle);
-                for d in &dofs {
-                    if !unknown.contains(d) {
-                        unknown.push(*d);
-                    }
-                }
                 let missing: Vec<String> = dofs.iter().map(|d| d.to_string()).collect();
                 notes.push(format!(
                     "pool run {} left out: its sensors gave no {} velocity",
@@ -459,16 +456,17 @@ fn training_runs(
                 "no pool run with `role: train` to fit on\n  help: mark the runs to identify from `role: train` in their run.yaml; the others are held out for validation"
             );
         }
-        let has: Vec<String> = vehicle
-            .dofs
-            .iter()
-            .filter(|d| !unknown.contains(d))
-            .map(|d| d.to_string())
-            .collect();
+        let has: Vec<String> = gives.iter().map(|d| d.to_string()).collect();
+        let fit_in = match has.is_empty() {
+            true => "the training runs' logs give no velocity in any DOF:".to_string(),
+            false => format!(
+                "the training runs' logs give a velocity in {0}: fit in those (`dofs: [{0}]` under `vehicle` in pipeline.yaml), or",
+                has.join(", ")
+            ),
+        };
         anyhow::bail!(
-            "no pool run with `role: train` and every DOF fused to fit on: {}\n  help: fit in the DOFs the logs give, `dofs: [{}]` under `vehicle` in pipeline.yaml, or log what gives the others (a DVL's navigation log, UWB, a sonar track)",
+            "no pool run with `role: train` and every DOF fused to fit on: {}\n  help: {fit_in} or log what gives the others (a DVL's navigation log, UWB, a sonar track)",
             notes.join("; "),
-            has.join(", ")
         );
     }
     let latency = crate::pool::fusion::latency::Summary::of(latencies.iter().map(Option::as_ref));

@@ -36,6 +36,8 @@ impl StageImpl for Settings {
         let mut notes = Vec::new();
         if modelled {
             fused.roll_pitch = fusion::rotation::fuse(&run, &fused.t, &mut notes);
+        } else {
+            fused.stats.rates_unfused = fusion::rotation::logged_rates(&run);
         }
         // A run that rolls or pitches has its r from the gyro whatever the model's DOFs, so
         // that yaw is fitted to the same rate alone as beside roll and pitch.

@@ -177,6 +177,45 @@ fn a_fit_the_logs_cannot_support_names_the_dofs_they_can() {
     );
 }
 
+/// A navigation log with the AHRS's attitude and roll and pitch rates but no DVL velocity (as a
+/// vehicle without a DVL writes it) gives heave from the depth, roll and pitch from their rates
+/// and yaw from the heading: a vehicle
+/// declared in surge, sway, heave and yaw is refused, and the hint names all four DOFs the logs
+/// give, roll and pitch among them although the vehicle does not declare them.
+#[test]
+fn the_hint_names_the_dofs_the_logs_give_beyond_the_declared_ones() {
+    let (d, runs) = two_training_runs();
+    let root = d.path();
+    for r in &runs {
+        let dir = root.join("cases/pool").join(&r.name);
+        std::fs::remove_file(dir.join("uwb.csv")).unwrap();
+        let nav = std::fs::read_to_string(dir.join("nav.csv")).unwrap();
+        let attitude: String = nav
+            .lines()
+            .map(|l| {
+                let c: Vec<&str> = l.split(',').collect();
+                let rates = if c[0] == "t" { "p_dps,q_dps" } else { "0,0" };
+                format!("{},{},{rates}\n", c[0], c[4..].join(","))
+            })
+            .collect();
+        assert!(
+            attitude.starts_with("t,roll_deg,pitch_deg,yaw_deg,p_dps,q_dps\n"),
+            "{attitude:.80}"
+        );
+        std::fs::write(dir.join("nav.csv"), attitude).unwrap();
+    }
+    let yaml = PIPELINE.replace("validate: {kind: validate, from: [fit, pool]}\n  report: {kind: report, from: [fit, pool, validate]}\n", "");
+    std::fs::write(root.join("pipeline.yaml"), yaml).unwrap();
+    let o = run(root, &["build"]);
+    let err = stderr(&o);
+    assert!(!o.status.success(), "{err}");
+    assert!(
+        err.contains("its sensors gave no surge, sway velocity")
+            && err.contains("`dofs: [heave, roll, pitch, yaw]`"),
+        "{err}"
+    );
+}
+
 /// A vehicle fitted in some of the pool's DOFs (heave and yaw here) is diagnosed in those:
 /// surge and sway are held at rest and never scored, and the effects that act only there are
 /// listed untested with the reason. (Roll, pitch and yaw: tests/it/e2e_rotation.rs.)

@@ -200,6 +200,10 @@ pub struct Stats {
     /// The navigation log's latency against the depth gauge, where this run tells it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub nav_latency: Option<latency::NavLatency>,
+    /// Roll and pitch where the logs give their rates but the model leaves them out (so they
+    /// were not fused): named when a fit the logs cannot support says which DOFs they can.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub rates_unfused: Vec<crate::core::dof::Dof>,
 }
 
 impl Fused {

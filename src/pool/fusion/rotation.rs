@@ -71,6 +71,20 @@ pub fn fuse(run: &PoolRun, t: &[f64], notes: &mut Vec<String>) -> RollPitch {
     out
 }
 
+/// The body rates (`roll` for p, `pitch` for q) an IMU or the navigation log of `run` gives:
+/// what a model in those DOFs could be fitted to, whether or not this one is.
+pub fn logged_rates(run: &PoolRun) -> Vec<crate::core::dof::Dof> {
+    let has = |log: Option<&Log>, c: usize| log.is_some_and(|l| l.col(c).is_some());
+    [
+        (crate::core::dof::Dof::Roll, 3, 6),
+        (crate::core::dof::Dof::Pitch, 4, 7),
+    ]
+    .into_iter()
+    .filter(|(_, imu, nav)| has(run.imu.as_ref(), *imu) || has(run.nav.as_ref(), *nav))
+    .map(|(d, ..)| d)
+    .collect()
+}
+
 /// The noise of body rate `z` (named `name`, times `t`): told apart from its motion by its
 /// own second differences ([`motion::noise_level`]), and at most its disagreement with the
 /// rate its log's attitude gives (`attitude`: the log, its roll, pitch and yaw columns, and
