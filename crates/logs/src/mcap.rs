@@ -78,6 +78,10 @@ impl File {
                 index::scan(path, &data)?
             }
         };
+        let chunk_pos = |c: u32| found.chunks[c as usize].pos as u64;
+        if let Some(back) = merge::step_back(&found.slots, chunk_pos) {
+            notes.push(back.note(&found.channels[back.conn as usize].topic));
+        }
         found.slots.sort_unstable_by_key(Slot::key);
         let (topics, channels, flavors) = topics_of(path, &found)?;
         let file = File {

@@ -29,6 +29,58 @@ impl Slot {
     }
 }
 
+/// Where a connection's (channel's) log time steps back in file order, as when the recording
+/// machine's clock was set back or a simulator restarted under `use_sim_time`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct StepBack {
+    /// The connection (channel) index, as [`Slot::conn`].
+    pub conn: u32,
+    /// How far back, seconds.
+    pub by_s: f64,
+    /// The time it stepped back from, seconds after the log's first message.
+    pub at_s: f64,
+}
+
+/// A step back shorter than this (clock jitter between a recorder's threads) is not said.
+const STEP_BACK_SAID_S: f64 = 1e-3;
+
+/// The largest step back of any connection's log time, walking each connection's messages in
+/// file order (`chunk_pos` gives a chunk's offset in the file); `None` when every connection's
+/// time only goes forward there. Reading sorts by time, so what was recorded after such a step
+/// is read interleaved with what came before it.
+pub(crate) fn step_back(slots: &[Slot], chunk_pos: impl Fn(u32) -> u64) -> Option<StepBack> {
+    let first = slots.iter().map(|s| s.time_ns).min()?;
+    let mut order: Vec<&Slot> = slots.iter().collect();
+    order.sort_unstable_by_key(|s| (s.conn, chunk_pos(s.chunk), s.offset));
+    let mut worst: Option<StepBack> = None;
+    for w in order.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        if a.conn != b.conn || b.time_ns >= a.time_ns {
+            continue;
+        }
+        let by_s = crate::wire::ns_to_s(a.time_ns - b.time_ns);
+        if by_s >= STEP_BACK_SAID_S && worst.is_none_or(|x| by_s > x.by_s) {
+            let at_s = crate::wire::ns_to_s(a.time_ns - first);
+            worst = Some(StepBack {
+                conn: a.conn,
+                by_s,
+                at_s,
+            });
+        }
+    }
+    worst
+}
+
+impl StepBack {
+    /// The sentence a run's notes give, naming the topic the connection carries.
+    pub(crate) fn note(&self, topic: &str) -> String {
+        format!(
+            "the log's clock steps back by {:.3} s on {topic} at {:.3} s after the log's first message (a clock set back while recording, or two recordings in one file): messages are read in time order, so those recorded after the step are interleaved with those before it; if the file holds two runs, split it at the step",
+            self.by_s, self.at_s
+        )
+    }
+}
+
 /// Inflates one chunk: borrowed when it is stored uncompressed.
 pub(crate) type Load<'d> = dyn Fn(u32) -> Result<Cow<'d, [u8]>, LogError> + Sync + 'd;
 
@@ -149,6 +201,33 @@ mod tests {
             chunk,
             conn: 0,
         }
+    }
+
+    /// Time that steps back in one connection's file order is found, the largest step named;
+    /// chunks that overlap in time but each go forward, and jitter under a millisecond, are not.
+    #[test]
+    fn a_clock_stepping_back_is_found_in_file_order() {
+        let ms = 1_000_000;
+        let forward = [
+            slot(10 * ms, 0, 0),
+            slot(30 * ms, 0, 1),
+            slot(20 * ms, 1, 0),
+        ];
+        assert_eq!(step_back(&forward[..2], |c| c as u64), None);
+        // Chunk 1 sits before chunk 0 in the file: connection 0 goes 20, 10, 30 ms.
+        let pos = |c: u32| if c == 1 { 0 } else { 100 };
+        let found = step_back(&forward, pos).unwrap();
+        assert_eq!(found.conn, 0);
+        assert!((found.by_s - 0.010).abs() < 1e-12 && (found.at_s - 0.010).abs() < 1e-12);
+        let mut jitter = forward.to_vec();
+        jitter[2].time_ns = 10 * ms + ms / 2;
+        assert_eq!(step_back(&jitter, pos), None);
+        let mut both = forward.to_vec();
+        both.extend([slot(9_000 * ms, 2, 0), slot(2_000 * ms, 2, 1)]);
+        both[3].conn = 1;
+        both[4].conn = 1;
+        let worst = step_back(&both, |c| c as u64 * 10).unwrap();
+        assert_eq!((worst.conn, worst.by_s), (1, 7.0));
     }
 
     #[test]

@@ -95,6 +95,10 @@ impl Bag {
                 c.pos
             ));
         }
+        let chunk_pos = |c: u32| found.chunks[c as usize].pos as u64;
+        if let Some(back) = merge::step_back(&found.slots, chunk_pos) {
+            notes.push(back.note(&found.conns[back.conn as usize].topic));
+        }
         found.slots.sort_unstable_by_key(Slot::key);
         let (topics, conns) = topics_of(path, &found)?;
         let bag = Bag {

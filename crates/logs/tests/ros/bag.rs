@@ -345,3 +345,32 @@ fn definitions_that_cannot_be_read_are_located_errors() {
     );
     assert!(e.offset.is_some());
 }
+
+/// A clock set back 2 s while recording (or a simulator restarted under sim time): the bag's
+/// messages are read in time order, as `rosbag play` does, and the step is said in the notes
+/// with its topic, its size and where it came; a bag whose clock only goes forward says nothing.
+#[test]
+fn a_clock_set_back_while_recording_is_said() {
+    for (name, back) in [("set-back.bag", 2.0), ("forward.bag", 0.0)] {
+        let path = tmp(name);
+        let mut w = BagWriter::create(&path, BagCompression::Lz4).unwrap();
+        w.set_chunk_size(4 * 1024);
+        let id = w.add_topic("/depth", "std_msgs/Float64").unwrap();
+        for i in 0..400 {
+            let t = T0 + i as f64 * 0.01 - if i >= 200 { back } else { 0.0 };
+            w.write(id, t, &float64(i as f64)).unwrap();
+        }
+        w.finish().unwrap();
+        let log = Log::open(&path).unwrap();
+        let notes = log.notes().join("\n");
+        assert_eq!(read_all(&log).len(), 400);
+        if back > 0.0 {
+            assert!(
+                notes.contains("steps back by 1.990 s on /depth at 1.990 s"),
+                "{notes}"
+            );
+        } else {
+            assert!(!notes.contains("steps back"), "{notes}");
+        }
+    }
+}

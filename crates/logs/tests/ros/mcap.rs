@@ -221,3 +221,26 @@ fn a_changed_field_type_is_an_error_naming_the_topic() {
         log.read(&[imu], &mut |_| Ok(())).unwrap();
     }
 }
+
+/// The clock stepping back inside an MCAP file is said as in a ROS 1 bag, chunked or not.
+#[test]
+fn a_clock_set_back_while_recording_is_said() {
+    for c in [McapCompression::Unchunked, McapCompression::Zstd] {
+        let path = tmp(&format!("set-back-{c:?}.mcap"));
+        let mut w = McapWriter::create(&path, c).unwrap();
+        w.set_chunk_size(4 * 1024);
+        let id = w.add_topic("/depth", "std_msgs/Float64").unwrap();
+        for i in 0..400 {
+            let t = T0 + i as f64 * 0.01 - if i >= 200 { 2.0 } else { 0.0 };
+            w.write(id, t, &Value::Struct(vec![Value::Float(i as f64)]))
+                .unwrap();
+        }
+        w.finish().unwrap();
+        let log = Log::open(&path).unwrap();
+        let notes = log.notes().join("\n");
+        assert!(
+            notes.contains("steps back by 1.990 s on /depth at 1.990 s"),
+            "{c:?}: {notes}"
+        );
+    }
+}
