@@ -186,7 +186,34 @@ pub fn load(
     let notes: Vec<String> = logs.flat_map(|l| l.notes.iter().cloned()).collect();
     run.notes.extend(notes);
     run.trim_command_to_sensors();
+    if let Some(idle) = run.force_logged.then(|| idle_note(&run.thrust)).flatten() {
+        run.notes.push(format!("{path}: {idle}"));
+    }
     Ok(run)
+}
+
+/// A command log that asks for no force or moment over at least half of its time (every
+/// thruster at neutral: a vehicle disarmed, idle or waiting at the surface, as a whole dive
+/// log is at its start and end), said with its share: a fit learns little from such a stretch.
+fn idle_note(thrust: &csvlog::Log) -> Option<String> {
+    let n = thrust.len();
+    let span = thrust.t.last()? - thrust.t.first()?;
+    if n < 2 || span <= 0.0 {
+        return None;
+    }
+    let zero = |k: usize| (thrust.cols.iter()).all(|c| c.get(k).is_none_or(|x| *x == 0.0));
+    let idle_s: f64 = (0..n - 1)
+        .filter(|&k| zero(k))
+        .map(|k| thrust.t[k + 1] - thrust.t[k])
+        .sum();
+    let share = idle_s / span;
+    (share >= 0.5).then(|| match share >= 1.0 - 1e-9 {
+        true => "no force or moment is commanded anywhere in the run (every thruster at neutral: a vehicle disarmed or idle); nothing drives it, so a fit learns nothing from its commands: set the run's span to where the vehicle is driven".to_string(),
+        false => format!(
+            "no force or moment is commanded for {:.0} % of the run ({idle_s:.1} of {span:.1} s: every thruster at neutral, a vehicle disarmed, idle or waiting at the surface); a fit learns little from that stretch: set the run's span to where the vehicle is driven",
+            100.0 * share
+        ),
+    })
 }
 
 /// The run as its files (or its log) hold it, in SI units, before any timing repair: what a

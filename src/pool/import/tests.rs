@@ -305,3 +305,21 @@ fn a_clock_set_mid_log_cuts_the_run_to_its_longest_stretch() {
         "{said}"
     );
 }
+
+/// A command log at neutral for most of the run (a dive log that starts disarmed) is said with
+/// its share; one driven throughout says nothing; one at neutral throughout says so.
+#[test]
+fn a_run_mostly_at_neutral_is_said() {
+    let log = |x: &dyn Fn(usize) -> f64| csvlog::Log {
+        t: (0..100).map(|k| k as f64 * 0.1).collect(),
+        cols: vec![(0..100).map(x).collect(), vec![0.0; 100]],
+        notes: vec![],
+        present: vec![true, true],
+    };
+    let idle = idle_note(&log(&|k| if k >= 70 { 5.0 } else { 0.0 })).unwrap();
+    assert!(idle.contains("for 71 % of the run (7.0 of 9.9 s"), "{idle}");
+    assert_eq!(idle_note(&log(&|k| 1.0 + k as f64)), None);
+    assert_eq!(idle_note(&log(&|k| if k >= 40 { 5.0 } else { 0.0 })), None);
+    let never = idle_note(&log(&|_| 0.0)).unwrap();
+    assert!(never.contains("anywhere in the run"), "{never}");
+}
