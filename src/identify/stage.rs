@@ -465,7 +465,7 @@ fn training_runs(
             ),
         };
         anyhow::bail!(
-            "no pool run with `role: train` and every DOF fused to fit on: {}\n  help: {fit_in} or log what gives the others (a DVL's navigation log, UWB, a sonar track)",
+            "no pool run with `role: train` and every DOF fused to fit on: {}\n  help: {fit_in} log what gives the others (a DVL's navigation log, UWB, a sonar track)",
             notes.join("; "),
         );
     }

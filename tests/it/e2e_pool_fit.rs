@@ -211,7 +211,8 @@ fn the_hint_names_the_dofs_the_logs_give_beyond_the_declared_ones() {
     assert!(!o.status.success(), "{err}");
     assert!(
         err.contains("its sensors gave no surge, sway velocity")
-            && err.contains("`dofs: [heave, roll, pitch, yaw]`"),
+            && err.contains("`dofs: [heave, roll, pitch, yaw]`")
+            && err.contains("in pipeline.yaml), or log what gives the others"),
         "{err}"
     );
 }
