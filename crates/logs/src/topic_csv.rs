@@ -13,7 +13,9 @@
 //!   NaN); any other is text.
 //! - In a `rostopic` file, `field.header.stamp` (nanoseconds) is the message's stamp where it
 //!   is not zero.
-//! - Opening reads each file once to count its rows and find its first and last time; a
+//! - Opening reads each file to count its rows and find its earliest and latest time, and
+//!   the largest step back of its time from row to row (said in the notes: rows are read in
+//!   time order, as a bag is, so a file holding two recordings reads interleaved); a
 //!   topic's rows are parsed (and a row with more or fewer cells than the header refused) when
 //!   it is read.
 
@@ -31,6 +33,62 @@ pub struct TopicCsv {
     untimed: Vec<PathBuf>,
     /// Files whose last row was cut short (a logger stopped mid-write): left out.
     torn: Vec<PathBuf>,
+    /// Files whose time steps back from one row to the next, with the largest such step.
+    backs: Vec<(PathBuf, Back)>,
+}
+
+/// The largest step back of a file's time from one row to the next.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Back {
+    /// How far back, seconds.
+    by_s: f64,
+    /// The time it stepped back from, seconds after the file's earliest row.
+    at_s: f64,
+}
+
+/// What one pass over a file's rows finds: the earliest and latest time and the largest step
+/// back (the rows of a file whose clock was set back, or of two recordings
+/// appended, are not in time order).
+struct Scan {
+    first_s: f64,
+    last_s: f64,
+    back: Option<Back>,
+}
+
+/// A step back shorter than this (a logger's threads writing out of turn) is not said, as in
+/// a bag or an MCAP file.
+const STEP_BACK_SAID_S: f64 = 1e-3;
+
+/// One pass over a file's rows (after its header), reading only the time cell; a row whose
+/// time is not a number is left to [`TopicCsv::read`], which refuses it.
+fn scan<'a>(rows: impl Iterator<Item = &'a str>, clock: &Clock) -> Scan {
+    let (mut first_s, mut last_s) = (f64::INFINITY, f64::NEG_INFINITY);
+    let (mut prev, mut worst): (Option<f64>, Option<(f64, f64)>) = (None, None);
+    for line in rows {
+        let t = (line.split(',').nth(clock.column))
+            .and_then(|c| csv_clock::seconds(csv_clock::bare(c), clock.unit_s))
+            .filter(|t| t.is_finite());
+        let Some(t) = t else { continue };
+        if let Some(p) = prev
+            && p - t >= STEP_BACK_SAID_S
+            && worst.is_none_or(|(by, _)| p - t > by)
+        {
+            worst = Some((p - t, p));
+        }
+        (first_s, last_s, prev) = (first_s.min(t), last_s.max(t), Some(t));
+    }
+    if prev.is_none() {
+        (first_s, last_s) = (f64::NAN, f64::NAN);
+    }
+    let back = worst.map(|(by_s, from)| Back {
+        by_s,
+        at_s: from - first_s,
+    });
+    Scan {
+        first_s,
+        last_s,
+        back,
+    }
 }
 
 /// A tree of fields built from dotted column names, in column order.
@@ -298,6 +356,7 @@ impl TopicCsv {
         let mut topics = Vec::new();
         let mut clocks = Vec::new();
         let mut torn = Vec::new();
+        let mut backs = Vec::new();
         for f in &files {
             let text = read_text(f)?;
             if without_torn_end(&text).1 {
@@ -313,14 +372,22 @@ impl TopicCsv {
             let clock = clock_of(f, &header, &first, time_unit_s)?;
             let (node, _) = tree(&field_names(&header, &clock), first.first(), &clock);
             let schema = node.schema(&mut Vec::new());
-            let time = |r: Option<&Vec<String>>, k: usize| match r {
-                Some(r) => time_s(f, &clock, r, k),
-                None => Ok(f64::NAN),
-            };
-            let (first_s, last_s) = (
-                time(first.first(), 0)?,
-                time(last.as_ref(), count.max(1) - 1)?,
-            );
+            // The first and last rows must have a time; the span is the earliest and the
+            // latest of all rows, which are read in time order.
+            if let Some(r) = first.first() {
+                time_s(f, &clock, r, 0)?;
+            }
+            if let Some(r) = &last {
+                time_s(f, &clock, r, count.max(1) - 1)?;
+            }
+            let Scan {
+                first_s,
+                last_s,
+                back,
+            } = scan(lines_and_header(&text).0, &clock);
+            if let Some(b) = back {
+                backs.push((f.clone(), b));
+            }
             let name = f
                 .file_stem()
                 .map_or(String::new(), |s| s.to_string_lossy().into());
@@ -342,6 +409,7 @@ impl TopicCsv {
             clocks,
             untimed,
             torn,
+            backs,
         };
         Ok((csv, topics))
     }
@@ -356,8 +424,9 @@ impl TopicCsv {
         self.clocks.iter().all(|c| c.rostopic)
     }
 
-    /// How the time of each file whose column name gives no unit was read, and which CSV
-    /// files of the folder were not read (no time column).
+    /// How the time of each file whose column name gives no unit was read, which CSV files
+    /// of the folder were not read (no time column), which were cut short and which have a
+    /// time that steps back.
     pub fn notes(&self) -> Vec<String> {
         let name = |f: &Path| {
             f.file_name()
@@ -378,7 +447,15 @@ impl TopicCsv {
                 name(f)
             )
         });
-        inferred.chain(untimed).chain(torn).collect()
+        let backs = self.backs.iter().map(|(f, b)| {
+            format!(
+                "{}: its time steps back by {:.3} s at {:.3} s after its earliest row (a clock set back while recording, or two recordings in one file): rows are read in time order, so those written after the step are interleaved with those before it; if the file holds two runs, split it at the step",
+                name(f),
+                b.by_s,
+                b.at_s
+            )
+        });
+        (inferred.chain(untimed).chain(torn).chain(backs)).collect()
     }
 
     /// Calls `each` with every message of `wanted`, in time order across them.

@@ -170,3 +170,37 @@ fn csv_files_with_a_time_column_read_as_a_log_and_say_their_unit() {
     assert!(e.fix.contains("time column"), "{e}");
     std::fs::remove_dir_all(d).unwrap();
 }
+
+/// A file whose clock was set back while it was written (or two recordings appended) spans
+/// its earliest to its latest row, is read in time order, and says where the step came; a
+/// step under a millisecond (threads writing out of turn) is not said.
+#[test]
+fn a_time_that_steps_back_is_said_and_read_in_time_order() {
+    let d = scratch("back");
+    let f = d.as_path().join("wrench.csv");
+    let rows = "time,fx\n10.0,1\n10.1,2\n10.2,3\n5.0,4\n5.1,5\n5.0995,6\n";
+    std::fs::write(&f, rows).unwrap();
+    let log = crate::Log::open(&f).unwrap();
+    let t = &log.topics[0];
+    assert_eq!((t.count, t.first_s, t.last_s), (6, 5.0, 10.2));
+    let notes = log.notes();
+    assert_eq!(notes.len(), 1, "{notes:?}");
+    assert!(
+        notes[0].starts_with("wrench.csv: its time steps back by 5.200 s at 5.200 s after"),
+        "{notes:?}"
+    );
+    let fx = t.schema.select("fx").unwrap();
+    let mut seen = Vec::new();
+    log.read(&[0], &mut |m| {
+        seen.push((m.log_time_s, fx.get(&m.value).unwrap()));
+        Ok(())
+    })
+    .unwrap();
+    let order: Vec<f64> = seen.iter().map(|s| s.1).collect();
+    assert_eq!(order, [4.0, 6.0, 5.0, 1.0, 2.0, 3.0]);
+    std::fs::write(&f, "time,fx\n10.0,1\n10.1,2\n10.0995,3\n").unwrap();
+    let log = crate::Log::open(&f).unwrap();
+    assert!(log.notes().is_empty(), "{:?}", log.notes());
+    assert_eq!(log.topics[0].last_s, 10.1);
+    std::fs::remove_dir_all(d).unwrap();
+}
