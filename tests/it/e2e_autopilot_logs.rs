@@ -88,6 +88,33 @@ fn a_real_ardusub_log_is_read_without_a_mapping() {
     );
 }
 
+/// The same six-thruster log read as an eight-thruster BlueROV2 Heavy: ArduSub logs the two
+/// outputs it does not drive as 0 us, which the curve would read as full reverse on both
+/// corner thrusters (80 N down); they are no thrust, and the notes name them.
+#[test]
+fn an_output_with_no_pulse_is_no_thrust_and_said() {
+    let d = tempfile::tempdir().unwrap();
+    let root = d.path();
+    run_folder(root, "dive", &data("small.BIN"), "");
+    let mut t = heavy();
+    t.gain = 1.0;
+    let run = load(root, "dive", Some(&t));
+    for (j, c) in run.thrust.cols.iter().enumerate() {
+        assert!(
+            c.iter().all(|x| x.abs() < 1e-9),
+            "column {j}: {:?}",
+            &c[..3]
+        );
+    }
+    let notes = run.notes.join("\n");
+    assert!(
+        notes.contains("thrusters 7, 8 on `RCOU` get no pulse (PWM 0) in the whole run")
+            && notes.contains("`layout: bluerov2` for six"),
+        "{notes}"
+    );
+    assert!(!notes.contains("thruster 1 "), "{notes}");
+}
+
 /// In air on a bench, the EKF has nothing to aid its horizontal velocity: `XKF4`'s status
 /// is in constant-position mode throughout (65703), so the velocity of `XKF1`, the stack's
 /// default or named in run.yaml, is not a measurement and the run has none.

@@ -10,6 +10,7 @@ mod aiding;
 mod layout;
 mod lever;
 mod parts;
+mod pulse;
 mod unmapped;
 
 pub use unmapped::unmapped;

@@ -7,7 +7,7 @@ use super::super::log_spec::{Frame, Source, Unit};
 use super::super::{DEPTH, IMU, NAV, SONAR, THRUST, UWB};
 use super::{Chosen, FromLog, Samples};
 use crate::core::diag::InputError;
-use crate::core::model::thrusters::Thrusters;
+use crate::core::model::thrusters::{Command, Thrusters};
 use std::collections::BTreeMap;
 
 /// Standard gravity, for pressure to depth and g to m/s^2.
@@ -438,13 +438,18 @@ fn per_thruster(
             "name one field per thruster, in vehicle.thrusters' order, in run.yaml's `log.command.fields`",
         ));
     }
-    let tau: Vec<[f64; 6]> = s.rows.iter().map(|r| a.wrench(r)).collect();
+    let (rows, notes) = match t.command {
+        Command::Pwm => super::pulse::as_neutral(&s.rows, t.neutral_us, &s.topic, shown),
+        _ => (s.rows.clone(), Vec::new()),
+    };
+    let tau: Vec<[f64; 6]> = rows.iter().map(|r| a.wrench(r)).collect();
     // THRUST's column order: X, Y, Z, N, K, M.
     let cols = [0, 1, 2, 5, 3, 4]
         .iter()
         .map(|&j| tau.iter().map(|w| w[j]).collect())
         .collect();
     let mut log = log_of(&s.t, cols, THRUST.len() - 1);
+    log.notes.extend(notes);
     let moves = |j: usize| a.columns.iter().any(|c| c[j].abs() > 1e-12);
     log.present[4] = moves(3);
     log.present[5] = moves(4);
