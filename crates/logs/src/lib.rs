@@ -366,6 +366,16 @@ impl Log {
         }
     }
 
+    /// [`Log::notes`] about what reading `topics` meets: for a folder of topic files, the
+    /// notes of those topics' files only (and the folder's files that are not read); for a
+    /// log in one file, all of its notes.
+    pub fn notes_for(&self, topics: &[usize]) -> Vec<String> {
+        match &self.inner {
+            Inner::TopicCsv(c) => c.notes_of(topics),
+            _ => self.notes(),
+        }
+    }
+
     /// The files the messages of `topics` are read from: the log's own file, or for a folder
     /// of topic files each topic's file, and the `.msg` files a `.db3` bag's types were read
     /// from (each is an input of what is read from it).

@@ -428,12 +428,23 @@ impl TopicCsv {
     /// of the folder were not read (no time column), which were cut short and which have a
     /// time that steps back.
     pub fn notes(&self) -> Vec<String> {
+        self.notes_of(&(0..self.files.len()).collect::<Vec<_>>())
+    }
+
+    /// [`TopicCsv::notes`] of the files of `topics` only (a folder may hold a day of runs,
+    /// and a run reads a few of its files), and the files of the folder that were not read.
+    pub fn notes_of(&self, topics: &[usize]) -> Vec<String> {
+        let read = |f: &Path| {
+            topics
+                .iter()
+                .any(|&t| self.files.get(t).is_some_and(|g| g == f))
+        };
         let name = |f: &Path| {
             f.file_name()
                 .map_or(String::new(), |n| n.to_string_lossy().into())
         };
         let inferred = (self.files.iter().zip(&self.clocks))
-            .filter(|(_, c)| !c.inferred.is_empty())
+            .filter(|(f, c)| !c.inferred.is_empty() && read(f))
             .map(|(f, c)| format!("{}: {}", name(f), c.inferred));
         let untimed = self.untimed.iter().map(|f| {
             format!(
@@ -441,13 +452,13 @@ impl TopicCsv {
                 name(f)
             )
         });
-        let torn = self.torn.iter().map(|f| {
+        let torn = self.torn.iter().filter(|f| read(f)).map(|f| {
             format!(
                 "{}: its last row is cut short (the recording stopped mid-write): left out",
                 name(f)
             )
         });
-        let backs = self.backs.iter().map(|(f, b)| {
+        let backs = (self.backs.iter()).filter(|(f, _)| read(f)).map(|(f, b)| {
             format!(
                 "{}: its time steps back by {:.3} s at {:.3} s after its earliest row (a clock set back while recording, or two recordings in one file): rows are read in time order, so those written after the step are interleaved with those before it; if the file holds two runs, split it at the step",
                 name(f),

@@ -119,7 +119,7 @@ pub fn read(
     let (start, end) = span(&log, &timed, spec, &shown)?;
     let mut samples = read_signals(&log, &sources, spec.time, start, end, &shown)?;
     aiding::keep_aided(&mut samples, &shown, &mut out.notes);
-    for n in log.notes() {
+    for n in log.notes_for(&timed) {
         out.notes.push(format!("{shown}: {n}"));
     }
     layout::build(&mut out, &sources, &samples, thrusters, &shown)?;

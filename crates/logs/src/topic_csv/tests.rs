@@ -40,6 +40,9 @@ fn a_last_row_cut_short_is_left_out_and_said() {
     let notes = log.notes();
     assert_eq!(notes.len(), 1, "{notes:?}");
     assert!(notes[0].starts_with("navigation_state_3.csv: its last row is cut short"));
+    // A run reading the other file of the folder is not told of this one.
+    assert_eq!(log.notes_for(&[0]), notes);
+    assert!(log.notes_for(&[1]).is_empty(), "{:?}", log.notes_for(&[1]));
     std::fs::remove_dir_all(d).unwrap();
 }
 
