@@ -189,6 +189,12 @@ pub fn load(
     if let Some(idle) = run.force_logged.then(|| idle_note(&run.thrust)).flatten() {
         run.notes.push(format!("{path}: {idle}"));
     }
+    if let Some(slow) = from_log
+        .then(|| timing::slow_command_note(&run.thrust))
+        .flatten()
+    {
+        run.notes.push(format!("{path}: {slow}"));
+    }
     Ok(run)
 }
 

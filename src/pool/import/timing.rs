@@ -223,6 +223,31 @@ pub fn trim_to_overlap(command: &mut Log, sensors: &[&Log]) -> Option<String> {
     ))
 }
 
+/// The median interval above which a command read from a vehicle's log (a periodic stream,
+/// not a table of changes) is too coarse, s: an ROV's fastest time constants are 0.3-1 s, and a
+/// change of command seen only at the next sample, up to this late, blurs what drives them.
+const SLOW_COMMAND_S: f64 = 0.25;
+
+/// A sentence when a logged command stream is slower than [`SLOW_COMMAND_S`] (median interval):
+/// ArduSub's telemetry log carries `SERVO_OUTPUT_RAW` at 2 Hz unless its stream rate is raised.
+pub fn slow_command_note(log: &Log) -> Option<String> {
+    let mut d: Vec<f64> = (log.t.windows(2))
+        .map(|w| w[1] - w[0])
+        .filter(|d| *d > 0.0)
+        .collect();
+    if d.len() < 2 {
+        return None;
+    }
+    d.sort_by(f64::total_cmp);
+    let m = d[d.len() / 2];
+    (m > SLOW_COMMAND_S).then(|| {
+        format!(
+            "the command is logged at {:.1} Hz (a sample every {m:.2} s, median): a change of command is seen only at the next sample, up to {m:.2} s late, which blurs dynamics of 0.3-1 s; log it faster where the vehicle is driven (a MAVLink telemetry log's SERVO_OUTPUT_RAW follows the RC channels' stream rate, `SR0_RC_CHAN`, 2 Hz by default in ArduSub)",
+            1.0 / m
+        )
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -356,5 +381,25 @@ mod tests {
         let note = repair_command_clock(&mut l).unwrap();
         assert!(note.contains("rows were lost"), "{note}");
         assert_eq!(l.t, before);
+    }
+
+    /// A 2 Hz or 3.3 Hz command stream is said, with its rate; a 5 Hz one (SMaRC's binned
+    /// runs, 6.4 Hz on average) is not.
+    #[test]
+    fn a_slow_command_stream_is_said() {
+        let log = |dt: f64| Log {
+            t: (0..40).map(|k| k as f64 * dt).collect(),
+            cols: vec![vec![0.0; 40]],
+            notes: Vec::new(),
+            present: vec![true],
+        };
+        let note = slow_command_note(&log(0.5)).expect("2 Hz is slow");
+        assert!(
+            note.starts_with("the command is logged at 2.0 Hz (a sample every 0.50 s"),
+            "{note}"
+        );
+        assert!(slow_command_note(&log(0.3)).is_some());
+        assert_eq!(slow_command_note(&log(0.2)), None);
+        assert_eq!(slow_command_note(&log(0.01)), None);
     }
 }
