@@ -15,13 +15,15 @@
 //!   is not zero.
 //! - Opening reads each file to count its rows and find its earliest and latest time, and
 //!   the largest step back of its time from row to row (said in the notes: rows are read in
-//!   time order, as a bag is, so a file holding two recordings reads interleaved); a
+//!   time order, as a bag is, so a file holding two recordings reads interleaved), and the
+//!   rows that repeat its header (recordings appended to one file: skipped, said); a
 //!   topic's rows are parsed (and a row with more or fewer cells than the header refused) when
 //!   it is read.
 
 use crate::csv_clock::{self, Clock};
 use crate::value::{Field, Kind, Leaf, Schema, Value};
 use crate::{LogError, Message, Topic};
+use scan::{Back, Scan, is_header, scan};
 use std::path::{Path, PathBuf};
 
 /// An open set of topic files.
@@ -35,60 +37,9 @@ pub struct TopicCsv {
     torn: Vec<PathBuf>,
     /// Files whose time steps back from one row to the next, with the largest such step.
     backs: Vec<(PathBuf, Back)>,
-}
-
-/// The largest step back of a file's time from one row to the next.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct Back {
-    /// How far back, seconds.
-    by_s: f64,
-    /// The time it stepped back from, seconds after the file's earliest row.
-    at_s: f64,
-}
-
-/// What one pass over a file's rows finds: the earliest and latest time and the largest step
-/// back (the rows of a file whose clock was set back, or of two recordings
-/// appended, are not in time order).
-struct Scan {
-    first_s: f64,
-    last_s: f64,
-    back: Option<Back>,
-}
-
-/// A step back shorter than this (a logger's threads writing out of turn) is not said, as in
-/// a bag or an MCAP file.
-const STEP_BACK_SAID_S: f64 = 1e-3;
-
-/// One pass over a file's rows (after its header), reading only the time cell; a row whose
-/// time is not a number is left to [`TopicCsv::read`], which refuses it.
-fn scan<'a>(rows: impl Iterator<Item = &'a str>, clock: &Clock) -> Scan {
-    let (mut first_s, mut last_s) = (f64::INFINITY, f64::NEG_INFINITY);
-    let (mut prev, mut worst): (Option<f64>, Option<(f64, f64)>) = (None, None);
-    for line in rows {
-        let t = (line.split(',').nth(clock.column))
-            .and_then(|c| csv_clock::seconds(csv_clock::bare(c), clock.unit_s))
-            .filter(|t| t.is_finite());
-        let Some(t) = t else { continue };
-        if let Some(p) = prev
-            && p - t >= STEP_BACK_SAID_S
-            && worst.is_none_or(|(by, _)| p - t > by)
-        {
-            worst = Some((p - t, p));
-        }
-        (first_s, last_s, prev) = (first_s.min(t), last_s.max(t), Some(t));
-    }
-    if prev.is_none() {
-        (first_s, last_s) = (f64::NAN, f64::NAN);
-    }
-    let back = worst.map(|(by_s, from)| Back {
-        by_s,
-        at_s: from - first_s,
-    });
-    Scan {
-        first_s,
-        last_s,
-        back,
-    }
+    /// Files whose header comes again among the rows (recordings appended to one file): how
+    /// often, and the row (1-based, the header row 1) it first comes again at.
+    repeats: Vec<(PathBuf, usize, usize)>,
 }
 
 /// A tree of fields built from dotted column names, in column order.
@@ -357,6 +308,7 @@ impl TopicCsv {
         let mut clocks = Vec::new();
         let mut torn = Vec::new();
         let mut backs = Vec::new();
+        let mut repeats = Vec::new();
         for f in &files {
             let text = read_text(f)?;
             if without_torn_end(&text).1 {
@@ -377,16 +329,21 @@ impl TopicCsv {
             if let Some(r) = first.first() {
                 time_s(f, &clock, r, 0)?;
             }
-            if let Some(r) = &last {
+            if let Some(r) = last.as_ref().filter(|r| !is_header(r, &header)) {
                 time_s(f, &clock, r, count.max(1) - 1)?;
             }
+            let scanned = scan(lines_and_header(&text).0, &clock, &header);
             let Scan {
                 first_s,
                 last_s,
                 back,
-            } = scan(lines_and_header(&text).0, &clock);
+                ..
+            } = scanned;
             if let Some(b) = back {
                 backs.push((f.clone(), b));
+            }
+            if scanned.repeats > 0 {
+                repeats.push((f.clone(), scanned.repeats, scanned.first_repeat + 2));
             }
             let name = f
                 .file_stem()
@@ -397,7 +354,7 @@ impl TopicCsv {
                     true => "rostopic CSV".into(),
                     false => "CSV".into(),
                 },
-                count: count as u64,
+                count: (count - scanned.repeats) as u64,
                 first_s,
                 last_s,
                 schema,
@@ -410,6 +367,7 @@ impl TopicCsv {
             untimed,
             torn,
             backs,
+            repeats,
         };
         Ok((csv, topics))
     }
@@ -466,7 +424,15 @@ impl TopicCsv {
                 b.at_s
             )
         });
-        (inferred.chain(untimed).chain(torn).chain(backs)).collect()
+        let repeats = (self.repeats.iter()).filter(|(f, ..)| read(f)).map(|(f, n, at)| {
+            format!(
+                "{}: its header comes again {} among its rows, first as row {at} (recordings appended to one file): those rows are skipped",
+                name(f),
+                if *n == 1 { "once".to_string() } else { format!("{n} times") }
+            )
+        });
+        let later = backs.chain(repeats);
+        (inferred.chain(untimed).chain(torn).chain(later)).collect()
     }
 
     /// Calls `each` with every message of `wanted`, in time order across them.
@@ -487,6 +453,9 @@ impl TopicCsv {
             // neither copied cell by cell nor held twice.
             for (k, line) in lines.enumerate() {
                 let r = row(f, line, k, header.len())?;
+                if is_header(&r, &header) {
+                    continue;
+                }
                 let cells = fields(&r, clock);
                 let stamp_s = stamp
                     .and_then(|c| csv_clock::seconds(cells.get(c)?, 1e-9))
@@ -543,5 +512,6 @@ fn tree(names: &[String], first: Option<&Vec<String>>, clock: &Clock) -> (Node, 
     (node, stamp)
 }
 
+mod scan;
 #[cfg(test)]
 mod tests;

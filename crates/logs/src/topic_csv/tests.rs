@@ -207,3 +207,37 @@ fn a_time_that_steps_back_is_said_and_read_in_time_order() {
     assert_eq!(log.topics[0].last_s, 10.1);
     std::fs::remove_dir_all(d).unwrap();
 }
+
+/// `rostopic echo -p /topic >> nav.csv` run twice appends a second header: its line is
+/// skipped and said, the rows of both recordings are read.
+#[test]
+fn a_header_repeated_among_the_rows_is_skipped_and_said() {
+    let d = scratch("repeat");
+    let f = d.as_path().join("wrench_3.csv");
+    let again = "%time,field.force.x,field.torque.z\n1669909209900000000,1.7,-0.3\n";
+    std::fs::write(&f, format!("{WRENCH}{again}")).unwrap();
+    let log = crate::Log::open(&f).unwrap();
+    let t = &log.topics[0];
+    assert_eq!(t.count, 3);
+    assert!((t.last_s - 1_669_909_209.9).abs() < 1e-6, "{}", t.last_s);
+    let notes = log.notes();
+    assert_eq!(
+        notes,
+        [
+            "wrench_3.csv: its header comes again once among its rows, first as row 4 (recordings appended to one file): those rows are skipped"
+        ]
+    );
+    let fx = t.schema.select("force.x").unwrap();
+    let mut seen = Vec::new();
+    log.read(&[0], &mut |m| {
+        seen.push(fx.get(&m.value).unwrap());
+        Ok(())
+    })
+    .unwrap();
+    assert_eq!(seen, [1.5, 1.6, 1.7]);
+    // A header as the last row (a recording started and stopped at once) is no time.
+    std::fs::write(&f, format!("{WRENCH}%time,field.force.x,field.torque.z\n")).unwrap();
+    let log = crate::Log::open(&f).unwrap();
+    assert_eq!(log.topics[0].count, 2);
+    std::fs::remove_dir_all(d).unwrap();
+}
