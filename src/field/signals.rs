@@ -126,16 +126,7 @@ pub fn interpolate(t: &[f64], y: &[f64], at: &[f64]) -> Vec<f64> {
         .collect()
 }
 
-/// The median of the steps of `t` (0.1 s when it has none).
-pub fn median_step(t: &[f64]) -> f64 {
-    let mut d: Vec<f64> = t
-        .windows(2)
-        .map(|w| w[1] - w[0])
-        .filter(|d| *d > 0.0)
-        .collect();
-    d.sort_by(f64::total_cmp);
-    d.get(d.len() / 2).copied().unwrap_or(0.1)
-}
+pub use crate::core::interp::median_step;
 
 /// A uniform grid of step `h` over `[t0, t1]`.
 pub fn grid(t0: f64, t1: f64, h: f64) -> Vec<f64> {

@@ -1,4 +1,5 @@
-//! Series sampled at increasing times: linear interpolation between samples, held at the ends.
+//! Series sampled at increasing times: linear interpolation between samples, held at the ends,
+//! and their typical sampling step.
 
 /// Linear interpolation of `y(t)` at `x` (clamped at the ends); `t` increasing.
 pub fn interp(t: &[f64], y: &[f64], x: f64) -> f64 {
@@ -21,4 +22,15 @@ pub fn interp_at(y: &[f64], (j, w): (usize, Option<f64>)) -> f64 {
         None => y[j],
         Some(w) => y[j] + w * (y[j + 1] - y[j]),
     }
+}
+
+/// The median of the positive steps of `t` (0.1 s when it has none).
+pub fn median_step(t: &[f64]) -> f64 {
+    let mut d: Vec<f64> = t
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .filter(|d| *d > 0.0)
+        .collect();
+    d.sort_by(f64::total_cmp);
+    d.get(d.len() / 2).copied().unwrap_or(0.1)
 }

@@ -314,31 +314,31 @@ impl TopicCsv {
             if without_torn_end(&text).1 {
                 torn.push(f.clone());
             }
-            // The header, the first rows (for the clock's unit and the fields' kinds) and the
-            // last row: the rows are parsed when the topic is read (a folder may hold a day
-            // of runs).
+            // The header and the first rows (for the clock's unit and the fields' kinds), then
+            // one pass over every row's time: the rows are parsed when the topic is read (a
+            // folder may hold a day of runs).
             let (mut lines, header) = lines_and_header(&text);
-            let first: Vec<Vec<String>> = lines.by_ref().take(UNIT_ROWS).map(cells).collect();
-            let (count, last) = lines.fold((first.len(), None), |(n, _), l| (n + 1, Some(l)));
-            let last = last.map(cells).or_else(|| first.last().cloned());
+            let head: Vec<&str> = lines.by_ref().take(UNIT_ROWS).collect();
+            let first: Vec<Vec<String>> = head.iter().map(|l| cells(l)).collect();
             let clock = clock_of(f, &header, &first, time_unit_s)?;
             let (node, _) = tree(&field_names(&header, &clock), first.first(), &clock);
             let schema = node.schema(&mut Vec::new());
+            let scanned = scan(head.iter().copied().chain(lines), &clock, &header);
+            let Scan {
+                first_s,
+                last_s,
+                back,
+                count,
+                ..
+            } = scanned;
             // The first and last rows must have a time; the span is the earliest and the
             // latest of all rows, which are read in time order.
             if let Some(r) = first.first() {
                 time_s(f, &clock, r, 0)?;
             }
-            if let Some(r) = last.as_ref().filter(|r| !is_header(r, &header)) {
-                time_s(f, &clock, r, count.max(1) - 1)?;
+            if let Some(r) = scanned.last.map(cells).filter(|r| !is_header(r, &header)) {
+                time_s(f, &clock, &r, count.max(1) - 1)?;
             }
-            let scanned = scan(lines_and_header(&text).0, &clock, &header);
-            let Scan {
-                first_s,
-                last_s,
-                back,
-                ..
-            } = scanned;
             if let Some(b) = back {
                 backs.push((f.clone(), b));
             }

@@ -231,15 +231,10 @@ const SLOW_COMMAND_S: f64 = 0.25;
 /// A sentence when a logged command stream is slower than [`SLOW_COMMAND_S`] (median interval):
 /// ArduSub's telemetry log carries `SERVO_OUTPUT_RAW` at 2 Hz unless its stream rate is raised.
 pub fn slow_command_note(log: &Log) -> Option<String> {
-    let mut d: Vec<f64> = (log.t.windows(2))
-        .map(|w| w[1] - w[0])
-        .filter(|d| *d > 0.0)
-        .collect();
-    if d.len() < 2 {
+    if log.len() < 3 {
         return None;
     }
-    d.sort_by(f64::total_cmp);
-    let m = d[d.len() / 2];
+    let m = crate::core::interp::median_step(&log.t);
     (m > SLOW_COMMAND_S).then(|| {
         format!(
             "the command is logged at {:.1} Hz (a sample every {m:.2} s, median): a change of command is seen only at the next sample, up to {m:.2} s late, which blurs dynamics of 0.3-1 s; log it faster where the vehicle is driven (a MAVLink telemetry log's SERVO_OUTPUT_RAW follows the RC channels' stream rate, `SR0_RC_CHAN`, 2 Hz by default in ArduSub)",

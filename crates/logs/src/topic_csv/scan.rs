@@ -1,5 +1,5 @@
-//! One pass over a topic file's rows at opening: its earliest and latest time, the largest
-//! step back of its time, and the rows that repeat its header.
+//! One pass over a topic file's rows at opening: how many, the last, the earliest and latest
+//! time, the largest step back of its time, and the rows that repeat its header.
 
 use super::cells;
 use crate::csv_clock::{self, Clock};
@@ -13,10 +13,12 @@ pub(super) struct Back {
     pub at_s: f64,
 }
 
-/// What one pass over a file's rows finds: the earliest and latest time and the largest step
-/// back (the rows of a file whose clock was set back, or of two recordings
-/// appended, are not in time order).
-pub(super) struct Scan {
+/// What one pass over a file's rows finds: how many rows, the last, the earliest and latest
+/// time and the largest step back (the rows of a file whose clock was set back, or of two
+/// recordings appended, are not in time order).
+pub(super) struct Scan<'a> {
+    pub count: usize,
+    pub last: Option<&'a str>,
     pub first_s: f64,
     pub last_s: f64,
     pub back: Option<Back>,
@@ -36,11 +38,13 @@ pub(super) fn scan<'a>(
     rows: impl Iterator<Item = &'a str>,
     clock: &Clock,
     header: &[String],
-) -> Scan {
+) -> Scan<'a> {
     let (mut first_s, mut last_s) = (f64::INFINITY, f64::NEG_INFINITY);
     let (mut prev, mut worst): (Option<f64>, Option<(f64, f64)>) = (None, None);
     let (mut repeats, mut first_repeat) = (0, 0);
+    let (mut count, mut last) = (0, None);
     for (k, line) in rows.enumerate() {
+        (count, last) = (k + 1, Some(line));
         let t = (line.split(',').nth(clock.column))
             .and_then(|c| csv_clock::seconds(csv_clock::bare(c), clock.unit_s))
             .filter(|t| t.is_finite());
@@ -67,6 +71,8 @@ pub(super) fn scan<'a>(
         at_s: from - first_s,
     });
     Scan {
+        count,
+        last,
         first_s,
         last_s,
         back,
