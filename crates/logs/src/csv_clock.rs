@@ -5,14 +5,18 @@
 //! in any case. The unit is the name's where it gives one (`time_s`, `timestamp_us`,
 //! `time (ms)`, `t[ns]`, `TimeUS`); otherwise it is read from the values: fractional values
 //! are seconds; whole numbers whose median step is 1-999 are milliseconds, 1000-999999
-//! microseconds (PX4's `ulog2csv`), larger nanoseconds, and the log's notes say so.
+//! microseconds (PX4's `ulog2csv`), larger nanoseconds, and the log's notes say so. A column
+//! of dates and times (`2023-04-18 11:03:34.123`, ISO 8601) is read as seconds since 1970 in
+//! UTC, in the zone a cell gives ([`crate::iso_time`]), and the notes say so too.
 
 /// The header cell of `rostopic echo -p`'s time.
 const ROSTOPIC_TIME: &str = "%time";
 
 /// Column names that are a time, before any unit suffix.
-const TIME_NAMES: [&str; 9] = [
+const TIME_NAMES: [&str; 11] = [
     "time",
+    "datetime",
+    "date_time",
     "times",
     "timestamp",
     "timestamps",
@@ -117,10 +121,23 @@ pub fn clock<'a>(
 
 /// The unit of a time column named without one, from its values (see the module's notes).
 fn inferred_unit<'a>(name: &str, cells: impl Iterator<Item = &'a String>) -> (f64, String) {
-    let values: Vec<f64> = cells
-        .take(2000)
-        .filter_map(|c| c.trim().parse().ok())
-        .collect();
+    let cells: Vec<&String> = cells.take(2000).collect();
+    let values: Vec<f64> = cells.iter().filter_map(|c| c.trim().parse().ok()).collect();
+    let name = bare(name);
+    let dated = cells.iter().filter(|c| !c.trim().is_empty()).take(10);
+    if values.is_empty()
+        && dated.clone().count() > 0
+        && dated
+            .clone()
+            .all(|c| crate::iso_time::epoch_seconds(c).is_some())
+    {
+        return (
+            1.0,
+            format!(
+                "time column `{name}` holds dates and times: read as seconds since 1970, in UTC where a cell gives no zone"
+            ),
+        );
+    }
     let whole = !values.is_empty() && values.iter().all(|v: &f64| v.fract() == 0.0);
     let mut steps: Vec<f64> = values
         .windows(2)
@@ -129,7 +146,6 @@ fn inferred_unit<'a>(name: &str, cells: impl Iterator<Item = &'a String>) -> (f6
         .collect();
     steps.sort_by(f64::total_cmp);
     let median = steps.get(steps.len() / 2).copied().unwrap_or(0.0);
-    let name = bare(name);
     let (unit, what) = match (whole, median) {
         (true, m) if m >= 1e6 => (1e-9, "nanoseconds"),
         (true, m) if m >= 1e3 => (1e-6, "microseconds"),
@@ -148,7 +164,8 @@ fn inferred_unit<'a>(name: &str, cells: impl Iterator<Item = &'a String>) -> (f6
 }
 
 /// A time cell in seconds: whole numbers are split before they become a float (nanoseconds
-/// since the Unix epoch, 1.7e18, are held by an f64 only to 256 ns).
+/// since the Unix epoch, 1.7e18, are held by an f64 only to 256 ns); a date and time is
+/// seconds since 1970, whatever the unit.
 pub fn seconds(cell: &str, unit_s: f64) -> Option<f64> {
     let cell = cell.trim();
     let per = (1.0 / unit_s).round();
@@ -157,7 +174,8 @@ pub fn seconds(cell: &str, unit_s: f64) -> Option<f64> {
             let per = per as u64;
             Some((n / per) as f64 + (n % per) as f64 * unit_s)
         }
-        _ => cell.parse::<f64>().ok().map(|x| x * unit_s),
+        _ => (cell.parse::<f64>().ok().map(|x| x * unit_s))
+            .or_else(|| crate::iso_time::epoch_seconds(cell)),
     }
 }
 
@@ -253,5 +271,24 @@ mod tests {
         assert_eq!(seconds("1500", 1e-3), Some(1.5));
         assert_eq!(seconds("2.5", 1.0), Some(2.5));
         assert_eq!(seconds("x", 1.0), None);
+    }
+
+    #[test]
+    fn a_column_of_dates_and_times_is_seconds_since_1970_and_said() {
+        let cells = ["2023-04-18 11:03:34.100", "2023-04-18 11:03:34.200"];
+        for name in ["timestamp", "datetime", "Time"] {
+            let c = of(name, &cells).unwrap_or_else(|| panic!("{name} is a time"));
+            assert_eq!(c.unit_s, 1.0, "{name}");
+            assert!(c.inferred.contains("dates and times"), "{}", c.inferred);
+            let (a, b) = (seconds(cells[0], c.unit_s), seconds(cells[1], c.unit_s));
+            let step = b.unwrap() - a.unwrap();
+            assert!((step - 0.1).abs() < 1e-6, "{step}");
+            assert!((a.unwrap() - 1_681_815_814.1).abs() < 1e-6);
+        }
+        // Whatever unit the name gives, a date and time is seconds since 1970.
+        assert_eq!(seconds("1970-01-01T00:00:02Z", 1e-3), Some(2.0));
+        // A column of numbers with one date among them is not read as dates.
+        let c = of("time", &["0.5", "2023-04-18 11:03:34"]).unwrap();
+        assert!(c.inferred.is_empty(), "{}", c.inferred);
     }
 }

@@ -21,6 +21,7 @@ pub mod dataflash;
 pub mod db3;
 mod encode;
 pub mod error;
+pub mod iso_time;
 pub mod mcap;
 mod merge;
 pub mod msg_files;

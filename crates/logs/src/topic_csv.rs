@@ -267,9 +267,9 @@ fn time_s<S: AsRef<str>>(path: &Path, clock: &Clock, row: &[S], k: usize) -> Res
     csv_clock::seconds(cell, clock.unit_s).ok_or_else(|| {
         LogError::new(
             path,
-            format!("row {}: the time `{cell}` is not a number", k + 2),
+            format!("row {}: the time `{cell}` is neither a number nor a date and time", k + 2),
         )
-        .fix("every row needs a number in the time column")
+        .fix("every row needs a number in the time column, or a date and time such as `2023-04-18 11:03:34.123` (UTC unless it gives a zone)")
     })
 }
 

@@ -241,3 +241,39 @@ fn a_header_repeated_among_the_rows_is_skipped_and_said() {
     assert_eq!(log.topics[0].count, 2);
     std::fs::remove_dir_all(d).unwrap();
 }
+
+/// A table timed by dates and times (a spreadsheet's, pandas' `to_csv`): read in seconds since
+/// 1970, the zone a cell gives honoured, and said; a cell that is neither a number nor a date
+/// is an error naming its row.
+#[test]
+fn a_time_column_of_dates_and_times_reads_as_seconds_since_1970() {
+    let d = scratch("dates");
+    let f = d.as_path().join("depth.csv");
+    let rows = "datetime,depth_m\n2023-04-18 11:03:34.000,1.5\n2023-04-18T13:03:34.250+02:00,1.6\n2023-04-18 11:03:34.500Z,1.7\n";
+    std::fs::write(&f, rows).unwrap();
+    let log = crate::Log::open(&f).unwrap();
+    assert_eq!(log.format, crate::Format::Csv);
+    assert!((log.topics[0].first_s - 1_681_815_814.0).abs() < 1e-6);
+    assert!((log.topics[0].last_s - 1_681_815_814.5).abs() < 1e-6);
+    let notes = log.notes();
+    assert!(
+        notes.iter().any(|n| n.contains("dates and times")),
+        "{notes:?}"
+    );
+    let depth = log.topics[0].schema.select("depth_m").unwrap();
+    let mut seen = Vec::new();
+    log.read(&[0], &mut |m| {
+        seen.push((m.log_time_s - 1_681_815_814.0, depth.get(&m.value).unwrap()));
+        Ok(())
+    })
+    .unwrap();
+    let steps: Vec<f64> = seen.iter().map(|s| (s.0 * 1000.0).round()).collect();
+    assert_eq!(steps, [0.0, 250.0, 500.0], "{seen:?}");
+    assert_eq!(seen[1].1, 1.6);
+
+    std::fs::write(&f, "datetime,depth_m\n2023-04-18 11:03:34,1.5\nsoon,1.6\n").unwrap();
+    let e = crate::Log::open(&f).unwrap_err();
+    assert!(e.what.contains("row 3") && e.what.contains("`soon`"), "{e}");
+    assert!(e.fix.contains("date and time"), "{e}");
+    std::fs::remove_dir_all(d).unwrap();
+}
