@@ -94,6 +94,15 @@ pub fn names_a_time(header: &[String]) -> bool {
     header.iter().any(|h| time_name(h).is_some())
 }
 
+/// Whether a table whose header names no time is timed by its first column all the same: a
+/// column with no name whose first cell is a date and time, as pandas writes a
+/// `DatetimeIndex` it was given no name for (`,depth_m` over `2023-04-18 11:03:34.1,1.5`).
+pub fn unnamed_dates(header: &[String], first_cell: Option<&str>) -> bool {
+    header.len() > 1
+        && header.first().is_some_and(|h| bare(h).is_empty())
+        && first_cell.is_some_and(|c| crate::iso_time::epoch_seconds(bare(c)).is_some())
+}
+
 /// The time column of a header row (the first that names a time) and its unit, or `None`
 /// when no column does. Where the name gives no unit, `given` (seconds per unit, the user's)
 /// is taken, else the unit is read from `rows`, the first rows of the file.
@@ -102,10 +111,20 @@ pub fn clock<'a>(
     rows: impl Iterator<Item = &'a [String]>,
     given: Option<f64>,
 ) -> Option<Clock> {
-    let (column, unit) = header
+    let mut rows = rows.peekable();
+    let named = header
         .iter()
         .enumerate()
-        .find_map(|(c, h)| Some((c, time_name(h)?)))?;
+        .find_map(|(c, h)| Some((c, time_name(h)?)));
+    let Some((column, unit)) = named else {
+        let first = rows.peek().and_then(|r| r.first()).map(String::as_str);
+        return unnamed_dates(header, first).then(|| Clock {
+            column: 0,
+            unit_s: 1.0,
+            rostopic: false,
+            inferred: "the first column, unnamed, holds dates and times (a pandas index): read as seconds since 1970, in UTC where a cell gives no zone".into(),
+        });
+    };
     let rostopic = bare(&header[column]) == ROSTOPIC_TIME;
     let (unit_s, inferred) = match unit.or(given) {
         Some(u) => (u, String::new()),
@@ -287,6 +306,14 @@ mod tests {
         }
         // Whatever unit the name gives, a date and time is seconds since 1970.
         assert_eq!(seconds("1970-01-01T00:00:02Z", 1e-3), Some(2.0));
+        // An unnamed first column of dates (pandas' index) is the time; of numbers, it is not.
+        let h = header(&["", "depth_m"]);
+        let r = [vec!["2023-04-18 11:03:34.1".to_string(), "1.5".into()]];
+        let c = clock(&h, r.iter().map(|r| r.as_slice()), None).unwrap();
+        assert_eq!((c.column, c.unit_s), (0, 1.0));
+        assert!(c.inferred.contains("pandas"), "{}", c.inferred);
+        let r = [vec!["0".to_string(), "1.5".into()]];
+        assert_eq!(clock(&h, r.iter().map(|r| r.as_slice()), None), None);
         // A column of numbers with one date among them is not read as dates.
         let c = of("time", &["0.5", "2023-04-18 11:03:34"]).unwrap();
         assert!(c.inferred.is_empty(), "{}", c.inferred);

@@ -162,7 +162,13 @@ fn first_line(data: &[u8]) -> std::borrow::Cow<'_, str> {
 /// Whether the bytes of a file are a CSV log: a first line with a comma that names a time.
 pub fn is_timed_csv(data: &[u8]) -> bool {
     let line = first_line(data);
-    line.contains(',') && csv_clock::names_a_time(&cells(&line))
+    let header = cells(&line);
+    let second = || {
+        let head = String::from_utf8_lossy(&data[..data.len().min(64 * 1024)]);
+        let row = head.lines().nth(1).map(cells).unwrap_or_default();
+        csv_clock::unnamed_dates(&header, row.first().map(String::as_str))
+    };
+    line.contains(',') && (csv_clock::names_a_time(&header) || second())
 }
 
 /// Whether the bytes of a file are a `;`-separated table whose header names a time (a

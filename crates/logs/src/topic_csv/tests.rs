@@ -271,6 +271,21 @@ fn a_time_column_of_dates_and_times_reads_as_seconds_since_1970() {
     assert_eq!(steps, [0.0, 250.0, 500.0], "{seen:?}");
     assert_eq!(seen[1].1, 1.6);
 
+    // pandas' `to_csv` of a DatetimeIndex given no name: the unnamed first column.
+    std::fs::write(
+        &f,
+        ",depth_m\n2023-04-18 11:03:34.0,1.5\n2023-04-18 11:03:34.5,1.6\n",
+    )
+    .unwrap();
+    let log = crate::Log::open(&f).unwrap();
+    assert!((log.topics[0].last_s - 1_681_815_814.5).abs() < 1e-6);
+    assert!(
+        log.notes().iter().any(|n| n.contains("pandas")),
+        "{:?}",
+        log.notes()
+    );
+    assert!(log.topics[0].schema.select("depth_m").is_ok());
+
     std::fs::write(&f, "datetime,depth_m\n2023-04-18 11:03:34,1.5\nsoon,1.6\n").unwrap();
     let e = crate::Log::open(&f).unwrap_err();
     assert!(e.what.contains("row 3") && e.what.contains("`soon`"), "{e}");
