@@ -23,6 +23,7 @@ pub mod effects;
 mod figures;
 mod latency;
 mod locate;
+mod noise_rule;
 mod readmit;
 pub mod reckon;
 mod record;

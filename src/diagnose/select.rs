@@ -43,7 +43,7 @@ impl Default for Criteria {
             min_gain: 0.08,
             gain_per_parameter: 0.02,
             min_noise_multiple: 0.5,
-            within_noise: 5.0,
+            within_noise: 2.5,
             max_effects: 3,
             unexplained_noise_multiple: 5.0,
             horizon_s: crate::core::model::stability::Horizon::Auto,

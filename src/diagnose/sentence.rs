@@ -25,18 +25,25 @@ pub(super) fn verdict_sentence(
 ) -> String {
     let (base_cost, final_cost, re_cost) = (c.base, c.after_effects, c.reestimated);
     if let Some(left) = unexplained {
-        let which = if left.is_empty() {
-            String::new()
-        } else {
-            format!(" (in {})", describe(left))
+        // What decided it: the DOFs found structured, or else the pooled cost over the noise.
+        let (residual, which) = match left.is_empty() {
+            true => (
+                "residual",
+                format!(
+                    " ({:.2} times the noise floor {:.4}, over the {within_multiple} times that counts as noise)",
+                    final_cost / c.noise,
+                    c.noise
+                ),
+            ),
+            false => ("structured residual", format!(" (in {})", describe(left))),
         };
         if effects.len() == 1 {
             format!(
-                "The model does not explain the held-out runs, re-estimating its parameters does not either, and no effect of the table does: the residual is structured{which} and is reported as unexplained, with where it is."
+                "The model does not explain the held-out runs, re-estimating its parameters does not either, and no effect of the table does: the {residual} remains{which} and is reported as unexplained, with where it is."
             )
         } else {
             format!(
-                "{} {} part of the mismatch: the held-out error cost falls from {base_cost:.4} to {final_cost:.4} ({} of the start, {:.1} times the noise floor); a structured residual remains{which} and is reported as unexplained.",
+                "{} {} part of the mismatch: the held-out error cost falls from {base_cost:.4} to {final_cost:.4} ({} of the start, {:.1} times the noise floor); a {residual} remains{which} and is reported as unexplained.",
                 effects
                     .iter()
                     .filter(|e| e.name != "unexplained")

@@ -63,7 +63,7 @@ fn words_agree_with_numbers(d: &Diagnosis) {
             );
             // Within the noise floor pooled, a structured DOF decided it: the verdict says
             // which, with figures at or above the multiples that count as structure.
-            if e.validation_cost_after <= d.criteria.within_noise * noise {
+            if e.validation_cost_before <= d.criteria.within_noise * noise {
                 assert!(
                     v.contains("times its noise"),
                     "{v}
@@ -72,7 +72,7 @@ cost {cost} noise {noise}"
             }
             for (multiple, why) in structured_figures(v) {
                 let floor = if why.starts_with("with a line") {
-                    2.0
+                    super::unexplained::LINE_NOISE_MULTIPLE
                 } else {
                     d.criteria.unexplained_noise_multiple
                 };

@@ -142,12 +142,15 @@ impl Structured {
 }
 
 /// A multiple of the noise with one decimal, or more where one would round it to a whole
-/// number: the thresholds it was compared with are whole (2 and 5 times), and 5.04 read as
-/// "5.0" would say it is at the threshold rather than above it.
+/// number or to [`LINE_NOISE_MULTIPLE`]: the thresholds it was compared with are those (1.5
+/// and 5 times), and 5.04 read as "5.0" would say it is at the threshold rather than above it.
 fn multiple_in_words(x: f64) -> String {
     (1..=3)
         .map(|d| format!("{x:.d$}"))
-        .find(|s| s.parse::<f64>().is_ok_and(|r| r.fract() != 0.0))
+        .find(|s| {
+            s.parse::<f64>()
+                .is_ok_and(|r| r.fract() != 0.0 && r != LINE_NOISE_MULTIPLE)
+        })
         .unwrap_or_else(|| format!("{x:.1}"))
 }
 
@@ -215,7 +218,7 @@ pub(super) fn structured_left(
 }
 
 /// A residual at this multiple of its noise with a spectral line is structured.
-const LINE_NOISE_MULTIPLE: f64 = 2.0;
+pub(super) const LINE_NOISE_MULTIPLE: f64 = 1.5;
 
 #[cfg(test)]
 mod tests {
@@ -225,5 +228,7 @@ mod tests {
         assert_eq!(super::multiple_in_words(5.04), "5.04");
         assert_eq!(super::multiple_in_words(2.001), "2.001");
         assert_eq!(super::multiple_in_words(12.0), "12.0");
+        assert_eq!(super::multiple_in_words(1.504), "1.504");
+        assert_eq!(super::multiple_in_words(1.56), "1.6");
     }
 }

@@ -4,6 +4,7 @@
 
 use super::drift::Drifted;
 use super::figures;
+use super::noise_rule::{above_noise, reestimate_within_noise, within_noise};
 use super::result::*;
 use super::sentence::{Costs, verdict_sentence};
 use super::unexplained::{Structured, structured_left, unexplained_residual};
@@ -65,7 +66,7 @@ pub fn diagnose(
     if let Some(fig) = figures::residual_overview(&data, &res_before, &mismatch)? {
         figures.insert(0, fig);
     }
-    let reestimated_within = within_noise(crit, &data, drifted.cost);
+    let reestimated_within = reestimate_within_noise(crit, &data, drifted.cost);
     let diagnosis = Diagnosis {
         baseline: Baseline {
             model: model.to_string(),
@@ -153,11 +154,6 @@ fn main_mismatches(data: &Data, residuals: &[[Vec<f64>; SLOTS]]) -> Vec<Mismatch
     mismatch
 }
 
-/// Whether a held-out cost is within `within_noise` times the runs' noise floor.
-fn within_noise(crit: &Criteria, data: &Data, cost: f64) -> bool {
-    cost <= crit.within_noise * data.noise_cost
-}
-
 /// What the diagnosis concludes beyond the named effects.
 struct Conclusion {
     /// Re-estimating the model's parameters explains the held-out runs better than effects.
@@ -215,8 +211,7 @@ fn conclude(
         structured_left(plant, data, &dx::augmentation(&selected), crit)
     };
     let unexplained = |cost: f64, left: &[Structured], n_effects: usize| {
-        !left.is_empty()
-            || (!within(cost) && (cost > 0.5 * costs.base.max(1e-12) || n_effects == 0))
+        !left.is_empty() || above_noise(crit, data, (costs, drift), cost, n_effects)
     };
     let (mut dropped, mut notes) = (Vec::new(), Vec::new());
     let mut found = None;
@@ -299,7 +294,7 @@ fn discovery_beats_drift(
     search: &dx::Search,
     costs: &Costs,
 ) -> anyhow::Result<bool> {
-    if !crit.discover || within_noise(crit, data, costs.reestimated) {
+    if !crit.discover || reestimate_within_noise(crit, data, costs.reestimated) {
         return Ok(false);
     }
     let aug = dx::augmentation(&search.selected);
