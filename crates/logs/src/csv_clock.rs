@@ -27,6 +27,9 @@ const TIME_NAMES: [&str; 11] = [
     "elapsed",
 ];
 
+/// How a column of dates and times is read, for the log's notes.
+const DATES_READ_AS: &str = "read as seconds since 1970, in UTC where a cell gives no zone";
+
 /// Unit suffixes and their length in seconds.
 const UNITS: [(&str, f64); 5] = [
     ("s", 1.0),
@@ -122,7 +125,9 @@ pub fn clock<'a>(
             column: 0,
             unit_s: 1.0,
             rostopic: false,
-            inferred: "the first column, unnamed, holds dates and times (a pandas index): read as seconds since 1970, in UTC where a cell gives no zone".into(),
+            inferred: format!(
+                "the first column, unnamed, holds dates and times (a pandas index): {DATES_READ_AS}"
+            ),
         });
     };
     let rostopic = bare(&header[column]) == ROSTOPIC_TIME;
@@ -143,18 +148,19 @@ fn inferred_unit<'a>(name: &str, cells: impl Iterator<Item = &'a String>) -> (f6
     let cells: Vec<&String> = cells.take(2000).collect();
     let values: Vec<f64> = cells.iter().filter_map(|c| c.trim().parse().ok()).collect();
     let name = bare(name);
-    let dated = cells.iter().filter(|c| !c.trim().is_empty()).take(10);
+    let dated: Vec<&&String> = (cells.iter())
+        .filter(|c| !c.trim().is_empty())
+        .take(10)
+        .collect();
     if values.is_empty()
-        && dated.clone().count() > 0
+        && !dated.is_empty()
         && dated
-            .clone()
+            .iter()
             .all(|c| crate::iso_time::epoch_seconds(c).is_some())
     {
         return (
             1.0,
-            format!(
-                "time column `{name}` holds dates and times: read as seconds since 1970, in UTC where a cell gives no zone"
-            ),
+            format!("time column `{name}` holds dates and times: {DATES_READ_AS}"),
         );
     }
     let whole = !values.is_empty() && values.iter().all(|v: &f64| v.fract() == 0.0);
