@@ -274,11 +274,20 @@ fn settle(
     (c, figs): (crate::diagnose::result::Candidate, Vec<Figure>),
 ) -> anyhow::Result<Chosen<(Vec<String>, Vec<String>)>> {
     let (kept, c, figs, why) = joint_selection(plant, data, crit, selected, dofs, c, figs)?;
-    let on_top = (kept, tested);
     let (kept, c, figs, back) =
-        super::readmit::readmit(plant, data, crit, on_top, dofs, (c, figs))?;
+        super::readmit::readmit(plant, data, crit, (kept, tested), dofs, (c, figs))?;
+    let (kept, c, figs, taken) =
+        super::readmit::unmasked(plant, data, crit, (kept, tested), dofs, (c, figs))?;
+    // An effect taken beside the terms may explain one named before it.
+    let (kept, c, figs, why) = if taken.is_empty() {
+        (kept, c, figs, why)
+    } else {
+        let (kept, c, figs, more) = joint_selection(plant, data, crit, kept, dofs, c, figs)?;
+        (kept, c, figs, why.into_iter().chain(more).collect())
+    };
     let (kept, c, figs, note) = refit_beside(plant, data, crit, kept, dofs, c, figs)?;
-    Ok((kept, c, figs, (why, back.into_iter().chain(note).collect())))
+    let notes = back.into_iter().chain(taken).chain(note).collect();
+    Ok((kept, c, figs, (why, notes)))
 }
 
 /// Whether a closed form discovery finds with the model as it is (and the named effects
