@@ -254,20 +254,26 @@ impl Tally {
     }
 }
 
-/// One scenario's line: what was concealed, what was named with its parameters, whether
+/// One scenario's line: what was concealed, what was named with its parameters (and its
+/// look-alikes), whether
 /// that is right, the held-out cost before and after, and the time since `t`.
 fn print_verdict(seed: u64, effects: &[Effect], d: &Diagnosis, ok: Outcome, t: Instant) {
     let params: Vec<String> = d
         .effects
         .iter()
         .map(|e| {
+            let alike: Vec<&str> = e.alike.iter().map(|a| a.name.as_str()).collect();
             format!(
-                "{} {:?}",
+                "{} {:?}{}",
                 e.name,
                 e.parameters
                     .values()
                     .map(|v| (v * 1000.0).round() / 1000.0)
-                    .collect::<Vec<_>>()
+                    .collect::<Vec<_>>(),
+                match alike.is_empty() {
+                    true => String::new(),
+                    false => format!(" (or {})", alike.join(" or ")),
+                }
             )
         })
         .collect();

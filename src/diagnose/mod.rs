@@ -17,6 +17,7 @@
 //! so surge (m/s) and yaw (rad/s) weigh alike; the noise floor is the same sum over the fused
 //! velocities' own variances.
 
+mod alike;
 pub mod discover;
 mod drift;
 pub mod effects;

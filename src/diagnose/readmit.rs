@@ -39,10 +39,7 @@ pub(super) fn readmit(
         let Some(h) = data.effects.iter().copied().find(|h| h.name == name) else {
             continue;
         };
-        let kept = selected.iter().any(|(s, _)| s.name == h.name);
-        let wants_more = (tested.iter())
-            .any(|t| t.name == h.name && !t.at_bound.is_empty() && t.gain >= crit.min_gain);
-        if kept || wants_more || !testable::applicable(h, data) {
+        if !takeable(h, (&selected, tested), crit, data) {
             continue;
         }
         // Fitted beside the terms of other forms: alone it would take up their part too (a
@@ -158,10 +155,7 @@ fn best_beside(
     let (before, train_before) = (c.cost_after_all(), data.cost(plant, &base, false));
     let mut best: Option<(&'static super::Hypothesis, Vec<f64>, f64)> = None;
     for h in data.effects.iter().copied() {
-        let kept = selected.iter().any(|(s, _)| s.name == h.name);
-        let wants_more = (tested.iter())
-            .any(|t| t.name == h.name && !t.at_bound.is_empty() && t.gain >= crit.min_gain);
-        if kept || wants_more || !testable::applicable(h, data) {
+        if !takeable(h, (selected, tested), crit, data) {
             continue;
         }
         let (p, train) = search::fit_beside(plant, data, (selected, &c.model), h);
@@ -180,4 +174,19 @@ fn best_beside(
         }
     }
     best
+}
+
+/// Whether `h` may be taken beside discovered terms: testable on these runs, not kept in
+/// `selected`, and not found by the search (`tested`) on a bound while it gained the margin
+/// (it wants more than it can give, [`readmit`]).
+fn takeable(
+    h: &super::Hypothesis,
+    (selected, tested): (&Selection, &[Tested]),
+    crit: &Criteria,
+    data: &Data,
+) -> bool {
+    let kept = selected.iter().any(|(s, _)| s.name == h.name);
+    let wants_more = (tested.iter())
+        .any(|t| t.name == h.name && !t.at_bound.is_empty() && t.gain >= crit.min_gain);
+    !kept && !wants_more && testable::applicable(h, data)
 }

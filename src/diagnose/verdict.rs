@@ -214,8 +214,7 @@ fn conclude(
         !left.is_empty() || above_noise(crit, data, (costs, drift), cost, n_effects)
     };
     let (mut dropped, mut notes) = (Vec::new(), Vec::new());
-    let mut found = None;
-    let mut disc_figures = Vec::new();
+    let (mut found, mut terms, mut disc_figures) = (None, Vec::new(), Vec::new());
     if unexplained(explained_cost, &left, selected.len()) {
         let mut f = unexplained_residual(plant, data, &selected, explained_cost, &left, crit);
         // Beyond the vocabulary: a closed form for what is left, kept only if the held-out
@@ -235,6 +234,7 @@ fn conclude(
                     f = unexplained_residual(plant, data, &selected, explained_cost, &left, crit);
                 }
                 let taken: Vec<&str> = selected.iter().map(|(h, _)| h.name).collect();
+                terms = c.model.clone();
                 f = c.into_found(f, &taken);
                 disc_figures = figs;
             }
@@ -242,7 +242,8 @@ fn conclude(
         found = Some(f);
     }
     let (mut effects, mut figures) = named_effects(plant, data, &selected)?;
-    list_alike(&mut effects, search, crit, data);
+    let beside = super::alike::alike_beside(plant, data, crit, &selected, &terms);
+    super::alike::list_alike(&mut effects, (search, beside), crit, data);
     figures.extend(disc_figures);
     let unexplained = found.is_some();
     effects.extend(found);
@@ -322,20 +323,6 @@ fn discovery_beats_drift(
     let (with, without) = (c.cost_after_all(), costs.reestimated);
     Ok(with < (1.0 - crit.min_gain) * without
         && without - with >= crit.min_noise_multiple * data.noise_cost)
-}
-
-/// Each effect's look-alikes: the candidates its round could not tell from it, except those
-/// named themselves (an effect kept in a later round is beside it, not instead of it).
-fn list_alike(effects: &mut [Found], search: &dx::Search, crit: &Criteria, data: &Data) {
-    let named: Vec<String> = effects.iter().map(|e| e.name.clone()).collect();
-    for e in effects {
-        e.alike = dx::select::alike(search, crit, data, &e.name);
-        e.alike.retain(|a| !named.contains(&a.name));
-        if !e.alike.is_empty() {
-            let sentence = e.alike_sentence(data.noise_cost);
-            e.evidence.push_str(&sentence);
-        }
-    }
 }
 
 /// The named effects `selected` refitted beside the discovered terms of `c`, and the terms

@@ -169,6 +169,33 @@ fn a_table_effect_masked_by_one_outside_it_is_named_beside_the_discovered_term()
     );
 }
 
+/// The same scenario on seed 57: `coupled_drag` wins the first round and, beside the
+/// discovered terms, leaves 1.5 times the floor, so the tether's drag cannot earn a margin
+/// over it; fitted in its place beside the terms it fits as well, and is listed as its
+/// look-alike, never left out.
+#[test]
+fn a_look_alike_beside_the_discovered_terms_is_listed() {
+    let e = [
+        Effect::from_arg("skewed_thruster=0.03").unwrap(),
+        Effect::from_arg("tether_drag=1.2").unwrap(),
+    ];
+    let d = nav_diagnosis(&e, 57);
+    let told = (d.effects.iter())
+        .any(|x| x.name == "tether_drag" || x.alike.iter().any(|a| a.name == "tether_drag"));
+    assert!(told, "{}", d.verdict);
+    for x in d
+        .effects
+        .iter()
+        .filter(|x| x.alike.iter().any(|a| a.name == "tether_drag"))
+    {
+        assert!(
+            x.evidence.contains("Beside the discovered terms"),
+            "{}",
+            x.evidence
+        );
+    }
+}
+
 fn wave(force_n: f64, frequency_hz: f64) -> Effect {
     Effect::Wave {
         force_n,
