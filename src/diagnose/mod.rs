@@ -260,6 +260,16 @@ pub fn augmentation(sel: &[(&'static Hypothesis, Vec<f64>)]) -> Augmentation {
     a
 }
 
+/// [`augmentation`] of `sel` with the discovered `terms` in the model beside it.
+pub fn augmentation_beside(
+    sel: &[(&'static Hypothesis, Vec<f64>)],
+    terms: &[Arc<discover::Discovered>],
+) -> Augmentation {
+    let mut a = augmentation(sel);
+    a.discovered = terms.to_vec();
+    a
+}
+
 /// The model's velocities per slot at the run's sample times, driven by the logged command,
 /// from the run's first fused velocity. Position and heading are taken from the fused track
 /// at each sample (they are measured to centimetres; integrating them would let a small

@@ -11,7 +11,8 @@
 
 use super::discover::Discovered;
 use super::result::{Candidate, Figure};
-use super::{Chosen, Criteria, Data, Selection, Tested, augmentation, search, select, testable};
+use super::{Chosen, Criteria, Data, Selection, Tested, augmentation, augmentation_beside};
+use super::{search, select, testable};
 use crate::core::dof::Dof;
 use crate::core::model::Plant;
 use std::collections::BTreeSet;
@@ -62,8 +63,7 @@ pub(super) fn readmit(
             continue;
         }
         // The terms found beside the effect, without it: what the effect itself must beat.
-        let mut terms_alone = augmentation(&selected);
-        terms_alone.discovered = c2.model.clone();
+        let terms_alone = augmentation_beside(&selected, &c2.model);
         let alone = data.eval(plant, &terms_alone, true).cost(&data.scale);
         // No worse than the terms it stands for, after the per-parameter penalty the search
         // charges (a named effect of one parameter for two coefficients of its form).
@@ -114,8 +114,7 @@ pub(super) fn unmasked(
         else {
             break;
         };
-        let mut terms_alone = augmentation(&selected);
-        terms_alone.discovered = c2.model.clone();
+        let terms_alone = augmentation_beside(&selected, &c2.model);
         let alone = data.eval(plant, &terms_alone, true).cost(&data.scale);
         let (before, after) = (c.cost_after_all(), c2.cost_after_all());
         let params = h.free_params(&p);
@@ -150,8 +149,7 @@ fn best_beside(
     (selected, tested): (&Selection, &[Tested]),
     c: &Candidate,
 ) -> Option<(&'static super::Hypothesis, Vec<f64>, f64)> {
-    let mut base = augmentation(selected);
-    base.discovered = c.model.clone();
+    let base = augmentation_beside(selected, &c.model);
     let (before, train_before) = (c.cost_after_all(), data.cost(plant, &base, false));
     let mut best: Option<(&'static super::Hypothesis, Vec<f64>, f64)> = None;
     for h in data.effects.iter().copied() {
@@ -164,9 +162,7 @@ fn best_beside(
         }
         let mut with = selected.clone();
         with.push((h, p.clone()));
-        let mut aug = augmentation(&with);
-        aug.discovered = c.model.clone();
-        let cost = data.cost(plant, &aug, true);
+        let cost = data.cost(plant, &augmentation_beside(&with, &c.model), true);
         let earns = select::significant(crit, data, before, cost, h.free_params(&p))
             && (train_before - train) / train_before >= 0.5 * crit.min_gain;
         if earns && best.as_ref().is_none_or(|b| cost < b.2) {

@@ -513,13 +513,9 @@ pub fn alike(
     let Some(&before) = search.costs.get(kept.round - 1) else {
         return Vec::new();
     };
-    let margin = criteria.min_noise_multiple * data.noise_cost;
     let apart = |t: &Tested| {
-        let held_out = t.validation_cost - kept.validation_cost;
-        let train = t.train_cost - kept.train_cost;
-        let decisive =
-            held_out.abs() >= criteria.min_gain * t.validation_cost.max(kept.validation_cost);
-        held_out.abs() >= margin && (held_out * train > 0.0 || decisive)
+        let (them, it) = (t.validation_cost, kept.validation_cost);
+        told_apart(criteria, data, (them, it), (t.train_cost, kept.train_cost))
     };
     search
         .tested
@@ -536,4 +532,18 @@ pub fn alike(
             validation_cost: t.validation_cost,
         })
         .collect()
+}
+
+/// Whether two effects of held-out costs `(a, b)` and training costs `(ta, tb)` are told
+/// apart ([`alike`]'s rule).
+pub(super) fn told_apart(
+    criteria: &Criteria,
+    data: &Data,
+    (a, b): (f64, f64),
+    (ta, tb): (f64, f64),
+) -> bool {
+    let margin = criteria.min_noise_multiple * data.noise_cost;
+    let (held_out, train) = (a - b, ta - tb);
+    let decisive = held_out.abs() >= criteria.min_gain * a.max(b);
+    held_out.abs() >= margin && (held_out * train > 0.0 || decisive)
 }

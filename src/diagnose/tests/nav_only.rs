@@ -128,6 +128,14 @@ fn weak_effects_near_the_floor_are_reported_from_a_navigation_log() {
     nav_reported(&sag, 3);
 }
 
+/// A surge thruster mounted 3 cm off the centre line and a tether's drag.
+fn askew_thruster_and_tether() -> [Effect; 2] {
+    [
+        Effect::from_arg("skewed_thruster=0.03").unwrap(),
+        Effect::from_arg("tether_drag=1.2").unwrap(),
+    ]
+}
+
 /// A table effect masked by one outside the table: a surge thruster mounted 3 cm off the
 /// centre line turns the vehicle as it surges, which turns the dead-reckoned track, and the
 /// greedy rounds named no tether drag beside it (held-out cost 0.093 -> 0.042 with
@@ -136,11 +144,7 @@ fn weak_effects_near_the_floor_are_reported_from_a_navigation_log() {
 /// stays with its arm within 20 %.
 #[test]
 fn a_table_effect_masked_by_one_outside_it_is_named_beside_the_discovered_term() {
-    let e = [
-        Effect::from_arg("skewed_thruster=0.03").unwrap(),
-        Effect::from_arg("tether_drag=1.2").unwrap(),
-    ];
-    let d = nav_diagnosis(&e, 58);
+    let d = nav_diagnosis(&askew_thruster_and_tether(), 58);
     let tether = (d.effects.iter())
         .find(|x| x.name == "tether_drag")
         .unwrap_or_else(|| panic!("no tether drag: {}", d.verdict));
@@ -175,11 +179,7 @@ fn a_table_effect_masked_by_one_outside_it_is_named_beside_the_discovered_term()
 /// look-alike, never left out.
 #[test]
 fn a_look_alike_beside_the_discovered_terms_is_listed() {
-    let e = [
-        Effect::from_arg("skewed_thruster=0.03").unwrap(),
-        Effect::from_arg("tether_drag=1.2").unwrap(),
-    ];
-    let d = nav_diagnosis(&e, 57);
+    let d = nav_diagnosis(&askew_thruster_and_tether(), 57);
     let told = (d.effects.iter())
         .any(|x| x.name == "tether_drag" || x.alike.iter().any(|a| a.name == "tether_drag"));
     assert!(told, "{}", d.verdict);
