@@ -229,6 +229,10 @@ pub(super) fn propose(data: &Data, pre: &[Prepared], rows: &Rows, j: usize) -> O
 /// it alone, runs where it varies).
 type Support = (f64, [usize; 2]);
 
+/// The spread (standard deviation) of a modulating factor in [0, 1] over a run below which the
+/// run does not tell the modulated term from the plain one ([`modulated`]).
+const MODULATION_SD: f64 = 0.05;
+
 /// Of the terms `chosen` on all rows, those the block-bootstrap resamples select at least
 /// [`KEEP_SHARE`] of the time and most informative training runs select alone, each with its
 /// share and (runs selecting it, runs where it varies). `None` when none is kept or the build
@@ -263,7 +267,7 @@ fn stable_terms(
             let v =
                 idx.iter().map(|&r| (col(r) - m).powi(2)).sum::<f64>() / idx.len().max(1) as f64;
             v.sqrt() > 0.2 || matches!(features[g], Feature::Constant)
-        })
+        }) && modulated(data, rows, &features[g], idx)
     };
     let per_run: Vec<Vec<usize>> = runs
         .iter()
@@ -399,4 +403,27 @@ fn term(
         selected_share: share,
         runs_selected,
     }
+}
+
+/// Whether the factor that modulates a feature varies over the rows `idx`, for the features
+/// that are a simpler term times such a factor: a near-surface drag `|u| u exp(-z/l)` in a run
+/// that stays at one depth is the plain `|u| u` scaled, and that run can pick either of the
+/// two; only the runs that change depth by enough to change the factor tell them apart (on
+/// a twin whose surge and sway drag grew near the surface, 1 of 3 runs chose the near-surface
+/// form, the two that never came up chose the plain one).
+fn modulated(data: &Data, rows: &Rows, f: &Feature, idx: &[usize]) -> bool {
+    let Feature::NearSurfaceDrag(_, l) = *f else {
+        return true;
+    };
+    let factor: Vec<f64> = (idx.iter())
+        .map(|&r| {
+            let (ri, a, _) = rows.at[r];
+            (-data.train[ri].pos[2][a].max(0.0) / l).exp()
+        })
+        .filter(|x| x.is_finite())
+        .collect();
+    let n = factor.len().max(1) as f64;
+    let m = factor.iter().sum::<f64>() / n;
+    let sd = (factor.iter().map(|x| (x - m).powi(2)).sum::<f64>() / n).sqrt();
+    sd > MODULATION_SD
 }
