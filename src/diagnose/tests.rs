@@ -196,7 +196,9 @@ fn main_parameter(e: &Effect, d: &Diagnosis) -> (f64, [f64; 2], f64) {
         | Effect::SkewedThruster { .. }
         | Effect::SurfaceDrag { .. }
         | Effect::TetherTorsion { .. }
-        | Effect::BatterySag { .. } => (f64::NAN, [f64::NAN; 2], f64::NAN),
+        | Effect::BatterySag { .. }
+        | Effect::ThrustSaturation { .. }
+        | Effect::AsymmetricDrag { .. } => (f64::NAN, [f64::NAN; 2], f64::NAN),
     }
 }
 

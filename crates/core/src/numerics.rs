@@ -40,9 +40,43 @@ pub fn complex_eigenvalues(m: DMatrix<f64>) -> Option<DVector<nalgebra::Complex<
     Schur::try_new(m, f64::EPSILON, MAX_ITERATIONS).map(|s| s.complex_eigenvalues())
 }
 
+/// The minimiser of `f` on [a, b] by golden section, to within `tol` (f taken unimodal there).
+pub fn golden_min(mut f: impl FnMut(f64) -> f64, a: f64, b: f64, tol: f64) -> f64 {
+    let g = (5f64.sqrt() - 1.0) / 2.0;
+    let (mut a, mut b) = (a, b);
+    let (mut x1, mut x2) = (b - g * (b - a), a + g * (b - a));
+    let (mut f1, mut f2) = (f(x1), f(x2));
+    while b - a > tol {
+        if f1 < f2 {
+            (b, x2, f2) = (x2, x1, f1);
+            x1 = b - g * (b - a);
+            f1 = f(x1);
+        } else {
+            (a, x1, f1) = (x1, x2, f2);
+            x2 = a + g * (b - a);
+            f2 = f(x2);
+        }
+    }
+    0.5 * (a + b)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn golden_section_finds_the_minimiser_to_its_tolerance() {
+        let x = golden_min(
+            |x| (x - 1.3).powi(2) + (3.0 * x).sin() * 0.01,
+            0.0,
+            3.0,
+            1e-9,
+        );
+        // d/dx: 2 (x - 1.3) + 0.03 cos(3x) = 0 near x = 1.3.
+        let slope = 2.0 * (x - 1.3) + 0.03 * (3.0 * x).cos();
+        assert!(slope.abs() < 1e-7, "x {x}, slope {slope}");
+        assert!((x - 1.3).abs() < 0.02, "x {x}");
+    }
 
     #[test]
     fn a_non_finite_matrix_is_refused_not_iterated_forever() {

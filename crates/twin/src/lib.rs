@@ -4,6 +4,7 @@
 pub mod auv;
 pub mod cfd;
 pub mod dsrv;
+pub mod effect;
 pub mod field;
 pub mod pool;
 pub mod six;

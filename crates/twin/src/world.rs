@@ -11,176 +11,11 @@
 //! can only find these effects by what they do to the recordings; tests compare its parameters
 //! with the equivalents these forms imply (`src/diagnose/tests.rs`).
 
+pub use crate::effect::{Effect, NAMES, OUTSIDE};
 pub use hydrofit_core::model::motion::State;
 use hydrofit_core::model::motion::rk4;
 use hydrofit_core::model::pool::Pool;
 use hydrofit_core::model::{Plant, Vec6};
-use serde::{Deserialize, Serialize};
-
-/// One left-out effect with its magnitude. Signs follow the frames of docs/formats.md (z down).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "name", rename_all = "snake_case", deny_unknown_fields)]
-pub enum Effect {
-    /// Weight minus buoyancy, N, along pool z (positive: the vehicle sinks).
-    NetBuoyancy { force_n: f64 },
-    /// Time constant of the thrusters' motor speed, s: the speed n follows the command's
-    /// sqrt(|T|) sign(T) through a first-order lag and the delivered force is n |n| (Fossen
-    /// 2011, sec. 6.7: thrust quadratic in propeller speed). A step from rest takes about
-    /// 1.6 time constants to deliver 63 %.
-    ThrusterLag { time_constant_s: f64 },
-    /// Time constant of a first-order lag on the delivered force itself, s (a controller or
-    /// an ESC that ramps the thrust): the same name as [`Effect::ThrusterLag`], another law.
-    ForceLag { time_constant_s: f64 },
-    /// Fraction of a reverse (negative) surge, sway or heave command that is lost, faded in
-    /// over a few newtons around zero as the propeller's flow reverses:
-    /// efficiency 1 - loss / (1 + exp(T / 2 N)).
-    ReverseThrustLoss { loss: f64 },
-    /// A dead zone (N for forces, N m for the yaw moment): nothing below it, and above it the
-    /// command less the dead zone (static friction of the seals), with a knee rounded over a
-    /// tenth of the zone (a softplus).
-    ThrusterDeadband { force_n: f64, moment_nm: f64 },
-    /// Drag of the umbilical: -c L |v| v on the horizontal velocity in the pool frame, with L
-    /// the cable paid out (horizontal run from the anchor, plus depth below it, plus slack), c
-    /// in N s^2/m^3.
-    TetherDrag { coefficient: f64, slack_m: f64 },
-    /// A current in the pool frame, m/s, at the pool's middle; it varies by +-30 % along the
-    /// pool's length (one sine over the length). Drag and added mass act on the velocity
-    /// relative to it (Fossen 2011 sect. 10.3), the water's velocity changing along the pool
-    /// as the vehicle crosses it.
-    WaterCurrent { velocity_m_s: [f64; 2] },
-    /// Extra drag near the side walls: -c |v| v / (1 + (d / decay)^2), d the distance to the
-    /// nearest wall (an image flow's algebraic fall-off).
-    WallEffect { coefficient: f64, decay_m: f64 },
-    /// Quadratic drag on the resultant horizontal speed beyond what the per-axis drag holds:
-    /// X += -c (|V| - |u|) u, Y += -c (|V| - |v|) v, |V| = sqrt(u^2 + v^2), c in N s^2/m^2.
-    CoupledDrag { coefficient: f64 },
-    /// Position, attitude and depth sensors report late by `delay_s` and through a first-order
-    /// low-pass of time constant `filter_s` (their total latency is about the sum).
-    SensorDelay { delay_s: f64, filter_s: f64 },
-    // Outside the diagnosis's vocabulary: physics no named effect describes, for proving that
-    // discovery finds a closed form (each written here, apart from the discovery's library).
-    /// A vertical force oscillating at a wave maker's or a pump's frequency, in phase with
-    /// the run's clock (the logger and the wave maker start together): F sin(2 pi f t + phase).
-    Wave {
-        force_n: f64,
-        frequency_hz: f64,
-        phase_rad: f64,
-    },
-    /// A surge thruster mounted askew: its thrust line passes `arm_m` beside the centre of
-    /// gravity, so the surge thrust it delivers also turns the vehicle (N += arm X).
-    SkewedThruster { arm_m: f64 },
-    /// Extra drag near the free surface (waves made, ventilation): surge and sway drag grow by
-    /// c |v| v exp(-(z / depth_m)^2), z the depth below the surface.
-    SurfaceDrag { coefficient: f64, depth_m: f64 },
-    /// A tether that twists as the vehicle turns: a yaw moment against the heading turned
-    /// through since the cable was laid untwisted (at heading 0), -k psi with psi continuous
-    /// (turns counted), N m per rad.
-    TetherTorsion { stiffness_nm_per_rad: f64 },
-    /// A battery that drains during the run: the thrusters' speed at a given command falls
-    /// with the voltage, so every thruster delivers the share 1 - loss t / 60 s of its force
-    /// (t on the run's clock, `loss_per_minute` the share lost per minute).
-    BatterySag { loss_per_minute: f64 },
-}
-
-/// The effects outside the diagnosis's vocabulary, as `from_arg` takes them.
-pub const OUTSIDE: [&str; 5] = [
-    "wave",
-    "skewed_thruster",
-    "surface_drag",
-    "tether_torsion",
-    "battery_sag",
-];
-
-pub const NAMES: [&str; 9] = [
-    "net_buoyancy",
-    "thruster_lag",
-    "reverse_thrust_loss",
-    "thruster_deadband",
-    "tether_drag",
-    "water_current",
-    "wall_effect",
-    "coupled_drag",
-    "sensor_delay",
-];
-
-impl Effect {
-    pub fn name(&self) -> &'static str {
-        match self {
-            Effect::NetBuoyancy { .. } => NAMES[0],
-            Effect::ThrusterLag { .. } | Effect::ForceLag { .. } => NAMES[1],
-            Effect::ReverseThrustLoss { .. } => NAMES[2],
-            Effect::ThrusterDeadband { .. } => NAMES[3],
-            Effect::TetherDrag { .. } => NAMES[4],
-            Effect::WaterCurrent { .. } => NAMES[5],
-            Effect::WallEffect { .. } => NAMES[6],
-            Effect::CoupledDrag { .. } => NAMES[7],
-            Effect::SensorDelay { .. } => NAMES[8],
-            Effect::Wave { .. } => OUTSIDE[0],
-            Effect::SkewedThruster { .. } => OUTSIDE[1],
-            Effect::SurfaceDrag { .. } => OUTSIDE[2],
-            Effect::TetherTorsion { .. } => OUTSIDE[3],
-            Effect::BatterySag { .. } => OUTSIDE[4],
-        }
-    }
-
-    /// Parses `name=value` as the twin's command line takes it, with a typical second parameter.
-    pub fn from_arg(arg: &str) -> Result<Effect, String> {
-        let (name, value) = arg.split_once('=').ok_or_else(|| {
-            format!("`{arg}`: write an effect as name=magnitude, e.g. thruster_lag=0.3")
-        })?;
-        let x: f64 = value
-            .parse()
-            .map_err(|_| format!("`{arg}`: magnitude `{value}` is not a number"))?;
-        Ok(match name {
-            "net_buoyancy" => Effect::NetBuoyancy { force_n: x },
-            "thruster_lag" => Effect::ThrusterLag { time_constant_s: x },
-            "reverse_thrust_loss" => Effect::ReverseThrustLoss { loss: x },
-            "thruster_deadband" => Effect::ThrusterDeadband {
-                force_n: x,
-                moment_nm: x * 0.1,
-            },
-            "tether_drag" => Effect::TetherDrag {
-                coefficient: x,
-                slack_m: 2.0,
-            },
-            "water_current" => Effect::WaterCurrent {
-                velocity_m_s: [x, 0.3 * x],
-            },
-            "wall_effect" => Effect::WallEffect {
-                coefficient: x,
-                decay_m: 0.8,
-            },
-            "coupled_drag" => Effect::CoupledDrag { coefficient: x },
-            "sensor_delay" => Effect::SensorDelay {
-                delay_s: x,
-                filter_s: 0.5 * x,
-            },
-            "wave" => Effect::Wave {
-                force_n: x,
-                frequency_hz: 0.42,
-                phase_rad: 0.3,
-            },
-            "skewed_thruster" => Effect::SkewedThruster { arm_m: x },
-            "surface_drag" => Effect::SurfaceDrag {
-                coefficient: x,
-                depth_m: 1.0,
-            },
-            "tether_torsion" => Effect::TetherTorsion {
-                stiffness_nm_per_rad: x,
-            },
-            "battery_sag" => Effect::BatterySag { loss_per_minute: x },
-            _ => {
-                let hint = hydrofit_core::diag::nearest(name, NAMES.into_iter().chain(OUTSIDE))
-                    .map_or(String::new(), |s| format!(" (did you mean `{s}`?)"));
-                return Err(format!(
-                    "unknown effect `{name}`{hint}; known: {}, and outside the diagnosis's vocabulary {}",
-                    NAMES.join(", "),
-                    OUTSIDE.join(", ")
-                ));
-            }
-        })
-    }
-}
 
 /// Base plant plus effects, in a pool.
 #[derive(Debug, Clone)]
@@ -278,6 +113,12 @@ impl WorldPlant {
                         }
                     }
                 }
+                Effect::ThrustSaturation { force_n, moment_nm } => {
+                    for (i, f) in out.iter_mut().enumerate() {
+                        let m = if i < 3 { *force_n } else { *moment_nm };
+                        *f = f.clamp(-m, m);
+                    }
+                }
                 Effect::ReverseThrustLoss { loss } => {
                     for f in out.iter_mut().take(3) {
                         *f *= 1.0 - loss / (1.0 + (*f / REVERSE_FADE_N).exp());
@@ -362,6 +203,9 @@ impl WorldPlant {
                 Effect::TetherTorsion {
                     stiffness_nm_per_rad,
                 } => f[5] -= stiffness_nm_per_rad * s.psi,
+                Effect::AsymmetricDrag { coefficient } => {
+                    f[0] -= coefficient * s.nu[0].min(0.0).abs() * s.nu[0];
+                }
                 _ => {}
             }
         }

@@ -10,6 +10,8 @@ use std::f64::consts::TAU;
 const LAGS_S: [f64; 2] = [0.3, 1.0];
 /// Depth scales of the near-surface drag terms, m.
 const DEPTH_SCALES_M: [f64; 2] = [0.5, 1.0];
+/// Levels a DOF's command is tried clipped at, as shares of its largest over the training runs.
+const CLIP_SHARES: [f64; 5] = [0.4, 0.5, 0.6, 0.7, 0.8];
 
 /// One library term, a function of the recording (time, command, pose) and the velocity.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -18,6 +20,9 @@ pub enum Feature {
     Velocity(usize),
     /// |x| x.
     Quadratic(usize),
+    /// |x| x on one side only: ahead (x > 0) when `true`, astern (x < 0) when `false` (a hull
+    /// bluffer at one end).
+    OneSided(usize, bool),
     /// x_a x_b.
     Product(usize, usize),
     /// |x_a| x_b.
@@ -44,6 +49,9 @@ pub enum Feature {
     CommandTime(usize),
     /// sin and cos of 2 pi f t (two columns: amplitude and phase).
     Sine(f64),
+    /// clip(X, +-level) - X: what thrusters that deliver at most `level` (N or N m) take off
+    /// the command.
+    Clip(usize, f64),
 }
 
 impl Feature {
@@ -63,6 +71,9 @@ impl Feature {
             Feature::Constant => "1".into(),
             Feature::Velocity(j) => v(j).into(),
             Feature::Quadratic(j) => format!("|{0}| {0}", v(j)),
+            Feature::OneSided(j, ahead) => {
+                format!("|{0}| {0} [{0} {1} 0]", v(j), if ahead { ">" } else { "<" })
+            }
             Feature::Product(a, b) => format!("{} {}", v(a), v(b)),
             Feature::AbsProduct(a, b) => format!("|{}| {}", v(a), v(b)),
             Feature::Command(q) => c(q).into(),
@@ -80,6 +91,7 @@ impl Feature {
             Feature::Heading => "psi".into(),
             Feature::CommandTime(q) => format!("t {}", c(q)),
             Feature::Sine(f) => format!("sin(2 pi {f:.3} t + phase)"),
+            Feature::Clip(q, level) => format!("(clip({0}, +-{level:.3}) - {0})", c(q)),
         }
     }
 
@@ -121,6 +133,8 @@ impl Feature {
             Feature::Constant => 1.0,
             Feature::Velocity(j) => vel[j],
             Feature::Quadratic(j) => vel[j].abs() * vel[j],
+            Feature::OneSided(j, ahead) if (vel[j] > 0.0) == ahead => vel[j].abs() * vel[j],
+            Feature::OneSided(..) => 0.0,
             Feature::Product(a, b) => vel[a] * vel[b],
             Feature::AbsProduct(a, b) => vel[a].abs() * vel[b],
             Feature::Command(q) => cmd[q],
@@ -148,6 +162,7 @@ impl Feature {
             Feature::SinHeading => run.psi[k].sin(),
             Feature::Heading => pre.heading[k],
             Feature::CommandTime(q) => run.t[k] * cmd[q],
+            Feature::Clip(q, level) => cmd[q].clamp(-level, level) - cmd[q],
             Feature::Sine(f) => {
                 // On the logs' own clock (a run trimmed to its logs' overlap keeps it).
                 let (s, c) = (TAU * f * run.t[k]).sin_cos();
@@ -223,6 +238,10 @@ pub(super) fn library(j: usize, peaks: &[f64], data: &Data) -> Vec<Feature> {
     }
     f.push(Feature::CommandSign(j));
     f.push(Feature::CommandTime(j));
+    if on.contains(&j) {
+        f.extend([Feature::OneSided(j, true), Feature::OneSided(j, false)]);
+        f.extend(clips(j, data));
+    }
     f.extend([Feature::PoolX, Feature::PoolY, Feature::Depth]);
     for l in DEPTH_SCALES_M {
         f.push(Feature::NearSurfaceDrag(j, l));
@@ -239,4 +258,25 @@ pub(super) fn library(j: usize, peaks: &[f64], data: &Data) -> Vec<Feature> {
     }
     f.extend(peaks.iter().map(|&p| Feature::Sine(p)));
     f
+}
+
+/// Clipped commands of slot `j` at [`CLIP_SHARES`] of its largest over the training runs
+/// (none for a DOF never commanded).
+fn clips(j: usize, data: &Data) -> Vec<Feature> {
+    let top = (data.train.iter())
+        .flat_map(|r| r.cmd.iter().map(|c| c[j].abs()))
+        .fold(0.0, f64::max);
+    if top <= 0.0 {
+        return Vec::new();
+    }
+    CLIP_SHARES
+        .iter()
+        .map(|s| Feature::Clip(j, three_figures(s * top)))
+        .collect()
+}
+
+/// `x` (positive) rounded to three significant figures: a clip level reads as it is written.
+pub(super) fn three_figures(x: f64) -> f64 {
+    let scale = 10f64.powi(2 - x.log10().floor() as i32);
+    (x * scale).round() / scale
 }

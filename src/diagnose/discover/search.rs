@@ -253,7 +253,10 @@ fn together(
 fn shared_form(f: &Feature) -> bool {
     matches!(
         f,
-        Feature::CommandTime(_) | Feature::LagDeficit(..) | Feature::CommandSign(_)
+        Feature::CommandTime(_)
+            | Feature::LagDeficit(..)
+            | Feature::CommandSign(_)
+            | Feature::Clip(..)
     )
 }
 

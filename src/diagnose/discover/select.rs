@@ -198,8 +198,8 @@ fn weighted_design(
 /// Sparse, stability-selected regression of DOF `j`'s residual on its library.
 pub(super) fn propose(data: &Data, pre: &[Prepared], rows: &Rows, j: usize) -> Option<Proposal> {
     let (peaks_hz, grid, spectrum) = peaks(data, rows, j);
-    let features = library(j, &peaks_hz, data);
-    let d = weighted_design(data, pre, rows, j, &features);
+    let mut features = library(j, &peaks_hz, data);
+    let mut d = weighted_design(data, pre, rows, j, &features);
     let all: Vec<usize> = (0..rows.at.len()).collect();
     let chosen = d.select(&all);
     if chosen.is_empty() {
@@ -207,6 +207,9 @@ pub(super) fn propose(data: &Data, pre: &[Prepared], rows: &Rows, j: usize) -> O
     }
     let mut rng = crate::core::rng::Rng::derive(17, &format!("discover/{j}"));
     let (keep, terms_runs) = stable_terms(data, rows, &d, &features, &chosen, &mut rng)?;
+    if refine_clips(data, pre, rows, j, &mut features, &keep) {
+        d = weighted_design(data, pre, rows, j, &features);
+    }
     // Every non-empty subset of the kept terms, refitted: the held-out runs choose among them
     // as they choose among named effects (a term stable on the training runs can still be an
     // artefact the held-out runs do not share).
@@ -223,6 +226,40 @@ pub(super) fn propose(data: &Data, pre: &[Prepared], rows: &Rows, j: usize) -> O
         peaks: peaks_hz,
         spectrum: (grid, spectrum),
     })
+}
+
+/// Levels of the kept clipped commands (`keep`, indices into `features`), each refined within a
+/// quarter of its grid value by golden section on the residual the kept terms leave on all
+/// rows: the library's grid clips at shares of the largest command, the thrusters at their
+/// own limit. Whether any level moved.
+fn refine_clips(
+    data: &Data,
+    pre: &[Prepared],
+    rows: &Rows,
+    j: usize,
+    features: &mut [Feature],
+    keep: &[usize],
+) -> bool {
+    let mut moved = false;
+    for &g in keep {
+        let Feature::Clip(q, level) = features[g] else {
+            continue;
+        };
+        let rss = |l: f64| {
+            let mut kept: Vec<Feature> = keep.iter().map(|&k| features[k]).collect();
+            kept[keep.iter().position(|&k| k == g).unwrap_or(0)] = Feature::Clip(q, l);
+            let d = weighted_design(data, pre, rows, j, &kept);
+            let all: Vec<usize> = (0..rows.at.len()).collect();
+            d.lstsq(&all, &(0..d.width).collect::<Vec<_>>()).1
+        };
+        let best = crate::core::numerics::golden_min(rss, 0.75 * level, 1.25 * level, 1e-3 * level);
+        let best = super::library::three_figures(best);
+        if best != level && rss(best) < rss(level) {
+            features[g] = Feature::Clip(q, best);
+            moved = true;
+        }
+    }
+    moved
 }
 
 /// A kept term's share of the resamples that selected it, and (training runs that selected
