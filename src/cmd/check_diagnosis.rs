@@ -300,6 +300,10 @@ fn print_verdict(seed: u64, effects: &[Effect], d: &Diagnosis, ok: Outcome, t: I
         d.baseline.noise_cost,
         t.elapsed().as_secs_f64()
     );
+    // A wrong verdict in its own words, so the reason can be read off the check.
+    if matches!(ok, Outcome::Wrong) {
+        println!("    verdict: {}", d.verdict);
+    }
 }
 
 #[cfg(test)]

@@ -198,7 +198,8 @@ fn main_parameter(e: &Effect, d: &Diagnosis) -> (f64, [f64; 2], f64) {
         | Effect::TetherTorsion { .. }
         | Effect::BatterySag { .. }
         | Effect::ThrustSaturation { .. }
-        | Effect::AsymmetricDrag { .. } => (f64::NAN, [f64::NAN; 2], f64::NAN),
+        | Effect::AsymmetricDrag { .. }
+        | Effect::InflowLoss { .. } => (f64::NAN, [f64::NAN; 2], f64::NAN),
     }
 }
 

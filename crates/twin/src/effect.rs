@@ -73,10 +73,14 @@ pub enum Effect {
     /// A hull that is bluffer astern: backing up (u < 0) meets the extra drag -c |u| u on top of
     /// the model's, c in N s^2/m^2; going ahead meets none.
     AsymmetricDrag { coefficient: f64 },
+    /// Propellers that lose thrust to the inflow: moving at speed along a thruster's push
+    /// (surge, sway or heave), it delivers F (1 - s / `speed_m_s`), s the speed along the push
+    /// (none lost moving against it, all at `speed_m_s`).
+    InflowLoss { speed_m_s: f64 },
 }
 
 /// The effects outside the diagnosis's vocabulary, as `from_arg` takes them.
-pub const OUTSIDE: [&str; 7] = [
+pub const OUTSIDE: [&str; 8] = [
     "wave",
     "skewed_thruster",
     "surface_drag",
@@ -84,6 +88,7 @@ pub const OUTSIDE: [&str; 7] = [
     "battery_sag",
     "thrust_saturation",
     "asymmetric_drag",
+    "inflow_loss",
 ];
 
 pub const NAMES: [&str; 9] = [
@@ -117,6 +122,7 @@ impl Effect {
             Effect::BatterySag { .. } => OUTSIDE[4],
             Effect::ThrustSaturation { .. } => OUTSIDE[5],
             Effect::AsymmetricDrag { .. } => OUTSIDE[6],
+            Effect::InflowLoss { .. } => OUTSIDE[7],
         }
     }
 
@@ -171,6 +177,7 @@ impl Effect {
                 moment_nm: x * 0.1,
             },
             "asymmetric_drag" => Effect::AsymmetricDrag { coefficient: x },
+            "inflow_loss" => Effect::InflowLoss { speed_m_s: x },
             _ => {
                 let hint = hydrofit_core::diag::nearest(name, NAMES.into_iter().chain(OUTSIDE))
                     .map_or(String::new(), |s| format!(" (did you mean `{s}`?)"));

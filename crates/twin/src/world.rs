@@ -254,6 +254,20 @@ impl WorldPlant {
             .sum()
     }
 
+    /// The thrust delivered at body velocity `nu`: what the inflow along each push takes off.
+    fn inflow(&self, nu: &Vec6, thrust: Vec6) -> Vec6 {
+        let mut out = thrust;
+        for e in &self.effects {
+            if let Effect::InflowLoss { speed_m_s } = e {
+                for (f, v) in out.iter_mut().zip(nu).take(3) {
+                    let along = (f.signum() * v).max(0.0);
+                    *f *= (1.0 - along / speed_m_s).max(0.0);
+                }
+            }
+        }
+        out
+    }
+
     /// The share of its force a thruster delivers at time `t` (a battery's sag).
     fn supply(&self, t: f64) -> f64 {
         self.effects.iter().fold(1.0, |acc, e| match e {
@@ -278,7 +292,7 @@ impl WorldPlant {
             None => (target, [0.0; 6]),
         };
         let supply = self.supply(t);
-        let thrust = thrust.map(|f| supply * f);
+        let thrust = self.inflow(&s.nu, thrust.map(|f| supply * f));
         if !self.track_pose {
             // No effect reads the pose (the caller checked): heading unused, pose held.
             let extra = self.extra_force_at(s, 0.0, 0.0, t);

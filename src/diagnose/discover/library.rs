@@ -52,6 +52,9 @@ pub enum Feature {
     /// clip(X, +-level) - X: what thrusters that deliver at most `level` (N or N m) take off
     /// the command.
     Clip(usize, f64),
+    /// sqrt(|X|) u: a propeller's thrust lost to the inflow along its axis, T_nu |n| u_a in
+    /// Blanke's thrust model (Fossen 2011, sec. 6.7), with |n| as sqrt(|X|).
+    Inflow(usize),
 }
 
 impl Feature {
@@ -92,6 +95,7 @@ impl Feature {
             Feature::CommandTime(q) => format!("t {}", c(q)),
             Feature::Sine(f) => format!("sin(2 pi {f:.3} t + phase)"),
             Feature::Clip(q, level) => format!("(clip({0}, +-{level:.3}) - {0})", c(q)),
+            Feature::Inflow(q) => format!("sqrt(|{}|) {}", c(q), v(q)),
         }
     }
 
@@ -163,6 +167,7 @@ impl Feature {
             Feature::Heading => pre.heading[k],
             Feature::CommandTime(q) => run.t[k] * cmd[q],
             Feature::Clip(q, level) => cmd[q].clamp(-level, level) - cmd[q],
+            Feature::Inflow(q) => cmd[q].abs().sqrt() * vel[q],
             Feature::Sine(f) => {
                 // On the logs' own clock (a run trimmed to its logs' overlap keeps it).
                 let (s, c) = (TAU * f * run.t[k]).sin_cos();
@@ -240,6 +245,7 @@ pub(super) fn library(j: usize, peaks: &[f64], data: &Data) -> Vec<Feature> {
     f.push(Feature::CommandTime(j));
     if on.contains(&j) {
         f.extend([Feature::OneSided(j, true), Feature::OneSided(j, false)]);
+        f.push(Feature::Inflow(j));
         f.extend(clips(j, data));
     }
     f.extend([Feature::PoolX, Feature::PoolY, Feature::Depth]);

@@ -248,8 +248,8 @@ fn together(
 }
 
 /// The forms a DOF's terms may share with the terms of another: what the thrusters do (a
-/// command times the clock, a command's lag deficit, its sign), which acts in every DOF a
-/// thruster drives.
+/// command times the clock, a command's lag deficit, its sign, its clip, its loss to the
+/// inflow), which acts in every DOF a thruster drives.
 fn shared_form(f: &Feature) -> bool {
     matches!(
         f,
@@ -257,6 +257,7 @@ fn shared_form(f: &Feature) -> bool {
             | Feature::LagDeficit(..)
             | Feature::CommandSign(_)
             | Feature::Clip(..)
+            | Feature::Inflow(_)
     )
 }
 
