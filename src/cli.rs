@@ -302,8 +302,8 @@ pub enum TwinCommand {
         navigation_log: bool,
         /// A scenario of your own instead of the check's set: effects concealed together as
         /// `name=magnitude`, `,`-separated (the table's names and wave, skewed_thruster,
-        /// surface_drag, tether_torsion, battery_sag, thrust_saturation, asymmetric_drag, inflow_loss, which the diagnosis must report
-        /// unexplained); repeatable.
+        /// surface_drag, tether_torsion, battery_sag, thrust_saturation, asymmetric_drag,
+        /// inflow_loss, which the diagnosis must report unexplained); repeatable.
         #[arg(long = "scenario")]
         scenarios: Vec<String>,
     },
