@@ -241,15 +241,15 @@ fn refine_clips(
     keep: &[usize],
 ) -> bool {
     let mut moved = false;
-    for &g in keep {
+    let all: Vec<usize> = (0..rows.at.len()).collect();
+    for (at, &g) in keep.iter().enumerate() {
         let Feature::Clip(q, level) = features[g] else {
             continue;
         };
         let rss = |l: f64| {
             let mut kept: Vec<Feature> = keep.iter().map(|&k| features[k]).collect();
-            kept[keep.iter().position(|&k| k == g).unwrap_or(0)] = Feature::Clip(q, l);
+            kept[at] = Feature::Clip(q, l);
             let d = weighted_design(data, pre, rows, j, &kept);
-            let all: Vec<usize> = (0..rows.at.len()).collect();
             d.lstsq(&all, &(0..d.width).collect::<Vec<_>>()).1
         };
         let best = crate::core::numerics::golden_min(rss, 0.75 * level, 1.25 * level, 1e-3 * level);
