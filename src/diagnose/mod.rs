@@ -30,6 +30,7 @@ pub mod reckon;
 mod record;
 pub mod report;
 pub mod result;
+mod rival;
 pub mod search;
 mod select;
 mod sentence;

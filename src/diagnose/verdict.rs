@@ -4,8 +4,9 @@
 
 use super::drift::Drifted;
 use super::figures;
-use super::noise_rule::{above_noise, reestimate_within_noise, within_noise};
+use super::noise_rule::{above_noise, reestimate_within_noise};
 use super::result::*;
+use super::rival::{self, Bare};
 use super::sentence::{Costs, verdict_sentence};
 use super::unexplained::{Structured, structured_left, unexplained_residual};
 use super::{self as dx, Augmentation, Chosen, Criteria, Data, Mismatch, Run, Slots};
@@ -188,13 +189,8 @@ fn conclude(
     search: &dx::Search,
     costs: &Costs,
 ) -> anyhow::Result<(Vec<Found>, Vec<Figure>, Conclusion)> {
-    let within = |c: f64| within_noise(crit, data, c);
-    // Drift wins when re-estimating the model's own parameters explains the held-out runs
-    // better than the effects did (and the CFD model itself is not already within noise).
-    let drift = costs.reestimated < costs.after_effects
-        && !within(costs.base)
-        && costs.reestimated < 0.5 * costs.base
-        && !discovery_beats_drift(plant, data, crit, search, costs)?;
+    let mut bare = Bare::default();
+    let (drift, mut notes) = rival::drift_holds(plant, data, crit, (search, &mut bare), costs)?;
     let mut selected = if drift {
         Vec::new()
     } else {
@@ -213,19 +209,16 @@ fn conclude(
     let unexplained = |cost: f64, left: &[Structured], n_effects: usize| {
         !left.is_empty() || above_noise(crit, data, (costs, drift), cost, n_effects)
     };
-    let (mut dropped, mut notes) = (Vec::new(), Vec::new());
+    let mut dropped = Vec::new();
     let (mut found, mut terms, mut disc_figures) = (None, Vec::new(), Vec::new());
     if unexplained(explained_cost, &left, selected.len()) {
         let mut f = unexplained_residual(plant, data, &selected, explained_cost, &left, crit);
         // Beyond the vocabulary: a closed form for what is left, kept only if the held-out
         // runs prove it. Not after drift: the model itself is then what is wrong.
         if !drift && crit.discover {
-            let dofs = f.dofs.clone();
-            let aug = dx::augmentation(&selected);
-            if let Some((c, figs)) = super::discover::discover(plant, data, &aug, &dofs, crit)? {
-                let on_top = (selected.clone(), &search.tested[..]);
-                let (kept, c, figs, (why, said)) =
-                    settle(plant, data, crit, on_top, &dofs, (c, figs))?;
+            let start = (selected.clone(), explained_cost);
+            let discovered = discover_left(plant, data, crit, (search, &mut bare), start, &f.dofs)?;
+            if let Some((kept, c, figs, (why, said))) = discovered {
                 (selected, dropped, notes) = (kept, why, said);
                 if !dropped.is_empty() || !notes.is_empty() {
                     let aug = dx::augmentation(&selected);
@@ -262,6 +255,48 @@ fn conclude(
     ))
 }
 
+/// Named effects settled beside a discovered candidate, with the sentences of the effects
+/// dropped and of those taken back or moved.
+type Settled = Chosen<(Vec<String>, Vec<String>)>;
+
+/// The closed form discovery proposes for what the named effects `selected` (at held-out cost
+/// `effects_cost`) leave in `dofs`, or from the model without them where that proves better
+/// ([`rival`]), settled with the named effects ([`settle`]).
+fn discover_left(
+    plant: &Plant,
+    data: &Data,
+    crit: &Criteria,
+    (search, bare): (&dx::Search, &mut Bare),
+    (selected, effects_cost): (dx::Selection, f64),
+    dofs: &[Dof],
+) -> anyhow::Result<Option<Settled>> {
+    let aug = dx::augmentation(&selected);
+    let top = super::discover::discover(plant, data, &aug, dofs, crit)?;
+    let top_c = top.as_ref().map(|t| &t.0);
+    if (bare.sought() || rival::worth_a_rival(crit, data, top_c))
+        && let Some(r) = bare.get(plant, data, crit, search)?
+        && rival::bare_wins(crit, data, &r.candidate, top_c, effects_cost)
+    {
+        let (c, figs) = (&r.candidate, r.figures.clone());
+        let all: Vec<Dof> = data.slots.on().map(|j| data.slots.dof(j)).collect();
+        let start = (search.selected[..r.kept].to_vec(), &search.tested[..]);
+        let (kept, settled, figs, (more, said)) =
+            settle(plant, data, crit, start, &all, (c.clone(), figs))?;
+        // An effect taken back beside the terms is not dropped.
+        let gone: dx::Selection = (selected.into_iter())
+            .filter(|(h, _)| !kept.iter().any(|(k, _)| k.name == h.name))
+            .collect();
+        let why = rival::replaced((&gone, &kept), c, top_c, effects_cost);
+        let why = why.into_iter().chain(more).collect();
+        return Ok(Some((kept, settled, figs, (why, said))));
+    }
+    let Some((c, figs)) = top else {
+        return Ok(None);
+    };
+    let on_top = (selected, &search.tested[..]);
+    Ok(Some(settle(plant, data, crit, on_top, dofs, (c, figs))?))
+}
+
 /// The named effects `selected` (found by the search that `tested` them) settled beside the
 /// discovered term `c`: dropped where it explains them ([`joint_selection`]), taken back where
 /// it carries their form (`readmit`), refitted beside it ([`refit_beside`]); with the sentences
@@ -273,7 +308,7 @@ fn settle(
     (selected, tested): (dx::Selection, &[dx::Tested]),
     dofs: &[Dof],
     (c, figs): (crate::diagnose::result::Candidate, Vec<Figure>),
-) -> anyhow::Result<Chosen<(Vec<String>, Vec<String>)>> {
+) -> anyhow::Result<Settled> {
     let (kept, c, figs, why) = joint_selection(plant, data, crit, selected, dofs, c, figs)?;
     let (kept, c, figs, back) =
         super::readmit::readmit(plant, data, crit, (kept, tested), dofs, (c, figs))?;
@@ -289,40 +324,6 @@ fn settle(
     let (kept, c, figs, note) = refit_beside(plant, data, crit, kept, dofs, c, figs)?;
     let notes = back.into_iter().chain(taken).chain(note).collect();
     Ok((kept, c, figs, (why, notes)))
-}
-
-/// Whether a closed form discovery finds with the model as it is (and the named effects
-/// chosen) explains the held-out runs better, by the margin an effect needs, than
-/// re-estimating the model's parameters does, when the re-estimated model still leaves more
-/// than the noise. A thrust that fades over the run is partly averaged into re-estimated
-/// coefficients (on a navigation-log twin losing 15 % a minute: held-out cost 0.092 -> 0.034,
-/// 7 times the noise floor), and calling that drift hid the term that explains it all.
-fn discovery_beats_drift(
-    plant: &Plant,
-    data: &Data,
-    crit: &Criteria,
-    search: &dx::Search,
-    costs: &Costs,
-) -> anyhow::Result<bool> {
-    if !crit.discover || reestimate_within_noise(crit, data, costs.reestimated) {
-        return Ok(false);
-    }
-    let aug = dx::augmentation(&search.selected);
-    let left = structured_left(plant, data, &aug, crit);
-    let f = unexplained_residual(
-        plant,
-        data,
-        &search.selected,
-        costs.after_effects,
-        &left,
-        crit,
-    );
-    let Some((c, _)) = super::discover::discover(plant, data, &aug, &f.dofs, crit)? else {
-        return Ok(false);
-    };
-    let (with, without) = (c.cost_after_all(), costs.reestimated);
-    Ok(with < (1.0 - crit.min_gain) * without
-        && without - with >= crit.min_noise_multiple * data.noise_cost)
 }
 
 /// The named effects `selected` refitted beside the discovered terms of `c`, and the terms

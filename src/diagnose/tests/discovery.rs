@@ -274,7 +274,7 @@ fn faded_thrust_found(d: &Diagnosis, what: &str, nav: bool, fade: Fade) {
 
 /// Named effects in `d` beside the discovered terms, a navigation log's own lateness (a lag
 /// no longer than one DVL ping, each row carrying its last) aside.
-fn named_beside(d: &Diagnosis, nav: bool) -> Vec<String> {
+pub(super) fn named_beside(d: &Diagnosis, nav: bool) -> Vec<String> {
     (d.effects.iter())
         .filter(|e| e.name != "unexplained")
         .filter(|e| {
@@ -381,7 +381,7 @@ fn drag_that_is_larger_astern_is_found_one_sided() {
 /// runs' thrust (about 2.5-4): it is found in surge as `X += c sqrt(|X|) u` with c in
 /// [-5, -2], no named effect beside it, the held-out error down. (On a navigation log the same
 /// loss alone is taken for drifted parameters: re-estimating the drag leaves 4.3 times the
-/// noise floor, under the drift's allowance; docs/diagnosis.md.)
+/// noise floor, under the drift's allowance, but discovery beats it: `nav_only`.)
 #[test]
 fn thrust_lost_to_the_inflow_is_found_with_speed_and_command() {
     let arg = "inflow_loss=2";

@@ -196,6 +196,57 @@ fn a_look_alike_beside_the_discovered_terms_is_listed() {
     }
 }
 
+/// Propellers losing thrust to the inflow (F (1 - s / 4 m/s), s the speed along the push),
+/// alone, on a navigation log. Re-estimating the model's drag takes much of it in (held-out
+/// cost 0.0289 -> 0.0132, 2.5 times the floor), and the search's first named effect,
+/// `coupled_drag` (0.0136), left discovery nothing to find on top of it: the verdict was
+/// drifted parameters. Discovery from the model without that effect finds Blanke's form in
+/// surge, `X += c sqrt(|X|) u` with c in [-2.5, -1] (the twin's loss is about sqrt(|X|) / 4
+/// of it), which beats both: no named effect stays beside it, the verdict is not drift, and
+/// the held-out cost is more than halved.
+#[test]
+fn thrust_lost_to_the_inflow_is_found_from_a_navigation_log() {
+    let d = nav_diagnosis(&[Effect::from_arg("inflow_loss=4").unwrap()], 73);
+    assert!(!d.baseline.parameters_reestimated, "{}", d.verdict);
+    let c = (d.effects.iter())
+        .find_map(|x| x.candidate.as_ref())
+        .unwrap_or_else(|| panic!("no closed form: {}", d.verdict));
+    let surge = (c.parts().filter(|p| p.dof == crate::core::dof::Dof::Surge))
+        .flat_map(|p| p.terms.iter())
+        .find(|t| t.term == "sqrt(|X|) u")
+        .unwrap_or_else(|| panic!("no inflow term in surge: {}", d.verdict));
+    assert!(
+        (-2.5..-1.0).contains(&surge.coefficient),
+        "{} sqrt(|X|) u",
+        surge.coefficient
+    );
+    let claimed = super::discovery::named_beside(&d, true);
+    assert!(claimed.is_empty(), "a named effect claimed it: {claimed:?}");
+    assert!(
+        c.cost_after_all() < 0.5 * d.baseline.validation_cost,
+        "held-out cost {} -> {}",
+        d.baseline.validation_cost,
+        c.cost_after_all()
+    );
+}
+
+/// The same loss on seed 74: the re-estimated model (held-out cost 0.0131) and the closed form
+/// (0.0137) explain the held-out runs as well as each other, neither by the margin an effect
+/// needs. Whichever the verdict takes, it says the inflow's form: as the closed form found, or
+/// listed beside the drift as what the runs cannot tell from it.
+#[test]
+fn a_closed_form_as_good_as_drift_is_listed_beside_it() {
+    let d = nav_diagnosis(&[Effect::from_arg("inflow_loss=4").unwrap()], 74);
+    assert!(d.verdict.contains("sqrt(|X|) u"), "{}", d.verdict);
+    if d.baseline.parameters_reestimated {
+        assert!(
+            d.verdict.contains("cannot tell it from drift"),
+            "{}",
+            d.verdict
+        );
+    }
+}
+
 fn wave(force_n: f64, frequency_hz: f64) -> Effect {
     Effect::Wave {
         force_n,
