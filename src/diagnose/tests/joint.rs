@@ -65,15 +65,7 @@ fn look_alikes_named_after_an_effect_give_way_to_the_discovered_form() {
     let c = (d.effects.iter())
         .find_map(|x| x.candidate.as_ref())
         .unwrap_or_else(|| panic!("no closed form: {}", d.verdict));
-    let surge = (c.parts().filter(|p| p.dof == Dof::Surge))
-        .flat_map(|p| p.terms.iter())
-        .find(|t| t.term == "sqrt(|X|) u")
-        .unwrap_or_else(|| panic!("no inflow term in surge: {}", d.verdict));
-    assert!(
-        (-3.5..-1.5).contains(&surge.coefficient),
-        "{} sqrt(|X|) u",
-        surge.coefficient
-    );
+    super::discovery::surge_inflow_within(&d, c, -3.5..-1.5);
     assert!(
         d.verdict
             .contains("The named effect coupled_drag was dropped"),

@@ -211,15 +211,7 @@ fn thrust_lost_to_the_inflow_is_found_from_a_navigation_log() {
     let c = (d.effects.iter())
         .find_map(|x| x.candidate.as_ref())
         .unwrap_or_else(|| panic!("no closed form: {}", d.verdict));
-    let surge = (c.parts().filter(|p| p.dof == crate::core::dof::Dof::Surge))
-        .flat_map(|p| p.terms.iter())
-        .find(|t| t.term == "sqrt(|X|) u")
-        .unwrap_or_else(|| panic!("no inflow term in surge: {}", d.verdict));
-    assert!(
-        (-2.5..-1.0).contains(&surge.coefficient),
-        "{} sqrt(|X|) u",
-        surge.coefficient
-    );
+    super::discovery::surge_inflow_within(&d, c, -2.5..-1.0);
     let claimed = super::discovery::named_beside(&d, true);
     assert!(claimed.is_empty(), "a named effect claimed it: {claimed:?}");
     assert!(
