@@ -20,12 +20,17 @@ use super::{self as dx, Criteria, Data};
 use crate::core::dof::Dof;
 use crate::core::model::Plant;
 
-/// The best discovery from the model with fewer of the named effects the search chose, found
-/// once when first asked for.
+/// The discoveries the contest with drift and the verdict both ask for, each found once: on
+/// top of the named effects the search chose, and the best with fewer of them (the rival).
 #[derive(Default)]
 pub(super) struct Bare {
+    /// The DOFs searched and what was found there on top of the named effects.
+    on_top: Option<(Vec<Dof>, Option<Found>)>,
     found: Option<Option<Rival>>,
 }
+
+/// A candidate discovery proposes, with its figures.
+type Found = (Candidate, Vec<Figure>);
 
 /// A rival explanation: the first `kept` named effects of the search (in the order it chose
 /// them), the candidate discovery proposes beside them, and its figures.
@@ -40,6 +45,23 @@ impl Bare {
     /// account wherever it can be, whatever its cost.
     pub(super) fn sought(&self) -> bool {
         self.found.is_some()
+    }
+
+    /// The candidate discovery proposes in `dofs` on top of the named effects the search
+    /// chose, and its figures.
+    pub(super) fn on_top(
+        &mut self,
+        plant: &Plant,
+        data: &Data,
+        crit: &Criteria,
+        (search, dofs): (&dx::Search, &[Dof]),
+    ) -> anyhow::Result<Option<&Found>> {
+        if self.on_top.as_ref().is_none_or(|(d, _)| d != dofs) {
+            let aug = dx::augmentation(&search.selected);
+            let found = super::discover::discover(plant, data, &aug, dofs, crit)?;
+            self.on_top = Some((dofs.to_vec(), found));
+        }
+        Ok(self.on_top.as_ref().and_then(|(_, f)| f.as_ref()))
     }
 
     /// The candidate of least held-out cost that discovery proposes, in every DOF the model
@@ -91,31 +113,21 @@ pub(super) fn worth_a_rival(crit: &Criteria, data: &Data, top: Option<&Candidate
     top.is_none_or(|c| c.cost_after_all() > crit.unexplained_noise_multiple * data.noise_cost)
 }
 
-/// Whether the bare candidate `bare` explains the held-out runs better, by the margin an
-/// effect needs, than the named effects `selected` with the terms discovered on top of them
-/// (`top`, or the effects alone at `effects_cost`).
-pub(super) fn bare_wins(
-    crit: &Criteria,
-    data: &Data,
-    bare: &Candidate,
-    top: Option<&Candidate>,
-    effects_cost: f64,
-) -> bool {
-    let rival = top.map_or(effects_cost, Candidate::cost_after_all);
-    let cost = bare.cost_after_all();
-    cost < (1.0 - crit.min_gain) * rival
-        && rival - cost >= crit.min_noise_multiple * data.noise_cost
+/// Whether a held-out cost `cost` beats `other` by the margin an effect needs (`min_gain` of
+/// it, and half the noise floor).
+pub(super) fn beats(crit: &Criteria, data: &Data, cost: f64, other: f64) -> bool {
+    cost < (1.0 - crit.min_gain) * other
+        && other - cost >= crit.min_noise_multiple * data.noise_cost
 }
 
-/// The sentences for the named effects `selected` replaced by the bare candidate `bare`.
-/// The rival's candidate `bare` was found beside the named effects `kept`.
+/// The sentences for the named effects `gone`, replaced by the rival's candidate `bare` found
+/// beside the named effects `kept`; the effects chosen first left `rival` with the terms
+/// discovered on top of them (`top`).
 pub(super) fn replaced(
     (gone, kept): (&dx::Selection, &dx::Selection),
     bare: &Candidate,
-    top: Option<&Candidate>,
-    effects_cost: f64,
+    (top, rival): (Option<&Candidate>, f64),
 ) -> Vec<String> {
-    let rival = top.map_or(effects_cost, Candidate::cost_after_all);
     let beside = top.map_or(String::new(), |c| format!(" with {}", c.expressions()));
     let names: Vec<&str> = kept.iter().map(|(h, _)| h.name).collect();
     let with = match names.is_empty() {
@@ -214,7 +226,7 @@ fn discovery_beats_drift(
         &left,
         crit,
     );
-    let top = super::discover::discover(plant, data, &aug, &f.dofs, crit)?.map(|t| t.0);
+    let top = (bare.on_top(plant, data, crit, (search, &f.dofs))?).map(|t| t.0.clone());
     let bare = bare.get(plant, data, crit, search)?.map(|b| &b.candidate);
     let best = top
         .iter()
@@ -227,8 +239,7 @@ fn discovery_beats_drift(
         return Ok((false, None));
     }
     let (with, without) = (c.cost_after_all(), costs.reestimated);
-    let beaten = with < (1.0 - crit.min_gain) * without
-        && without - with >= crit.min_noise_multiple * data.noise_cost;
+    let beaten = beats(crit, data, with, without);
     Ok((
         beaten,
         (!beaten).then(|| alike_drift(crit, c, without)).flatten(),

@@ -216,8 +216,8 @@ fn conclude(
         // Beyond the vocabulary: a closed form for what is left, kept only if the held-out
         // runs prove it. Not after drift: the model itself is then what is wrong.
         if !drift && crit.discover {
-            let start = (selected.clone(), explained_cost);
-            let discovered = discover_left(plant, data, crit, (search, &mut bare), start, &f.dofs)?;
+            let start = (search, &mut bare, explained_cost);
+            let discovered = discover_left(plant, data, crit, start, &f.dofs)?;
             if let Some((kept, c, figs, (why, said))) = discovered {
                 (selected, dropped, notes) = (kept, why, said);
                 if !dropped.is_empty() || !notes.is_empty() {
@@ -259,23 +259,24 @@ fn conclude(
 /// dropped and of those taken back or moved.
 type Settled = Chosen<(Vec<String>, Vec<String>)>;
 
-/// The closed form discovery proposes for what the named effects `selected` (at held-out cost
-/// `effects_cost`) leave in `dofs`, or from the model without them where that proves better
-/// ([`rival`]), settled with the named effects ([`settle`]).
+/// The closed form discovery proposes for what the named effects the search chose (at
+/// held-out cost `effects_cost`) leave in `dofs`, or beside fewer of them where that proves
+/// better ([`rival`]), settled with the named effects ([`settle`]).
 fn discover_left(
     plant: &Plant,
     data: &Data,
     crit: &Criteria,
-    (search, bare): (&dx::Search, &mut Bare),
-    (selected, effects_cost): (dx::Selection, f64),
+    (search, bare, effects_cost): (&dx::Search, &mut Bare, f64),
     dofs: &[Dof],
 ) -> anyhow::Result<Option<Settled>> {
-    let aug = dx::augmentation(&selected);
-    let top = super::discover::discover(plant, data, &aug, dofs, crit)?;
+    let selected = search.selected.clone();
+    let top = bare.on_top(plant, data, crit, (search, dofs))?.cloned();
     let top_c = top.as_ref().map(|t| &t.0);
+    // What the named effects chosen first leave, with the terms on top of them.
+    let first = top_c.map_or(effects_cost, Candidate::cost_after_all);
     if (bare.sought() || rival::worth_a_rival(crit, data, top_c))
         && let Some(r) = bare.get(plant, data, crit, search)?
-        && rival::bare_wins(crit, data, &r.candidate, top_c, effects_cost)
+        && rival::beats(crit, data, r.candidate.cost_after_all(), first)
     {
         let (c, figs) = (&r.candidate, r.figures.clone());
         let all: Vec<Dof> = data.slots.on().map(|j| data.slots.dof(j)).collect();
@@ -286,7 +287,7 @@ fn discover_left(
         let gone: dx::Selection = (selected.into_iter())
             .filter(|(h, _)| !kept.iter().any(|(k, _)| k.name == h.name))
             .collect();
-        let why = rival::replaced((&gone, &kept), c, top_c, effects_cost);
+        let why = rival::replaced((&gone, &kept), c, (top_c, first));
         let why = why.into_iter().chain(more).collect();
         return Ok(Some((kept, settled, figs, (why, said))));
     }
