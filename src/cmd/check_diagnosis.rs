@@ -53,6 +53,13 @@ pub fn check_diagnosis(
                 .collect();
             let ok = tally.count(&truth, &named);
             print_verdict(seed, effects, &d, ok, t);
+            // The verdict's words, for reading why a scenario went as it did.
+            if std::env::var_os("HYDROFIT_CHECK_VERDICT").is_some() {
+                println!("  verdict: {}", d.verdict);
+                for why in &d.dropped {
+                    println!("  dropped: {why}");
+                }
+            }
         }
     }
     tally.print();

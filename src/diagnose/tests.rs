@@ -5,6 +5,7 @@ use crate::twin::world::Effect;
 
 mod attitude;
 mod discovery;
+mod forms;
 mod guards;
 mod joint;
 mod lag;
@@ -191,7 +192,7 @@ fn main_parameter(e: &Effect, d: &Diagnosis) -> (f64, [f64; 2], f64) {
             let latency = d.effects[0].lateness_s().unwrap_or(f64::NAN);
             (total, around(total, 0.25), latency)
         }
-        // Outside the vocabulary: no named parameter (see `tests/discovery.rs`).
+        // Outside the vocabulary: no named parameter (see `tests/discovery.rs` and `tests/forms.rs`).
         Effect::Wave { .. }
         | Effect::SkewedThruster { .. }
         | Effect::SurfaceDrag { .. }
@@ -199,7 +200,13 @@ fn main_parameter(e: &Effect, d: &Diagnosis) -> (f64, [f64; 2], f64) {
         | Effect::BatterySag { .. }
         | Effect::ThrustSaturation { .. }
         | Effect::AsymmetricDrag { .. }
-        | Effect::InflowLoss { .. } => (f64::NAN, [f64::NAN; 2], f64::NAN),
+        | Effect::InflowLoss { .. }
+        | Effect::MunkMoment { .. }
+        | Effect::DepthBuoyancy { .. }
+        | Effect::ForwardLift { .. }
+        | Effect::YawBias { .. }
+        | Effect::TetherSpring { .. }
+        | Effect::CrossflowLoss { .. } => (f64::NAN, [f64::NAN; 2], f64::NAN),
     }
 }
 

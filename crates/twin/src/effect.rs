@@ -77,10 +77,31 @@ pub enum Effect {
     /// (surge, sway or heave), it delivers F (1 - s / `speed_m_s`), s the speed along the push
     /// (none lost moving against it, all at `speed_m_s`).
     InflowLoss { speed_m_s: f64 },
+    /// A hull whose sway added mass exceeds the model's: an extra Munk moment N += c u v,
+    /// c in kg (Fossen 2011, sec. 6.3: (X_udot - Y_vdot) u v turns a hull across the flow).
+    MunkMoment { coefficient: f64 },
+    /// Buoyancy foam that compresses with depth: the vehicle gets heavier by `n_per_m` newtons
+    /// for each metre below the surface (Z += k z, z down).
+    DepthBuoyancy { n_per_m: f64 },
+    /// A hull trimmed nose-down: going ahead or astern makes a vertical lift that goes with the
+    /// square of the surge speed, Z += c u^2 (down whichever way the vehicle goes), c in
+    /// N s^2/m^2.
+    ForwardLift { coefficient: f64 },
+    /// A constant yaw moment, N m: one thruster of a pair delivering more than its twin at
+    /// zero command (an ESC's offset), or a sail-like appendage in a steady flow.
+    YawBias { moment_nm: f64 },
+    /// A tether whose weight pulls the vehicle back toward the anchor: a horizontal restoring
+    /// force -k d in the pool frame, d the horizontal offset from the anchor, k in N/m (a
+    /// catenary's stiffness, linearised).
+    TetherSpring { stiffness_n_per_m: f64 },
+    /// Tunnel thrusters in a cross flow: going ahead or astern, the lateral thrusters (sway
+    /// force and yaw moment) deliver F (1 - |u| / `speed_m_s`), none at that surge speed (the
+    /// jet bent aft and reattaching to the hull).
+    CrossflowLoss { speed_m_s: f64 },
 }
 
 /// The effects outside the diagnosis's vocabulary, as `from_arg` takes them.
-pub const OUTSIDE: [&str; 8] = [
+pub const OUTSIDE: [&str; 14] = [
     "wave",
     "skewed_thruster",
     "surface_drag",
@@ -89,6 +110,12 @@ pub const OUTSIDE: [&str; 8] = [
     "thrust_saturation",
     "asymmetric_drag",
     "inflow_loss",
+    "munk_moment",
+    "depth_buoyancy",
+    "forward_lift",
+    "yaw_bias",
+    "tether_spring",
+    "crossflow_loss",
 ];
 
 pub const NAMES: [&str; 9] = [
@@ -123,6 +150,12 @@ impl Effect {
             Effect::ThrustSaturation { .. } => OUTSIDE[5],
             Effect::AsymmetricDrag { .. } => OUTSIDE[6],
             Effect::InflowLoss { .. } => OUTSIDE[7],
+            Effect::MunkMoment { .. } => OUTSIDE[8],
+            Effect::DepthBuoyancy { .. } => OUTSIDE[9],
+            Effect::ForwardLift { .. } => OUTSIDE[10],
+            Effect::YawBias { .. } => OUTSIDE[11],
+            Effect::TetherSpring { .. } => OUTSIDE[12],
+            Effect::CrossflowLoss { .. } => OUTSIDE[13],
         }
     }
 
@@ -178,6 +211,14 @@ impl Effect {
             },
             "asymmetric_drag" => Effect::AsymmetricDrag { coefficient: x },
             "inflow_loss" => Effect::InflowLoss { speed_m_s: x },
+            "crossflow_loss" => Effect::CrossflowLoss { speed_m_s: x },
+            "munk_moment" => Effect::MunkMoment { coefficient: x },
+            "depth_buoyancy" => Effect::DepthBuoyancy { n_per_m: x },
+            "forward_lift" => Effect::ForwardLift { coefficient: x },
+            "yaw_bias" => Effect::YawBias { moment_nm: x },
+            "tether_spring" => Effect::TetherSpring {
+                stiffness_n_per_m: x,
+            },
             _ => {
                 let hint = hydrofit_core::diag::nearest(name, NAMES.into_iter().chain(OUTSIDE))
                     .map_or(String::new(), |s| format!(" (did you mean `{s}`?)"));

@@ -81,6 +81,8 @@ impl WorldPlant {
                     | Effect::WallEffect { .. }
                     | Effect::SurfaceDrag { .. }
                     | Effect::TetherTorsion { .. }
+                    | Effect::DepthBuoyancy { .. }
+                    | Effect::TetherSpring { .. }
             )
         })
     }
@@ -206,10 +208,32 @@ impl WorldPlant {
                 Effect::AsymmetricDrag { coefficient } => {
                     f[0] -= coefficient * s.nu[0].min(0.0).abs() * s.nu[0];
                 }
-                _ => {}
+                _ => self.add_hull_force(e, s, (c, sn), &mut f),
             }
         }
         f
+    }
+
+    /// The forces of the hull's and the tether's effects outside the diagnosis's table that
+    /// act through the state alone (no thrust), added to `f` (body frame).
+    fn add_hull_force(&self, e: &Effect, s: &State, (c, sn): (f64, f64), f: &mut Vec6) {
+        match e {
+            Effect::MunkMoment { coefficient } => f[5] += coefficient * s.nu[0] * s.nu[1],
+            Effect::DepthBuoyancy { n_per_m } => f[2] += n_per_m * s.pos[2].max(0.0),
+            Effect::ForwardLift { coefficient } => f[2] += coefficient * s.nu[0] * s.nu[0],
+            Effect::YawBias { moment_nm } => f[5] += moment_nm,
+            Effect::TetherSpring { stiffness_n_per_m } => {
+                let a = self.tether_anchor.unwrap_or([0.0, 0.0, 0.0]);
+                let to_body = |fx: f64, fy: f64| (c * fx + sn * fy, -sn * fx + c * fy);
+                let (bx, by) = to_body(
+                    -stiffness_n_per_m * (s.pos[0] - a[0]),
+                    -stiffness_n_per_m * (s.pos[1] - a[1]),
+                );
+                f[0] += bx;
+                f[1] += by;
+            }
+            _ => {}
+        }
     }
 
     /// The force of the current `cw` (pool frame, m/s at the pool's middle) on the vehicle in
@@ -254,10 +278,16 @@ impl WorldPlant {
             .sum()
     }
 
-    /// The thrust delivered at body velocity `nu`: what the inflow along each push takes off.
+    /// The thrust delivered at body velocity `nu`: what the inflow along each push takes off,
+    /// and what the cross flow takes off the lateral thrusters.
     fn inflow(&self, nu: &Vec6, thrust: Vec6) -> Vec6 {
         let mut out = thrust;
         for e in &self.effects {
+            if let Effect::CrossflowLoss { speed_m_s } = e {
+                let share = (1.0 - nu[0].abs() / speed_m_s).max(0.0);
+                out[1] *= share;
+                out[5] *= share;
+            }
             if let Effect::InflowLoss { speed_m_s } = e {
                 for (f, v) in out.iter_mut().zip(nu).take(3) {
                     let along = (f.signum() * v).max(0.0);
