@@ -175,22 +175,24 @@ pub(super) fn alike_drift(crit: &Criteria, c: &Candidate, reestimated: f64) -> O
 /// Whether the parameters drifted: re-estimating the model's own parameters explains the
 /// held-out runs better than the effects did, the model itself is not already within noise,
 /// and no closed form beats the re-estimated model ([`discovery_beats_drift`]); with the
-/// sentence of a closed form that explains the runs about as well ([`alike_drift`]).
+/// sentence of a closed form that explains the runs about as well ([`alike_drift`]), and
+/// whether a closed form beat the re-estimated model (the verdict then proposes it, though
+/// the named effects alone leave no structured residual).
 pub(super) fn drift_holds(
     plant: &Plant,
     data: &Data,
     crit: &Criteria,
     (search, bare): (&dx::Search, &mut Bare),
     costs: &Costs,
-) -> anyhow::Result<(bool, Vec<String>)> {
+) -> anyhow::Result<(bool, Vec<String>, bool)> {
     if costs.reestimated >= costs.after_effects
         || within_noise(crit, data, costs.base)
         || costs.reestimated >= 0.5 * costs.base
     {
-        return Ok((false, Vec::new()));
+        return Ok((false, Vec::new(), false));
     }
     let (beaten, alike) = discovery_beats_drift(plant, data, crit, (search, bare), costs)?;
-    Ok((!beaten, alike.into_iter().collect()))
+    Ok((!beaten, alike.into_iter().collect(), beaten))
 }
 
 /// Whether a closed form discovery finds with the model as it is (and the named effects

@@ -190,7 +190,8 @@ fn conclude(
     costs: &Costs,
 ) -> anyhow::Result<(Vec<Found>, Vec<Figure>, Conclusion)> {
     let mut bare = Bare::default();
-    let (drift, mut notes) = rival::drift_holds(plant, data, crit, (search, &mut bare), costs)?;
+    let (drift, mut notes, beaten) =
+        rival::drift_holds(plant, data, crit, (search, &mut bare), costs)?;
     let mut selected = if drift {
         Vec::new()
     } else {
@@ -211,7 +212,10 @@ fn conclude(
     };
     let mut dropped = Vec::new();
     let (mut found, mut terms, mut disc_figures) = (None, Vec::new(), Vec::new());
-    if unexplained(explained_cost, &left, selected.len()) {
+    // A closed form that beat drift is proposed though the named effects leave no structure:
+    // they are what re-estimating the model beat (a loss to the inflow named `coupled_drag`).
+    let must = unexplained(explained_cost, &left, selected.len());
+    if must || beaten {
         let mut f = unexplained_residual(plant, data, &selected, explained_cost, &left, crit);
         // Beyond the vocabulary: a closed form for what is left, kept only if the held-out
         // runs prove it. Not after drift: the model itself is then what is wrong.
@@ -230,9 +234,10 @@ fn conclude(
                 terms = c.model.clone();
                 f = c.into_found(f, &taken);
                 disc_figures = figs;
+                found = Some(f.clone());
             }
         }
-        found = Some(f);
+        found = found.or(must.then_some(f));
     }
     let (mut effects, mut figures) = named_effects(plant, data, &selected)?;
     let beside = super::alike::alike_beside(plant, data, crit, &selected, &terms);

@@ -23,7 +23,8 @@ pub enum Feature {
     /// |x| x on one side only: ahead (x > 0) when `true`, astern (x < 0) when `false` (a hull
     /// bluffer at one end).
     OneSided(usize, bool),
-    /// x_a x_b.
+    /// x_a x_b (x_a^2 when a = b: a force that goes with a speed squared whichever way the
+    /// vehicle moves, a trimmed hull's lift; with a != b the Munk moment's form).
     Product(usize, usize),
     /// |x_a| x_b.
     AbsProduct(usize, usize),
@@ -52,6 +53,13 @@ pub enum Feature {
     /// clip(X, +-level) - X: what thrusters that deliver at most `level` (N or N m) take off
     /// the command.
     Clip(usize, f64),
+    /// |x_a| X_q: a command whose delivery changes with a speed (tunnel thrusters losing
+    /// thrust in a cross flow, `Y += -c |u| Y`).
+    CommandSpeed(usize, usize),
+    /// The horizontal offset from the tether's anchor (from the pool frame's origin when the
+    /// runs give no anchor) along the body's x axis (0) or y axis (1): a restoring pull toward
+    /// the anchor, `X += -k (p - p_a)_x`.
+    AnchorOffset(usize),
     /// sqrt(|X|) u: a propeller's thrust lost to the inflow along its axis, T_nu |n| u_a in
     /// Blanke's thrust model (Fossen 2011, sec. 6.7), with |n| as sqrt(|X|).
     Inflow(usize),
@@ -77,6 +85,7 @@ impl Feature {
             Feature::OneSided(j, ahead) => {
                 format!("|{0}| {0} [{0} {1} 0]", v(j), if ahead { ">" } else { "<" })
             }
+            Feature::Product(a, b) if a == b => format!("{}^2", v(a)),
             Feature::Product(a, b) => format!("{} {}", v(a), v(b)),
             Feature::AbsProduct(a, b) => format!("|{}| {}", v(a), v(b)),
             Feature::Command(q) => c(q).into(),
@@ -96,6 +105,8 @@ impl Feature {
             Feature::Sine(f) => format!("sin(2 pi {f:.3} t + phase)"),
             Feature::Clip(q, level) => format!("(clip({0}, +-{level:.3}) - {0})", c(q)),
             Feature::Inflow(q) => format!("sqrt(|{}|) {}", c(q), v(q)),
+            Feature::CommandSpeed(q, a) => format!("|{}| {}", v(a), c(q)),
+            Feature::AnchorOffset(axis) => format!("(p - p_a)_{}", ["x", "y"][axis.min(1)]),
         }
     }
 
@@ -107,9 +118,8 @@ impl Feature {
             Feature::Constant if slots.dof(j) == Dof::Heave => Some("net_buoyancy"),
             Feature::LagDeficit(q, _) if q == j => Some("thruster_lag"),
             Feature::CommandSign(q) if q == j => Some("thruster_deadband"),
-            Feature::AbsProduct(a, b) | Feature::Product(a, b)
-                if horizontal(a) && horizontal(b) && a != b =>
-            {
+            // The signed product u v is the Munk moment's form (added mass, not drag).
+            Feature::AbsProduct(a, b) if horizontal(a) && horizontal(b) && a != b => {
                 Some("coupled_drag")
             }
             // Off-diagonal drag (docs/formats.md): a quadratic drag of another DOF's motion
@@ -168,6 +178,17 @@ impl Feature {
             Feature::CommandTime(q) => run.t[k] * cmd[q],
             Feature::Clip(q, level) => cmd[q].clamp(-level, level) - cmd[q],
             Feature::Inflow(q) => cmd[q].abs().sqrt() * vel[q],
+            Feature::CommandSpeed(q, a) => vel[a].abs() * cmd[q],
+            Feature::AnchorOffset(axis) => {
+                let a = run.anchor.unwrap_or([0.0; 3]);
+                let (dx, dy) = (run.pos[0][k] - a[0], run.pos[1][k] - a[1]);
+                let (s, c) = run.psi[k].sin_cos();
+                if axis == 0 {
+                    c * dx + s * dy
+                } else {
+                    -s * dx + c * dy
+                }
+            }
             Feature::Sine(f) => {
                 // On the logs' own clock (a run trimmed to its logs' overlap keeps it).
                 let (s, c) = (TAU * f * run.t[k]).sin_cos();
@@ -223,7 +244,7 @@ pub(super) fn library(j: usize, peaks: &[f64], data: &Data) -> Vec<Feature> {
     }
     for &a in &on {
         for &b in &on {
-            if a < b {
+            if a <= b {
                 f.push(Feature::Product(a, b));
             }
             if a != b {
@@ -246,6 +267,7 @@ pub(super) fn library(j: usize, peaks: &[f64], data: &Data) -> Vec<Feature> {
     if on.contains(&j) {
         f.extend([Feature::OneSided(j, true), Feature::OneSided(j, false)]);
         f.push(Feature::Inflow(j));
+        f.extend(on.iter().map(|&a| Feature::CommandSpeed(j, a)));
         f.extend(clips(j, data));
     }
     f.extend([Feature::PoolX, Feature::PoolY, Feature::Depth]);
@@ -259,6 +281,9 @@ pub(super) fn library(j: usize, peaks: &[f64], data: &Data) -> Vec<Feature> {
         f.push(Feature::TetherLength);
     }
     f.extend([Feature::CosHeading, Feature::SinHeading]);
+    if matches!(data.slots.dof(j), Dof::Surge | Dof::Sway) {
+        f.extend([Feature::AnchorOffset(0), Feature::AnchorOffset(1)]);
+    }
     if data.slots.dof(j) == Dof::Yaw {
         f.push(Feature::Heading);
     }

@@ -268,7 +268,12 @@ mod tests {
         assert_eq!(pool(Feature::Quadratic(3), 3), None);
         assert_eq!(pool(Feature::AbsProduct(3, 2), 2), Some("coupled_drag"));
         assert_eq!(pool(Feature::Product(1, 3), 1), None);
+        // u v, the Munk moment's form, though both are horizontal motions.
+        assert_eq!(pool(Feature::Product(0, 1), 3), None);
+        assert_eq!(Feature::Product(0, 0).label(&Slots::POOL), "u^2");
+        assert_eq!(Feature::AnchorOffset(1).label(&Slots::POOL), "(p - p_a)_y");
         for f in [
+            Feature::AnchorOffset(0),
             Feature::Sine(0.42),
             Feature::Command(0),
             Feature::NearSurfaceDrag(0, 0.5),

@@ -187,8 +187,9 @@ fn best_single(
 
 /// Every proposing DOF's kept terms added together, when more than one DOF proposes: each
 /// DOF's full variant, then each replaced by a smaller variant of its proposal where that
-/// lowers the held-out cost after `penalty` (backward elimination within the set); a
-/// sibling (see [`siblings`]) may also be left out. Each part is a candidate whose held-out
+/// lowers the held-out cost after `penalty` (backward elimination within the set), or left out
+/// where that does (a DOF's term that only rode along with the others: a tether's pull found
+/// in surge and sway took a yaw lag term with it that raised the held-out cost). Each part is a candidate whose held-out
 /// costs are those before and after it is added to the ones before it.
 fn together(
     plant: &Plant,
@@ -216,9 +217,8 @@ fn together(
     let params = |i: usize, v: Option<usize>| v.map_or(0, |v| all[i].variants[v].term.params());
     let mut best = scored(&chosen);
     for i in 0..all.len() {
-        let sibling = i >= proposals.len();
         let options = (0..all[i].variants.len()).map(Some);
-        for v in options.chain(sibling.then_some(None)) {
+        for v in options.chain([None]) {
             if params(i, v) >= params(i, chosen[i]) {
                 continue;
             }

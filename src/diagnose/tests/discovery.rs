@@ -387,26 +387,39 @@ fn thrust_lost_to_the_inflow_is_found_with_speed_and_command() {
     let arg = "inflow_loss=2";
     let (d, c) = candidate(arg, 73);
     eprintln!("{}", d.verdict);
-    surge_inflow_within(&d, &c, -5.0..-2.0);
+    surge_inflow_within(&d, &c, -5.0..-2.0, 2.0);
     let claimed = named_beside(&d, false);
     assert!(claimed.is_empty(), "a named effect claimed it: {claimed:?}");
     proven(arg, &c);
 }
 
-/// The inflow term `sqrt(|X|) u` that the closed form `c` of diagnosis `d` holds in surge,
-/// asserted inside `range` (the twin's loss F s / V is about sqrt(|X|) / V of it).
+/// The inflow term the closed form `c` of diagnosis `d` holds in surge for the twin's loss
+/// F (1 - s / `v_m_s`): the twin's own form `|u| X` (a command times its speed) with its
+/// coefficient within 25 % of -1 / V, or Blanke's `sqrt(|X|) u` inside `blanke` (of the size
+/// sqrt(|X|) / V at the runs' thrust).
 pub(super) fn surge_inflow_within(
     d: &Diagnosis,
     c: &crate::diagnose::result::Candidate,
-    range: std::ops::Range<f64>,
+    blanke: std::ops::Range<f64>,
+    v_m_s: f64,
 ) {
-    let surge = (c.parts().filter(|p| p.dof == Dof::Surge))
-        .flat_map(|p| p.terms.iter())
+    let surge = || (c.parts().filter(|p| p.dof == Dof::Surge)).flat_map(|p| p.terms.iter());
+    if let Some(t) = surge().find(|t| t.term == "|u| X") {
+        let want = -1.0 / v_m_s;
+        assert!(
+            (t.coefficient - want).abs() < 0.25 * want.abs(),
+            "{} |u| X, twin {want}: {}",
+            t.coefficient,
+            d.verdict
+        );
+        return;
+    }
+    let t = surge()
         .find(|t| t.term == "sqrt(|X|) u")
         .unwrap_or_else(|| panic!("no inflow term in surge: {}", d.verdict));
     assert!(
-        range.contains(&surge.coefficient),
-        "{} sqrt(|X|) u, outside {range:?}",
-        surge.coefficient
+        blanke.contains(&t.coefficient),
+        "{} sqrt(|X|) u, outside {blanke:?}",
+        t.coefficient
     );
 }

@@ -65,7 +65,7 @@ fn look_alikes_named_after_an_effect_give_way_to_the_discovered_form() {
     let c = (d.effects.iter())
         .find_map(|x| x.candidate.as_ref())
         .unwrap_or_else(|| panic!("no closed form: {}", d.verdict));
-    super::discovery::surge_inflow_within(&d, c, -3.5..-1.5);
+    super::discovery::surge_inflow_within(&d, c, -3.5..-1.5, 3.0);
     assert!(
         d.verdict
             .contains("The named effect coupled_drag was dropped"),

@@ -211,7 +211,7 @@ fn thrust_lost_to_the_inflow_is_found_from_a_navigation_log() {
     let c = (d.effects.iter())
         .find_map(|x| x.candidate.as_ref())
         .unwrap_or_else(|| panic!("no closed form: {}", d.verdict));
-    super::discovery::surge_inflow_within(&d, c, -2.5..-1.0);
+    super::discovery::surge_inflow_within(&d, c, -2.5..-1.0, 4.0);
     let claimed = super::discovery::named_beside(&d, true);
     assert!(claimed.is_empty(), "a named effect claimed it: {claimed:?}");
     assert!(
@@ -222,14 +222,20 @@ fn thrust_lost_to_the_inflow_is_found_from_a_navigation_log() {
     );
 }
 
-/// The same loss on seed 74: the re-estimated model (held-out cost 0.0131) and the closed form
-/// (0.0137) explain the held-out runs as well as each other, neither by the margin an effect
-/// needs. Whichever the verdict takes, it says the inflow's form: as the closed form found, or
-/// listed beside the drift as what the runs cannot tell from it.
+/// The same loss on seed 74: the re-estimated model (held-out cost 0.0131) and Blanke's closed
+/// form (0.0137) explained the held-out runs as well as each other, neither by the margin an
+/// effect needs, and the verdict was drift with the form listed beside it; with a command
+/// times its speed in the library, `X += -0.24 |u| X` (the twin's -1 / 4) is found and
+/// `coupled_drag` dropped beside it. Whichever the verdict takes, it says the inflow's form:
+/// as the closed form found, or listed beside the drift as what the runs cannot tell from it.
 #[test]
 fn a_closed_form_as_good_as_drift_is_listed_beside_it() {
     let d = nav_diagnosis(&[Effect::from_arg("inflow_loss=4").unwrap()], 74);
-    assert!(d.verdict.contains("sqrt(|X|) u"), "{}", d.verdict);
+    assert!(
+        d.verdict.contains("sqrt(|X|) u") || d.verdict.contains("|u| X"),
+        "{}",
+        d.verdict
+    );
     if d.baseline.parameters_reestimated {
         assert!(
             d.verdict.contains("cannot tell it from drift"),
