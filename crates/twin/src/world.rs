@@ -143,7 +143,7 @@ impl WorldPlant {
         if self.effects.is_empty() {
             return f;
         }
-        let to_body = |fx: f64, fy: f64| (c * fx + sn * fy, -sn * fx + c * fy);
+        let to_body = |fx: f64, fy: f64| to_body((c, sn), fx, fy);
         // Pool-frame velocity and speed, for the effects that act on motion over ground.
         let ground = || {
             let vw = [c * s.nu[0] - sn * s.nu[1], sn * s.nu[0] + c * s.nu[1]];
@@ -224,8 +224,8 @@ impl WorldPlant {
             Effect::YawBias { moment_nm } => f[5] += moment_nm,
             Effect::TetherSpring { stiffness_n_per_m } => {
                 let a = self.tether_anchor.unwrap_or([0.0, 0.0, 0.0]);
-                let to_body = |fx: f64, fy: f64| (c * fx + sn * fy, -sn * fx + c * fy);
                 let (bx, by) = to_body(
+                    (c, sn),
                     -stiffness_n_per_m * (s.pos[0] - a[0]),
                     -stiffness_n_per_m * (s.pos[1] - a[1]),
                 );
@@ -239,7 +239,7 @@ impl WorldPlant {
     /// The force of the current `cw` (pool frame, m/s at the pool's middle) on the vehicle in
     /// state `s` heading at (cos, sin) `(c, sn)`, added to `f` (body frame).
     fn add_current(&self, s: &State, (c, sn): (f64, f64), cw: &[f64; 2], f: &mut Vec6) {
-        let to_body = |fx: f64, fy: f64| (c * fx + sn * fy, -sn * fx + c * fy);
+        let to_body = |fx: f64, fy: f64| to_body((c, sn), fx, fy);
         let tau = std::f64::consts::TAU;
         // The current's scale at the vehicle and its rate of change along x.
         let (scale, slope) = self.pool.map_or((1.0, 0.0), |pool| {
@@ -396,6 +396,11 @@ impl WorldPlant {
         }
         out
     }
+}
+
+/// A pool-frame horizontal force `(fx, fy)` in body axes, heading at (cos, sin) `(c, sn)`.
+fn to_body((c, sn): (f64, f64), fx: f64, fy: f64) -> (f64, f64) {
+    (c * fx + sn * fy, -sn * fx + c * fy)
 }
 
 #[cfg(test)]

@@ -189,8 +189,9 @@ fn best_single(
 /// DOF's full variant, then each replaced by a smaller variant of its proposal where that
 /// lowers the held-out cost after `penalty` (backward elimination within the set), or left out
 /// where that does (a DOF's term that only rode along with the others: a tether's pull found
-/// in surge and sway took a yaw lag term with it that raised the held-out cost). Each part is a candidate whose held-out
-/// costs are those before and after it is added to the ones before it.
+/// in surge and sway took a yaw lag term with it that raised the held-out cost). Each part is
+/// a candidate whose held-out costs are those before and after it is added to the ones before
+/// it.
 fn together(
     plant: &Plant,
     data: &Data,

@@ -1,12 +1,13 @@
 //! Discovery of physics whose form is a polynomial of the velocities or a pull in body axes,
 //! none of it a named effect: an extra Munk moment (`N += c u v`, added mass, not drag), a
-//! trimmed hull's lift (`Z += c u^2`, down whichever way the vehicle goes) and a tether's
-//! weight pulling the vehicle back to its anchor (a pool-frame spring, felt in body axes as
-//! the heading turns), tunnel thrusters losing thrust in a cross flow. The twin writes each apart (`crate::twin::world`). Before the signed
-//! product stopped counting as `coupled_drag`, the squares and the anchor's offset were in the
-//! library, seed 75 named `coupled_drag` beside the Munk moment, `net_buoyancy` for the lift
-//! with no closed form (held-out cost 0.0807 -> 0.0366, 16 times the noise floor) and
-//! `water_current` for the pull (0.486 -> 0.388, 170 times).
+//! trimmed hull's lift (`Z += c u^2`, down whichever way the vehicle goes), a tether's weight
+//! pulling the vehicle back to its anchor (a pool-frame spring, felt in body axes as the
+//! heading turns) and tunnel thrusters losing thrust in a cross flow. The twin writes each
+//! apart (`crate::twin::world`). Before the signed product stopped counting as
+//! `coupled_drag`, the squares and the anchor's offset were in the library, seed 75 named
+//! `coupled_drag` beside the Munk moment, `net_buoyancy` for the lift with no closed form
+//! (held-out cost 0.0807 -> 0.0366, 16 times the noise floor) and `water_current` for the
+//! pull (0.486 -> 0.388, 170 times).
 
 use super::discovery::named_beside;
 use super::*;
@@ -46,27 +47,31 @@ fn explains(d: &Diagnosis, c: &Candidate, what: &str) {
     );
 }
 
+/// Scenario `effect` on seed 76 gives a closed form with `term` in `dof` within 10 % of
+/// `truth`, no named effect beside it, and the held-out cost near the noise floor.
+fn found_alone(effect: &str, dof: Dof, term: &str, truth: f64) {
+    let d = scenario_diagnosis(&[Effect::from_arg(effect).unwrap()], 76);
+    let c = closed_form(&d, effect);
+    term_near(&c, dof, term, truth, 0.1);
+    let claimed = named_beside(&d, false);
+    assert!(
+        claimed.is_empty(),
+        "{effect}: a named effect claimed it: {claimed:?}"
+    );
+    explains(&d, &c, effect);
+}
+
 /// `N += 10 u v` hidden: found in yaw within 10 %, with no named effect beside it. The cross
 /// flow in surge and sway it stirs (a yaw rate off the model's) is no drag of theirs.
 #[test]
 fn an_extra_munk_moment_is_found_not_named_coupled_drag() {
-    let d = scenario_diagnosis(&[Effect::from_arg("munk_moment=10").unwrap()], 76);
-    let c = closed_form(&d, "munk_moment=10");
-    term_near(&c, Dof::Yaw, "u v", 10.0, 0.1);
-    let claimed = named_beside(&d, false);
-    assert!(claimed.is_empty(), "a named effect claimed it: {claimed:?}");
-    explains(&d, &c, "munk_moment=10");
+    found_alone("munk_moment=10", Dof::Yaw, "u v", 10.0);
 }
 
 /// `Z += 25 u^2` hidden: found in heave within 10 %, not named net buoyancy (its mean).
 #[test]
 fn a_lift_that_goes_with_the_speed_squared_is_found() {
-    let d = scenario_diagnosis(&[Effect::from_arg("forward_lift=25").unwrap()], 76);
-    let c = closed_form(&d, "forward_lift=25");
-    term_near(&c, Dof::Heave, "u^2", 25.0, 0.1);
-    let claimed = named_beside(&d, false);
-    assert!(claimed.is_empty(), "a named effect claimed it: {claimed:?}");
-    explains(&d, &c, "forward_lift=25");
+    found_alone("forward_lift=25", Dof::Heave, "u^2", 25.0);
 }
 
 /// A pull of 1.5 N per metre toward the tether's anchor: found in surge and sway as
