@@ -216,6 +216,7 @@ fn conclude(
     // they are what re-estimating the model beat (a loss to the inflow named `coupled_drag`).
     let must = unexplained(explained_cost, &left, selected.len());
     if must || beaten {
+        let mut proposed = false;
         let mut f = unexplained_residual(plant, data, &selected, explained_cost, &left, crit);
         // Beyond the vocabulary: a closed form for what is left, kept only if the held-out
         // runs prove it. Not after drift: the model itself is then what is wrong.
@@ -234,10 +235,10 @@ fn conclude(
                 terms = c.model.clone();
                 f = c.into_found(f, &taken);
                 disc_figures = figs;
-                found = Some(f.clone());
+                proposed = true;
             }
         }
-        found = found.or(must.then_some(f));
+        found = (must || proposed).then_some(f);
     }
     let (mut effects, mut figures) = named_effects(plant, data, &selected)?;
     let beside = super::alike::alike_beside(plant, data, crit, &selected, &terms);
@@ -315,11 +316,16 @@ fn settle(
     dofs: &[Dof],
     (c, figs): (crate::diagnose::result::Candidate, Vec<Figure>),
 ) -> anyhow::Result<Settled> {
+    let before: Vec<&str> = selected.iter().map(|(h, _)| h.name).collect();
     let (kept, c, figs, why) = joint_selection(plant, data, crit, selected, dofs, c, figs)?;
     let (kept, c, figs, back) =
         super::readmit::readmit(plant, data, crit, (kept, tested), dofs, (c, figs))?;
+    // An effect just dropped beside the terms is not unmasked by them.
+    let gone: Vec<&str> = (before.into_iter())
+        .filter(|n| !kept.iter().any(|(k, _)| k.name == *n))
+        .collect();
     let (kept, c, figs, taken) =
-        super::readmit::unmasked(plant, data, crit, (kept, tested), dofs, (c, figs))?;
+        super::readmit::unmasked(plant, data, crit, (kept, tested, &gone), dofs, (c, figs))?;
     // An effect taken beside the terms may explain one named before it.
     let (kept, c, figs, why) = if taken.is_empty() {
         (kept, c, figs, why)
