@@ -17,6 +17,9 @@ const RESAMPLES: usize = 40;
 const BLOCK_S: f64 = 10.0;
 /// Share of the resamples that must select a term for it to be kept.
 pub const KEEP_SHARE: f64 = 0.7;
+/// The |cosine| over one run's rows above which a term selected there stands in for another
+/// (a depth within a third of its mean is the constant).
+const STAND_IN: f64 = 0.95;
 
 /// Least squares of `y` on the columns `cols` of `x` over the rows `idx`; coefficients and RSS.
 fn lstsq(x: &[f64], width: usize, y: &[f64], idx: &[usize], cols: &[usize]) -> (Vec<f64>, f64) {
@@ -113,6 +116,24 @@ struct Design {
 }
 
 impl Design {
+    /// Whether group `h`, selected on rows `idx`, stands in for group `g` there: single
+    /// columns collinear on those rows (|cosine| at least `STAND_IN`). Within one run at a
+    /// steady depth, the depth is the constant: a yaw moment of 0.5 N m was chosen as `Depth`
+    /// on two of four runs, `Constant` on the others, and the constant failed the runs'
+    /// majority.
+    fn stands_in(&self, h: usize, g: usize, idx: &[usize]) -> bool {
+        let (&[ch], &[cg]) = (&self.groups[h][..], &self.groups[g][..]) else {
+            return false;
+        };
+        let col = |r: usize, c: usize| self.xs[r * self.width + c];
+        let (mut hg, mut hh, mut gg) = (0.0, 0.0, 0.0);
+        for &r in idx {
+            let (a, b) = (col(r, ch), col(r, cg));
+            (hg, hh, gg) = (hg + a * b, hh + a * a, gg + b * b);
+        }
+        hg.abs() >= STAND_IN * (hh * gg).sqrt() && hh > 0.0 && gg > 0.0
+    }
+
     fn cols_of(&self, gs: &[usize]) -> Vec<usize> {
         gs.iter()
             .flat_map(|&g| self.groups[g].iter().copied())
@@ -320,8 +341,18 @@ fn stable_terms(
     let mut terms_runs = Vec::new();
     for &g in chosen {
         let share = count[g] as f64 / RESAMPLES as f64;
+        // The constant counts in every run, where a term that varies little stands in for it
+        // (`Design::stands_in`): such a run cannot tell them apart and counts neither way.
+        // Other terms count only where they vary, and apart from the terms they resemble.
+        let constant = matches!(features[g], Feature::Constant);
         let informative: Vec<usize> = (0..runs.len())
             .filter(|&ri| runs[ri].len() >= 50 && varies(g, &runs[ri]))
+            .filter(|&ri| {
+                let chose = &per_run[ri];
+                !constant
+                    || chose.contains(&g)
+                    || !chose.iter().any(|&h| d.stands_in(h, g, &runs[ri]))
+            })
             .collect();
         let selected = informative
             .iter()
