@@ -54,18 +54,7 @@ fn a_named_look_alike_is_dropped_beside_the_discovered_term() {
 /// held-out cost is under a sixth of the model's.
 #[test]
 fn look_alikes_named_after_an_effect_give_way_to_the_discovered_form() {
-    let effects = [
-        Effect::from_arg("inflow_loss=3").unwrap(),
-        Effect::from_arg("net_buoyancy=3").unwrap(),
-    ];
-    let d = scenario_diagnosis(&effects, 74);
-    assert_eq!(named(&d), ["net_buoyancy"], "{}", d.verdict);
-    let force = d.effects[0].parameters["force_n"];
-    assert!((force - 3.0).abs() < 0.3, "net buoyancy {force} N");
-    let c = (d.effects.iter())
-        .find_map(|x| x.candidate.as_ref())
-        .unwrap_or_else(|| panic!("no closed form: {}", d.verdict));
-    super::discovery::surge_inflow_within(&d, c, -3.5..-1.5, 3.0);
+    let (d, c) = inflow_beside("net_buoyancy=3", "force_n", 3.0, 0.3);
     assert!(
         d.verdict
             .contains("The named effect coupled_drag was dropped"),
@@ -87,18 +76,30 @@ fn look_alikes_named_after_an_effect_give_way_to_the_discovered_form() {
 /// not taken back by them: the lag alone is named, within 10 %, the inflow's form found.
 #[test]
 fn an_effect_dropped_beside_the_terms_is_not_taken_back_by_them() {
-    let effects = [
-        Effect::from_arg("inflow_loss=3").unwrap(),
-        Effect::from_arg("thruster_lag=0.3").unwrap(),
-    ];
+    inflow_beside("thruster_lag=0.3", "time_constant_s", 0.3, 0.03);
+}
+
+/// Seed 74 on the pool's sensors with an inflow loss (3 m/s) and `other` concealed: `other`
+/// alone is named, its parameter `param` within `tol` of `truth`, and the inflow's form
+/// found in surge ([`super::discovery::surge_inflow_within`]). The diagnosis and its closed
+/// form.
+fn inflow_beside(
+    other: &str,
+    param: &str,
+    truth: f64,
+    tol: f64,
+) -> (Diagnosis, crate::diagnose::result::Candidate) {
+    let other = Effect::from_arg(other).unwrap();
+    let effects = [Effect::from_arg("inflow_loss=3").unwrap(), other.clone()];
     let d = scenario_diagnosis(&effects, 74);
-    assert_eq!(named(&d), ["thruster_lag"], "{}", d.verdict);
-    let tc = d.effects[0].parameters["time_constant_s"];
-    assert!((tc - 0.3).abs() < 0.03, "lag {tc} s");
+    assert_eq!(named(&d), [other.name()], "{}", d.verdict);
+    let x = d.effects[0].parameters[param];
+    assert!((x - truth).abs() < tol, "{} {param} {x}", other.name());
     let c = (d.effects.iter())
-        .find_map(|x| x.candidate.as_ref())
+        .find_map(|x| x.candidate.clone())
         .unwrap_or_else(|| panic!("no closed form: {}", d.verdict));
-    super::discovery::surge_inflow_within(&d, c, -3.5..-1.5, 3.0);
+    super::discovery::surge_inflow_within(&d, &c, -3.5..-1.5, 3.0);
+    (d, c)
 }
 
 /// A periodic heave force two to five times the noise floor is never "within noise", at the
