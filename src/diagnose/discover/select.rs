@@ -292,8 +292,7 @@ type Support = (f64, [usize; 2]);
 const MODULATION_SD: f64 = 0.05;
 
 /// Of the terms `chosen` on all rows, those the block-bootstrap resamples select at least
-/// [`KEEP_SHARE`] of the time and at least half the informative training runs select alone
-/// (a tie is no evidence against a term the resamples take; docs/diagnosis.md), each with its
+/// [`KEEP_SHARE`] of the time and most informative training runs select alone, each with its
 /// share and (runs selecting it, runs where it varies). `None` when none is kept or the build
 /// is interrupted.
 fn stable_terms(
@@ -359,7 +358,7 @@ fn stable_terms(
             .iter()
             .filter(|&&ri| per_run[ri].contains(&g))
             .count();
-        if share >= KEEP_SHARE && !informative.is_empty() && 2 * selected >= informative.len() {
+        if share >= KEEP_SHARE && !informative.is_empty() && 2 * selected > informative.len() {
             keep.push(g);
             terms_runs.push((share, [selected, informative.len()]));
         }
