@@ -227,7 +227,7 @@ pub(super) fn propose(data: &Data, pre: &[Prepared], rows: &Rows, j: usize) -> O
         return None;
     }
     let mut rng = crate::core::rng::Rng::derive(17, &format!("discover/{j}"));
-    let (keep, terms_runs) = stable_terms(data, rows, &d, &features, &chosen, &mut rng)?;
+    let (keep, terms_runs) = stable_terms(data, rows, &d, &features, &chosen, j, &mut rng)?;
     if refine_clips(data, pre, rows, j, &mut features, &keep) {
         d = weighted_design(data, pre, rows, j, &features);
     }
@@ -291,16 +291,20 @@ type Support = (f64, [usize; 2]);
 /// run does not tell the modulated term from the plain one ([`modulated`]).
 const MODULATION_SD: f64 = 0.05;
 
-/// Of the terms `chosen` on all rows, those the block-bootstrap resamples select at least
-/// [`KEEP_SHARE`] of the time and most informative training runs select alone, each with its
-/// share and (runs selecting it, runs where it varies). `None` when none is kept or the build
-/// is interrupted.
+/// Of the terms `chosen` on all rows of slot `j`, those the block-bootstrap resamples select
+/// at least [`KEEP_SHARE`] of the time and most informative training runs select alone, each
+/// with its share and (runs selecting it, runs where it varies). A tie among the runs keeps a
+/// term no named effect has the form of: it is no evidence against the term, and the held-out
+/// proof still decides. A named effect's form needs a majority, since a look-alike found on
+/// top of another effect would otherwise keep that effect named (docs/diagnosis.md, step 3).
+/// `None` when none is kept or the build is interrupted.
 fn stable_terms(
     data: &Data,
     rows: &Rows,
     d: &Design,
     features: &[Feature],
     chosen: &[usize],
+    j: usize,
     rng: &mut crate::core::rng::Rng,
 ) -> Option<(Vec<usize>, Vec<Support>)> {
     let n = rows.at.len();
@@ -358,7 +362,12 @@ fn stable_terms(
             .iter()
             .filter(|&&ri| per_run[ri].contains(&g))
             .count();
-        if share >= KEEP_SHARE && !informative.is_empty() && 2 * selected > informative.len() {
+        let majority = if features[g].named(&rows.slots, j).is_none() {
+            2 * selected >= informative.len()
+        } else {
+            2 * selected > informative.len()
+        };
+        if share >= KEEP_SHARE && !informative.is_empty() && majority {
             keep.push(g);
             terms_runs.push((share, [selected, informative.len()]));
         }
