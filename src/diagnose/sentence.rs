@@ -42,22 +42,30 @@ pub(super) fn verdict_sentence(
                 "The model does not explain the held-out runs, re-estimating its parameters does not either, and no effect of the table does: the {residual} remains{which} and is reported as unexplained, with where it is."
             )
         } else {
-            format!(
-                "{} {} part of the mismatch: the held-out error cost falls from {base_cost:.4} to {final_cost:.4} ({} of the start, {:.1} times the noise floor); a {residual} remains{which} and is reported as unexplained.",
-                effects
-                    .iter()
-                    .filter(|e| e.name != "unexplained")
-                    .map(Found::name_with_alike)
-                    .collect::<Vec<_>>()
-                    .join(" and "),
-                if effects.len() > 2 {
-                    "explain"
-                } else {
-                    "explains"
-                },
-                pct(final_cost / base_cost),
-                final_cost / c.noise
-            )
+            let names = effects
+                .iter()
+                .filter(|e| e.name != "unexplained")
+                .map(Found::name_with_alike)
+                .collect::<Vec<_>>()
+                .join(" and ");
+            let plural = effects.len() > 2;
+            if final_cost < base_cost {
+                format!(
+                    "{names} {} part of the mismatch: the held-out error cost falls from {base_cost:.4} to {final_cost:.4} ({} of the start, {:.1} times the noise floor); a {residual} remains{which} and is reported as unexplained.",
+                    if plural { "explain" } else { "explains" },
+                    pct(final_cost / base_cost),
+                    final_cost / c.noise
+                )
+            } else {
+                // Kept beside the discovered terms, but alone no help: say so, not "explains".
+                format!(
+                    "{names} {} named only beside the discovered terms: alone {} the held-out error cost from {base_cost:.4} to {final_cost:.4} ({} of the start, {:.1} times the noise floor); a {residual} remains{which} and is reported as unexplained.",
+                    if plural { "are" } else { "is" },
+                    if plural { "they raise" } else { "it raises" },
+                    pct(final_cost / base_cost),
+                    final_cost / c.noise
+                )
+            }
         }
     } else if drift {
         format!(
@@ -134,6 +142,28 @@ mod tests {
             v.contains("(4 % of the start, 4.0 times the noise floor)"),
             "{v}"
         );
+        // Effects kept only beside the discovered terms, which alone raise the cost, are not
+        // said to explain anything.
+        let raised = Costs {
+            after_effects: 0.4783,
+            ..costs
+        };
+        let v = verdict_sentence(
+            &[
+                found("coupled_drag"),
+                found("tether_drag"),
+                found("unexplained"),
+            ],
+            Some(&[]),
+            false,
+            &raised,
+            5.0,
+        );
+        assert!(
+            v.starts_with("coupled_drag and tether_drag are named only beside the discovered terms: alone they raise the held-out error cost from 0.4470 to 0.4783 (107 % of the start"),
+            "{v}"
+        );
+        assert!(!v.contains(" explain"), "{v}");
         // A structured DOF beside a pooled cost within the noise floor: the figures that
         // decided it are quoted.
         let left = [

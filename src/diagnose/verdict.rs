@@ -422,14 +422,22 @@ fn joint_selection(
         let (with, without) = (c.cost_after_all(), c2.cost_after_all());
         let gain = (without - with) / without.max(1e-300);
         let needed = crit.min_gain + crit.gain_per_parameter * h.free_params(&p);
-        if gain < needed || without - with < crit.min_noise_multiple * data.noise_cost {
+        let floor = crit.min_noise_multiple * data.noise_cost;
+        if gain < needed || without - with < floor {
             let change = if with > without {
                 format!("raises the held-out error cost from {without:.4} to {with:.4}")
-            } else {
+            } else if gain < needed {
                 format!(
                     "lowers the held-out error cost only from {without:.4} to {with:.4} ({:.1} %, where {:.0} % is needed)",
                     100.0 * gain,
                     100.0 * needed
+                )
+            } else {
+                // The share is enough but the drop is within what noise moves the cost by.
+                format!(
+                    "lowers the held-out error cost only from {without:.4} to {with:.4}, by {:.4}, where {floor:.4} ({} times the noise floor) is needed",
+                    without - with,
+                    crit.min_noise_multiple
                 )
             };
             dropped.push(format!(
