@@ -296,7 +296,8 @@ const MODULATION_SD: f64 = 0.05;
 /// with its share and (runs selecting it, runs where it varies). A tie among the runs keeps a
 /// term no named effect has the form of: it is no evidence against the term, and the held-out
 /// proof still decides. A named effect's form needs a majority, since a look-alike found on
-/// top of another effect would otherwise keep that effect named (docs/diagnosis.md, step 3).
+/// top of another effect would otherwise keep that effect named (docs/diagnosis.md, step 5,
+/// "Selection that holds up").
 /// `None` when none is kept or the build is interrupted.
 fn stable_terms(
     data: &Data,
