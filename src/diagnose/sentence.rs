@@ -42,30 +42,7 @@ pub(super) fn verdict_sentence(
                 "The model does not explain the held-out runs, re-estimating its parameters does not either, and no effect of the table does: the {residual} remains{which} and is reported as unexplained, with where it is."
             )
         } else {
-            let names = effects
-                .iter()
-                .filter(|e| e.name != "unexplained")
-                .map(Found::name_with_alike)
-                .collect::<Vec<_>>()
-                .join(" and ");
-            let plural = effects.len() > 2;
-            if final_cost < base_cost {
-                format!(
-                    "{names} {} part of the mismatch: the held-out error cost falls from {base_cost:.4} to {final_cost:.4} ({} of the start, {:.1} times the noise floor); a {residual} remains{which} and is reported as unexplained.",
-                    if plural { "explain" } else { "explains" },
-                    pct(final_cost / base_cost),
-                    final_cost / c.noise
-                )
-            } else {
-                // Kept beside the discovered terms, but alone no help: say so, not "explains".
-                format!(
-                    "{names} {} named only beside the discovered terms: alone {} the held-out error cost from {base_cost:.4} to {final_cost:.4} ({} of the start, {:.1} times the noise floor); a {residual} remains{which} and is reported as unexplained.",
-                    if plural { "are" } else { "is" },
-                    if plural { "they raise" } else { "it raises" },
-                    pct(final_cost / base_cost),
-                    final_cost / c.noise
-                )
-            }
+            partly(effects, c, &format!("a {residual} remains{which}"))
         }
     } else if drift {
         format!(
@@ -95,6 +72,33 @@ pub(super) fn verdict_sentence(
                 "reaches"
             },
             pct(re_cost / base_cost)
+        )
+    }
+}
+
+/// The verdict when named effects are kept and a residual (`remains`, with its figures) is
+/// left unexplained: what the effects alone do to the held-out cost, said as it is.
+fn partly(effects: &[Found], c: &Costs, remains: &str) -> String {
+    let (base_cost, final_cost) = (c.base, c.after_effects);
+    let names = effects
+        .iter()
+        .filter(|e| e.name != "unexplained")
+        .map(Found::name_with_alike)
+        .collect::<Vec<_>>()
+        .join(" and ");
+    let plural = effects.len() > 2;
+    let (ratio, floor) = (pct(final_cost / base_cost), final_cost / c.noise);
+    if final_cost < base_cost {
+        format!(
+            "{names} {} part of the mismatch: the held-out error cost falls from {base_cost:.4} to {final_cost:.4} ({ratio} of the start, {floor:.1} times the noise floor); {remains} and is reported as unexplained.",
+            if plural { "explain" } else { "explains" },
+        )
+    } else {
+        // Kept beside the discovered terms, but alone no help: say so, not "explains".
+        format!(
+            "{names} {} named only beside the discovered terms: alone {} the held-out error cost from {base_cost:.4} to {final_cost:.4} ({ratio} of the start, {floor:.1} times the noise floor); {remains} and is reported as unexplained.",
+            if plural { "are" } else { "is" },
+            if plural { "they raise" } else { "it raises" },
         )
     }
 }
