@@ -408,17 +408,27 @@ fn joint_selection(
         let mut reduced = selected.clone();
         let (h, p) = reduced.remove(i);
         let aug = dx::augmentation(&reduced);
-        let Some((c2, figs2)) = super::discover::discover(plant, data, &aug, dofs, crit)? else {
-            continue;
-        };
+        let again = super::discover::discover(plant, data, &aug, dofs, crit)?;
         // Discovery without the effect finds the effect again (a constant heave force for
         // net buoyancy): the effect is confirmed, not explained away.
-        if c2
-            .parts()
-            .any(|p| p.named_terms.iter().any(|n| n == h.name))
-        {
+        if (again.iter()).any(|(c2, _)| {
+            c2.parts()
+                .any(|p| p.named_terms.iter().any(|n| n == h.name))
+        }) {
             continue;
         }
+        // The terms found beside the effect, without it, compete with the terms found again
+        // without it: searched again, discovery can take another road (a surge `|u| u` where
+        // a cross flow's terms, kept as they were, left `coupled_drag` nothing to do).
+        let kept = (c.model.len() == c.parts().count())
+            .then(|| (super::discover::beside(plant, data, &aug, &c), figs.clone()));
+        let Some((c2, figs2)) = [again, kept]
+            .into_iter()
+            .flatten()
+            .min_by(|a, b| a.0.cost_after_all().total_cmp(&b.0.cost_after_all()))
+        else {
+            continue;
+        };
         let (with, without) = (c.cost_after_all(), c2.cost_after_all());
         let gain = (without - with) / without.max(1e-300);
         let needed = crit.min_gain + crit.gain_per_parameter * h.free_params(&p);

@@ -40,7 +40,7 @@ mod term;
 use super::result::{Candidate, DiscoveredTerm, Found, pct};
 use crate::core::dof::Dof;
 pub use library::{Feature, Prepared};
-pub use search::discover;
+pub use search::{beside, discover};
 pub use select::{KEEP_SHARE, MAX_TERMS};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;

@@ -63,6 +63,33 @@ pub fn discover(
     Ok(Some((candidate, figures)))
 }
 
+/// `c` with its terms as they were found, in a model with `aug` in place of what they were
+/// found beside: each part's held-out costs and errors recomputed in order, the terms and
+/// their coefficients unchanged. What a named effect found before discovery must beat: its
+/// terms without it, as well as the terms discovered again without it.
+pub fn beside(plant: &Plant, data: &Data, aug: &Augmentation, c: &Candidate) -> Candidate {
+    let mut with = aug.clone();
+    let mut before = data.eval(plant, &with, true);
+    let mut parts: Vec<Candidate> = Vec::new();
+    for (part, term) in c.parts().zip(&c.model) {
+        with.discovered.push(term.clone());
+        let after = data.eval(plant, &with, true);
+        let mut p = part.clone();
+        p.also = Vec::new();
+        p.model = Vec::new();
+        p.validation_nmae_before = crate::diagnose::nmae_map(&before, &data.slots);
+        p.validation_nmae_after = crate::diagnose::nmae_map(&after, &data.slots);
+        p.validation_cost_before = before.cost(&data.scale);
+        p.validation_cost_after = after.cost(&data.scale);
+        parts.push(p);
+        before = after;
+    }
+    let mut out = parts.remove(0);
+    out.also = parts;
+    out.model = c.model.clone();
+    out
+}
+
 /// One step of the search: the terms kept (one DOF's, or several DOFs' together), each with
 /// its held-out costs as added in order; the residual rows and the first term's proposal.
 struct Step {

@@ -125,7 +125,7 @@ fn a_tether_pulling_toward_its_anchor_is_found_in_body_axes() {
 #[test]
 fn thrust_lost_in_a_cross_flow_is_found_with_the_surge_speed() {
     let d = scenario_diagnosis(&[Effect::from_arg("crossflow_loss=2").unwrap()], 76);
-    cross_flow_found(&d, false, "crossflow_loss=2");
+    cross_flow_found(&d, false, "crossflow_loss=2", (2.0, 0.15));
 }
 
 /// The same loss on a navigation log, seed 93 (four training runs): every resample took
@@ -138,15 +138,39 @@ fn thrust_lost_in_a_cross_flow_is_found_on_a_navigation_log() {
     let logs = crate::twin::pool::Logs::Navigation;
     let nav = scenario::fused_runs_seen(std::slice::from_ref(&e), 93, logs).unwrap();
     let d = full(&nav, &scenario::cfd_fit_plant(1).unwrap());
-    cross_flow_found(&d, true, "crossflow_loss=2 on a navigation log");
+    cross_flow_found(
+        &d,
+        true,
+        "crossflow_loss=2 on a navigation log",
+        (2.0, 0.15),
+    );
 }
 
-/// The cross flow's two terms within 15 % of -1 / (2 m/s), no named effect beside them, and
+/// A weaker loss, F (1 - |u| / 3 m/s), on seed 77's navigation log: `coupled_drag` was named
+/// before discovery, and discovery searched again without it took a surge `|u| u` (0.0313
+/// against 0.0059), so it stayed beside the cross flow's terms with `tether_drag` taken back.
+/// The terms found beside it, kept as they are without it, now compete. The sway term was
+/// fitted beside `coupled_drag` and is not refitted: 25 %.
+#[test]
+fn a_weaker_cross_flow_loss_leaves_no_look_alike_named() {
+    let e = Effect::from_arg("crossflow_loss=3").unwrap();
+    let logs = crate::twin::pool::Logs::Navigation;
+    let nav = scenario::fused_runs_seen(std::slice::from_ref(&e), 77, logs).unwrap();
+    let d = full(&nav, &scenario::cfd_fit_plant(1).unwrap());
+    cross_flow_found(
+        &d,
+        true,
+        "crossflow_loss=3 on a navigation log",
+        (3.0, 0.25),
+    );
+}
+
+/// The cross flow's two terms within `tol` of -1 / `speed`, no named effect beside them, and
 /// the held-out cost near the noise floor.
-fn cross_flow_found(d: &Diagnosis, is_nav: bool, what: &str) {
+fn cross_flow_found(d: &Diagnosis, is_nav: bool, what: &str, (speed, tol): (f64, f64)) {
     let c = closed_form(d, what);
-    term_near(&c, Dof::Sway, "|u| Y", -0.5, 0.15);
-    term_near(&c, Dof::Yaw, "|u| N", -0.5, 0.15);
+    term_near(&c, Dof::Sway, "|u| Y", -1.0 / speed, tol);
+    term_near(&c, Dof::Yaw, "|u| N", -1.0 / speed, tol);
     let claimed = named_beside(d, is_nav);
     assert!(
         claimed.is_empty(),
