@@ -34,6 +34,7 @@ mod rival;
 pub mod search;
 mod select;
 mod sentence;
+mod settle;
 pub mod slots;
 mod spectrum;
 pub mod stage;

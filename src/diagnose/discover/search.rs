@@ -66,8 +66,12 @@ pub fn discover(
 /// `c` with its terms as they were found, in a model with `aug` in place of what they were
 /// found beside: each part's held-out costs and errors recomputed in order, the terms and
 /// their coefficients unchanged. What a named effect found before discovery must beat: its
-/// terms without it, as well as the terms discovered again without it.
-pub fn beside(plant: &Plant, data: &Data, aug: &Augmentation, c: &Candidate) -> Candidate {
+/// terms without it, as well as the terms discovered again without it. `None` for a
+/// candidate whose model does not hold one term per part (not one [`discover`] returned).
+pub fn beside(plant: &Plant, data: &Data, aug: &Augmentation, c: &Candidate) -> Option<Candidate> {
+    if c.model.len() != c.parts().count() {
+        return None;
+    }
     let mut with = aug.clone();
     let mut before = data.eval(plant, &with, true);
     let mut parts: Vec<Candidate> = Vec::new();
@@ -87,7 +91,7 @@ pub fn beside(plant: &Plant, data: &Data, aug: &Augmentation, c: &Candidate) -> 
     let mut out = parts.remove(0);
     out.also = parts;
     out.model = c.model.clone();
-    out
+    Some(out)
 }
 
 /// One step of the search: the terms kept (one DOF's, or several DOFs' together), each with

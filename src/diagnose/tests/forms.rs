@@ -134,16 +134,9 @@ fn thrust_lost_in_a_cross_flow_is_found_with_the_surge_speed() {
 /// times the noise floor was left, with `N += -0.503 |u| N` alone.
 #[test]
 fn thrust_lost_in_a_cross_flow_is_found_on_a_navigation_log() {
-    let e = Effect::from_arg("crossflow_loss=2").unwrap();
-    let logs = crate::twin::pool::Logs::Navigation;
-    let nav = scenario::fused_runs_seen(std::slice::from_ref(&e), 93, logs).unwrap();
-    let d = full(&nav, &scenario::cfd_fit_plant(1).unwrap());
-    cross_flow_found(
-        &d,
-        true,
-        "crossflow_loss=2 on a navigation log",
-        (2.0, 0.15),
-    );
+    let d = navigation_diagnosis("crossflow_loss=2", 93);
+    let what = "crossflow_loss=2 on a navigation log";
+    cross_flow_found(&d, true, what, (2.0, 0.15));
 }
 
 /// A weaker loss, F (1 - |u| / 3 m/s), on seed 77's navigation log: `coupled_drag` was named
@@ -153,16 +146,17 @@ fn thrust_lost_in_a_cross_flow_is_found_on_a_navigation_log() {
 /// fitted beside `coupled_drag` and is not refitted: 25 %.
 #[test]
 fn a_weaker_cross_flow_loss_leaves_no_look_alike_named() {
-    let e = Effect::from_arg("crossflow_loss=3").unwrap();
+    let d = navigation_diagnosis("crossflow_loss=3", 77);
+    let what = "crossflow_loss=3 on a navigation log";
+    cross_flow_found(&d, true, what, (3.0, 0.25));
+}
+
+/// The diagnosis of scenario `effect` on seed `seed`'s navigation-log runs.
+fn navigation_diagnosis(effect: &str, seed: u64) -> Diagnosis {
+    let e = Effect::from_arg(effect).unwrap();
     let logs = crate::twin::pool::Logs::Navigation;
-    let nav = scenario::fused_runs_seen(std::slice::from_ref(&e), 77, logs).unwrap();
-    let d = full(&nav, &scenario::cfd_fit_plant(1).unwrap());
-    cross_flow_found(
-        &d,
-        true,
-        "crossflow_loss=3 on a navigation log",
-        (3.0, 0.25),
-    );
+    let nav = scenario::fused_runs_seen(std::slice::from_ref(&e), seed, logs).unwrap();
+    full(&nav, &scenario::cfd_fit_plant(1).unwrap())
 }
 
 /// The cross flow's two terms within `tol` of -1 / `speed`, no named effect beside them, and
