@@ -306,6 +306,12 @@ pub enum TwinCommand {
         /// inflow_loss, which the diagnosis must report unexplained); repeatable.
         #[arg(long = "scenario")]
         scenarios: Vec<String>,
+        /// The vehicle that flies the runs: `reference` (seed 001's 35.2 kg ROV, diagnosed
+        /// from its CFD fit) or `small` (a BlueROV2 Heavy-sized 11.5 kg ROV, diagnosed from
+        /// its true coefficients each moved 1-2.5 %; the check's force-like magnitudes scaled
+        /// to it).
+        #[arg(long, default_value = "reference")]
+        vehicle: String,
     },
 }
 
@@ -439,6 +445,7 @@ fn twin(root: &std::path::Path, what: TwinCommand) -> anyhow::Result<ExitCode> {
             seeds,
             navigation_log,
             scenarios,
-        } => cmd::check_diagnosis::check_diagnosis(&seeds, navigation_log, &scenarios),
+            vehicle,
+        } => cmd::check_diagnosis::check_diagnosis(&seeds, navigation_log, &scenarios, &vehicle),
     }
 }

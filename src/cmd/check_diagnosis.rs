@@ -15,16 +15,24 @@ pub fn check_diagnosis(
     seeds: &[u64],
     navigation_log: bool,
     given: &[String],
+    vehicle: &str,
 ) -> anyhow::Result<ExitCode> {
     use crate::cmd::scenario;
-    use crate::twin::pool::Logs;
+    use crate::twin::pool::{Craft, Logs};
+    let craft = Craft::named(vehicle).map_err(anyhow::Error::msg)?;
     let scenarios = if given.is_empty() {
-        diagnosis_scenarios()?
+        diagnosis_scenarios(craft.force_scale())?
     } else {
         given_scenarios(given)?
     };
-    let vehicle = crate::core::model::Vehicle::reference();
-    let plant = scenario::cfd_fit_plant(1)?;
+    // The reference vehicle starts from its twin CFD cases' fit; another, with no CFD twin,
+    // from its true coefficients moved as much as such a fit is off.
+    let plant = if vehicle == "reference" {
+        scenario::cfd_fit_plant(1)?
+    } else {
+        scenario::cfd_plant_of(&craft)
+    };
+    let vehicle = craft.vehicle.clone();
     let logs = if navigation_log {
         Logs::Navigation
     } else {
@@ -33,7 +41,7 @@ pub fn check_diagnosis(
     let mut tally = Tally::new(&scenarios);
     for &seed in seeds {
         for effects in &scenarios {
-            let fused = scenario::fused_runs_seen(effects, seed, logs)?;
+            let fused = scenario::fused_runs_of(&craft, effects, seed, logs)?;
             let t = Instant::now();
             let (d, _) = crate::diagnose::diagnose(
                 &vehicle,
@@ -96,7 +104,9 @@ fn given_scenarios(given: &[String]) -> anyhow::Result<Vec<Vec<Effect>>> {
 }
 
 /// The check's scenarios: nothing concealed, each effect alone at two magnitudes, then pairs.
-fn diagnosis_scenarios() -> anyhow::Result<Vec<Vec<Effect>>> {
+/// The check's set, its force-like magnitudes (a force, a drag coefficient) times `force`
+/// for a vehicle other than the reference ([`crate::twin::pool::Craft::force_scale`]).
+fn diagnosis_scenarios(force: f64) -> anyhow::Result<Vec<Vec<Effect>>> {
     let singles = [
         ("net_buoyancy", [6.0, -20.0]),
         ("thruster_lag", [0.2, 0.6]),
@@ -108,26 +118,38 @@ fn diagnosis_scenarios() -> anyhow::Result<Vec<Vec<Effect>>> {
         ("coupled_drag", [40.0, 120.0]),
         ("sensor_delay", [0.15, 0.5]),
     ];
+    let scaled = |name: &str, m: f64| {
+        let forceful = [
+            "net_buoyancy",
+            "thruster_deadband",
+            "tether_drag",
+            "wall_effect",
+            "coupled_drag",
+        ];
+        let m = if forceful.contains(&name) {
+            m * force
+        } else {
+            m
+        };
+        Effect::from_arg(&format!("{name}={m:.4}")).map_err(anyhow::Error::msg)
+    };
     let mut scenarios: Vec<Vec<Effect>> = vec![vec![]];
     for (name, mags) in singles {
         for m in mags {
-            scenarios.push(vec![
-                Effect::from_arg(&format!("{name}={m}")).map_err(anyhow::Error::msg)?,
-            ]);
+            scenarios.push(vec![scaled(name, m)?]);
         }
     }
     for pair in [
-        ["thruster_lag=0.35", "tether_drag=1.2"],
-        ["net_buoyancy=10", "sensor_delay=0.2"],
-        ["water_current=0.12", "coupled_drag=60"],
-        ["reverse_thrust_loss=0.3", "wall_effect=200"],
-        ["sensor_delay=0.3", "thruster_lag=0.3"],
+        [("thruster_lag", 0.35), ("tether_drag", 1.2)],
+        [("net_buoyancy", 10.0), ("sensor_delay", 0.2)],
+        [("water_current", 0.12), ("coupled_drag", 60.0)],
+        [("reverse_thrust_loss", 0.3), ("wall_effect", 200.0)],
+        [("sensor_delay", 0.3), ("thruster_lag", 0.3)],
     ] {
         scenarios.push(
             pair.iter()
-                .map(|a| Effect::from_arg(a))
-                .collect::<Result<_, _>>()
-                .map_err(anyhow::Error::msg)?,
+                .map(|(n, m)| scaled(n, *m))
+                .collect::<anyhow::Result<_>>()?,
         );
     }
     Ok(scenarios)

@@ -20,15 +20,24 @@ pub fn fused_runs_seen(
     seed: u64,
     logs: twin::Logs,
 ) -> anyhow::Result<Vec<FusedRun>> {
+    fused_runs_of(&twin::Craft::reference(), effects, seed, logs)
+}
+
+/// [`fused_runs_seen`] with `craft` flying the runs.
+pub fn fused_runs_of(
+    craft: &twin::Craft,
+    effects: &[Effect],
+    seed: u64,
+    logs: twin::Logs,
+) -> anyhow::Result<Vec<FusedRun>> {
     let tmp = tempfile::tempdir()?;
     let root = tmp.path();
     let specs = twin::default_runs();
-    twin::write_runs_seen(
-        &root.join("cases/pool"),
-        &root.join("truth/pool"),
+    twin::write_runs_of(
+        craft,
+        (&root.join("cases/pool"), &root.join("truth/pool")),
         &specs,
-        effects,
-        seed,
+        (effects, seed),
         logs,
     )?;
     specs
@@ -118,8 +127,13 @@ pub fn cfd_fit_plant(seed: u64) -> anyhow::Result<crate::core::model::Plant> {
 /// The reference vehicle's model as a CFD identification would give it: every coefficient off
 /// by 1 to 2.5 %, alternating in sign (the shipped CFD fit is 1.5 % off at worst).
 pub fn cfd_plant() -> crate::core::model::Plant {
-    use crate::core::model::{Hydro, Plant, Vehicle};
-    let h = Hydro::reference();
+    cfd_plant_of(&twin::Craft::reference())
+}
+
+/// [`cfd_plant`] for `craft`: its true coefficients, each off by 1 to 2.5 %.
+pub fn cfd_plant_of(craft: &twin::Craft) -> crate::core::model::Plant {
+    use crate::core::model::{Hydro, Plant};
+    let h = craft.hydro;
     let mut k = 0;
     let mut moved = |arr: [f64; 6]| {
         arr.map(|x| {
@@ -131,5 +145,5 @@ pub fn cfd_plant() -> crate::core::model::Plant {
     let added = moved(h.added_diag());
     let lin = moved(h.lin_diag());
     let quad = moved(h.quad_diag());
-    Plant::new(&Vehicle::reference(), Hydro::diagonal(added, lin, quad))
+    Plant::new(&craft.vehicle, Hydro::diagonal(added, lin, quad))
 }
