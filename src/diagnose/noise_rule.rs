@@ -11,9 +11,10 @@ pub(super) fn within_noise(crit: &Criteria, data: &Data, cost: f64) -> bool {
 }
 
 /// How much more than `within_noise` the re-estimated model may leave and still count as
-/// explaining the runs. It is re-fitted by equation error, not on the simulated runs, so it
-/// leaves more than the best model with re-estimated parameters would: on the twin's runs
-/// with every quadratic drag 35 % low and nothing else wrong, 3.4 times the noise floor.
+/// explaining the runs. Set when it was re-fitted by equation error only, not on the simulated
+/// runs, and left more than the best model with re-estimated parameters would: on the twin's
+/// runs with every quadratic drag 35 % low and nothing else wrong, 3.4 times the noise floor.
+/// The output-error re-estimate ([`super::drift`]) leaves less; not re-tuned to it.
 const REESTIMATE_ALLOWANCE: f64 = 2.0;
 
 /// Whether the re-estimated model's held-out cost is within its noise ([`within_noise`],

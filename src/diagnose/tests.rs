@@ -5,6 +5,7 @@ use crate::twin::world::Effect;
 
 mod attitude;
 mod discovery;
+mod drift;
 mod forms;
 mod guards;
 mod joint;

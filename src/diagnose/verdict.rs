@@ -43,7 +43,7 @@ pub fn diagnose(
     // 1. Drift: the same model structure, parameters re-estimated on the training runs.
     let base = data.eval(plant, &Augmentation::default(), true);
     let base_cost = base.cost(&data.scale);
-    let drifted = Drifted::estimate(vehicle, fused, &data)?;
+    let drifted = Drifted::estimate(vehicle, fused, &data, plant)?;
 
     // 2. Locate the CFD model's held-out residual.
     let res_before = dx::residuals(plant, &Augmentation::default(), &data.validate);

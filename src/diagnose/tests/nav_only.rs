@@ -197,17 +197,29 @@ fn a_look_alike_beside_the_discovered_terms_is_listed() {
 }
 
 /// Propellers losing thrust to the inflow (F (1 - s / 4 m/s), s the speed along the push),
-/// alone, on a navigation log. Re-estimating the model's drag takes much of it in (held-out
-/// cost 0.0289 -> 0.0132, 2.5 times the floor), and the search's first named effect,
-/// `coupled_drag` (0.0136), left discovery nothing to find on top of it: the verdict was
-/// drifted parameters. Discovery from the model without that effect finds Blanke's form in
-/// surge, `X += c sqrt(|X|) u` with c in [-2.5, -1] (the twin's loss is about sqrt(|X|) / 4
-/// of it), which beats both: no named effect stays beside it, the verdict is not drift, and
-/// the held-out cost is more than halved.
+/// alone, on a navigation log. Re-estimating the model's drag by equation error took much of
+/// it in (held-out cost 0.0289 -> 0.0132, 2.5 times the floor), and the search's first named
+/// effect, `coupled_drag` (0.0136), left discovery nothing to find on top of it: the verdict
+/// was drifted parameters. Discovery from the model without that effect finds Blanke's form
+/// in surge, `X += c sqrt(|X|) u` with c in [-2.5, -1] (the twin's loss is about sqrt(|X|) / 4
+/// of it), which beats that re-estimate: no named effect stays beside it, and the held-out
+/// cost is more than halved. Re-estimated by output error the drag takes in more (0.0107, 2.1
+/// times the floor), and the form found (`X += -0.23 |u| X`, the twin's -1 / 4, 0.0088) no
+/// longer beats it by the margin: the verdict is then drift with the form listed beside it,
+/// as what the runs cannot tell from drift.
 #[test]
 fn thrust_lost_to_the_inflow_is_found_from_a_navigation_log() {
     let d = nav_diagnosis(&[Effect::from_arg("inflow_loss=4").unwrap()], 73);
-    assert!(!d.baseline.parameters_reestimated, "{}", d.verdict);
+    if d.baseline.parameters_reestimated {
+        assert!(
+            d.verdict.contains("cannot tell it from drift")
+                && (d.verdict.contains("sqrt(|X|) u") || d.verdict.contains("|u| X")),
+            "{}",
+            d.verdict
+        );
+        assert!(d.effects.is_empty(), "{}", d.verdict);
+        return;
+    }
     let c = (d.effects.iter())
         .find_map(|x| x.candidate.as_ref())
         .unwrap_or_else(|| panic!("no closed form: {}", d.verdict));
