@@ -99,7 +99,40 @@ impl Drifted {
             validation_nmae: dx::nmae_map(&self.sums, &self.slots),
             validation_cost: self.cost,
             within_noise,
+            beside: Vec::new(),
         }
+    }
+}
+
+/// The report's record of the model re-estimated beside named effects
+/// ([`super::beside`]): its coefficients (no standard errors: the re-estimate is a point
+/// fit) and how it predicts the held-out runs with the effects.
+pub(super) fn beside_record(
+    vehicle: &crate::core::model::Vehicle,
+    data: &Data,
+    b: &super::beside::Beside,
+    within_noise: bool,
+) -> Reestimated {
+    let layout = ParamLayout::of(vehicle);
+    let values = layout.from_hydro(&b.plant.hydro);
+    let parameters = (layout.terms.iter().zip(&values))
+        .map(|(t, v)| crate::identify::Estimate {
+            name: t.name(),
+            value: *v,
+            unit: t.unit().to_string(),
+            stderr: f64::NAN,
+            interval: None,
+            identifiable: true,
+            note: Some("re-estimated beside the named effects".into()),
+        })
+        .collect();
+    let sums = data.eval(&b.plant, &dx::augmentation(&b.selected), true);
+    Reestimated {
+        parameters,
+        validation_nmae: dx::nmae_map(&sums, &data.slots),
+        validation_cost: b.cost,
+        within_noise,
+        beside: b.selected.iter().map(|(h, _)| h.name.to_string()).collect(),
     }
 }
 

@@ -18,6 +18,7 @@
 //! velocities' own variances.
 
 mod alike;
+mod beside;
 pub mod discover;
 mod drift;
 pub mod effects;

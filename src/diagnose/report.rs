@@ -153,7 +153,11 @@ fn cost_table(d: &Diagnosis) -> Markup {
                 td { (format!("{:.4}", d.baseline.validation_cost)) }
             }
             tr {
-                td { "its parameters re-estimated on the training runs (drift)" }
+                @if r.beside.is_empty() {
+                    td { "its parameters re-estimated on the training runs (drift)" }
+                } @else {
+                    td { "its parameters re-estimated beside " (r.beside.join(" and ")) ", with them" }
+                }
                 td { (nmae(&r.validation_nmae)) }
                 td {
                     (format!("{:.4}", r.validation_cost))
@@ -258,10 +262,24 @@ fn reestimated_parameters(d: &Diagnosis) -> Markup {
     let ps = &d.baseline.reestimated.parameters;
     html! {
         @if d.baseline.parameters_reestimated {
-            p { "Re-estimated parameters:" }
+            @if d.baseline.reestimated.beside.is_empty() {
+                p { "Re-estimated parameters:" }
+            } @else {
+                p { "Parameters re-estimated beside " (d.baseline.reestimated.beside.join(" and ")) " (use these with them):" }
+            }
             table {
                 tr { @for p in ps { th { (p.name) } } }
-                tr { @for p in ps { td { (format!("{:.3} ± {:.3}", p.value, p.stderr)) } } }
+                tr {
+                    @for p in ps {
+                        td {
+                            @if p.stderr.is_finite() {
+                                (format!("{:.3} ± {:.3}", p.value, p.stderr))
+                            } @else {
+                                (format!("{:.3}", p.value))
+                            }
+                        }
+                    }
+                }
             }
         }
     }

@@ -14,6 +14,10 @@ pub struct Reestimated {
     #[serde(deserialize_with = "crate::core::fsutil::f64_or_nan")]
     pub validation_cost: f64,
     pub within_noise: bool,
+    /// The named effects the parameters were re-estimated beside (held in the simulation):
+    /// empty for the model re-estimated alone (drift).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub beside: Vec<String>,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -241,6 +245,7 @@ impl Diagnosis {
                     validation_nmae: BTreeMap::new(),
                     validation_cost: f64::NAN,
                     within_noise: false,
+                    beside: Vec::new(),
                 },
                 parameters_reestimated: false,
             },

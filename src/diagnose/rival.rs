@@ -177,17 +177,21 @@ pub(super) fn alike_drift(crit: &Criteria, c: &Candidate, reestimated: f64) -> O
 /// and no closed form beats the re-estimated model ([`discovery_beats_drift`]); with the
 /// sentence of a closed form that explains the runs about as well ([`alike_drift`]), and
 /// whether a closed form beat the re-estimated model (the verdict then proposes it, though
-/// the named effects alone leave no structured residual).
+/// the named effects alone leave no structured residual). With `won`, the re-estimated model
+/// has already beaten the named effects beside it, and only the closed form is asked.
 pub(super) fn drift_holds(
     plant: &Plant,
     data: &Data,
     crit: &Criteria,
     (search, bare): (&dx::Search, &mut Bare),
-    costs: &Costs,
+    (costs, won): (&Costs, bool),
 ) -> anyhow::Result<(bool, Vec<String>, bool)> {
-    if costs.reestimated >= costs.after_effects
-        || within_noise(crit, data, costs.base)
-        || costs.reestimated >= 0.5 * costs.base
+    // `won`: the model re-estimated alone already beat every named effect, each dropped
+    // beside it ([`super::beside`]); only a closed form can still beat it.
+    if !won
+        && (costs.reestimated >= costs.after_effects
+            || within_noise(crit, data, costs.base)
+            || costs.reestimated >= 0.5 * costs.base)
     {
         return Ok((false, Vec::new(), false));
     }

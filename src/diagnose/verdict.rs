@@ -2,6 +2,7 @@
 //! effects tested and chosen on held-out runs, what is left `unexplained`, and the figures
 //! that show the evidence (see the module documentation of [`crate::diagnose`]).
 
+use super::beside;
 use super::drift::Drifted;
 use super::figures;
 use super::noise_rule::{above_noise, reestimate_within_noise};
@@ -50,33 +51,34 @@ pub fn diagnose(
     let mismatch = main_mismatches(&data, &res_before);
     let regimes = dx::regime_shares(&data.validate, &res_before, &data.scale);
 
-    // 3. Hypotheses, greedily; then what they leave.
-    let search = dx::select(plant, &data, crit, progress);
+    // 3. Hypotheses, greedily; 4. settled beside the model's own parameters re-estimated.
+    let at = (base_cost, drifted.cost);
+    let chosen = choose_effects(vehicle, plant, &data, crit, at, progress);
+    let (search, settled, (before, after_effects), drift_won) = chosen;
+    let used = (settled.as_ref().map(|s| &s.beside)).filter(|b| !b.selected.is_empty());
+    let plant = used.map_or(plant, |b| &b.plant);
     let costs = Costs {
         base: base_cost,
-        after_effects: *search.costs.last().unwrap_or(&base_cost),
+        after_effects,
         reestimated: drifted.cost,
         noise: data.noise_cost,
     };
-    let (effects, mut figures, conclusion) = conclude(plant, &data, crit, &search, &costs)?;
+    let (effects, mut figures, mut conclusion) =
+        conclude(plant, &data, crit, (&search, drift_won), &costs)?;
+    let dropped = say_beside(&mut conclusion, settled.as_ref(), used.map(|b| (b, before)));
     let verdict = compose_verdict(crit, &effects, &conclusion, costs);
-    if let Some(fig) =
-        figures::overlay_figure(plant, &data, &mismatch, &conclusion.selected, model)?
-    {
-        figures.insert(0, fig);
-    }
-    if let Some(fig) = figures::residual_overview(&data, &res_before, &mismatch)? {
-        figures.insert(0, fig);
-    }
-    let reestimated_within = reestimate_within_noise(crit, &data, drifted.cost);
+    let shown = (&mismatch[..], &res_before[..], &conclusion.selected);
+    lead_figures(plant, &data, shown, model, &mut figures)?;
+    let used = used.filter(|_| !conclusion.drift);
+    let (reestimated, beside_used) = reestimated_record(vehicle, &data, crit, used, drifted);
     let diagnosis = Diagnosis {
         baseline: Baseline {
             model: model.to_string(),
             validation_nmae: dx::nmae_map(&base, &data.slots),
             validation_cost: base_cost,
             noise_cost: data.noise_cost,
-            reestimated: drifted.into_record(reestimated_within),
-            parameters_reestimated: conclusion.drift,
+            reestimated,
+            parameters_reestimated: conclusion.drift || beside_used,
         },
         mismatch,
         effects,
@@ -90,12 +92,105 @@ pub fn diagnose(
         },
         diverged: Vec::new(),
         untested: dx::untested(&data),
-        dropped: conclusion.dropped.clone(),
+        dropped: [dropped, conclusion.dropped].concat(),
         started_from: Vec::new(),
         stability,
         elapsed_s: start.elapsed().as_secs_f64(),
     };
     Ok((diagnosis, figures))
+}
+
+/// Steps 3 and 4: the effects chosen greedily on the model as it is, then settled beside its
+/// own parameters re-estimated ([`beside::settle`]). Returns the search with its selection
+/// settled, what settling did, and the held-out cost of the effects on the model as it is
+/// and of those the verdict goes on with (the model as it is when all were dropped), and
+/// whether all were dropped (drift).
+fn choose_effects(
+    vehicle: &crate::core::model::Vehicle,
+    plant: &Plant,
+    data: &Data,
+    crit: &Criteria,
+    (base_cost, drift_cost): (f64, f64),
+    progress: &(dyn Fn(&str) + Sync),
+) -> (dx::Search, Option<beside::Settled>, (f64, f64), bool) {
+    let mut search = dx::select(plant, data, crit, progress);
+    let before = *search.costs.last().unwrap_or(&base_cost);
+    let on_top = (&search.selected, before);
+    let settled = beside::settle(vehicle, plant, data, crit, on_top, drift_cost, progress);
+    let after = match &settled {
+        Some(s) => {
+            search.selected = s.beside.selected.clone();
+            match s.beside.selected.is_empty() {
+                true => base_cost,
+                false => s.beside.cost,
+            }
+        }
+        None => before,
+    };
+    // Every named effect dropped beside the re-estimated model: that is drift.
+    let drift_won = settled
+        .as_ref()
+        .is_some_and(|s| s.beside.selected.is_empty());
+    (search, settled, (before, after), drift_won)
+}
+
+/// The overview figures in front: the model's held-out residual (`res_before`) with where it
+/// misses, and its overlay with the effects kept (`selected`).
+fn lead_figures(
+    plant: &Plant,
+    data: &Data,
+    (mismatch, res_before, selected): (&[Mismatch], &[[Vec<f64>; SLOTS]], &dx::Selection),
+    model: &str,
+    figures: &mut Vec<Figure>,
+) -> anyhow::Result<()> {
+    if let Some(fig) = figures::overlay_figure(plant, data, mismatch, selected, model)? {
+        figures.insert(0, fig);
+    }
+    if let Some(fig) = figures::residual_overview(data, res_before, mismatch)? {
+        figures.insert(0, fig);
+    }
+    Ok(())
+}
+
+/// The changes made on the re-estimated model said in the verdict's notes, in their order,
+/// then the note of the model re-estimated beside the effects kept (`used`, with the
+/// effects' held-out cost on the model as it is); returns the sentences of the named
+/// effects those changes dropped.
+fn say_beside(
+    conclusion: &mut Conclusion,
+    settled: Option<&beside::Settled>,
+    used: Option<(&beside::Beside, f64)>,
+) -> Vec<String> {
+    let note = used.map(|(b, before)| beside::note(b, before));
+    let said: Vec<&(bool, String)> = settled.iter().flat_map(|s| s.said.iter()).collect();
+    conclusion.notes.extend(said.iter().map(|(_, s)| s.clone()));
+    conclusion.notes.extend(note);
+    said.into_iter()
+        .filter(|(dropped, _)| *dropped)
+        .map(|(_, s)| s.clone())
+        .collect()
+}
+
+/// The re-estimated model the report carries: the one the named effects are fitted on
+/// (`used`), when re-estimated beside them, is the one to use; otherwise the model
+/// re-estimated alone. With whether it was the former.
+fn reestimated_record(
+    vehicle: &crate::core::model::Vehicle,
+    data: &Data,
+    crit: &Criteria,
+    used: Option<&beside::Beside>,
+    drifted: Drifted,
+) -> (Reestimated, bool) {
+    match used {
+        Some(b) => {
+            let within = reestimate_within_noise(crit, data, b.cost);
+            (super::drift::beside_record(vehicle, data, b, within), true)
+        }
+        None => {
+            let within = reestimate_within_noise(crit, data, drifted.cost);
+            (drifted.into_record(within), false)
+        }
+    }
 }
 
 /// The diagnosis's data from the runs it can use; when it can use none for want of a DOF,
@@ -187,12 +282,12 @@ fn conclude(
     plant: &Plant,
     data: &Data,
     crit: &Criteria,
-    search: &dx::Search,
+    (search, drift_won): (&dx::Search, bool),
     costs: &Costs,
 ) -> anyhow::Result<(Vec<Found>, Vec<Figure>, Conclusion)> {
     let mut bare = Bare::default();
     let (drift, mut notes, beaten) =
-        rival::drift_holds(plant, data, crit, (search, &mut bare), costs)?;
+        rival::drift_holds(plant, data, crit, (search, &mut bare), (costs, drift_won))?;
     let mut selected = if drift {
         Vec::new()
     } else {

@@ -62,3 +62,95 @@ fn a_small_vehicle_whose_coefficients_are_slightly_off_is_called_drift() {
         );
     }
 }
+
+/// The same vehicle with a net buoyancy concealed: on the model as it is, the greedy rounds
+/// named the right buoyancy and `coupled_drag` (-0.62) beside it for the added masses' Munk
+/// moment, and left the yaw unexplained at 17 times its noise. With the model's own
+/// coefficients re-estimated beside the named effects, the buoyancy alone is named, within
+/// 10 % of the twin's, `coupled_drag` is dropped with the reason, and the held-out cost
+/// reaches the floor.
+#[test]
+fn a_net_buoyancy_beside_slightly_off_coefficients_is_named_alone() {
+    let craft = crate::twin::pool::Craft::small();
+    let plant = scenario::cfd_plant_of(&craft);
+    let hidden = 5.0;
+    let effects = [Effect::NetBuoyancy { force_n: hidden }];
+    let fused = scenario::fused_runs_of(&craft, &effects, 92, Logs::Sensors).unwrap();
+    let d = diagnose(
+        &craft.vehicle,
+        "fit",
+        &plant,
+        &fused,
+        &Criteria::default(),
+        &|_| {},
+    )
+    .unwrap()
+    .0;
+    words_agree_with_numbers(&d);
+    eprintln!("{}", d.verdict);
+    let names: Vec<&str> = d.effects.iter().map(|e| e.name.as_str()).collect();
+    assert_eq!(names, ["net_buoyancy"], "{}", d.verdict);
+    let f = d.effects[0].parameters["force_n"];
+    assert!(
+        (f - hidden).abs() < 0.1 * hidden,
+        "force {f} (hidden {hidden})"
+    );
+    assert!(
+        d.dropped.iter().any(|s| s.contains("coupled_drag")) || !d.verdict.contains("coupled"),
+        "{}",
+        d.verdict
+    );
+    let b = &d.baseline;
+    assert!(b.parameters_reestimated, "{}", d.verdict);
+    assert_eq!(b.reestimated.beside, ["net_buoyancy"]);
+    assert!(
+        b.reestimated.validation_cost < 1.5 * b.noise_cost,
+        "held-out cost {} against the noise floor {}",
+        b.reestimated.validation_cost,
+        b.noise_cost
+    );
+}
+
+/// The same vehicle with a short sensor delay (0.15 s, filtered at 0.075 s) concealed: on the
+/// model as it is, the greedy rounds named `thruster_lag` (0.19 s) for it, the re-estimated
+/// model beside the lag still leaving the yaw at 116 times its noise. One more round on the
+/// re-estimated model puts the delay in the lag's place; the verdict never names the lag
+/// alone.
+#[test]
+fn a_short_sensor_delay_beside_slightly_off_coefficients_is_not_called_a_lag() {
+    let craft = crate::twin::pool::Craft::small();
+    let plant = scenario::cfd_plant_of(&craft);
+    let effects = [Effect::SensorDelay {
+        delay_s: 0.15,
+        filter_s: 0.075,
+    }];
+    let fused = scenario::fused_runs_of(&craft, &effects, 92, Logs::Sensors).unwrap();
+    let d = diagnose(
+        &craft.vehicle,
+        "fit",
+        &plant,
+        &fused,
+        &Criteria::default(),
+        &|_| {},
+    )
+    .unwrap()
+    .0;
+    words_agree_with_numbers(&d);
+    eprintln!("{}", d.verdict);
+    let delay = d.effects.iter().find(|e| e.name == "sensor_delay");
+    let lag_with_delay_alike = d
+        .effects
+        .iter()
+        .any(|e| e.name == "thruster_lag" && e.alike.iter().any(|a| a.name == "sensor_delay"));
+    assert!(delay.is_some() || lag_with_delay_alike, "{}", d.verdict);
+    if let Some(e) = delay {
+        let t = e.parameters["delay_s"];
+        assert!((t - 0.15).abs() < 0.05, "delay {t} s (hidden 0.15 s)");
+    }
+    assert!(
+        d.baseline.reestimated.validation_cost < 2.0 * d.baseline.noise_cost,
+        "held-out cost {} against the noise floor {}",
+        d.baseline.reestimated.validation_cost,
+        d.baseline.noise_cost
+    );
+}
