@@ -287,7 +287,12 @@ impl Beside {
 }
 
 /// `plant` with coefficients `theta` (in `layout`'s order).
-fn with_theta(vehicle: &Vehicle, plant: &Plant, layout: &ParamLayout, theta: &[f64]) -> Plant {
+pub(super) fn with_theta(
+    vehicle: &Vehicle,
+    plant: &Plant,
+    layout: &ParamLayout,
+    theta: &[f64],
+) -> Plant {
     let mut h = plant.hydro;
     for (t, v) in layout.terms.iter().zip(theta) {
         h.set(*t, *v);

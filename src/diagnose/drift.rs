@@ -30,27 +30,15 @@ impl Drifted {
     ) -> anyhow::Result<Drifted> {
         let layout = ParamLayout::of(vehicle);
         let start = layout.from_hydro(&plant.hydro);
-        let own: Vec<crate::identify::Estimate> = (layout.terms.iter().zip(&start))
-            .map(|(t, v)| crate::identify::Estimate {
-                name: t.name(),
-                value: *v,
-                unit: t.unit().to_string(),
-                stderr: f64::NAN,
-                interval: None,
-                identifiable: true,
-                note: Some(
-                    "the model's own value: re-estimated, it predicted the held-out runs worse"
-                        .into(),
-                ),
-            })
-            .collect();
+        let own = point_estimates(
+            &layout,
+            &start,
+            "the model's own value: re-estimated, it predicted the held-out runs worse",
+        );
         let (equation, output) = reestimate(vehicle, fused, data, &start)?;
         let model_of = |ps: &[crate::identify::Estimate]| {
-            let mut h = plant.hydro;
-            for (t, p) in layout.terms.iter().zip(ps) {
-                h.set(*t, p.value);
-            }
-            Plant::new(vehicle, h)
+            let values: Vec<f64> = ps.iter().map(|p| p.value).collect();
+            super::beside::with_theta(vehicle, plant, &layout, &values)
         };
         let score = |ps: &[crate::identify::Estimate]| {
             let sums = data.eval(&model_of(ps), &Augmentation::default(), true);
@@ -115,17 +103,7 @@ pub(super) fn beside_record(
 ) -> Reestimated {
     let layout = ParamLayout::of(vehicle);
     let values = layout.from_hydro(&b.plant.hydro);
-    let parameters = (layout.terms.iter().zip(&values))
-        .map(|(t, v)| crate::identify::Estimate {
-            name: t.name(),
-            value: *v,
-            unit: t.unit().to_string(),
-            stderr: f64::NAN,
-            interval: None,
-            identifiable: true,
-            note: Some("re-estimated beside the named effects".into()),
-        })
-        .collect();
+    let parameters = point_estimates(&layout, &values, "re-estimated beside the named effects");
     let sums = data.eval(&b.plant, &dx::augmentation(&b.selected), true);
     Reestimated {
         parameters,
@@ -134,6 +112,26 @@ pub(super) fn beside_record(
         within_noise,
         beside: b.selected.iter().map(|(h, _)| h.name.to_string()).collect(),
     }
+}
+
+/// Coefficients `values` (in `layout`'s order) as estimates without standard errors (a point
+/// fit, or the model's own value), each with `note`.
+fn point_estimates(
+    layout: &ParamLayout,
+    values: &[f64],
+    note: &str,
+) -> Vec<crate::identify::Estimate> {
+    (layout.terms.iter().zip(values))
+        .map(|(t, v)| crate::identify::Estimate {
+            name: t.name(),
+            value: *v,
+            unit: t.unit().to_string(),
+            stderr: f64::NAN,
+            interval: None,
+            identifiable: true,
+            note: Some(note.to_string()),
+        })
+        .collect()
 }
 
 /// The model's parameters re-estimated on the training runs, from the model's own values

@@ -19,18 +19,7 @@ fn a_small_vehicle_whose_coefficients_are_slightly_off_is_called_drift() {
     let craft = crate::twin::pool::Craft::small();
     let plant = scenario::cfd_plant_of(&craft);
     let fused = scenario::fused_runs_of(&craft, &[], 92, Logs::Sensors).unwrap();
-    let d = diagnose(
-        &craft.vehicle,
-        "fit",
-        &plant,
-        &fused,
-        &Criteria::default(),
-        &|_| {},
-    )
-    .unwrap()
-    .0;
-    words_agree_with_numbers(&d);
-    eprintln!("{}", d.verdict);
+    let d = small_diagnosis(&craft, &plant, &fused);
     let b = &d.baseline;
     assert!(b.parameters_reestimated, "{}", d.verdict);
     assert!(d.effects.is_empty(), "{}", d.verdict);
@@ -76,18 +65,7 @@ fn a_net_buoyancy_beside_slightly_off_coefficients_is_named_alone() {
     let hidden = 5.0;
     let effects = [Effect::NetBuoyancy { force_n: hidden }];
     let fused = scenario::fused_runs_of(&craft, &effects, 92, Logs::Sensors).unwrap();
-    let d = diagnose(
-        &craft.vehicle,
-        "fit",
-        &plant,
-        &fused,
-        &Criteria::default(),
-        &|_| {},
-    )
-    .unwrap()
-    .0;
-    words_agree_with_numbers(&d);
-    eprintln!("{}", d.verdict);
+    let d = small_diagnosis(&craft, &plant, &fused);
     let names: Vec<&str> = d.effects.iter().map(|e| e.name.as_str()).collect();
     assert_eq!(names, ["net_buoyancy"], "{}", d.verdict);
     let f = d.effects[0].parameters["force_n"];
@@ -125,18 +103,7 @@ fn a_short_sensor_delay_beside_slightly_off_coefficients_is_not_called_a_lag() {
         filter_s: 0.075,
     }];
     let fused = scenario::fused_runs_of(&craft, &effects, 92, Logs::Sensors).unwrap();
-    let d = diagnose(
-        &craft.vehicle,
-        "fit",
-        &plant,
-        &fused,
-        &Criteria::default(),
-        &|_| {},
-    )
-    .unwrap()
-    .0;
-    words_agree_with_numbers(&d);
-    eprintln!("{}", d.verdict);
+    let d = small_diagnosis(&craft, &plant, &fused);
     let delay = d.effects.iter().find(|e| e.name == "sensor_delay");
     let lag_with_delay_alike = d
         .effects
@@ -153,4 +120,26 @@ fn a_short_sensor_delay_beside_slightly_off_coefficients_is_not_called_a_lag() {
         d.baseline.reestimated.validation_cost,
         d.baseline.noise_cost
     );
+}
+
+/// The diagnosis of the small craft's `fused` runs from its model `plant`, its verdict's words
+/// checked against its numbers.
+fn small_diagnosis(
+    craft: &crate::twin::pool::Craft,
+    plant: &crate::core::model::Plant,
+    fused: &[crate::pool::fusion::run::FusedRun],
+) -> Diagnosis {
+    let d = diagnose(
+        &craft.vehicle,
+        "fit",
+        plant,
+        fused,
+        &Criteria::default(),
+        &|_| {},
+    )
+    .unwrap()
+    .0;
+    words_agree_with_numbers(&d);
+    eprintln!("{}", d.verdict);
+    d
 }
