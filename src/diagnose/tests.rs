@@ -27,16 +27,19 @@ fn full(
     fused: &[crate::pool::fusion::run::FusedRun],
     plant: &crate::core::model::Plant,
 ) -> Diagnosis {
-    let d = diagnose(
-        &crate::core::model::Vehicle::reference(),
-        "fit",
-        plant,
-        fused,
-        &Criteria::default(),
-        &|_| {},
-    )
-    .unwrap()
-    .0;
+    full_of(&crate::core::model::Vehicle::reference(), fused, plant)
+}
+
+/// The full diagnosis of `vehicle`'s `fused` runs from its model `plant`, its verdict's words
+/// checked against its numbers.
+fn full_of(
+    vehicle: &crate::core::model::Vehicle,
+    fused: &[crate::pool::fusion::run::FusedRun],
+    plant: &crate::core::model::Plant,
+) -> Diagnosis {
+    let d = diagnose(vehicle, "fit", plant, fused, &Criteria::default(), &|_| {})
+        .unwrap()
+        .0;
     words_agree_with_numbers(&d);
     d
 }

@@ -129,17 +129,7 @@ fn small_diagnosis(
     plant: &crate::core::model::Plant,
     fused: &[crate::pool::fusion::run::FusedRun],
 ) -> Diagnosis {
-    let d = diagnose(
-        &craft.vehicle,
-        "fit",
-        plant,
-        fused,
-        &Criteria::default(),
-        &|_| {},
-    )
-    .unwrap()
-    .0;
-    words_agree_with_numbers(&d);
+    let d = full_of(&craft.vehicle, fused, plant);
     eprintln!("{}", d.verdict);
     d
 }

@@ -503,17 +503,7 @@ fn a_bluerov2_heavy_sized_vehicle_is_diagnosed_from_its_navigation_log() {
     let plant = scenario::cfd_plant_of(&craft);
     let diagnosis = |effects: &[Effect]| {
         let fused = scenario::fused_runs_of(&craft, effects, 91, Logs::Navigation).unwrap();
-        let d = diagnose(
-            &craft.vehicle,
-            "fit",
-            &plant,
-            &fused,
-            &Criteria::default(),
-            &|_| {},
-        )
-        .unwrap()
-        .0;
-        words_agree_with_numbers(&d);
+        let d = full_of(&craft.vehicle, &fused, &plant);
         eprintln!("{effects:?}: {}", d.verdict);
         d
     };
