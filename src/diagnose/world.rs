@@ -115,6 +115,11 @@ impl World {
         }
     }
 
+    /// The thruster lag, if an effect has one.
+    pub fn lag(&self) -> Option<Lag> {
+        self.lag
+    }
+
     /// The thrusters' state when `cmd` has been held long enough: what [`State::thrust`]
     /// holds (the lag's state, or without a lag the shaped command).
     pub fn settled_thrust(&self, cmd: &Vec6) -> Vec6 {

@@ -71,7 +71,7 @@ pub(super) fn residual_rows(plant: &Plant, aug: &Augmentation, data: &Data) -> R
         // state (under a lag) following the command.
         let mut w = super::super::world_for(plant, aug, run);
         let mut s = State {
-            thrust: w.settled_thrust(&run.cmd6(0)),
+            thrust: super::super::start_of(plant, aug, run),
             ..State::default()
         };
         let mut model: Vec<Vec6> = Vec::with_capacity(n);
