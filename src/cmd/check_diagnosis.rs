@@ -67,6 +67,26 @@ pub fn check_diagnosis(
                 for why in &d.dropped {
                     println!("  dropped: {why}");
                 }
+                // `HYDROFIT_CHECK_VERDICT=tested`: every hypothesis tried, round by round.
+                if std::env::var_os("HYDROFIT_CHECK_VERDICT").is_some_and(|v| v == "tested") {
+                    for h in &d.hypotheses {
+                        println!(
+                            "  tested: round {} {} {:?} held-out {:.4} gain {:.3} score {:.3}{}{}",
+                            h.round,
+                            h.name,
+                            h.parameters,
+                            h.validation_cost,
+                            h.gain,
+                            h.score,
+                            if h.accepted { " accepted" } else { "" },
+                            if h.at_bound.is_empty() {
+                                String::new()
+                            } else {
+                                format!(" at bound {:?}", h.at_bound)
+                            }
+                        );
+                    }
+                }
             }
         }
     }

@@ -442,6 +442,10 @@ pub struct Data {
     pub noise_cost: f64,
     /// The effects to test ([`effects::REGISTRY`] unless a caller chooses others).
     pub effects: effects::Registry,
+    /// The vehicle's size against the one the effects' ranges were set for: its mass over
+    /// the reference vehicle's, at most 1 (1 until the diagnosis sets it). The search's grid
+    /// of a force-like parameter spans this share of its range ([`search`]).
+    pub size: f64,
 }
 
 impl Data {
@@ -480,6 +484,7 @@ impl Data {
             scale,
             delta,
             noise_cost,
+            size: 1.0,
         })
     }
 

@@ -115,6 +115,21 @@ pub fn nelder_mead(f: Cost, x0: &[f64], step: f64, iters: usize) -> (Vec<f64>, f
     simplex.swap_remove(0)
 }
 
+/// Where grid position `t` (0 to 1, evenly spaced) of parameter `i` of `h` lies in the unit
+/// box, on data of a vehicle of `size` ([`Data::size`]). A force-like parameter (in newtons)
+/// whose range starts at 0 (a threshold, a drag coefficient) is a size, its range set for the
+/// reference vehicle: on a smaller one its grid spans that share of the range (a deadband's
+/// force on a vehicle a third the size is tried at 0, 3.3, 6.5 and 9.8 N, not 0, 10, 20 and
+/// 30), and Nelder-Mead is free to leave it.
+fn grid_point(h: &Hypothesis, i: usize, t: f64, size: f64) -> f64 {
+    let q = &h.params[i];
+    if q.lo == 0.0 && q.unit.starts_with('N') {
+        t * size.clamp(0.0, 1.0)
+    } else {
+        t
+    }
+}
+
 fn to_params(h: &Hypothesis, u: &[f64]) -> Vec<f64> {
     h.params
         .iter()
@@ -165,7 +180,10 @@ pub fn fit_beside(
             break;
         }
         let u: Vec<f64> = (0..k)
-            .map(|i| ((idx / g.pow(i as u32)) % g) as f64 / (g - 1) as f64)
+            .map(|i| {
+                let t = ((idx / g.pow(i as u32)) % g) as f64 / (g - 1) as f64;
+                grid_point(h, i, t, data.size)
+            })
             .collect();
         let c = cost(&u, best.1);
         if c < best.1 {

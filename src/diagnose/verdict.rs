@@ -31,7 +31,8 @@ pub fn diagnose(
     let (fused, latency) = super::latency::taken_out(plant, fused);
     let fused = &fused[..];
     let (runs, skipped, stability) = prepare_runs(plant, fused, crit);
-    let data = data_of(runs, &skipped)?;
+    let mut data = data_of(runs, &skipped)?;
+    data.size = (vehicle.mass_kg / crate::core::model::Vehicle::reference().mass_kg).min(1.0);
     let diverged = diverged_runs(plant, &data);
     if !diverged.is_empty() {
         let elapsed = start.elapsed().as_secs_f64();
