@@ -41,7 +41,7 @@ pub(super) fn alike_beside(
         });
         for h in others {
             let (p, train) = search::fit_beside(plant, data, (&rest, terms), h);
-            if !select::at_bound(h, &p).is_empty() {
+            if !select::at_bound(h, &p, data.size).is_empty() {
                 continue;
             }
             let mut with = rest.clone();

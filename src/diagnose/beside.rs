@@ -219,7 +219,7 @@ fn swapped(
                 rest.remove(*i);
             }
             let (p, train) = super::search::fit_beside(&full.plant, data, (&rest, &[]), h);
-            if !super::select::at_bound(h, &p).is_empty() || !train.is_finite() {
+            if !super::select::at_bound(h, &p, data.size).is_empty() || !train.is_finite() {
                 return None;
             }
             rest.push((*h, p));

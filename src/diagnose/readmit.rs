@@ -49,7 +49,7 @@ pub(super) fn readmit(
             .filter_map(|t| Some(Arc::new(t.without_form(&name, &data.slots)?)))
             .collect();
         let (p, _) = search::fit_beside(plant, data, (&selected, &others), h);
-        if !select::at_bound(h, &p).is_empty() {
+        if !select::at_bound(h, &p, data.size).is_empty() {
             continue;
         }
         let mut with = selected.clone();
@@ -161,7 +161,7 @@ fn best_beside(
             continue;
         }
         let (p, train) = search::fit_beside(plant, data, (selected, &c.model), h);
-        if !select::at_bound(h, &p).is_empty() {
+        if !select::at_bound(h, &p, data.size).is_empty() {
             continue;
         }
         let mut with = selected.clone();

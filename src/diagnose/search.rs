@@ -123,7 +123,7 @@ pub fn nelder_mead(f: Cost, x0: &[f64], step: f64, iters: usize) -> (Vec<f64>, f
 /// 30), and Nelder-Mead is free to leave it.
 fn grid_point(h: &Hypothesis, i: usize, t: f64, size: f64) -> f64 {
     let q = &h.params[i];
-    if q.lo == 0.0 && q.unit.starts_with('N') {
+    if q.is_size() {
         t * size.clamp(0.0, 1.0)
     } else {
         t

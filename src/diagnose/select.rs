@@ -76,19 +76,27 @@ pub struct Tested {
 
 /// The parameters of `h` at `p` that sit on a search bound (within 1 % of the range). A
 /// physical bound (a tether's zero slack, a fraction's 0 or 1) is a value physics allows, not
-/// a limit of the search ([`Limits`]).
-pub fn at_bound(h: &Hypothesis, p: &[f64]) -> Vec<String> {
+/// a limit of the search ([`Limits`]). The range of a force-like parameter starting at 0 is
+/// read at the vehicle's `size` ([`super::Data::size`]), as the search's grid is: on a vehicle
+/// a third the reference's, within 1 % of a third of it from 0.
+pub fn at_bound(h: &Hypothesis, p: &[f64], size: f64) -> Vec<String> {
     h.params
         .iter()
         .zip(p)
         .filter(|(q, v)| {
             let tol = 0.01 * (q.hi - q.lo);
+            let tol_lo = if q.is_size() {
+                tol * size.clamp(0.0, 1.0)
+            } else {
+                tol
+            };
             let (lo_searched, hi_searched) = match q.limits {
                 Limits::Search => (true, true),
                 Limits::PhysicalFloor => (false, true),
                 Limits::Physical => (false, false),
             };
-            (hi_searched && (q.hi - **v).abs() <= tol) || (lo_searched && (**v - q.lo).abs() <= tol)
+            (hi_searched && (q.hi - **v).abs() <= tol)
+                || (lo_searched && (**v - q.lo).abs() <= tol_lo)
         })
         .map(|(q, _)| q.name.to_string())
         .collect()
@@ -167,7 +175,7 @@ pub fn select(
         ));
         let on_top = (&selected, current_train);
         let fitted = fit_candidates(plant, data, criteria, on_top, &candidates, &rivals);
-        let mut rows = tested_rows(&fitted, criteria, current, round);
+        let mut rows = tested_rows(&fitted, criteria, (current, data.size), round);
         let Some(b) = best_row(&rows, criteria, current_train) else {
             // Every candidate is refused (not corroborated on the training runs, or on a
             // bound): the round's rows still go to the report.
@@ -366,7 +374,12 @@ fn strong_rivals(
 }
 
 /// The report's rows of one round: each candidate's parameters, costs, gain and score.
-fn tested_rows(fitted: &[Fitted], criteria: &Criteria, current: f64, round: usize) -> Vec<Tested> {
+fn tested_rows(
+    fitted: &[Fitted],
+    criteria: &Criteria,
+    (current, size): (f64, f64),
+    round: usize,
+) -> Vec<Tested> {
     fitted
         .iter()
         .map(|(h, p, tc, vc, _)| Tested {
@@ -378,7 +391,7 @@ fn tested_rows(fitted: &[Fitted], criteria: &Criteria, current: f64, round: usiz
             gain: (current - vc) / current,
             score: score(criteria, current, *vc, h.free_params(p)),
             accepted: false,
-            at_bound: at_bound(h, p),
+            at_bound: at_bound(h, p, size),
         })
         .collect()
 }
@@ -397,8 +410,11 @@ fn keep(
         return Ok(kept);
     }
     let kept = search::refine_all(plant, data, &kept, &[]);
-    match kept.iter().find(|(hb, pb)| !at_bound(hb, pb).is_empty()) {
-        Some((hb, pb)) => Err(at_bound(hb, pb)
+    match kept
+        .iter()
+        .find(|(hb, pb)| !at_bound(hb, pb, data.size).is_empty())
+    {
+        Some((hb, pb)) => Err(at_bound(hb, pb, data.size)
             .into_iter()
             .map(|n| format!("{}.{n} (refitted with the others)", hb.name))
             .collect()),
@@ -423,7 +439,7 @@ fn fit_replacements(
             rest.remove(i);
             let (p, train) = search::fit_one(plant, data, &rest, h);
             rest.push((h, p.clone()));
-            (corroborated(criteria, current_train, train) && at_bound(h, &p).is_empty())
+            (corroborated(criteria, current_train, train) && at_bound(h, &p, data.size).is_empty())
                 .then(|| (i, h, p, data.cost(plant, &augmentation(&rest), true)))
         })
         .collect()
@@ -471,7 +487,11 @@ fn swap(
     next.push((h, p));
     let next = search::refine_all(plant, data, &next, &[]);
     let after = data.cost(plant, &augmentation(&next), true);
-    if after >= current || next.iter().any(|(hb, pb)| !at_bound(hb, pb).is_empty()) {
+    if after >= current
+        || next
+            .iter()
+            .any(|(hb, pb)| !at_bound(hb, pb, data.size).is_empty())
+    {
         return None;
     }
     progress(&format!("round {round}: {} replaces {}", h.name, out.name));

@@ -67,7 +67,7 @@ fn refit_beside(
     // A refit that takes an effect to a search bound wants more than the effect can give.
     if refit
         .iter()
-        .any(|(h, p)| !dx::select::at_bound(h, p).is_empty())
+        .any(|(h, p)| !dx::select::at_bound(h, p, data.size).is_empty())
     {
         return Ok((selected, c, figs, None));
     }

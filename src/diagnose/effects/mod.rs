@@ -58,6 +58,15 @@ pub struct Param {
     pub limits: Limits,
 }
 
+impl Param {
+    /// A force-like parameter (in newtons) whose range starts at 0 (a threshold, a drag
+    /// coefficient): a size, its range set for the reference vehicle, read at the vehicle's
+    /// own size by the search's grid and its bound ([`super::Data::size`]).
+    pub fn is_size(&self) -> bool {
+        self.lo == 0.0 && self.unit.starts_with('N')
+    }
+}
+
 /// Which of a parameter's bounds are physics rather than the search's reach. A fit that ends on
 /// a search bound wants more than the effect can give and is not a finding; one that ends on a
 /// physical bound (no slack, a dead zone that offsets by all of itself) is a value like others.
