@@ -62,31 +62,8 @@ pub fn check_diagnosis(
             let ok = tally.count(&truth, &named);
             print_verdict(seed, effects, &d, ok, t);
             // The verdict's words, for reading why a scenario went as it did.
-            if std::env::var_os("HYDROFIT_CHECK_VERDICT").is_some() {
-                println!("  verdict: {}", d.verdict);
-                for why in &d.dropped {
-                    println!("  dropped: {why}");
-                }
-                // `HYDROFIT_CHECK_VERDICT=tested`: every hypothesis tried, round by round.
-                if std::env::var_os("HYDROFIT_CHECK_VERDICT").is_some_and(|v| v == "tested") {
-                    for h in &d.hypotheses {
-                        println!(
-                            "  tested: round {} {} {:?} held-out {:.4} gain {:.3} score {:.3}{}{}",
-                            h.round,
-                            h.name,
-                            h.parameters,
-                            h.validation_cost,
-                            h.gain,
-                            h.score,
-                            if h.accepted { " accepted" } else { "" },
-                            if h.at_bound.is_empty() {
-                                String::new()
-                            } else {
-                                format!(" at bound {:?}", h.at_bound)
-                            }
-                        );
-                    }
-                }
+            if let Some(v) = std::env::var_os("HYDROFIT_CHECK_VERDICT") {
+                print_details(&d, v == "tested");
             }
         }
     }
@@ -96,6 +73,35 @@ pub fn check_diagnosis(
     } else {
         ExitCode::FAILURE
     })
+}
+
+/// The verdict, the sentences of the effects dropped and, with `tested`, every hypothesis
+/// each round tried (`HYDROFIT_CHECK_VERDICT=1` or `=tested`).
+fn print_details(d: &Diagnosis, tested: bool) {
+    println!("  verdict: {}", d.verdict);
+    for why in &d.dropped {
+        println!("  dropped: {why}");
+    }
+    if !tested {
+        return;
+    }
+    for h in &d.hypotheses {
+        println!(
+            "  tested: round {} {} {:?} held-out {:.4} gain {:.3} score {:.3}{}{}",
+            h.round,
+            h.name,
+            h.parameters,
+            h.validation_cost,
+            h.gain,
+            h.score,
+            if h.accepted { " accepted" } else { "" },
+            if h.at_bound.is_empty() {
+                String::new()
+            } else {
+                format!(" at bound {:?}", h.at_bound)
+            }
+        );
+    }
 }
 
 /// Whether named effect `e` is a navigation log's own lateness rather than a finding: each

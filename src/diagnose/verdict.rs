@@ -31,8 +31,7 @@ pub fn diagnose(
     let (fused, latency) = super::latency::taken_out(plant, fused);
     let fused = &fused[..];
     let (runs, skipped, stability) = prepare_runs(plant, fused, crit);
-    let mut data = data_of(runs, &skipped)?;
-    data.size = (vehicle.mass_kg / crate::core::model::Vehicle::reference().mass_kg).min(1.0);
+    let data = data_of(vehicle, runs, &skipped)?;
     let diverged = diverged_runs(plant, &data);
     if !diverged.is_empty() {
         let elapsed = start.elapsed().as_secs_f64();
@@ -194,16 +193,23 @@ fn reestimated_record(
     }
 }
 
-/// The diagnosis's data from the runs it can use; when it can use none for want of a DOF,
-/// the error names the runs and what each lacks (`skipped`).
-fn data_of(runs: Vec<Run>, skipped: &[String]) -> anyhow::Result<Data> {
+/// The diagnosis's data from the runs it can use, with `vehicle`'s size ([`Data::size`]);
+/// when it can use none for want of a DOF, the error names the runs and what each lacks
+/// (`skipped`).
+fn data_of(
+    vehicle: &crate::core::model::Vehicle,
+    runs: Vec<Run>,
+    skipped: &[String],
+) -> anyhow::Result<Data> {
     if runs.is_empty() && !skipped.is_empty() {
         anyhow::bail!(
             "no pool run can be diagnosed:\n  {}\n  help: the diagnosis compares the model in the DOFs it moves in; give the runs the sensors those need, or leave those DOFs out of the vehicle's `dofs`",
             skipped.join("\n  ")
         );
     }
-    Data::new(runs)
+    let mut data = Data::new(runs)?;
+    data.size = (vehicle.mass_kg / crate::core::model::Vehicle::reference().mass_kg).min(1.0);
+    Ok(data)
 }
 
 /// The verdict: its sentence on the costs of what survived the selection, the discovered
