@@ -122,12 +122,7 @@ pub fn nelder_mead(f: Cost, x0: &[f64], step: f64, iters: usize) -> (Vec<f64>, f
 /// force on a vehicle a third the size is tried at 0, 3.3, 6.5 and 9.8 N, not 0, 10, 20 and
 /// 30), and Nelder-Mead is free to leave it.
 fn grid_point(h: &Hypothesis, i: usize, t: f64, size: f64) -> f64 {
-    let q = &h.params[i];
-    if q.is_size() {
-        t * size.clamp(0.0, 1.0)
-    } else {
-        t
-    }
+    t * h.params[i].share(size)
 }
 
 fn to_params(h: &Hypothesis, u: &[f64]) -> Vec<f64> {

@@ -85,11 +85,7 @@ pub fn at_bound(h: &Hypothesis, p: &[f64], size: f64) -> Vec<String> {
         .zip(p)
         .filter(|(q, v)| {
             let tol = 0.01 * (q.hi - q.lo);
-            let tol_lo = if q.is_size() {
-                tol * size.clamp(0.0, 1.0)
-            } else {
-                tol
-            };
+            let tol_lo = tol * q.share(size);
             let (lo_searched, hi_searched) = match q.limits {
                 Limits::Search => (true, true),
                 Limits::PhysicalFloor => (false, true),

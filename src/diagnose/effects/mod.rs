@@ -59,11 +59,16 @@ pub struct Param {
 }
 
 impl Param {
-    /// A force-like parameter (in newtons) whose range starts at 0 (a threshold, a drag
-    /// coefficient): a size, its range set for the reference vehicle, read at the vehicle's
-    /// own size by the search's grid and its bound ([`super::Data::size`]).
-    pub fn is_size(&self) -> bool {
-        self.lo == 0.0 && self.unit.starts_with('N')
+    /// The share of the range the search reads on a vehicle of `size` ([`super::Data::size`]):
+    /// `size` (at most 1) for a force-like parameter (in newtons) whose range starts at 0 (a
+    /// threshold, a drag coefficient), a size whose range was set for the reference vehicle;
+    /// the whole range for any other. The search's grid and its bound at 0 both use it.
+    pub fn share(&self, size: f64) -> f64 {
+        if self.lo == 0.0 && self.unit.starts_with('N') {
+            size.clamp(0.0, 1.0)
+        } else {
+            1.0
+        }
     }
 }
 
