@@ -307,9 +307,10 @@ pub enum TwinCommand {
         #[arg(long = "scenario")]
         scenarios: Vec<String>,
         /// The vehicle that flies the runs: `reference` (seed 001's 35.2 kg ROV, diagnosed
-        /// from its CFD fit) or `small` (a BlueROV2 Heavy-sized 11.5 kg ROV, diagnosed from
-        /// its true coefficients each moved 1-2.5 %; the check's force-like magnitudes scaled
-        /// to it).
+        /// from its CFD fit), `small` (a BlueROV2 Heavy-sized 11.5 kg ROV) or `heavy` (the
+        /// reference 1.5 times longer, 118.8 kg); `small` and `heavy` are diagnosed from their
+        /// true coefficients each moved 1-2.5 %, the check's force-like magnitudes scaled to
+        /// them.
         #[arg(long, default_value = "reference")]
         vehicle: String,
     },

@@ -443,8 +443,9 @@ pub struct Data {
     /// The effects to test ([`effects::REGISTRY`] unless a caller chooses others).
     pub effects: effects::Registry,
     /// The vehicle's size against the one the effects' ranges were set for: its mass over
-    /// the reference vehicle's, at most 1 (1 until the diagnosis sets it). The search's grid
-    /// of a force-like parameter spans this share of its range ([`search`]).
+    /// the reference vehicle's (1 until the diagnosis sets it). On a smaller vehicle the
+    /// search's grid of a force-like parameter spans this share of its range, on a heavier
+    /// one the range is this many times wider ([`effects::Param::bounds`]).
     pub size: f64,
 }
 

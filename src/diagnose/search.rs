@@ -125,19 +125,26 @@ fn grid_point(h: &Hypothesis, i: usize, t: f64, size: f64) -> f64 {
     t * h.params[i].share(size)
 }
 
-fn to_params(h: &Hypothesis, u: &[f64]) -> Vec<f64> {
+/// The parameters at unit-box point `u`, on a vehicle of `size` ([`super::Param::bounds`]).
+fn to_params(h: &Hypothesis, u: &[f64], size: f64) -> Vec<f64> {
     h.params
         .iter()
         .zip(u)
-        .map(|(q, x)| q.lo + x * (q.hi - q.lo))
+        .map(|(q, x)| {
+            let (lo, hi) = q.bounds(size);
+            lo + x * (hi - lo)
+        })
         .collect()
 }
 
-fn to_unit(h: &Hypothesis, p: &[f64]) -> Vec<f64> {
+fn to_unit(h: &Hypothesis, p: &[f64], size: f64) -> Vec<f64> {
     h.params
         .iter()
         .zip(p)
-        .map(|(q, x)| ((x - q.lo) / (q.hi - q.lo)).clamp(0.0, 1.0))
+        .map(|(q, x)| {
+            let (lo, hi) = q.bounds(size);
+            ((x - lo) / (hi - lo)).clamp(0.0, 1.0)
+        })
         .collect()
 }
 
@@ -162,7 +169,7 @@ pub fn fit_beside(
     let k = h.params.len();
     let cost = |u: &[f64], bound: f64| {
         let mut sel = selected.clone();
-        sel.push((h, to_params(h, u)));
+        sel.push((h, to_params(h, u, data.size)));
         let mut aug = augmentation(&sel);
         aug.discovered = beside.to_vec();
         data.train_cost_below(plant, &aug, bound)
@@ -186,7 +193,7 @@ pub fn fit_beside(
         }
     }
     let (u, c) = nelder_mead(&cost, &best.0, 0.5 / (g - 1) as f64, 40 * k);
-    (to_params(h, &u), c)
+    (to_params(h, &u, data.size), c)
 }
 
 /// Refits every kept effect's parameters together, from their current values, with the
@@ -204,13 +211,16 @@ pub fn refine_all(
             .iter()
             .zip(&sizes)
             .map(|((h, _), n)| {
-                let p = to_params(h, &u[at..at + n]);
+                let p = to_params(h, &u[at..at + n], data.size);
                 at += n;
                 (*h, p)
             })
             .collect()
     };
-    let u0: Vec<f64> = selected.iter().flat_map(|(h, p)| to_unit(h, p)).collect();
+    let u0: Vec<f64> = selected
+        .iter()
+        .flat_map(|(h, p)| to_unit(h, p, data.size))
+        .collect();
     let cost = |u: &[f64], bound: f64| {
         let mut aug = augmentation(&split(u));
         aug.discovered = beside.to_vec();

@@ -84,15 +84,15 @@ pub fn at_bound(h: &Hypothesis, p: &[f64], size: f64) -> Vec<String> {
         .iter()
         .zip(p)
         .filter(|(q, v)| {
-            let tol = 0.01 * (q.hi - q.lo);
+            let (lo, hi) = q.bounds(size);
+            let tol = 0.01 * (hi - lo);
             let tol_lo = tol * q.share(size);
             let (lo_searched, hi_searched) = match q.limits {
                 Limits::Search => (true, true),
                 Limits::PhysicalFloor => (false, true),
                 Limits::Physical => (false, false),
             };
-            (hi_searched && (q.hi - **v).abs() <= tol)
-                || (lo_searched && (**v - q.lo).abs() <= tol_lo)
+            (hi_searched && (hi - **v).abs() <= tol) || (lo_searched && (**v - lo).abs() <= tol_lo)
         })
         .map(|(q, _)| q.name.to_string())
         .collect()

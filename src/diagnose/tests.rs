@@ -12,6 +12,7 @@ mod joint;
 mod lag;
 mod nav_only;
 mod piloted;
+mod size;
 use piloted::piloted_fast_runs;
 
 fn run_scenario(effects: &[Effect], seed: u64) -> (Search, Data) {

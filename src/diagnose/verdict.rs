@@ -208,7 +208,7 @@ fn data_of(
         );
     }
     let mut data = Data::new(runs)?;
-    data.size = (vehicle.mass_kg / crate::core::model::Vehicle::reference().mass_kg).min(1.0);
+    data.size = vehicle.mass_kg / crate::core::model::Vehicle::reference().mass_kg;
     Ok(data)
 }
 

@@ -258,13 +258,45 @@ impl Craft {
         }
     }
 
-    /// By name: `reference` or `small`.
+    /// The reference vehicle made 1.5 times longer, by geometric similarity: mass and added
+    /// mass scale as the length cubed (118.8 kg), the yaw inertia and added inertia as its
+    /// fifth power, a translational drag coefficient, linear or quadratic, as its square
+    /// (the area), the yaw's linear damping as its fourth power and its quadratic damping as
+    /// its fifth (the area times the arm, at the arm's speed). A vehicle heavier than every
+    /// range the diagnosis was written for: its forces, thrust limits and effects are about
+    /// twice the reference's.
+    pub fn heavy() -> Craft {
+        const L: f64 = 1.5;
+        let mut vehicle = Vehicle::reference();
+        vehicle.name = "light work-class ROV, the reference 1.5 times longer (pool twin)".into();
+        vehicle.mass_kg *= L.powi(3);
+        vehicle.inertia_kg_m2.zz *= L.powi(5);
+        let r = Hydro::reference();
+        let scale = |v: [f64; 6], t: i32, yaw: i32| -> [f64; 6] {
+            std::array::from_fn(|i| v[i] * L.powi(if i < 3 { t } else { yaw }))
+        };
+        let hydro = Hydro::diagonal(
+            scale(r.added_diag(), 3, 5),
+            scale(r.lin_diag(), 2, 4),
+            scale(r.quad_diag(), 2, 5),
+        );
+        let (r, q) = (r.quad_diag(), hydro.quad_diag());
+        let command_scale = [q[0] / r[0], q[1] / r[1], q[2] / r[2], q[5] / r[5]];
+        Craft {
+            vehicle,
+            hydro,
+            command_scale,
+        }
+    }
+
+    /// By name: `reference`, `small` or `heavy`.
     pub fn named(name: &str) -> Result<Craft, String> {
         match name {
             "reference" => Ok(Craft::reference()),
             "small" => Ok(Craft::small()),
+            "heavy" => Ok(Craft::heavy()),
             _ => Err(format!(
-                "unknown twin vehicle `{name}`; known: reference (seed 001's 35.2 kg ROV), small (a BlueROV2 Heavy-sized 11.5 kg ROV)"
+                "unknown twin vehicle `{name}`; known: reference (seed 001's 35.2 kg ROV), small (a BlueROV2 Heavy-sized 11.5 kg ROV), heavy (the reference 1.5 times longer, 118.8 kg)"
             )),
         }
     }

@@ -64,11 +64,30 @@ impl Param {
     /// threshold, a drag coefficient), a size whose range was set for the reference vehicle;
     /// the whole range for any other. The search's grid and its bound at 0 both use it.
     pub fn share(&self, size: f64) -> f64 {
-        if self.lo == 0.0 && self.unit.starts_with('N') {
+        if self.lo == 0.0 && self.is_force() {
             size.clamp(0.0, 1.0)
         } else {
             1.0
         }
+    }
+
+    /// The bounds the search takes the parameter over on a vehicle of `size`: the range as
+    /// written for the reference vehicle, and on a heavier one a force-like parameter's range
+    /// times `size` (a dead zone of 45 N on a 119 kg vehicle is as plausible as one of 13 N on
+    /// the 35.2 kg reference). A smaller vehicle keeps the whole range (its grid reads the
+    /// lower [`Param::share`] of it).
+    pub fn bounds(&self, size: f64) -> (f64, f64) {
+        if self.is_force() {
+            let s = size.max(1.0);
+            (self.lo * s, self.hi * s)
+        } else {
+            (self.lo, self.hi)
+        }
+    }
+
+    /// A force or moment, or a coefficient of one (its unit starts with newtons).
+    fn is_force(&self) -> bool {
+        self.unit.starts_with('N')
     }
 }
 

@@ -1,0 +1,34 @@
+//! The diagnosis on vehicles other than the one its effects' ranges were written for.
+
+use super::*;
+use crate::twin::pool::{Craft, Logs};
+
+/// A vehicle 1.5 times the reference's length (118.8 kg, its forces about twice the
+/// reference's) with a dead zone of 33.75 N: past the 30 N the table's range was written for
+/// the search ended on its bound and the runs were reported unexplained, 115 times their
+/// noise floor. A force-like parameter's range is widened by the vehicle's size, and the
+/// dead zone is named at its value.
+#[test]
+fn a_heavy_vehicles_dead_zone_past_the_reference_range_is_named() {
+    let craft = Craft::heavy();
+    let plant = scenario::cfd_plant_of(&craft);
+    let effects = [Effect::from_arg("thruster_deadband=33.75").unwrap()];
+    let fused = scenario::fused_runs_of(&craft, &effects, 92, Logs::Sensors).unwrap();
+    let d = full_of(&craft.vehicle, &fused, &plant);
+    let e = d.effects.iter().find(|e| e.name == "thruster_deadband");
+    let e = e.unwrap_or_else(|| panic!("not named: {}", d.verdict));
+    assert!(e.candidate.is_none(), "only discovered: {}", d.verdict);
+    let force = e.parameters["force_n"];
+    assert!(
+        (force / 33.75 - 1.0).abs() < 0.1,
+        "dead zone {force} N against 33.75: {:?}",
+        e.parameters
+    );
+    let after = e.validation_cost_after;
+    assert!(
+        after < 2.0 * d.baseline.noise_cost,
+        "{after} against a floor of {}: {}",
+        d.baseline.noise_cost,
+        d.verdict
+    );
+}
