@@ -52,7 +52,7 @@ pub fn diagnose(
     let regimes = dx::regime_shares(&data.validate, &res_before, &data.scale);
 
     // 3. Hypotheses, greedily; 4. settled beside the model's own parameters re-estimated.
-    let at = (base_cost, drifted.cost);
+    let at = (base_cost, &drifted);
     let chosen = choose_effects(vehicle, plant, &data, crit, at, progress);
     let (search, settled, (before, after_effects), drift_won) = chosen;
     let used = (settled.as_ref().map(|s| &s.beside)).filter(|b| !b.selected.is_empty());
@@ -104,19 +104,19 @@ pub fn diagnose(
 /// own parameters re-estimated ([`beside::settle`]). Returns the search with its selection
 /// settled, what settling did, and the held-out cost of the effects on the model as it is
 /// and of those the verdict goes on with (the model as it is when all were dropped), and
-/// whether all were dropped (drift).
+/// whether the re-estimated model won (drift: all dropped, or [`Drifted::clears_structure`]).
 fn choose_effects(
     vehicle: &crate::core::model::Vehicle,
     plant: &Plant,
     data: &Data,
     crit: &Criteria,
-    (base_cost, drift_cost): (f64, f64),
+    (base_cost, drifted): (f64, &Drifted),
     progress: &(dyn Fn(&str) + Sync),
 ) -> (dx::Search, Option<beside::Settled>, (f64, f64), bool) {
     let mut search = dx::select(plant, data, crit, progress);
     let before = *search.costs.last().unwrap_or(&base_cost);
     let on_top = (&search.selected, before);
-    let settled = beside::settle(vehicle, plant, data, crit, on_top, drift_cost, progress);
+    let settled = beside::settle(vehicle, plant, data, crit, on_top, drifted.cost, progress);
     let after = match &settled {
         Some(s) => {
             search.selected = s.beside.selected.clone();
@@ -127,10 +127,12 @@ fn choose_effects(
         }
         None => before,
     };
-    // Every named effect dropped beside the re-estimated model: that is drift.
+    // Every named effect dropped beside the re-estimated model, or the re-estimate alone
+    // clearing a structure the pooled cost hides: that is drift.
     let drift_won = settled
         .as_ref()
-        .is_some_and(|s| s.beside.selected.is_empty());
+        .is_some_and(|s| s.beside.selected.is_empty())
+        || drifted.clears_structure(plant, data, crit, (base_cost, after));
     (search, settled, (before, after), drift_won)
 }
 
