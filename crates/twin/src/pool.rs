@@ -249,6 +249,12 @@ impl Craft {
             [-4.03, -6.22, -5.18, 0.0, 0.0, -0.07],
             [-18.18, -21.66, -36.99, 0.0, 0.0, -1.55],
         );
+        Craft::flown_as_the_reference(vehicle, hydro)
+    }
+
+    /// `vehicle` with `hydro`, its commands scaled by its quadratic drag against the
+    /// reference's (per DOF, X, Y, Z, N) so that it reaches the reference's speeds.
+    fn flown_as_the_reference(vehicle: Vehicle, hydro: Hydro) -> Craft {
         let (r, q) = (Hydro::reference().quad_diag(), hydro.quad_diag());
         let command_scale = [q[0] / r[0], q[1] / r[1], q[2] / r[2], q[5] / r[5]];
         Craft {
@@ -280,13 +286,7 @@ impl Craft {
             scale(r.lin_diag(), 2, 4),
             scale(r.quad_diag(), 2, 5),
         );
-        let (r, q) = (r.quad_diag(), hydro.quad_diag());
-        let command_scale = [q[0] / r[0], q[1] / r[1], q[2] / r[2], q[5] / r[5]];
-        Craft {
-            vehicle,
-            hydro,
-            command_scale,
-        }
+        Craft::flown_as_the_reference(vehicle, hydro)
     }
 
     /// By name: `reference`, `small` or `heavy`.

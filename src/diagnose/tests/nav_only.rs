@@ -527,30 +527,3 @@ fn a_bluerov2_heavy_sized_vehicle_is_diagnosed_from_its_navigation_log() {
         "thruster lag {tau} s against 0.2 s"
     );
 }
-
-/// The same vehicle with a dead zone of 1.5 N (0.15 N m): the search's grid of a force-like
-/// parameter spans the share of its range the vehicle's mass is of the reference's, so the
-/// table's `thruster_deadband` finds it at its size and explains the runs (a grid over the
-/// whole 0-30 N tried 0 and 10 N, ended at 0, and left the runs 12 times their noise floor to
-/// discovery).
-#[test]
-fn a_small_vehicles_dead_zone_is_found_at_its_size() {
-    let craft = crate::twin::pool::Craft::small();
-    let plant = scenario::cfd_plant_of(&craft);
-    let effects = [Effect::from_arg("thruster_deadband=1.5").unwrap()];
-    let fused = scenario::fused_runs_of(&craft, &effects, 95, Logs::Navigation).unwrap();
-    let d = full_of(&craft.vehicle, &fused, &plant);
-    let e = d.effects.iter().find(|e| e.name == "thruster_deadband");
-    let e = e.unwrap_or_else(|| panic!("not named: {}", d.verdict));
-    assert!(e.candidate.is_none(), "only discovered: {}", d.verdict);
-    // Above the dead zone a command loses `offset` times the threshold.
-    let loss = e.parameters["force_n"] * e.parameters["offset"];
-    assert!((loss / 1.5 - 1.0).abs() < 0.25, "{:?}", e.parameters);
-    let after = e.validation_cost_after;
-    assert!(
-        after < 2.0 * d.baseline.noise_cost,
-        "{after} against a floor of {}: {}",
-        d.baseline.noise_cost,
-        d.verdict
-    );
-}

@@ -11,20 +11,53 @@ use crate::twin::pool::{Craft, Logs};
 /// dead zone is named at its value.
 #[test]
 fn a_heavy_vehicles_dead_zone_past_the_reference_range_is_named() {
-    let craft = Craft::heavy();
-    let plant = scenario::cfd_plant_of(&craft);
-    let effects = [Effect::from_arg("thruster_deadband=33.75").unwrap()];
-    let fused = scenario::fused_runs_of(&craft, &effects, 92, Logs::Sensors).unwrap();
-    let d = full_of(&craft.vehicle, &fused, &plant);
-    let e = d.effects.iter().find(|e| e.name == "thruster_deadband");
-    let e = e.unwrap_or_else(|| panic!("not named: {}", d.verdict));
-    assert!(e.candidate.is_none(), "only discovered: {}", d.verdict);
+    let (d, e) = dead_zone_named(&Craft::heavy(), 33.75, 92, Logs::Sensors);
     let force = e.parameters["force_n"];
     assert!(
         (force / 33.75 - 1.0).abs() < 0.1,
         "dead zone {force} N against 33.75: {:?}",
         e.parameters
     );
+    below_twice_the_floor(&d, &e);
+}
+
+/// A BlueROV2 Heavy-sized vehicle's navigation log with a dead zone of 1.5 N (0.15 N m):
+/// the search's grid of a force-like parameter spans the share of its range the vehicle's
+/// mass is of the reference's, so the table's `thruster_deadband` finds it at its size and
+/// explains the runs (a grid over the whole 0-30 N tried 0 and 10 N, ended at 0, and left
+/// the runs 12 times their noise floor to discovery).
+#[test]
+fn a_small_vehicles_dead_zone_is_found_at_its_size() {
+    let (d, e) = dead_zone_named(&Craft::small(), 1.5, 95, Logs::Navigation);
+    // Above the dead zone a command loses `offset` times the threshold.
+    let loss = e.parameters["force_n"] * e.parameters["offset"];
+    assert!((loss / 1.5 - 1.0).abs() < 0.25, "{:?}", e.parameters);
+    below_twice_the_floor(&d, &e);
+}
+
+/// The diagnosis of `craft`'s runs (`seed`, `logs`) with a dead zone of `force_n` concealed,
+/// and the `thruster_deadband` it names, asserted named from the table (not only
+/// discovered).
+fn dead_zone_named(
+    craft: &Craft,
+    force_n: f64,
+    seed: u64,
+    logs: Logs,
+) -> (Diagnosis, crate::diagnose::result::Found) {
+    let plant = scenario::cfd_plant_of(craft);
+    let effects = [Effect::from_arg(&format!("thruster_deadband={force_n}")).unwrap()];
+    let fused = scenario::fused_runs_of(craft, &effects, seed, logs).unwrap();
+    let d = full_of(&craft.vehicle, &fused, &plant);
+    let e = d.effects.iter().find(|e| e.name == "thruster_deadband");
+    let e = e
+        .unwrap_or_else(|| panic!("not named: {}", d.verdict))
+        .clone();
+    assert!(e.candidate.is_none(), "only discovered: {}", d.verdict);
+    (d, e)
+}
+
+/// The named effect `e` leaves the held-out runs under twice their noise floor.
+fn below_twice_the_floor(d: &Diagnosis, e: &crate::diagnose::result::Found) {
     let after = e.validation_cost_after;
     assert!(
         after < 2.0 * d.baseline.noise_cost,
@@ -34,7 +67,7 @@ fn a_heavy_vehicles_dead_zone_past_the_reference_range_is_named() {
     );
 }
 
-/// The same vehicle with nothing concealed, diagnosed from its coefficients each moved
+/// The 118.8 kg vehicle with nothing concealed, diagnosed from its coefficients each moved
 /// 1-2.5 %: the moved surge and sway added masses leave a Munk moment (Y_vdot - X_udot) u v
 /// in yaw, structured at 6.4 times its noise while the pooled held-out cost is 1.2 times the
 /// floor. The re-estimated model clears it, so the verdict is drift, never `unexplained`
