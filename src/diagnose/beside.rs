@@ -10,10 +10,12 @@
 //! held-out runs still need it, separates the two: what the coefficients take up is drift,
 //! what they cannot is a left-out effect.
 
+use super::discover::Discovered;
 use super::{self as dx, Augmentation, Criteria, Data, SLOTS, Selection};
 use crate::core::model::{ParamLayout, Plant, Vehicle};
 use crate::identify::refine::Bounds;
 use nalgebra::{DMatrix, DVector};
+use std::sync::Arc;
 
 /// The model re-estimated beside a set of named effects, and the effects refitted on it.
 #[derive(Clone)]
@@ -22,6 +24,8 @@ pub(super) struct Beside {
     pub(super) selected: Selection,
     /// Held-out cost of the re-estimated model with the effects.
     pub(super) cost: f64,
+    /// Where the coefficients may go: around the model as it is ([`around`]).
+    pub(super) bounds: Bounds,
 }
 
 /// Levenberg-Marquardt steps at most, first with the effects as the greedy rounds fitted
@@ -75,7 +79,9 @@ pub(super) fn settle(
         return None;
     }
     progress("re-estimating the model's parameters beside the named effects");
-    let mut full = Beside::fit(vehicle, plant, data, selected);
+    let layout = ParamLayout::of(vehicle);
+    let bounds = around(&layout, vehicle, plant);
+    let mut full = Beside::fit(vehicle, plant, data, (selected, &[]), &bounds);
     if !worth_it(crit, with_effects, full.cost) {
         return None;
     }
@@ -111,6 +117,18 @@ pub(super) fn settle(
     if !super::noise_rule::reestimate_within_noise(crit, data, full.cost) {
         return None;
     }
+    // Nor, above the noise, is one taken that leaves a DOF's residual structured: the
+    // coefficients have then stood in for part of something the effects do not hold (a
+    // thrust lost to the inflow beside `coupled_drag`: X_udot -15.9 -> -21.8, X_uu -44 ->
+    // -72, 3.6 times the floor with yaw 14-60 times its noise), and discovery looks for it
+    // on the model as it is. Within the noise the allowance is not at stake: a sensor delay
+    // beside coefficients 1-2.5 % off, re-estimated to 1.1 times the floor, is taken.
+    let aug = dx::augmentation(&full.selected);
+    if !super::noise_rule::within_noise(crit, data, full.cost)
+        && !super::unexplained::structured_left(&full.plant, data, &aug, crit).is_empty()
+    {
+        return None;
+    }
     Some(Settled { beside: full, said })
 }
 
@@ -134,7 +152,7 @@ fn eliminate(
                 if rest.is_empty() {
                     (i, drift_cost, None)
                 } else {
-                    let b = Beside::fit(vehicle, &full.plant, data, &rest);
+                    let b = Beside::fit(vehicle, &full.plant, data, (&rest, &[]), &full.bounds);
                     (i, b.cost, Some(b))
                 }
             })
@@ -229,7 +247,7 @@ fn swapped(
     let Some((w, sel, _)) = fitted.into_iter().min_by(|a, b| a.2.total_cmp(&b.2)) else {
         return (full, None);
     };
-    let b = Beside::fit(vehicle, &full.plant, data, &sel);
+    let b = Beside::fit(vehicle, &full.plant, data, (&sel, &[]), &full.bounds);
     let (h, p) = sel.last().expect("the effect tried");
     let better = match w {
         Some(_) => b.cost < (1.0 - crit.min_gain) * full.cost,
@@ -259,31 +277,76 @@ fn swapped(
 
 impl Beside {
     /// The model's coefficients re-estimated by output error on the training runs with the
-    /// effects `selected` held, the effects refitted on the re-estimated model, and the
-    /// coefficients re-estimated once more beside them; from `plant`'s coefficients (the
-    /// model as it is, or for a later change the model already re-estimated, so that a
-    /// change is judged from where the last one left it).
+    /// effects `selected` held (and discovered `terms`, as found), the effects refitted on
+    /// the re-estimated model, and the coefficients re-estimated once more beside them; from
+    /// `plant`'s coefficients (the model as it is, or for a later change the model already
+    /// re-estimated, so that a change is judged from where the last one left it), within
+    /// `bounds`.
     pub(super) fn fit(
         vehicle: &Vehicle,
         plant: &Plant,
         data: &Data,
-        selected: &Selection,
+        (selected, terms): (&Selection, &[Arc<Discovered>]),
+        bounds: &Bounds,
     ) -> Beside {
         let layout = ParamLayout::of(vehicle);
-        let prior = [crate::identify::pem::DEFAULT_PRIOR; 6];
-        let bounds = crate::identify::pem::plausible(&layout, &vehicle.rigid_mass(), &prior);
-        let aug = dx::augmentation(selected);
-        let first = lm(vehicle, plant, data, (&layout, &bounds), &aug, STEPS[0]);
-        let refit = super::search::refine_all(&first, data, selected, &[]);
-        let aug = dx::augmentation(&refit);
-        let second = lm(vehicle, &first, data, (&layout, &bounds), &aug, STEPS[1]);
+        let with_terms = |sel: &Selection| {
+            let mut aug = dx::augmentation(sel);
+            aug.discovered = terms.to_vec();
+            aug
+        };
+        let aug = with_terms(selected);
+        let first = lm(vehicle, plant, data, (&layout, bounds), &aug, STEPS[0]);
+        let refit = super::search::refine_all(&first, data, selected, terms);
+        let aug = with_terms(&refit);
+        let second = lm(vehicle, &first, data, (&layout, bounds), &aug, STEPS[1]);
         let cost = data.cost(&second, &aug, true);
         Beside {
             plant: second,
             selected: refit,
             cost,
+            bounds: bounds.clone(),
         }
     }
+}
+
+/// How far the re-estimate beside named effects may move a coefficient, as a share of the
+/// model's own value: it corrects a model a little off (the twins' coefficients are moved
+/// 1-2.5 %); a model far off is drift, re-estimated alone ([`super::drift`]).
+const MOVE: f64 = 0.25;
+
+/// The re-estimate's bounds around the model as it is (`plant`): each coefficient within
+/// [`MOVE`] of its own value (one at zero within the plausible range), inside the
+/// identification's plausible ranges, each added mass's prior (0 to 2 times the rigid-body
+/// term) widened to hold the model's own value.
+///
+/// A CFD model's heave added mass is often more than twice the mass (the reference ROV's is
+/// 2.4 times): clamped into the prior, the re-estimate started from a model it was not, the
+/// heave's held-out NMAE went from 0.03 to 0.10 on a twin 1.5 times the reference's length
+/// and the re-estimate was refused beside a right net buoyancy. Free to go anywhere
+/// plausible, the coefficients took in part of a thrust lost to the inflow beside
+/// `coupled_drag` (X_udot -15.9 -> -21.8, X_uu -44 -> -72) and the loss was named
+/// `coupled_drag`.
+fn around(layout: &ParamLayout, vehicle: &Vehicle, plant: &Plant) -> Bounds {
+    let rigid = vehicle.rigid_mass();
+    let added = plant.hydro.added_diag();
+    let prior: [f64; 6] = std::array::from_fn(|i| {
+        let ratio = if rigid[i] > 0.0 {
+            -added[i] / rigid[i]
+        } else {
+            0.0
+        };
+        crate::identify::pem::DEFAULT_PRIOR.max(ratio)
+    });
+    let mut b = crate::identify::pem::plausible(layout, &rigid, &prior);
+    for (j, own) in layout.from_hydro(&plant.hydro).into_iter().enumerate() {
+        let reach = MOVE * own.abs();
+        if reach > 0.0 {
+            b.lo[j] = b.lo[j].max(own - reach).min(own);
+            b.hi[j] = b.hi[j].min(own + reach).max(own);
+        }
+    }
+    b
 }
 
 /// `plant` with coefficients `theta` (in `layout`'s order).

@@ -52,8 +52,8 @@ pub fn diagnose(
     let regimes = dx::regime_shares(&data.validate, &res_before, &data.scale);
 
     // 3. Hypotheses, greedily; 4. settled beside the model's own parameters re-estimated.
-    let at = (base_cost, &drifted);
-    let chosen = choose_effects(vehicle, plant, &data, crit, at, progress);
+    let at = (base_cost, &drifted, &mut Bare::default());
+    let chosen = choose_effects(vehicle, plant, &data, crit, at, progress)?;
     let (search, settled, (before, after_effects), drift_won) = chosen;
     let used = (settled.as_ref().map(|s| &s.beside)).filter(|b| !b.selected.is_empty());
     let plant = used.map_or(plant, |b| &b.plant);
@@ -105,18 +105,32 @@ pub fn diagnose(
 /// settled, what settling did, and the held-out cost of the effects on the model as it is
 /// and of those the verdict goes on with (the model as it is when all were dropped), and
 /// whether the re-estimated model won (drift: all dropped, or [`Drifted::clears_structure`]).
+/// The settled effects meet discovery's closed form given the same re-estimate
+/// ([`rival::contest`]), found in `bare`.
+type Chosen = (dx::Search, Option<beside::Settled>, (f64, f64), bool);
 fn choose_effects(
     vehicle: &crate::core::model::Vehicle,
     plant: &Plant,
     data: &Data,
     crit: &Criteria,
-    (base_cost, drifted): (f64, &Drifted),
+    (base_cost, drifted, bare): (f64, &Drifted, &mut Bare),
     progress: &(dyn Fn(&str) + Sync),
-) -> (dx::Search, Option<beside::Settled>, (f64, f64), bool) {
+) -> anyhow::Result<Chosen> {
     let mut search = dx::select(plant, data, crit, progress);
     let before = *search.costs.last().unwrap_or(&base_cost);
     let on_top = (&search.selected, before);
-    let settled = beside::settle(vehicle, plant, data, crit, on_top, drifted.cost, progress);
+    let mut settled = beside::settle(vehicle, plant, data, crit, on_top, drifted.cost, progress);
+    let contest = match &settled {
+        Some(s) => rival::contest(vehicle, plant, data, crit, (&search, bare, s))?,
+        None => rival::Contest::Stands,
+    };
+    match contest {
+        rival::Contest::Beaten => settled = None,
+        rival::Contest::Alike(sentence) => {
+            (settled.iter_mut()).for_each(|s| s.said.push((false, sentence.clone())))
+        }
+        rival::Contest::Stands => {}
+    }
     let after = match &settled {
         Some(s) => {
             search.selected = s.beside.selected.clone();
@@ -133,7 +147,7 @@ fn choose_effects(
         .as_ref()
         .is_some_and(|s| s.beside.selected.is_empty())
         || drifted.clears_structure(plant, data, crit, (base_cost, after));
-    (search, settled, (before, after), drift_won)
+    Ok((search, settled, (before, after), drift_won))
 }
 
 /// The overview figures in front: the model's held-out residual (`res_before`) with where it
@@ -294,6 +308,7 @@ fn conclude(
     (search, drift_won): (&dx::Search, bool),
     costs: &Costs,
 ) -> anyhow::Result<(Vec<Found>, Vec<Figure>, Conclusion)> {
+    // A fresh discovery: one run for the contest ([`rival::contest`]) would count as sought.
     let mut bare = Bare::default();
     let (drift, mut notes, beaten) =
         rival::drift_holds(plant, data, crit, (search, &mut bare), (costs, drift_won))?;
