@@ -52,7 +52,7 @@ pub fn diagnose(
     let regimes = dx::regime_shares(&data.validate, &res_before, &data.scale);
 
     // 3. Hypotheses, greedily; 4. settled beside the model's own parameters re-estimated.
-    let at = (base_cost, &drifted, &mut Bare::default());
+    let at = (base_cost, &drifted);
     let chosen = choose_effects(vehicle, plant, &data, crit, at, progress)?;
     let (search, settled, (before, after_effects), drift_won) = chosen;
     let used = (settled.as_ref().map(|s| &s.beside)).filter(|b| !b.selected.is_empty());
@@ -106,14 +106,14 @@ pub fn diagnose(
 /// and of those the verdict goes on with (the model as it is when all were dropped), and
 /// whether the re-estimated model won (drift: all dropped, or [`Drifted::clears_structure`]).
 /// The settled effects meet discovery's closed form given the same re-estimate
-/// ([`rival::contest`]), found in `bare`.
+/// ([`rival::contest`]).
 type Chosen = (dx::Search, Option<beside::Settled>, (f64, f64), bool);
 fn choose_effects(
     vehicle: &crate::core::model::Vehicle,
     plant: &Plant,
     data: &Data,
     crit: &Criteria,
-    (base_cost, drifted, bare): (f64, &Drifted, &mut Bare),
+    (base_cost, drifted): (f64, &Drifted),
     progress: &(dyn Fn(&str) + Sync),
 ) -> anyhow::Result<Chosen> {
     let mut search = dx::select(plant, data, crit, progress);
@@ -121,13 +121,21 @@ fn choose_effects(
     let on_top = (&search.selected, before);
     let mut settled = beside::settle(vehicle, plant, data, crit, on_top, drifted.cost, progress);
     let contest = match &settled {
-        Some(s) => rival::contest(vehicle, plant, data, crit, (&search, bare, s))?,
+        Some(s) => rival::contest(
+            vehicle,
+            plant,
+            data,
+            crit,
+            (&search, &mut Bare::default(), s),
+        )?,
         None => rival::Contest::Stands,
     };
     match contest {
         rival::Contest::Beaten => settled = None,
         rival::Contest::Alike(sentence) => {
-            (settled.iter_mut()).for_each(|s| s.said.push((false, sentence.clone())))
+            if let Some(s) = &mut settled {
+                s.said.push((false, sentence));
+            }
         }
         rival::Contest::Stands => {}
     }

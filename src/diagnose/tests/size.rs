@@ -35,6 +35,32 @@ fn a_small_vehicles_dead_zone_is_found_at_its_size() {
     below_twice_the_floor(&d, &e);
 }
 
+/// The 118.8 kg vehicle with a net buoyancy of 13.5 N, diagnosed from its coefficients
+/// each moved 1-2.5 %. Its CFD model's heave added mass is 2.4 times its mass: the
+/// re-estimate beside the buoyancy clamped it into the open-frame prior (2 times), predicted
+/// the held-out heave worse and was refused, and the moved added masses' yaw was reported
+/// unexplained beside the right buoyancy. Bounded around the model's own values it is
+/// taken: the buoyancy alone is named, within 2 %, and discovery's constant heave force (the
+/// buoyancy's own form) is not listed as a look-alike of it.
+#[test]
+fn a_heavy_vehicles_buoyancy_leaves_nothing_beside_it() {
+    let craft = Craft::heavy();
+    let plant = scenario::cfd_plant_of(&craft);
+    let effects = [Effect::from_arg("net_buoyancy=13.5").unwrap()];
+    let fused = scenario::fused_runs_of(&craft, &effects, 92, Logs::Sensors).unwrap();
+    let d = full_of(&craft.vehicle, &fused, &plant);
+    let names: Vec<&str> = d.effects.iter().map(|e| e.name.as_str()).collect();
+    assert_eq!(names, ["net_buoyancy"], "{}", d.verdict);
+    let force = d.effects[0].parameters["force_n"];
+    assert!(
+        (force / 13.5 - 1.0).abs() < 0.02,
+        "{force} N: {}",
+        d.verdict
+    );
+    assert!(!d.verdict.contains("cannot tell it from"), "{}", d.verdict);
+    assert!(d.baseline.parameters_reestimated, "{}", d.verdict);
+}
+
 /// The diagnosis of `craft`'s runs (`seed`, `logs`) with a dead zone of `force_n` concealed,
 /// and the `thruster_deadband` it names, asserted named from the table (not only
 /// discovered).
