@@ -290,15 +290,10 @@ impl Beside {
         bounds: &Bounds,
     ) -> Beside {
         let layout = ParamLayout::of(vehicle);
-        let with_terms = |sel: &Selection| {
-            let mut aug = dx::augmentation(sel);
-            aug.discovered = terms.to_vec();
-            aug
-        };
-        let aug = with_terms(selected);
+        let aug = dx::augmentation_beside(selected, terms);
         let first = lm(vehicle, plant, data, (&layout, bounds), &aug, STEPS[0]);
         let refit = super::search::refine_all(&first, data, selected, terms);
-        let aug = with_terms(&refit);
+        let aug = dx::augmentation_beside(&refit, terms);
         let second = lm(vehicle, &first, data, (&layout, bounds), &aug, STEPS[1]);
         let cost = data.cost(&second, &aug, true);
         Beside {

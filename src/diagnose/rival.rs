@@ -317,9 +317,10 @@ pub(super) fn contest(
         return Ok(Contest::Stands);
     }
     let beside: Vec<&str> = kept.iter().map(|(h, _)| h.name).collect();
-    let beside = match beside.is_empty() {
-        true => String::new(),
-        false => format!(" beside {}", beside.join(" and ")),
+    let beside = if beside.is_empty() {
+        String::new()
+    } else {
+        format!(" beside {}", beside.join(" and "))
     };
     Ok(Contest::Alike(format!(
         "A closed form discovery proposes ({}){beside} explains the held-out runs about as well with the model's own parameters re-estimated (error cost {:.4} against {:.4}): the runs cannot tell it from {}",
