@@ -68,10 +68,9 @@ pub(super) fn readmit(
         // No worse than the terms it stands for, after the per-parameter penalty the search
         // charges (a named effect of one parameter for two coefficients of its form).
         let (before, after) = (c.cost_after_all(), c2.cost_after_all());
-        let params = |c: &Candidate| c.model.iter().map(|t| t.params() as f64).sum::<f64>();
         let penalty = crit.gain_per_parameter * before;
         let worse =
-            after + penalty * (params(&c2) + h.free_params(&p)) > before + penalty * params(&c);
+            after + penalty * (c2.params() + h.free_params(&p)) > before + penalty * c.params();
         if worse || !select::significant(crit, data, alone, after, h.free_params(&p)) {
             continue;
         }

@@ -359,6 +359,12 @@ impl Candidate {
             .map_or(self.validation_cost_after, |c| c.validation_cost_after)
     }
 
+    /// The coefficients of every term the simulation adds (a sine's amplitude and phase
+    /// counting two), as the search's per-parameter penalty counts them.
+    pub fn params(&self) -> f64 {
+        self.model.iter().map(|t| t.params() as f64).sum()
+    }
+
     /// This candidate and the ones after it.
     pub fn parts(&self) -> impl Iterator<Item = &Candidate> {
         std::iter::once(self).chain(&self.also)

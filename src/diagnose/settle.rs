@@ -94,9 +94,8 @@ fn refit_beside(
     // No worse after the per-parameter penalty the search charges: the same fit with fewer
     // terms is taken.
     let (before, after) = (c.cost_after_all(), c2.cost_after_all());
-    let params = |c: &Candidate| c.model.iter().map(|t| t.params() as f64).sum::<f64>();
     let penalty = crit.gain_per_parameter * before;
-    if after + penalty * params(&c2) >= before + penalty * params(&c) {
+    if after + penalty * c2.params() >= before + penalty * c.params() {
         return Ok((selected, c, figs, None));
     }
     let moved: Vec<String> = selected
