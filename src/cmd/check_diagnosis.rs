@@ -318,17 +318,29 @@ fn print_verdict(seed: u64, effects: &[Effect], d: &Diagnosis, ok: Outcome, t: I
         .iter()
         .map(|e| {
             let alike: Vec<&str> = e.alike.iter().map(|a| a.name.as_str()).collect();
-            format!(
-                "{} {:?}{}",
-                e.name,
-                e.parameters
-                    .values()
+            let rounded = |p: &std::collections::BTreeMap<String, f64>| {
+                (p.values())
                     .map(|v| (v * 1000.0).round() / 1000.0)
-                    .collect::<Vec<_>>(),
+                    .collect::<Vec<_>>()
+            };
+            let beside: Vec<String> = (e.possibly_beside.iter())
+                .map(|b| {
+                    format!(
+                        " (possibly beside: {} {:?})",
+                        b.name,
+                        rounded(&b.parameters)
+                    )
+                })
+                .collect();
+            format!(
+                "{} {:?}{}{}",
+                e.name,
+                rounded(&e.parameters),
                 match alike.is_empty() {
                     true => String::new(),
                     false => format!(" (or {})", alike.join(" or ")),
-                }
+                },
+                beside.concat()
             )
         })
         .collect();

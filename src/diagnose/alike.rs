@@ -2,7 +2,7 @@
 //! ([`select::alike`]) and, once discovery has found terms, fitted in its place beside them.
 
 use super::discover::Discovered;
-use super::result::{Alike, Found};
+use super::result::{Alike, Found, PossiblyBeside};
 use super::{Criteria, Data, Search, Selection, augmentation_beside, search, select, testable};
 use crate::core::model::Plant;
 use std::sync::Arc;
@@ -96,5 +96,37 @@ pub(super) fn list_alike(
             data.noise_cost
         ));
         e.alike.extend(more.into_iter().cloned());
+    }
+}
+
+/// The effects possibly beside a named one ([`select::Possible`]), listed with the effect
+/// they shared their mismatch with, each with its figures. Listed only while what they were
+/// fitted beside stands: every effect of that fit still named and it not named itself. The
+/// caller lists none once discovery has found terms (a closed form may hold what they fitted).
+pub(super) fn list_possible(effects: &mut [Found], search: &Search, crit: &Criteria, data: &Data) {
+    let named: Vec<String> = effects.iter().map(|e| e.name.clone()).collect();
+    let margin = crit.min_noise_multiple * data.noise_cost;
+    for p in &search.possible {
+        let stands = p.beside.len() == named.len()
+            && p.beside.iter().all(|b| named.iter().any(|n| n == b))
+            && !named.iter().any(|n| n == p.name);
+        let Some(last) = p.beside.last().filter(|_| stands) else {
+            continue;
+        };
+        let Some(e) = effects.iter_mut().find(|e| e.name == *last) else {
+            continue;
+        };
+        e.possibly_beside.push(PossiblyBeside {
+            name: p.name.to_string(),
+            parameters: p.parameters.clone(),
+            validation_cost_without: p.without,
+            validation_cost_with: p.with,
+        });
+    }
+    for e in effects {
+        if !e.possibly_beside.is_empty() {
+            let sentence = e.possibly_beside_sentence(margin);
+            e.evidence.push_str(&sentence);
+        }
     }
 }

@@ -112,6 +112,26 @@ pub struct Search {
     pub tested: Vec<Tested>,
     /// Held-out cost of the CFD model, then after each accepted effect.
     pub costs: Vec<f64>,
+    /// Rivals of the last kept effect that, fitted together with the kept effects in the
+    /// round that ended the search, lowered the held-out cost by the share an effect needs
+    /// but by less than the noise margin ([`possibly_beside`]).
+    pub possible: Vec<Possible>,
+}
+
+/// An effect possibly present beside the kept ones: fitted together with them it fits the
+/// held-out runs better by the share a named effect must gain, but by less than the noise
+/// margin, so it is listed, never named.
+#[derive(Debug, Clone)]
+pub struct Possible {
+    /// The kept effects it was fitted with; it shared its mismatch with the last of them.
+    pub beside: Vec<&'static str>,
+    pub name: &'static str,
+    pub parameters: BTreeMap<String, f64>,
+    /// Held-out cost of the kept effects refined without it, from where the joint fit left
+    /// them ...
+    pub without: f64,
+    /// ... and of the joint fit.
+    pub with: f64,
 }
 
 /// The winner's score: ln(before / after) less `gain_per_parameter` per parameter.
@@ -163,6 +183,7 @@ pub fn select(
     let mut current_train = data.cost(plant, &Augmentation::default(), false);
     let mut costs = vec![current];
     let mut rivals: Vec<Rival> = Vec::new();
+    let mut possible = Vec::new();
     for round in 1..=criteria.max_effects {
         let candidates: Vec<&'static Hypothesis> = untried(data, &selected).collect();
         progress(&format!(
@@ -171,6 +192,9 @@ pub fn select(
         ));
         let on_top = (&selected, current_train);
         let fitted = fit_candidates(plant, data, criteria, on_top, &candidates, &rivals);
+        // What the joint fits of this round found too small to name: it stands only if the
+        // search ends here, with the kept effects it was fitted beside.
+        possible = fitted.iter().filter_map(|f| f.5.clone()).collect();
         let mut rows = tested_rows(&fitted, criteria, (current, data.size), round);
         let Some(b) = best_row(&rows, criteria, current_train) else {
             // Every candidate is refused (not corroborated on the training runs, or on a
@@ -178,7 +202,7 @@ pub fn select(
             tested.extend(rows);
             break;
         };
-        let (h, p, _, val, _) = &fitted[b];
+        let (h, p, _, val, _, _) = &fitted[b];
         if !significant(criteria, data, current, *val, h.free_params(p))
             || outgained_on_a_bound(&rows, b, criteria, current_train)
         {
@@ -199,6 +223,7 @@ pub fn select(
             }
         }
         rows[b].accepted = true;
+        possible.clear();
         let aug = augmentation(&selected);
         (current, current_train) = (data.cost(plant, &aug, true), data.cost(plant, &aug, false));
         costs.push(current);
@@ -223,6 +248,7 @@ pub fn select(
         selected,
         tested,
         costs,
+        possible,
     }
 }
 
@@ -255,8 +281,16 @@ fn record_swap(tested: &mut Vec<Tested>, out: &str, row: Tested) {
 }
 
 /// A candidate fitted on top of the kept effects: the effect, its parameters, its training
-/// cost, its held-out cost, and the kept effects as they were fitted with it.
-type Fitted = (&'static Hypothesis, Vec<f64>, f64, f64, Selection);
+/// cost, its held-out cost, the kept effects as they were fitted with it, and, when its
+/// joint fit with them was too small a gain to take, what that fit found ([`Possible`]).
+type Fitted = (
+    &'static Hypothesis,
+    Vec<f64>,
+    f64,
+    f64,
+    Selection,
+    Option<Possible>,
+);
 
 /// An effect that explained as much as the kept one alone ([`strong_rivals`]): its parameters
 /// then, and the share of the training cost it removed.
@@ -266,7 +300,8 @@ type Rival = (&'static Hypothesis, Vec<f64>, f64);
 /// `current_train`), in parallel. A candidate among `rivals` that, fitted so, removes under
 /// half the share of the training cost it removed alone has lost its part of the mismatch to
 /// the kept effects: it is also fitted together with them ([`jointly`]), and that fit is taken
-/// when it is the better on the training runs and the rival carries its share in it.
+/// when it is the better on the training runs and the rival carries its share in it; when the
+/// share it carries is only under the noise margin, it is [`possibly_beside`] them.
 fn fit_candidates(
     plant: &Plant,
     data: &Data,
@@ -280,6 +315,7 @@ fn fit_candidates(
         .map(|h| {
             let (p, train_cost) = search::fit_one(plant, data, selected, h);
             let mut best = (p, train_cost, selected.clone());
+            let mut possible = None;
             let lost = |alone: f64| 1.0 - train_cost / current_train < 0.5 * alone;
             let rival = rivals
                 .iter()
@@ -287,16 +323,34 @@ fn fit_candidates(
             if let Some((_, earlier, _)) = rival {
                 let mut joint = jointly(plant, data, selected, (h, earlier));
                 let train = data.cost(plant, &augmentation(&joint), false);
-                if train < best.1 && carries_its_share(plant, data, criteria, &joint) {
-                    let (_, q) = joint.pop().expect("pushed above");
-                    best = (q, train, joint);
+                if train < best.1 {
+                    let (without, with) = share(plant, data, &joint);
+                    let params = h.free_params(&joint.last().expect("pushed").1);
+                    if significant(criteria, data, without, with, params) {
+                        let (_, q) = joint.pop().expect("pushed above");
+                        best = (q, train, joint);
+                    } else if corroborated(criteria, current_train, train)
+                        && possibly_beside(criteria, (without, with), params)
+                        && joint
+                            .iter()
+                            .all(|(k, q)| at_bound(k, q, data.size).is_empty())
+                    {
+                        let (_, q) = joint.last().expect("pushed above");
+                        possible = Some(Possible {
+                            beside: selected.iter().map(|(k, _)| k.name).collect(),
+                            name: h.name,
+                            parameters: params_map(h, q),
+                            without,
+                            with,
+                        });
+                    }
                 }
             }
             let (p, train_cost, with) = best;
             let mut sel = with.clone();
             sel.push((*h, p.clone()));
             let val = data.cost(plant, &augmentation(&sel), true);
-            (*h, p, train_cost, val, with)
+            (*h, p, train_cost, val, with, possible)
         })
         .collect()
 }
@@ -319,16 +373,28 @@ fn jointly(
     search::refine_all(plant, data, &start, &[])
 }
 
-/// Whether the last effect of `joint` earns its place: without it, the others refined from
-/// where the joint fit left them must fit the held-out runs worse by the margin a new effect
-/// must reach. What the kept effects gain by moving is theirs (a 15 N dead zone whose first
-/// fit stopped 15 % high, refitted beside a reverse-thrust loss of 0.014).
-fn carries_its_share(plant: &Plant, data: &Data, criteria: &Criteria, joint: &Selection) -> bool {
-    let (rival, others) = joint.split_last().expect("the rival is last");
+/// The held-out costs that say whether the last effect of `joint` earns its place: without
+/// it (the others refined from where the joint fit left them), and with it. It carries its
+/// share when the first exceeds the second by the margin a new effect must reach
+/// ([`significant`]). What the kept effects gain by moving is theirs (a 15 N dead zone whose
+/// first fit stopped 15 % high, refitted beside a reverse-thrust loss of 0.014).
+fn share(plant: &Plant, data: &Data, joint: &Selection) -> (f64, f64) {
+    let (_, others) = joint.split_last().expect("the rival is last");
     let alone = search::refine_all(plant, data, &others.to_vec(), &[]);
     let without = data.cost(plant, &augmentation(&alone), true);
-    let with = data.cost(plant, &augmentation(joint), true);
-    significant(criteria, data, without, with, rival.0.free_params(&rival.1))
+    (without, data.cost(plant, &augmentation(joint), true))
+}
+
+/// Whether a rival whose joint fit did not carry its share ([`share`]) may still be there:
+/// it lowers the held-out cost by the fraction an effect must gain to be named, less the
+/// per-parameter penalty, and fails only the noise margin. A sensor delay of 0.35 s and a
+/// thruster lag of 0.15 s concealed together on the reference vehicle's navigation log (seed
+/// 312): the delay was named alone (0.458 s, filtered at 0.271 s); fitted together with it
+/// the lag came out at 0.148 s and the delay at 0.342 s (filtered at 0.204 s), the held-out
+/// cost 26 % lower, yet 0.0017 against the 0.0021 that half the noise floor asks. On the
+/// regression sets no refused joint fit gained over 4 %.
+fn possibly_beside(criteria: &Criteria, (without, with): (f64, f64), params: f64) -> bool {
+    (without - with) / without - criteria.gain_per_parameter * params >= criteria.min_gain
 }
 
 /// The candidates of a round that would have been named alone beside the one kept (row `b`),
@@ -384,7 +450,7 @@ fn tested_rows(
 ) -> Vec<Tested> {
     fitted
         .iter()
-        .map(|(h, p, tc, vc, _)| Tested {
+        .map(|(h, p, tc, vc, _, _)| Tested {
             round,
             name: h.name.into(),
             parameters: params_map(h, p),

@@ -121,6 +121,7 @@ mod tests {
             validation_cost_before: 0.0,
             validation_cost_after: 0.0,
             alike: Vec::new(),
+            possibly_beside: Vec::new(),
             candidate: None,
         };
         let costs = Costs {

@@ -45,6 +45,7 @@ pub(super) fn unexplained_residual(
         validation_cost_before: explained_cost,
         validation_cost_after: explained_cost,
         alike: Vec::new(),
+        possibly_beside: Vec::new(),
         candidate: None,
     }
 }

@@ -371,6 +371,9 @@ fn conclude(
     let (mut effects, mut figures) = named_effects(plant, data, &selected)?;
     let beside = super::alike::alike_beside(plant, data, crit, &selected, &terms);
     super::alike::list_alike(&mut effects, (search, beside), crit, data);
+    if !drift && terms.is_empty() {
+        super::alike::list_possible(&mut effects, search, crit, data);
+    }
     figures.extend(disc_figures);
     let unexplained = found.is_some();
     effects.extend(found);
@@ -527,6 +530,7 @@ fn named_effects(
             validation_cost_before: cb,
             validation_cost_after: ca,
             alike: Vec::new(),
+            possibly_beside: Vec::new(),
             candidate: None,
         });
     }
