@@ -346,6 +346,7 @@ fn separation(
     Some(Separation {
         kept: pair.kept.clone(),
         alike: pair.alike.clone(),
+        beside: pair.beside.clone(),
         recorded,
         designed: best.separation.unwrap_or(f64::NAN),
         prbs: prbs.separation.unwrap_or(f64::NAN),

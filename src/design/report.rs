@@ -62,7 +62,23 @@ fn separated(s: &super::written::Separation, d: &Diagnosis) -> Markup {
             f.name == a && super::separate::named(f) && !f.alike.iter().any(|x| x.name == b)
         })
     };
-    let verdict = if told(&s.kept, &s.alike) {
+    let named = |a: &str| (d.effects.iter()).any(|f| f.name == a && super::separate::named(f));
+    let verdict = if let Some(b) = &s.beside {
+        let listed = (d.effects.iter()).any(|f| f.possibly_beside.iter().any(|x| x.name == *b));
+        if named(b) && named(&s.kept) {
+            format!("the diagnosis now names {b} beside {}", s.kept)
+        } else if named(&s.kept) && !listed {
+            format!(
+                "the diagnosis now names {} alone, nothing beside it",
+                s.kept
+            )
+        } else {
+            format!(
+                "the diagnosis still cannot say whether {b} is beside {}: these runs do not tell",
+                s.kept
+            )
+        }
+    } else if told(&s.kept, &s.alike) {
         format!("the diagnosis now names {} alone", s.kept)
     } else if told(&s.alike, &s.kept) {
         format!("the diagnosis now names {} alone", s.alike)

@@ -4,16 +4,23 @@
 //! with the other (the other effects found kept in both), and scores how far the two predicted
 //! recordings differ: the normalised mean square difference over the DOFs, as a multiple of
 //! the noise floor the diagnosis compares held-out costs with. A run on which that multiple
-//! is above the diagnosis's own margin is one its held-out cost can decide on.
+//! is above the diagnosis's own margin is one its held-out cost can decide on. An effect the
+//! diagnosis lists as possibly beside a named one (fitted together with it, a gain too small
+//! to name) makes a pair too: the named effects alone against the named effects at their joint
+//! fit with it beside them.
 
 use crate::core::model::Plant;
-use crate::diagnose::result::Diagnosis;
+use crate::diagnose::result::{Diagnosis, Found};
 use crate::diagnose::{self, Run, SLOTS, Selection};
 
-/// Two effects the diagnosis could not tell apart, each with the other effects it kept.
+/// Two effects the diagnosis could not tell apart, each with the other effects it kept; or a
+/// named effect alone against it with an effect possibly beside it (`beside`).
 pub struct Pair {
     pub kept: String,
+    /// The look-alike, or for an effect possibly beside `kept`, "kept with it beside it".
     pub alike: String,
+    /// The effect possibly beside `kept`, when that is the question.
+    pub beside: Option<String>,
     with_kept: Selection,
     with_alike: Selection,
 }
@@ -65,20 +72,59 @@ fn selection(found: &[(&str, &std::collections::BTreeMap<String, f64>)]) -> Opti
 
 /// Whether a found effect is one of the table's, with its parameters (not a discovered closed
 /// form in an effect's form, not the unexplained residual).
-pub fn named(f: &crate::diagnose::result::Found) -> bool {
+pub fn named(f: &Found) -> bool {
     selection(&[(f.name.as_str(), &f.parameters)]).is_some()
 }
 
 impl Pair {
-    /// Every look-alike pair of a diagnosis (effects it cannot rebuild are left out).
+    /// Every look-alike pair of a diagnosis, then every effect possibly beside a named one
+    /// (effects it cannot rebuild are left out).
     pub fn of(d: &Diagnosis) -> Vec<Pair> {
+        let mut out = Pair::alike(&d.effects);
+        out.extend(Pair::beside(&d.effects));
+        out
+    }
+
+    /// Each effect possibly beside a named one: the named effects as found, against the same
+    /// at their parameters in the joint fit with it and it beside them.
+    fn beside(effects: &[Found]) -> Vec<Pair> {
+        let named: Vec<&Found> = effects.iter().filter(|f| named(f)).collect();
         let mut out = Vec::new();
-        for (i, f) in d.effects.iter().enumerate() {
+        for f in &named {
+            for b in &f.possibly_beside {
+                let found: Vec<_> = (named.iter())
+                    .map(|o| (o.name.as_str(), &o.parameters))
+                    .collect();
+                let joint: Vec<_> = (named.iter())
+                    .map(|o| {
+                        let p = b.beside_parameters.get(&o.name).unwrap_or(&o.parameters);
+                        (o.name.as_str(), p)
+                    })
+                    .chain([(b.name.as_str(), &b.parameters)])
+                    .collect();
+                if let (Some(with_kept), Some(with_alike)) = (selection(&found), selection(&joint))
+                {
+                    out.push(Pair {
+                        kept: f.name.clone(),
+                        alike: format!("{} with {} beside it", f.name, b.name),
+                        beside: Some(b.name.clone()),
+                        with_kept,
+                        with_alike,
+                    });
+                }
+            }
+        }
+        out
+    }
+
+    /// Every look-alike pair among `effects`.
+    fn alike(effects: &[Found]) -> Vec<Pair> {
+        let mut out = Vec::new();
+        for (i, f) in effects.iter().enumerate() {
             for a in &f.alike {
                 // The other effects found are kept in both; a discovered closed form or an
                 // unexplained residual cannot be rebuilt as an effect, and is left out of both.
-                let others = d
-                    .effects
+                let others = effects
                     .iter()
                     .enumerate()
                     .filter(|(k, o)| {
@@ -94,6 +140,7 @@ impl Pair {
                     out.push(Pair {
                         kept: f.name.clone(),
                         alike: a.name.clone(),
+                        beside: None,
                         with_kept,
                         with_alike,
                     });
@@ -172,6 +219,7 @@ mod tests {
         let pair = Pair {
             kept: "thruster_lag".into(),
             alike: "sensor_delay".into(),
+            beside: None,
             with_kept: sel("thruster_lag", 0.3),
             with_alike: sel("sensor_delay", 0.3),
         };
@@ -197,9 +245,74 @@ mod tests {
         let swapped = Pair {
             kept: pair.alike.clone(),
             alike: pair.kept.clone(),
+            beside: None,
             with_kept: pair.with_alike.clone(),
             with_alike: pair.with_kept.clone(),
         };
         assert!((swapped.separation(&plant, &fast, &noise) - b).abs() < 1e-9 * b);
+    }
+
+    /// An effect the diagnosis lists as possibly beside a named one makes a pair: the named
+    /// effect as found against the same at its joint fit with the other beside it (a 0.35 s
+    /// delay found as 0.46 s filtered at 0.27 s, jointly 0.34 s at 0.20 s with a 0.15 s
+    /// lag). A fast command tells the two apart by more than the diagnosis's margin.
+    #[test]
+    fn an_effect_possibly_beside_a_named_one_is_a_pair_to_tell_apart() {
+        use crate::diagnose::result::PossiblyBeside;
+        use std::collections::BTreeMap;
+        let m = |kv: &[(&str, f64)]| -> BTreeMap<String, f64> {
+            kv.iter().map(|(k, v)| (k.to_string(), *v)).collect()
+        };
+        let lag = PossiblyBeside {
+            name: "thruster_lag".into(),
+            parameters: m(&[("time_constant_s", 0.15), ("thrust_law_exponent", 2.0)]),
+            beside_parameters: [(
+                "sensor_delay".to_string(),
+                m(&[("delay_s", 0.34), ("filter_s", 0.20)]),
+            )]
+            .into(),
+            validation_cost_without: 0.0067,
+            validation_cost_with: 0.0050,
+        };
+        let delay = Found {
+            name: "sensor_delay".into(),
+            dofs: vec![],
+            parameters: m(&[("delay_s", 0.46), ("filter_s", 0.27)]),
+            evidence: String::new(),
+            validation_nmae_before: BTreeMap::new(),
+            validation_nmae_after: BTreeMap::new(),
+            validation_cost_before: 0.0,
+            validation_cost_after: 0.0,
+            alike: vec![],
+            possibly_beside: vec![lag],
+            candidate: None,
+        };
+        let pairs = Pair::beside(std::slice::from_ref(&delay));
+        assert_eq!(pairs.len(), 1);
+        let p = &pairs[0];
+        assert_eq!(p.beside.as_deref(), Some("thruster_lag"));
+        let names = |s: &Selection| s.iter().map(|(h, _)| h.name).collect::<Vec<_>>();
+        assert_eq!(names(&p.with_kept), ["sensor_delay"]);
+        assert_eq!(names(&p.with_alike), ["sensor_delay", "thruster_lag"]);
+        assert_eq!(p.with_kept[0].1, [0.46, 0.27]);
+        assert_eq!(p.with_alike[0].1, [0.34, 0.20]);
+        let plant = Plant::new(&Vehicle::reference(), Hydro::reference());
+        let fast = run(&plant, |t| {
+            let w = 2.0 * std::f64::consts::PI;
+            [
+                40.0 * (0.8 * w * t).sin(),
+                30.0 * (1.1 * w * t).sin(),
+                0.0,
+                3.0 * (0.6 * w * t).sin(),
+            ]
+        });
+        // The noise floor as recorded runs would set it: slow steps.
+        let slow = run(&plant, |t| {
+            let s = if (t / 20.0).fract() < 0.5 { 1.0 } else { -1.0 };
+            [40.0 * s, 0.0, 0.0, 0.0]
+        });
+        let noise = Noise::of(std::slice::from_ref(&slow));
+        let apart = p.separation(&plant, &fast, &noise);
+        assert!(apart.is_finite() && apart > 0.5, "{apart} noise floors");
     }
 }

@@ -47,6 +47,10 @@ pub struct Written {
 pub struct Separation {
     pub kept: String,
     pub alike: String,
+    /// When the question was whether this effect is beside `kept` (the diagnosis listed it as
+    /// possibly beside it), rather than which of two look-alikes it is.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub beside: Option<String>,
     /// The largest over the recorded runs.
     pub recorded: f64,
     pub designed: f64,

@@ -119,6 +119,7 @@ pub(super) fn list_possible(effects: &mut [Found], search: &Search, crit: &Crite
         e.possibly_beside.push(PossiblyBeside {
             name: p.name.to_string(),
             parameters: p.parameters.clone(),
+            beside_parameters: p.joint.clone(),
             validation_cost_without: p.without,
             validation_cost_with: p.with,
         });

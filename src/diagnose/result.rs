@@ -75,6 +75,10 @@ pub struct Alike {
 pub struct PossiblyBeside {
     pub name: String,
     pub parameters: BTreeMap<String, f64>,
+    /// The named effects' parameters in the joint fit, by name (what a run that tells the two
+    /// hypotheses apart flies them with).
+    #[serde(default)]
+    pub beside_parameters: BTreeMap<String, BTreeMap<String, f64>>,
     pub validation_cost_without: f64,
     pub validation_cost_with: f64,
 }

@@ -127,6 +127,8 @@ pub struct Possible {
     pub beside: Vec<&'static str>,
     pub name: &'static str,
     pub parameters: BTreeMap<String, f64>,
+    /// The kept effects' parameters in the joint fit, by name.
+    pub joint: BTreeMap<String, BTreeMap<String, f64>>,
     /// Held-out cost of the kept effects refined without it, from where the joint fit left
     /// them ...
     pub without: f64,
@@ -335,11 +337,14 @@ fn fit_candidates(
                             .iter()
                             .all(|(k, q)| at_bound(k, q, data.size).is_empty())
                     {
-                        let (_, q) = joint.last().expect("pushed above");
+                        let ((_, q), kept) = joint.split_last().expect("pushed above");
                         possible = Some(Possible {
                             beside: selected.iter().map(|(k, _)| k.name).collect(),
                             name: h.name,
                             parameters: params_map(h, q),
+                            joint: (kept.iter())
+                                .map(|(k, p)| (k.name.to_string(), params_map(k, p)))
+                                .collect(),
                             without,
                             with,
                         });
