@@ -101,9 +101,18 @@ pub(super) fn list_alike(
 
 /// The effects possibly beside a named one ([`select::Possible`]), listed with the effect
 /// they shared their mismatch with, each with its figures. Listed only while what they were
-/// fitted beside stands: every effect of that fit still named and it not named itself. The
-/// caller lists none once discovery has found terms (a closed form may hold what they fitted).
-pub(super) fn list_possible(effects: &mut [Found], search: &Search, crit: &Criteria, data: &Data) {
+/// fitted beside stands: every effect of that fit still named and it not named itself; none
+/// once discovery has found `terms` (a closed form may hold what they fitted). After drift no
+/// effect is named, so none is listed.
+pub(super) fn list_possible(
+    effects: &mut [Found],
+    (search, terms): (&Search, &[Arc<Discovered>]),
+    crit: &Criteria,
+    data: &Data,
+) {
+    if !terms.is_empty() {
+        return;
+    }
     let named: Vec<String> = effects.iter().map(|e| e.name.clone()).collect();
     let margin = crit.min_noise_multiple * data.noise_cost;
     for p in &search.possible {

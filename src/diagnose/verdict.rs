@@ -371,9 +371,7 @@ fn conclude(
     let (mut effects, mut figures) = named_effects(plant, data, &selected)?;
     let beside = super::alike::alike_beside(plant, data, crit, &selected, &terms);
     super::alike::list_alike(&mut effects, (search, beside), crit, data);
-    if !drift && terms.is_empty() {
-        super::alike::list_possible(&mut effects, search, crit, data);
-    }
+    super::alike::list_possible(&mut effects, (search, &terms), crit, data);
     figures.extend(disc_figures);
     let unexplained = found.is_some();
     effects.extend(found);
