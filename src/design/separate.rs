@@ -208,6 +208,27 @@ mod tests {
         }
     }
 
+    /// A 20 s square wave of surge force: slow enough that a lag and a delay look alike.
+    fn slow_steps(plant: &Plant) -> Run {
+        run(plant, |t| {
+            let s = if (t / 20.0).fract() < 0.5 { 1.0 } else { -1.0 };
+            [40.0 * s, 0.0, 0.0, 0.0]
+        })
+    }
+
+    /// Sines at 0.6-1.1 Hz in surge, sway and yaw: fast enough to tell them apart.
+    fn fast_sines(plant: &Plant) -> Run {
+        run(plant, |t| {
+            let w = 2.0 * std::f64::consts::PI;
+            [
+                40.0 * (0.8 * w * t).sin(),
+                30.0 * (1.1 * w * t).sin(),
+                0.0,
+                3.0 * (0.6 * w * t).sin(),
+            ]
+        })
+    }
+
     /// A lag of the thrust and a delay of the log are alike on slow steps and apart on a fast
     /// command: the criterion sees it, and the pair's order does not matter.
     #[test]
@@ -223,19 +244,8 @@ mod tests {
             with_kept: sel("thruster_lag", 0.3),
             with_alike: sel("sensor_delay", 0.3),
         };
-        let slow = run(&plant, |t| {
-            let s = if (t / 20.0).fract() < 0.5 { 1.0 } else { -1.0 };
-            [40.0 * s, 0.0, 0.0, 0.0]
-        });
-        let fast = run(&plant, |t| {
-            let w = 2.0 * std::f64::consts::PI;
-            [
-                40.0 * (0.8 * w * t).sin(),
-                30.0 * (1.1 * w * t).sin(),
-                0.0,
-                3.0 * (0.6 * w * t).sin(),
-            ]
-        });
+        let slow = slow_steps(&plant);
+        let fast = fast_sines(&plant);
         let noise = Noise::of(std::slice::from_ref(&slow));
         let (a, b) = (
             pair.separation(&plant, &slow, &noise),
@@ -297,20 +307,9 @@ mod tests {
         assert_eq!(p.with_kept[0].1, [0.46, 0.27]);
         assert_eq!(p.with_alike[0].1, [0.34, 0.20]);
         let plant = Plant::new(&Vehicle::reference(), Hydro::reference());
-        let fast = run(&plant, |t| {
-            let w = 2.0 * std::f64::consts::PI;
-            [
-                40.0 * (0.8 * w * t).sin(),
-                30.0 * (1.1 * w * t).sin(),
-                0.0,
-                3.0 * (0.6 * w * t).sin(),
-            ]
-        });
+        let fast = fast_sines(&plant);
         // The noise floor as recorded runs would set it: slow steps.
-        let slow = run(&plant, |t| {
-            let s = if (t / 20.0).fract() < 0.5 { 1.0 } else { -1.0 };
-            [40.0 * s, 0.0, 0.0, 0.0]
-        });
+        let slow = slow_steps(&plant);
         let noise = Noise::of(std::slice::from_ref(&slow));
         let apart = p.separation(&plant, &fast, &noise);
         assert!(apart.is_finite() && apart > 0.5, "{apart} noise floors");
