@@ -234,6 +234,11 @@ pub enum TwinCommand {
         /// (thruster_lag=0.35, tether_drag=1.2). `--effect none` conceals nothing.
         #[arg(long = "effect")]
         effects: Vec<String>,
+        /// Log the runs as a vehicle that logs only its own navigation (nav.csv: a DVL's
+        /// velocity and an AHRS heading at 4-6 Hz, late; depth.csv) instead of the pool's
+        /// UWB, sonar and IMU.
+        #[arg(long)]
+        navigation_log: bool,
     },
     /// Fly a designed run (`hydrofit design`'s thrust.csv) with the twin, open loop from the
     /// design's start, and write it as a pool run folder with its sensors and truth.
@@ -252,6 +257,9 @@ pub enum TwinCommand {
         /// Concealed effect as name=magnitude (repeatable), as for `twin pool`.
         #[arg(long = "effect")]
         effects: Vec<String>,
+        /// Log the run as the vehicle's own navigation log, as `twin pool --navigation-log`.
+        #[arg(long)]
+        navigation_log: bool,
     },
     /// Field logs of a tethered 30 kg ROV under closed-loop control (commanded wrench by
     /// receive time, a DVL navigation log, depth, horizontal UWB; no IMU, no CFD), with hidden
@@ -416,15 +424,23 @@ fn design(root: &std::path::Path, what: Command) -> anyhow::Result<ExitCode> {
 fn twin(root: &std::path::Path, what: TwinCommand) -> anyhow::Result<ExitCode> {
     match what {
         TwinCommand::Starccm { out, seed } => cmd::twin::starccm(root, &out, seed),
-        TwinCommand::Pool { to, effects } => {
-            cmd::twin::pool(root, &to.out, &to.truth, to.seed, &effects)
-        }
+        TwinCommand::Pool {
+            to,
+            effects,
+            navigation_log,
+        } => cmd::twin::pool(
+            root,
+            (&to.out, &to.truth, to.seed),
+            &effects,
+            cmd::twin::logs(navigation_log),
+        ),
         TwinCommand::Fly {
             thrust,
             name,
             role,
             to,
             effects,
+            navigation_log,
         } => cmd::twin::fly(
             root,
             &cmd::twin::Flight {
@@ -435,6 +451,7 @@ fn twin(root: &std::path::Path, what: TwinCommand) -> anyhow::Result<ExitCode> {
                 truth: &to.truth,
                 seed: to.seed,
                 effects: &effects,
+                logs: cmd::twin::logs(navigation_log),
             },
         ),
         TwinCommand::Field { to } => cmd::twin::field(root, &to.out, &to.truth, to.seed),

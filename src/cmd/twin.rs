@@ -38,18 +38,18 @@ pub fn starccm(root: &Path, out: &Path, seed: u64) -> anyhow::Result<ExitCode> {
 
 pub fn pool(
     root: &Path,
-    out: &Path,
-    truth: &Path,
-    seed: u64,
+    (out, truth, seed): (&Path, &Path, u64),
     effects: &[String],
+    logs: twin::pool::Logs,
 ) -> anyhow::Result<ExitCode> {
     let abs = |p: &Path| under(root, p);
     let effects = pool_effects(effects)?;
     let runs = twin::pool::default_runs();
-    let written = twin::pool::write_runs(&abs(out), &abs(truth), &runs, &effects, seed)?;
+    let written = twin::pool::write_runs_seen(&abs(out), &abs(truth), &runs, &effects, seed, logs)?;
     eprintln!(
-        "hydrofit: wrote {} pool runs to {} and their truth to {} (seed {seed}, concealed: {})",
+        "hydrofit: wrote {} pool runs ({}) to {} and their truth to {} (seed {seed}, concealed: {})",
         written.len(),
+        logged(logs),
         abs(out).display(),
         abs(truth).display(),
         concealed(&effects)
@@ -91,6 +91,25 @@ pub struct Flight<'a> {
     pub truth: &'a Path,
     pub seed: u64,
     pub effects: &'a [String],
+    /// What the run folder holds: the pool's sensors or the vehicle's navigation log.
+    pub logs: twin::pool::Logs,
+}
+
+/// The twin's logs: the vehicle's own navigation log when asked, else the pool's sensors.
+pub fn logs(navigation_log: bool) -> twin::pool::Logs {
+    if navigation_log {
+        twin::pool::Logs::Navigation
+    } else {
+        twin::pool::Logs::Sensors
+    }
+}
+
+/// What the run folders hold, in words.
+fn logged(logs: twin::pool::Logs) -> &'static str {
+    match logs {
+        twin::pool::Logs::Sensors => "thrust, UWB, sonar, IMU and depth",
+        twin::pool::Logs::Navigation => "thrust, navigation log and depth",
+    }
 }
 
 /// The role `hydrofit design` gave the run (the run.yaml beside its thrust.csv: a run to tell
@@ -123,7 +142,14 @@ pub fn fly(root: &Path, f: &Flight) -> anyhow::Result<ExitCode> {
         duration_s: (cmd.len().saturating_sub(1)) as f64 * 0.05,
         sonar: true,
     };
-    let dir = twin::pool::write_truth(&abs(f.out), &abs(f.truth), &spec, &truth, &effects, f.seed)?;
+    let dirs = (abs(f.out), abs(f.truth));
+    let dir = twin::pool::write_truth_seen(
+        (&dirs.0, &dirs.1),
+        &spec,
+        &truth,
+        (&effects, f.seed),
+        f.logs,
+    )?;
     // The design travels with its run (as when the folder `hydrofit design` wrote is copied
     // into cases/pool/ and the logs added), so the report can hold the run to it.
     let design = path.with_file_name("design.json");

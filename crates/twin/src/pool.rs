@@ -490,7 +490,7 @@ pub fn write_truth(
 }
 
 /// [`write_truth`] with the run folder holding `logs`.
-fn write_truth_seen(
+pub fn write_truth_seen(
     (cases_dir, truth_dir): (&Path, &Path),
     spec: &RunSpec,
     truth: &Truth,
