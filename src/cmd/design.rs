@@ -4,7 +4,7 @@
 //! and prints what the run buys.
 
 use crate::core::model::Pool;
-use crate::design::propose::{Ask, propose};
+use crate::design::propose::{Ask, Diagnosed, propose};
 use crate::identify::result::FitResult;
 use crate::pipeline::Plan;
 use crate::pool::fusion::run::{FusedRun, load_for};
@@ -15,12 +15,19 @@ pub fn run(root: &Path, ask: &Ask, out: &Path) -> anyhow::Result<ExitCode> {
     let plan = Plan::load(root, crate::kinds::KINDS)?;
     let (f, runs) = model_and_runs(&plan, ask.model.as_deref())?;
     let diagnosis = last_diagnosis(&plan);
+    let diagnosed = match &diagnosis {
+        Some(d) => Some(Diagnosed {
+            diagnosis: d,
+            plant: diagnosed_plant(&plan, d, &f)?,
+        }),
+        None => None,
+    };
     let bar = crate::core::progress::Progress::new().bar(100, "design");
     let proposal = propose(
         &f,
         &runs,
         &plan.graph.spec.vehicle,
-        diagnosis.as_ref(),
+        diagnosed,
         ask,
         &|line| eprintln!("hydrofit: {line}"),
         &|x| bar.set_position((100.0 * x) as u64),
@@ -38,6 +45,21 @@ pub fn run(root: &Path, ask: &Ask, out: &Path) -> anyhow::Result<ExitCode> {
     }
     crate::outln!("wrote {}", dir.display());
     Ok(ExitCode::SUCCESS)
+}
+
+/// The model diagnosis `d` diagnosed, when it is another fit than `f`: its effects were
+/// fitted beside that model.
+fn diagnosed_plant(
+    plan: &Plan,
+    d: &crate::diagnose::Diagnosis,
+    f: &FitResult,
+) -> anyhow::Result<Option<crate::core::model::Plant>> {
+    if d.baseline.model == f.stage {
+        return Ok(None);
+    }
+    let i = crate::cmd::export::pick_fit(plan, Some(&d.baseline.model))?;
+    let g = crate::cmd::provenance::load_fit(plan, &plan.cache(), i)?;
+    Ok(Some(g.plant(&plan.graph.spec.vehicle)))
 }
 
 /// The last diagnosis in the cache (its look-alikes are designed for).

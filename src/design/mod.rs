@@ -92,8 +92,8 @@ pub struct Setup {
     /// Where the tether enters the water, for effects that read it.
     pub anchor: Option<[f64; 3]>,
     /// Two look-alike effects to tell apart (the criterion is then their separation), with
-    /// the recorded runs' noise.
-    pub separate: Option<(separate::Pair, separate::Noise)>,
+    /// the recorded runs' noise and the model they were diagnosed beside.
+    pub separate: Option<(separate::Pair, separate::Noise, Plant)>,
     /// How the targets' uncertainty is summed (D: joint volume; A: mean relative variance).
     pub criterion: Criterion,
 }
@@ -306,10 +306,9 @@ impl Setup {
         let after = info::covariance(&(&self.before + added));
         let se_after =
             info::predicted(&self.reported, &self.value, &self.covariance_before, &after);
-        let separation = self
-            .separate
-            .as_ref()
-            .map(|(pair, noise)| pair.separation(&self.plant, &self.as_run(&cmd, &states), noise));
+        let separation = self.separate.as_ref().map(|(pair, noise, plant)| {
+            pair.separation(plant, &self.as_run_for(plant, &cmd, &states), noise)
+        });
         Candidate {
             profile,
             criterion: match (separation, self.criterion) {
@@ -327,15 +326,20 @@ impl Setup {
         }
     }
 
-    /// The plan as the diagnosis reads a run: the command (passed through the model's
-    /// command lag, as the diagnosis does) and the planned track.
-    pub fn as_run(&self, cmd: &[[f64; 4]], states: &[State]) -> crate::diagnose::Run {
+    /// The plan as the diagnosis of `plant` reads a run: the command (passed through that
+    /// model's command lag, as the diagnosis does) and the planned track.
+    pub fn as_run_for(
+        &self,
+        plant: &Plant,
+        cmd: &[[f64; 4]],
+        states: &[State],
+    ) -> crate::diagnose::Run {
         let t: Vec<f64> = (0..cmd.len()).map(|k| k as f64 * DT).collect();
         let six: Vec<[f64; 6]> = cmd
             .iter()
             .map(|c| [c[0], c[1], c[2], 0.0, 0.0, c[3]])
             .collect();
-        let lagged = self.plant.command(&t, &six);
+        let lagged = plant.command(&t, &six);
         let col = |f: &dyn Fn(&State) -> f64| states.iter().map(f).collect::<Vec<f64>>();
         crate::diagnose::Run {
             name: "designed".into(),

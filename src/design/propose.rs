@@ -61,6 +61,16 @@ impl Default for Ask {
     }
 }
 
+/// The last diagnosis, and the model it diagnosed when that is another fit than the one the
+/// run is designed for.
+pub struct Diagnosed<'a> {
+    pub diagnosis: &'a crate::diagnose::Diagnosis,
+    /// The diagnosed model (`baseline.model`) when it is not the designed-for fit: its
+    /// effects' parameters were fitted beside that model, so their separation is predicted
+    /// with it (a CFD fit diagnosed, a pool-only fit designed for). None: the same model.
+    pub plant: Option<Plant>,
+}
+
 /// The proposed run, the PRBS it was compared with, and what is written of them.
 pub struct Proposal {
     pub written: Written,
@@ -77,7 +87,7 @@ pub fn propose(
     f: &FitResult,
     runs: &[FusedRun],
     pipeline_vehicle: &Vehicle,
-    diagnosis: Option<&crate::diagnose::Diagnosis>,
+    diagnosis: Option<Diagnosed>,
     ask: &Ask,
     say: &dyn Fn(String),
     progress: &dyn Fn(f64),
@@ -97,8 +107,7 @@ pub fn propose(
         ask.margin_m
     );
     let mut setup = setup(f, runs, pipeline_vehicle, ask)?;
-    let recorded = recorded_runs(&setup, runs);
-    let margin = diagnosis.and_then(|d| look_alikes(d, &mut setup, &recorded, ask));
+    let margin = diagnosis.and_then(|d| look_alikes(d, &mut setup, runs, ask));
     let draws = ask.candidates.max(1);
     announce(&setup, ask, runs.len(), say);
     let best =
@@ -127,7 +136,7 @@ pub fn propose(
         separates: None,
         thrusters: None,
     };
-    written.separates = separation(&setup, &recorded, margin, &best, &prbs);
+    written.separates = separation(&setup, runs, margin, &best, &prbs);
     let mixed = per_thruster(&setup.vehicle, &best);
     written.thrusters = mixed.as_ref().map(|m| m.summary.clone());
     Ok(Proposal {
@@ -152,7 +161,7 @@ fn per_thruster(vehicle: &Vehicle, best: &Candidate) -> Option<super::thrusters:
 /// candidates.
 fn announce(setup: &Setup, ask: &Ask, runs: usize, say: &dyn Fn(String)) {
     let goal = match &setup.separate {
-        Some((p, _)) => format!("telling {} from {}", p.kept, p.alike),
+        Some((p, _, _)) => format!("telling {} from {}", p.kept, p.alike),
         None => setup
             .targets
             .iter()
@@ -303,27 +312,23 @@ fn pool_and_start(ask: &Ask, runs: &[FusedRun]) -> anyhow::Result<(Pool, State)>
 /// When the diagnosis lists two effects it cannot tell apart (and no parameters were named
 /// with --for), the design is for telling them apart: sets `setup.separate` and returns the
 /// diagnosis's margin.
-fn look_alikes(
-    d: &crate::diagnose::Diagnosis,
-    setup: &mut Setup,
-    recorded: &[crate::diagnose::Run],
-    ask: &Ask,
-) -> Option<f64> {
+fn look_alikes(d: Diagnosed, setup: &mut Setup, runs: &[FusedRun], ask: &Ask) -> Option<f64> {
     if !ask.targets.is_empty() {
         return None;
     }
-    let pair = super::separate::Pair::of(d).into_iter().next()?;
-    let noise = super::separate::Noise::of(recorded);
-    setup.separate = Some((pair, noise));
-    Some(d.criteria.min_noise_multiple)
+    let pair = super::separate::Pair::of(d.diagnosis).into_iter().next()?;
+    let plant = d.plant.unwrap_or_else(|| setup.plant.clone());
+    let noise = super::separate::Noise::of(&recorded_runs(&plant, runs));
+    setup.separate = Some((pair, noise, plant));
+    Some(d.diagnosis.criteria.min_noise_multiple)
 }
 
-/// The training runs as the diagnosis reads them (the command through the model's lag).
-fn recorded_runs(setup: &Setup, runs: &[FusedRun]) -> Vec<crate::diagnose::Run> {
+/// The training runs as the diagnosis of `plant` reads them (the command through its lag).
+fn recorded_runs(plant: &Plant, runs: &[FusedRun]) -> Vec<crate::diagnose::Run> {
     runs.iter()
         .filter_map(|r| {
             crate::diagnose::Run::from_fused(
-                &r.clone().with_command_of(&setup.plant),
+                &r.clone().with_command_of(plant),
                 crate::diagnose::Slots::POOL,
             )
         })
@@ -333,15 +338,16 @@ fn recorded_runs(setup: &Setup, runs: &[FusedRun]) -> Vec<crate::diagnose::Run> 
 /// How far the designed run, the PRBS and the recorded runs tell the look-alikes apart.
 fn separation(
     setup: &Setup,
-    recorded: &[crate::diagnose::Run],
+    runs: &[FusedRun],
     margin: Option<f64>,
     best: &Candidate,
     prbs: &Candidate,
 ) -> Option<Separation> {
-    let ((pair, noise), margin) = (setup.separate.as_ref()?, margin?);
+    let ((pair, noise, plant), margin) = (setup.separate.as_ref()?, margin?);
+    let recorded = recorded_runs(plant, runs);
     let recorded = recorded
         .iter()
-        .map(|r| pair.separation(&setup.plant, r, noise))
+        .map(|r| pair.separation(plant, r, noise))
         .fold(0.0, f64::max);
     Some(Separation {
         kept: pair.kept.clone(),

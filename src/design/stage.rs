@@ -4,7 +4,7 @@
 //! fitted to (`from` lists their pool stage) and a diagnosis when one is among `from`. Its
 //! files are published to `reports/design/`.
 
-use super::propose::{Ask, propose};
+use super::propose::{Ask, Diagnosed, propose};
 use crate::identify::result::FitResult;
 use crate::pipeline::contract::{Artifact, Kind, RunCtx, StageImpl, parse_as};
 
@@ -33,11 +33,20 @@ impl StageImpl for Ask {
         let diagnosis: Option<crate::diagnose::Diagnosis> = ctx
             .upstream_of(Artifact::Diagnosis)
             .find_map(|u| crate::core::fsutil::read_json(&u.dir.join("diagnosis.json")).ok());
+        // The diagnosed model, when it is another of `from`'s fits than the one designed for.
+        let diagnosed = diagnosis.as_ref().map(|d| Diagnosed {
+            diagnosis: d,
+            plant: ctx
+                .upstream_of(Artifact::Model)
+                .filter_map(|u| crate::identify::result::load(&u.dir).ok())
+                .find(|g| g.stage == d.baseline.model && g.stage != f.stage)
+                .map(|g| g.plant(ctx.vehicle)),
+        });
         let p = propose(
             &f,
             &runs,
             ctx.vehicle,
-            diagnosis.as_ref(),
+            diagnosed,
             self,
             &|line| ctx.progress.set_message(line),
             &|x| {

@@ -413,3 +413,101 @@ fn a_designed_run_tells_a_hidden_sensor_delay_from_a_thruster_lag() {
         "the report does not hold the design to its promise"
     );
 }
+
+/// A diagnosis of a CFD model from a navigation-log vehicle's runs that names a 0.35 s sensor
+/// delay and lists a 0.15 s thruster lag as possibly beside it (fitted together the lag gains
+/// its share, under the noise margin). The run is designed for the pool-only fit (a design
+/// needs a model fitted to pool runs), but the two hypotheses are told apart with the model
+/// they were diagnosed beside, the CFD fit; flown twice, the next diagnosis names both.
+#[test]
+fn a_designed_run_names_a_lag_possibly_beside_a_delay_of_another_models_diagnosis() {
+    let d = tempfile::tempdir().unwrap();
+    let root = d.path();
+    let effects = [
+        "--navigation-log",
+        "--effect",
+        "sensor_delay=0.35",
+        "--effect",
+        "thruster_lag=0.15",
+        "--seed",
+        "312",
+    ];
+    ok(root, &["twin", "starccm"]);
+    ok(root, &[&["twin", "pool"][..], &effects].concat());
+    let pipeline = "vehicle:
+  name: open-frame ROV (seed 001)
+  mass_kg: 35.2
+  inertia_kg_m2: {zz: 1.38}
+  dofs: [surge, sway, heave, yaw]
+  structure: diagonal
+stages:
+  cfd: {kind: starccm, inputs: [\"cases/cfd/starccm/*.csv\"]}
+  pool: {kind: pool, inputs: [\"cases/pool/*/\"]}
+  fit: {kind: fit, from: [cfd], settings: {method: ols, objective: equation_error}}
+  pool_fit: {kind: fit, from: [pool]}
+  validate: {kind: validate, from: [fit, pool_fit, cfd, pool]}
+  diagnose: {kind: diagnose, from: [fit, pool]}
+  report: {kind: report, from: [fit, pool_fit, cfd, pool, validate, diagnose], inputs: [\"truth/pool/*.csv\"]}
+";
+    std::fs::write(root.join("pipeline.yaml"), pipeline).unwrap();
+    ok(root, &["build"]);
+    let effect = |d: &serde_json::Value, name: &str| -> Option<serde_json::Value> {
+        let e = d["effects"].as_array().unwrap().iter();
+        e.clone().find(|e| e["name"] == name).cloned()
+    };
+    let before = json(root, "reports/diagnosis.json");
+    let delay = effect(&before, "sensor_delay").expect("the delay is named");
+    let beside = delay["possibly_beside"]
+        .as_array()
+        .cloned()
+        .unwrap_or_default();
+    assert!(
+        effect(&before, "thruster_lag").is_none()
+            && beside.iter().any(|b| b["name"] == "thruster_lag"),
+        "{}",
+        before["verdict"]
+    );
+    let out = ok(root, &["design", "--model", "pool_fit"]);
+    assert!(
+        out.contains("tells sensor_delay from sensor_delay with thruster_lag beside it"),
+        "{out}"
+    );
+    let s = json(root, "reports/design/design.json")["separates"].clone();
+    assert_eq!(s["beside"], "thruster_lag", "{s}");
+    assert!(
+        s["designed"].as_f64().unwrap() > s["margin"].as_f64().unwrap(),
+        "{s}"
+    );
+    for (name, role) in [("next_train", "train"), ("next_held", "validate")] {
+        let fly = [
+            "twin",
+            "fly",
+            "reports/design/thrust.csv",
+            "--name",
+            name,
+            "--role",
+            role,
+        ];
+        ok(root, &[&fly[..], &effects].concat());
+    }
+    ok(root, &["build"]);
+    let after = json(root, "reports/diagnosis.json");
+    let value = |name: &str, p: &str| {
+        let e = effect(&after, name).unwrap_or_else(|| panic!("{name}: {}", after["verdict"]));
+        e["parameters"][p].as_f64().unwrap()
+    };
+    let (delay, lag) = (
+        value("sensor_delay", "delay_s"),
+        value("thruster_lag", "time_constant_s"),
+    );
+    assert!(
+        (0.3..=0.4).contains(&delay) && (0.1..=0.2).contains(&lag),
+        "delay {delay} s, lag {lag} s: {}",
+        after["verdict"]
+    );
+    assert!(
+        read(root, "reports/index.html")
+            .contains("the diagnosis now names thruster_lag beside sensor_delay"),
+        "the report does not hold the design to its promise"
+    );
+}
