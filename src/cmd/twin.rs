@@ -143,7 +143,7 @@ pub fn fly(root: &Path, f: &Flight) -> anyhow::Result<ExitCode> {
         sonar: true,
     };
     let dirs = (abs(f.out), abs(f.truth));
-    let dir = twin::pool::write_truth_seen(
+    let dir = twin::pool::write_truth(
         (&dirs.0, &dirs.1),
         &spec,
         &truth,

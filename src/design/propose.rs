@@ -107,7 +107,7 @@ pub fn propose(
         ask.margin_m
     );
     let mut setup = setup(f, runs, pipeline_vehicle, ask)?;
-    let margin = diagnosis.and_then(|d| look_alikes(d, &mut setup, runs, ask));
+    let apart = diagnosis.and_then(|d| look_alikes(d, &mut setup, runs, ask));
     let draws = ask.candidates.max(1);
     announce(&setup, ask, runs.len(), say);
     let best =
@@ -136,7 +136,7 @@ pub fn propose(
         separates: None,
         thrusters: None,
     };
-    written.separates = separation(&setup, runs, margin, &best, &prbs);
+    written.separates = separation(&setup, apart, &best, &prbs);
     let mixed = per_thruster(&setup.vehicle, &best);
     written.thrusters = mixed.as_ref().map(|m| m.summary.clone());
     Ok(Proposal {
@@ -311,16 +311,25 @@ fn pool_and_start(ask: &Ask, runs: &[FusedRun]) -> anyhow::Result<(Pool, State)>
 
 /// When the diagnosis lists two effects it cannot tell apart (and no parameters were named
 /// with --for), the design is for telling them apart: sets `setup.separate` and returns the
-/// diagnosis's margin.
-fn look_alikes(d: Diagnosed, setup: &mut Setup, runs: &[FusedRun], ask: &Ask) -> Option<f64> {
+/// diagnosis's margin and how far the recorded runs tell the two apart (the largest).
+fn look_alikes(
+    d: Diagnosed,
+    setup: &mut Setup,
+    runs: &[FusedRun],
+    ask: &Ask,
+) -> Option<(f64, f64)> {
     if !ask.targets.is_empty() {
         return None;
     }
     let pair = super::separate::Pair::of(d.diagnosis).into_iter().next()?;
     let plant = d.plant.unwrap_or_else(|| setup.plant.clone());
-    let noise = super::separate::Noise::of(&recorded_runs(&plant, runs));
+    let recorded = recorded_runs(&plant, runs);
+    let noise = super::separate::Noise::of(&recorded);
+    let apart = (recorded.iter())
+        .map(|r| pair.separation(&plant, r, &noise))
+        .fold(0.0, f64::max);
     setup.separate = Some((pair, noise, plant));
-    Some(d.diagnosis.criteria.min_noise_multiple)
+    Some((d.diagnosis.criteria.min_noise_multiple, apart))
 }
 
 /// The training runs as the diagnosis of `plant` reads them (the command through its lag).
@@ -335,20 +344,15 @@ fn recorded_runs(plant: &Plant, runs: &[FusedRun]) -> Vec<crate::diagnose::Run> 
         .collect()
 }
 
-/// How far the designed run, the PRBS and the recorded runs tell the look-alikes apart.
+/// How far the designed run, the PRBS and the recorded runs (`apart`: the margin, the
+/// recorded runs' figure) tell the look-alikes apart.
 fn separation(
     setup: &Setup,
-    runs: &[FusedRun],
-    margin: Option<f64>,
+    apart: Option<(f64, f64)>,
     best: &Candidate,
     prbs: &Candidate,
 ) -> Option<Separation> {
-    let ((pair, noise, plant), margin) = (setup.separate.as_ref()?, margin?);
-    let recorded = recorded_runs(plant, runs);
-    let recorded = recorded
-        .iter()
-        .map(|r| pair.separation(plant, r, noise))
-        .fold(0.0, f64::max);
+    let ((pair, _, _), (margin, recorded)) = (setup.separate.as_ref()?, apart?);
     Some(Separation {
         kept: pair.kept.clone(),
         alike: pair.alike.clone(),

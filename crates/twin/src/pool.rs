@@ -455,7 +455,7 @@ pub fn write_runs_of(
     let mut written = Vec::new();
     for spec in runs {
         let truth = simulate_scaled(&w, spec, seed, craft.command_scale);
-        written.push(write_truth_seen(
+        written.push(write_truth(
             (cases_dir, truth_dir),
             spec,
             &truth,
@@ -476,21 +476,8 @@ pub fn fly(world: &WorldPlant, cmd: &[[f64; 4]], start: State) -> Truth {
     })
 }
 
-/// Writes the run folder and the truth of one simulated run.
+/// Writes the run folder (holding `logs`) and the truth of one simulated run.
 pub fn write_truth(
-    cases_dir: &Path,
-    truth_dir: &Path,
-    spec: &RunSpec,
-    truth: &Truth,
-    effects: &[Effect],
-    seed: u64,
-) -> anyhow::Result<PathBuf> {
-    let dirs = (cases_dir, truth_dir);
-    write_truth_seen(dirs, spec, truth, (effects, seed), Logs::Sensors)
-}
-
-/// [`write_truth`] with the run folder holding `logs`.
-pub fn write_truth_seen(
     (cases_dir, truth_dir): (&Path, &Path),
     spec: &RunSpec,
     truth: &Truth,
